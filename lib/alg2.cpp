@@ -1,0 +1,335 @@
+#include "alg2.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "error.hpp"
+
+namespace ltl {
+
+namespace {
+using clock_type = std::chrono::steady_clock;
+double seconds_since(clock_type::time_point t0) {
+  return std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+}  // namespace
+
+Solver::Solver(const Problem& problem) : problem_(problem) {
+  problem_.validate();
+  const Mesh& mesh = problem_.mesh;
+  const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
+
+  cells_ = cell_operators(mesh);
+  if (problem_.contact) {
+    const ContactCondition& cc = *problem_.contact;
+    facets_ = std::make_unique<FacetOperators>(
+        facet_operators(mesh, mesh.boundary(cc.group, "contact.group")));
+    ContactSurface surface;
+    surface.dim = dim;
+    surface.area = facets_->area;
+    surface.centre = facets_->centre;
+    surface.N = cc.plane_normal.head(dim);
+    // Initial gap g_s = (p0 - x_s) . N at each facet centre ([choice] algorithm.md sec. 3).
+    surface.gap.resize(facets_->size());
+    for (int f = 0; f < facets_->size(); ++f)
+      surface.gap(f) = (cc.plane_point.head(dim) - facets_->centre.col(f)).dot(surface.N);
+    surface.vertices = facets_->vertices;
+    const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
+    for (int f = 0; f < facets_->size(); ++f)
+      if (surface.gap(f) < -1e-10 * scale)
+        throw Error(cat(mesh.source, ": contact facet ", f, " of '", cc.group,
+                        "' starts inside the obstacle (gap ", surface.gap(f),
+                        " m at its centre): check contact.plane_point and contact.plane_normal "
+                        "(the normal points into the obstacle)"));
+    Adhesion adhesion = cc.adhesion;
+    adhesion.dt = problem_.time.dt;
+    contact_ = std::make_unique<ContactStep>(surface, adhesion, Rqc);
+    area_c_ = facets_->area.sum();
+  }
+
+  // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
+  bc_.fixed.assign(dim, {});
+  bc_.value = Eigen::MatrixXd::Zero(nn, dim);
+  for (const auto& d : problem_.dirichlet) {
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      x.head(dim) = mesh.X.row(node).transpose();
+      const Eigen::Vector3d value = d.field(x);
+      for (int c : d.components) {
+        bc_.fixed[c].push_back(node);
+        bc_.value(node, c) = value(c);
+      }
+    }
+  }
+  for (auto& f : bc_.fixed) {
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+  }
+
+  // (4.5): K assembled and factorized once.
+  const SpMat K = global_matrix(cells_, facets_.get(), problem_.material.C1, Rq, Rqc);
+  global_ = std::make_unique<GlobalStep>(K, bc_);
+  strain_ = std::make_unique<StrainStep>(problem_.material, Rq);
+
+  F_ext_ = body_load(mesh, problem_.body_force);
+  for (const auto& t : problem_.tractions)
+    F_ext_ += surface_load(mesh, mesh.boundary(t.group, t.origin), t.g);
+
+  Id_ = Eigen::MatrixXd::Zero(dim * nc, dim);
+  vol_rows_.resize(dim * nc);
+  for (int c = 0; c < nc; ++c) {
+    Id_.block(dim * c, 0, dim, dim).setIdentity();
+    vol_rows_.segment(dim * c, dim).setConstant(cells_.vol(c));
+  }
+  norm_I_ = std::sqrt(alg.q * cells_.vol.sum() * dim);
+
+  rhs_.resize(nn, dim);
+  GU_.resize(dim * nc, dim);
+  T_.resize(dim * nc, dim);
+  if (facets_) {
+    ubar_rows_.resize(facets_->size(), dim);
+    ubar_.resize(dim, facets_->size());
+    c_rows_.resize(facets_->size(), dim);
+  }
+}
+
+State Solver::initial_state() const {
+  const int dim = this->dim(), nc = problem_.mesh.num_cells();
+  State s;
+  s.u = bc_.value;
+  s.E = Id_;
+  s.lambda = 2 * problem_.material.C1 * Id_;
+  const int nf = facets_ ? facets_->size() : 0;
+  s.e = Eigen::MatrixXd::Zero(dim, nf);
+  s.lambda_c = Eigen::MatrixXd::Zero(dim, nf);
+  s.beta = Eigen::VectorXd::Constant(nf, problem_.contact ? problem_.contact->beta0 : 0.0);
+  (void)nc;
+  return s;
+}
+
+// [LTL87 (4.1), (4.5)] Right-hand side
+//   L(v) = f.v + g.v + sum_e |O_e| [R q (E_e - I) + lambda_e - 2 C1 I] : Gbar_e(v)
+//          + sum_s |G_s| [R q_c e_s + lambda_c_s] . vbar_s
+// then one triangular solve per distinct Dirichlet set against the stored factor.
+void Solver::global_solve(State& s) {
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, C1 = problem_.material.C1;
+  T_ = Rq * (s.E - Id_) + s.lambda - 2 * C1 * Id_;
+  rhs_.noalias() = cells_.GbarT_vol * T_;
+  rhs_ += F_ext_;
+  if (facets_) {
+    c_rows_ = (alg.R * alg.q_c * s.e + s.lambda_c).transpose();
+    rhs_.noalias() += facets_->meanT_area * c_rows_;
+  }
+  global_->solve(rhs_, s.u);
+}
+
+// [LTL87 (4.6), (5.2)-(5.8)] Cell by cell, D = R q (I + Gbar u) - lambda and E = argmin J_E.
+// The blocks are transposed tensors; the energies are isotropic, so solving on D^T gives E^T.
+namespace {
+template <int d>
+int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
+                const Eigen::MatrixXd& lambda, Eigen::MatrixXd& E) {
+  const int nc = static_cast<int>(GU.rows() / d);
+  int failures = 0;
+#pragma omp parallel for schedule(static) reduction(+ : failures)
+  for (int c = 0; c < nc; ++c) {
+    Eigen::Matrix<double, d, d> D =
+        Rq * GU.template block<d, d>(d * c, 0) - lambda.template block<d, d>(d * c, 0);
+    D.diagonal().array() += Rq;
+    Eigen::Matrix<double, d, d> Ec;
+    if (!step.solve(D, Ec)) ++failures;
+    E.template block<d, d>(d * c, 0) = Ec;
+  }
+  return failures;
+}
+}  // namespace
+
+int Solver::strain_solve(const Eigen::MatrixXd& lambda, State& s) {
+  const double Rq = problem_.algorithm.R * problem_.algorithm.q;
+  return dim() == 2 ? strain_loop<2>(*strain_, Rq, GU_, lambda, s.E)
+                    : strain_loop<3>(*strain_, Rq, GU_, lambda, s.E);
+}
+
+// [LTL87 (4.7), sec. 6] Facet means of u, then Gauss-Seidel over the contact facets.
+void Solver::contact_solve(const Eigen::MatrixXd& lambda_c, const Eigen::VectorXd& beta_prev,
+                           State& s) {
+  contact_->solve(ubar_, lambda_c, beta_prev, s.e, s.beta, problem_.algorithm.contact_sweeps);
+}
+
+StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
+                              const std::function<void(const IterationRecord&)>& progress) {
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
+  const bool bm = alg.update == Update::BermudezMoreno;
+  StepReport report;
+  const auto t_start = clock_type::now();
+  double first = -1;
+
+  auto after_global = [&] {
+    GU_.noalias() = cells_.Gbar * s.u;
+    if (facets_) {
+      ubar_rows_.noalias() = facets_->mean * s.u;
+      ubar_ = ubar_rows_.transpose();
+    }
+  };
+
+  for (int n = 1; n <= alg.max_iter; ++n) {
+    IterationRecord rec;
+    rec.n = n;
+    E_prev_ = s.E;
+    if (facets_) {
+      e_prev_ = s.e;
+      beta_prev_iter_ = s.beta;
+    }
+    const int sweeps = bm ? 1 : alg.sweeps;
+    for (int k = 0; k < sweeps; ++k) {
+      // (4.1) / (7.7) global step.
+      auto t0 = clock_type::now();
+      global_solve(s);
+      after_global();
+      rec.t_global += seconds_since(t0);
+      const Eigen::MatrixXd* lambda = &s.lambda;
+      const Eigen::MatrixXd* lambda_c = &s.lambda_c;
+      if (bm) {
+        // (7.8) half-step update with the previous local variables G^{n-1}.
+        t0 = clock_type::now();
+        lambda_half_ = s.lambda - Rq * (Id_ + GU_ - s.E);
+        lambda = &lambda_half_;
+        if (facets_) {
+          lambda_c_half_ = s.lambda_c - Rqc * (ubar_ - s.e);
+          lambda_c = &lambda_c_half_;
+        }
+        rec.t_update += seconds_since(t0);
+      }
+      // (4.2) = (4.6) + (4.7) / (7.9) local steps.
+      t0 = clock_type::now();
+      report.strain_failures += strain_solve(*lambda, s);
+      rec.t_strain += seconds_since(t0);
+      if (facets_) {
+        t0 = clock_type::now();
+        contact_solve(*lambda_c, beta_prev, s);
+        rec.t_contact += seconds_since(t0);
+      }
+    }
+    // (4.3) / (7.10) multiplier update, and the two residual parts.
+    auto t0 = clock_type::now();
+    if (bm) {
+      s.lambda = lambda_half_ - (2 * alg.rho - 1) * Rq * (Id_ + GU_ - s.E);
+      if (facets_) s.lambda_c = lambda_c_half_ - (2 * alg.rho - 1) * Rqc * (ubar_ - s.e);
+    } else {
+      s.lambda -= alg.rho * Rq * (Id_ + GU_ - s.E);
+      if (facets_) s.lambda_c -= alg.rho * Rqc * (ubar_ - s.e);
+    }
+    double B2 = 0, G2 = 0, beta2 = 0;
+    const Eigen::Index rows = GU_.rows();
+    const int dim = this->dim();
+#pragma omp parallel for schedule(static) reduction(+ : B2, G2)
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      double b = 0, g = 0;
+      for (int i = 0; i < dim; ++i) {
+        const double Bri = (i == r % dim ? 1.0 : 0.0) + GU_(r, i) - s.E(r, i);
+        const double Gri = s.E(r, i) - E_prev_(r, i);
+        b += Bri * Bri;
+        g += Gri * Gri;
+      }
+      B2 += vol_rows_(r) * b;
+      G2 += vol_rows_(r) * g;
+    }
+    B2 *= alg.q;
+    G2 *= alg.q;
+    if (facets_) {
+      for (int f = 0; f < facets_->size(); ++f) {
+        const double a = facets_->area(f);
+        B2 += alg.q_c * a * (ubar_.col(f) - s.e.col(f)).squaredNorm();
+        G2 += alg.q_c * a * (s.e.col(f) - e_prev_.col(f)).squaredNorm();
+        beta2 += a * std::pow(s.beta(f) - beta_prev_iter_(f), 2);
+      }
+    }
+    rec.r_B = std::sqrt(B2) / norm_I_;
+    rec.r_G = std::sqrt(G2) / norm_I_ + (facets_ ? std::sqrt(beta2 / area_c_) : 0.0);
+    rec.t_update += seconds_since(t0);
+    rec.wall = seconds_since(t_start);
+    report.history.push_back(rec);
+    report.iterations = n;
+    if (progress) progress(rec);
+
+    const double r = rec.r_G + rec.r_B;
+    if (!std::isfinite(r) || !s.u.allFinite()) {
+      report.status = "NaN in the iterate";
+      return report;
+    }
+    if (first < 0) first = std::max(r, 1e-300);
+    if (r > alg.blowup * first && n > 1) {
+      report.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg.blowup,
+                          " x the first residual ", first, ")");
+      return report;
+    }
+    if (r < alg.tol) {
+      report.converged = true;
+      report.status = "converged";
+      return report;
+    }
+  }
+  report.status = cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
+  return report;
+}
+
+Eigen::MatrixXd Solver::piola(const State& s) const {
+  return 2 * problem_.material.C1 * s.E - s.lambda;
+}
+
+Eigen::MatrixXd Solver::cauchy(const State& s) const {
+  const int d = dim(), nc = problem_.mesh.num_cells();
+  const Eigen::MatrixXd P = piola(s);
+  Eigen::MatrixXd sigma(d * nc, d);
+  for (int c = 0; c < nc; ++c) {
+    const Eigen::MatrixXd Eb = s.E.block(d * c, 0, d, d), Pb = P.block(d * c, 0, d, d);
+    sigma.block(d * c, 0, d, d) = Eb.transpose() * Pb / Eb.determinant();  // (P E^T)^T / det E
+  }
+  return sigma;
+}
+
+Eigen::VectorXd Solver::pressure(const State& s) const {
+  const int d = dim(), nc = problem_.mesh.num_cells();
+  const Eigen::MatrixXd sigma = cauchy(s);
+  Eigen::VectorXd p(nc);
+  for (int c = 0; c < nc; ++c) p(c) = -sigma.block(d * c, 0, d, d).trace() / d;
+  return p;
+}
+
+Eigen::VectorXd Solver::contact_pressure(const State& s) const {
+  if (!problem_.contact) return {};
+  return -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim()));
+}
+
+Eigen::VectorXd Solver::contact_gap(const State& s) const {
+  if (!contact_) return {};
+  return contact_->surface().gap - s.e.transpose() * contact_->surface().N;
+}
+
+Eigen::MatrixXd Solver::energy_gradient(const Eigen::MatrixXd& u) const {
+  const int d = dim(), nc = problem_.mesh.num_cells();
+  const Material& m = problem_.material;
+  const Eigen::MatrixXd GU = cells_.Gbar * u;
+  Eigen::MatrixXd P(d * nc, d);
+  for (int c = 0; c < nc; ++c) {
+    if (d == 2) {
+      const Eigen::Matrix2d F = Eigen::Matrix2d::Identity() + GU.block<2, 2>(2 * c, 0).transpose();
+      P.block<2, 2>(2 * c, 0) = m.dW(F).transpose();
+    } else {
+      const Eigen::Matrix3d F = Eigen::Matrix3d::Identity() + GU.block<3, 3>(3 * c, 0).transpose();
+      P.block<3, 3>(3 * c, 0) = m.dW(F).transpose();
+    }
+  }
+  Eigen::MatrixXd g = cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU) -
+                      F_ext_;
+  for (int c = 0; c < d; ++c)
+    for (int i : bc_.fixed[c]) g(i, c) = 0;
+  return g;
+}
+
+}  // namespace ltl

@@ -1,0 +1,91 @@
+// ALG2, the augmented-Lagrangian local/global iteration (4.1)-(4.4) of the paper, and its
+// Bermudez-Moreno variant (7.7)-(7.10), for one time step (2.1) of the adhesion problem.
+//
+// Unknowns (algorithm.md sec. 1): u (P2 / H8 nodal displacement), E and lambda (P0 per cell),
+// e, beta, lambda_c (P0 per contact facet). One iteration reads as three phases:
+//   (4.1) global step:  K u = f + g + GbarT [ R q (E - I) + lambda - 2 C1 I ] + MT [ R q_c e + lambda_c ]
+//   (4.2) local steps:  E per cell (4.6, sec. 5), {e, beta} per facet (4.7, sec. 6)
+//   (4.3) update:       lambda -= rho R q (I + Gbar u - E),  lambda_c -= rho R q_c (ubar - e)
+// Stopping [LTL87 (4.4)]: r_G + r_B < tol, with both parts scaled by ||I||_q (see residuals()).
+#pragma once
+
+#include <Eigen/Dense>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "contact_step.hpp"
+#include "fe.hpp"
+#include "global_step.hpp"
+#include "problem.hpp"
+#include "state.hpp"
+#include "strain_step.hpp"
+
+namespace ltl {
+
+class Solver {
+ public:
+  /// Discretizes the problem, assembles K and factorizes it once [LTL87 (4.5)].
+  explicit Solver(const Problem& problem);
+
+  /// E = I, lambda = 2 C1 I (zero first Piola-Kirchhoff stress P = 2 C1 E - lambda), u = the
+  /// prescribed values, e = 0, beta = beta_0, lambda_c = 0.
+  State initial_state() const;
+
+  /// [LTL87 (2.1), (4.1)-(4.4) / (7.7)-(7.10)] Iterates from `state` (warm start) to
+  /// convergence; beta_prev is beta at the previous time step. `progress` (may be null) is
+  /// called after every iteration. Never throws on divergence: the report says what happened.
+  StepReport solve_step(State& state, const Eigen::VectorXd& beta_prev,
+                        const std::function<void(const IterationRecord&)>& progress = {});
+
+
+  // Outputs at a converged state, per cell (transposed-block layout like E) or per facet.
+  /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
+  Eigen::MatrixXd piola(const State& s) const;
+  /// Cauchy stress sigma = P E^T / det E (in-plane block in plane strain).
+  Eigen::MatrixXd cauchy(const State& s) const;
+  /// Pressure per cell, -tr(sigma)/dim (in plane strain the mean in-plane stress).
+  Eigen::VectorXd pressure(const State& s) const;
+  /// Contact pressure per facet, p_c = -lambda_c . N >= 0 where the body presses the plane.
+  Eigen::VectorXd contact_pressure(const State& s) const;
+  /// Gap to the plane after deformation per facet: g_s - e_s . N (>= 0 when admissible).
+  Eigen::VectorXd contact_gap(const State& s) const;
+
+  /// Gradient (#nodes x dim, zero on fixed components) of the reduced discrete energy
+  ///   Pi(u) = sum_e |O_e| W(I + Gbar_e u) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2)
+  ///           - f.u - g.u
+  /// for the compressible law without contact: zero at the discrete equilibrium.
+  Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u) const;
+
+  const Problem& problem() const { return problem_; }
+  const CellOperators& cells() const { return cells_; }
+  const FacetOperators* facets() const { return facets_ ? facets_.get() : nullptr; }
+  const GlobalStep& global_step() const { return *global_; }
+  const Eigen::MatrixXd& external_load() const { return F_ext_; }
+  int dim() const { return problem_.mesh.dim; }
+
+ private:
+  void global_solve(State& s);                       // (4.1)
+  int strain_solve(const Eigen::MatrixXd& lambda, State& s);  // (4.6)
+  void contact_solve(const Eigen::MatrixXd& lambda_c, const Eigen::VectorXd& beta_prev,
+                     State& s);  // (4.7)
+
+  Problem problem_;
+  CellOperators cells_;
+  std::unique_ptr<FacetOperators> facets_;
+  std::unique_ptr<GlobalStep> global_;
+  std::unique_ptr<StrainStep> strain_;
+  std::unique_ptr<ContactStep> contact_;
+  DirichletData bc_;
+  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, consistent dead loads f, g
+  Eigen::MatrixXd Id_;     ///< identity blocks, (dim*#cells) x dim
+  double norm_I_ = 1;      ///< ||I||_q = sqrt(q |Omega| dim)
+  double area_c_ = 0;      ///< |Gamma_c|
+  // Work buffers (allocated once).
+  Eigen::MatrixXd rhs_, GU_, T_, ubar_rows_, ubar_, c_rows_, E_prev_, e_prev_, lambda_half_,
+      lambda_c_half_;
+  Eigen::VectorXd vol_rows_, beta_prev_iter_;
+};
+
+}  // namespace ltl

@@ -1,0 +1,378 @@
+#include "config.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include "error.hpp"
+
+namespace ltl {
+
+namespace {
+
+// unit -> (factor to SI, canonical SI unit)
+const std::map<std::string, std::pair<double, std::string>>& unit_table() {
+  static const std::map<std::string, std::pair<double, std::string>> t = {
+      {"Pa", {1, "Pa"}},          {"kPa", {1e3, "Pa"}},         {"MPa", {1e6, "Pa"}},
+      {"GPa", {1e9, "Pa"}},       {"N/m^2", {1, "Pa"}},         {"kN/m^2", {1e3, "Pa"}},
+      {"Pa/m", {1, "Pa/m"}},      {"kPa/m", {1e3, "Pa/m"}},     {"MPa/m", {1e6, "Pa/m"}},
+      {"GPa/m", {1e9, "Pa/m"}},   {"N/m^3", {1, "Pa/m"}},       {"kN/m^3", {1e3, "Pa/m"}},
+      {"MN/m^3", {1e6, "Pa/m"}},  {"m", {1, "m"}},              {"cm", {1e-2, "m"}},
+      {"mm", {1e-3, "m"}},        {"J/m^2", {1, "J/m^2"}},      {"N/m", {1, "J/m^2"}},
+      {"mJ/m^2", {1e-3, "J/m^2"}}, {"1/m", {1, "1/m"}},         {"/m", {1, "1/m"}},
+      {"s", {1, "s"}},            {"min", {60, "s"}},           {"h", {3600, "s"}},
+  };
+  return t;
+}
+
+std::string where(const toml::source_region& r) {
+  std::ostringstream s;
+  if (r.path) s << *r.path;
+  s << ":" << r.begin.line;
+  return s.str();
+}
+
+// Reads one table, checking that it has no key beyond `allowed`.
+class Reader {
+ public:
+  Reader(const toml::table& t, std::string prefix, std::string file)
+      : t_(t), prefix_(std::move(prefix)), file_(std::move(file)) {}
+
+  std::string key(const std::string& k) const { return prefix_.empty() ? k : prefix_ + "." + k; }
+
+  [[noreturn]] void fail(const std::string& k, const std::string& msg,
+                         const toml::node* n = nullptr) const {
+    const toml::node* node = n ? n : t_.get(k);
+    std::string loc = node ? where(node->source()) : where(t_.source());
+    if (loc.empty() || loc[0] == ':') loc = file_ + loc;
+    throw Error(cat(loc, ": key '", key(k), "': ", msg));
+  }
+
+  void only(const std::set<std::string>& allowed) const {
+    for (const auto& [k, v] : t_)
+      if (!allowed.count(std::string(k.str()))) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        fail(std::string(k.str()), cat("unknown key; allowed here: ", list), &v);
+      }
+  }
+
+  bool has(const std::string& k) const { return t_.contains(k); }
+  const toml::node* node(const std::string& k) const { return t_.get(k); }
+
+  double quantity_of(const toml::node& n, const std::string& k, const std::string& si) const {
+    if (auto v = n.value<double>()) return *v;
+    if (auto s = n.value<std::string>()) {
+      try {
+        return parse_quantity(*s, si, key(k));
+      } catch (const Error& e) {
+        fail(k, e.what(), &n);
+      }
+    }
+    fail(k, cat("expected a number or a string \"<number> <unit>\" in ", si), &n);
+  }
+
+  double quantity(const std::string& k, const std::string& si) const {
+    const toml::node* n = t_.get(k);
+    if (!n) fail(k, cat("missing value (", si, ")"));
+    return quantity_of(*n, k, si);
+  }
+  double quantity(const std::string& k, const std::string& si, double fallback) const {
+    return has(k) ? quantity(k, si) : fallback;
+  }
+
+  Eigen::Vector3d vector(const std::string& k, const std::string& si, int dim) const {
+    const toml::node* n = t_.get(k);
+    if (!n) fail(k, "missing value");
+    const toml::array* a = n->as_array();
+    if (!a || static_cast<int>(a->size()) != dim)
+      fail(k, cat("expected an array of ", dim, " components (", si, ")"), n);
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    for (int i = 0; i < dim; ++i) v(i) = quantity_of(*a->get(i), k, si);
+    return v;
+  }
+
+  Eigen::Matrix3d matrix(const std::string& k, const std::string& si, int dim) const {
+    const toml::node* n = t_.get(k);
+    const toml::array* a = n ? n->as_array() : nullptr;
+    if (!a || static_cast<int>(a->size()) != dim)
+      fail(k, cat("expected ", dim, " rows of ", dim, " components (", si, ")"), n);
+    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    for (int i = 0; i < dim; ++i) {
+      const toml::array* row = a->get(i)->as_array();
+      if (!row || static_cast<int>(row->size()) != dim)
+        fail(k, cat("row ", i + 1, ": expected ", dim, " components"), a->get(i));
+      for (int j = 0; j < dim; ++j) m(i, j) = quantity_of(*row->get(j), k, si);
+    }
+    return m;
+  }
+
+  std::string string(const std::string& k) const {
+    const toml::node* n = t_.get(k);
+    if (!n) fail(k, "missing value");
+    auto s = n->value<std::string>();
+    if (!s) fail(k, "expected a string", n);
+    return *s;
+  }
+  std::string string(const std::string& k, const std::string& fallback) const {
+    return has(k) ? string(k) : fallback;
+  }
+  int integer(const std::string& k, int fallback) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return fallback;
+    auto v = n->value<int64_t>();
+    if (!v || n->is_floating_point()) fail(k, "expected an integer", n);
+    return static_cast<int>(*v);
+  }
+  double number(const std::string& k, double fallback) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return fallback;
+    auto v = n->value<double>();
+    if (!v) fail(k, "expected a number", n);
+    return *v;
+  }
+
+  Reader sub(const std::string& k) const {
+    const toml::node* n = t_.get(k);
+    if (!n || !n->is_table()) fail(k, "expected a table", n);
+    return Reader(*n->as_table(), key(k), file_);
+  }
+  std::vector<Reader> subs(const std::string& k) const {  // array of tables
+    std::vector<Reader> out;
+    const toml::node* n = t_.get(k);
+    if (!n) return out;
+    const toml::array* a = n->as_array();
+    if (!a || !a->is_array_of_tables())
+      fail(k, cat("expected an array of tables: [[", key(k), "]]"), n);
+    for (std::size_t i = 0; i < a->size(); ++i)
+      out.emplace_back(*a->get(i)->as_table(), cat(key(k), "[", i, "]"), file_);
+    return out;
+  }
+  const toml::table& table() const { return t_; }
+
+ private:
+  const toml::table& t_;
+  std::string prefix_, file_;
+};
+
+int component_index(const Reader& r, const std::string& k, int dim) {
+  const std::string c = r.string(k);
+  const std::string names = "xyz";
+  if (c.size() == 1 && names.find(c[0]) != std::string::npos &&
+      static_cast<int>(names.find(c[0])) < dim)
+    return static_cast<int>(names.find(c[0]));
+  r.fail(k, cat("expected one of ", dim == 2 ? "\"x\", \"y\"" : "\"x\", \"y\", \"z\""));
+}
+
+// Inserts `key = value` (value in TOML syntax) into the table at a dotted path.
+void apply_override(toml::table& root, const std::string& assignment, const std::string& file) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos)
+    throw Error(cat("override '", assignment, "': expected key=value, e.g. algorithm.R=4"));
+  std::string key = assignment.substr(0, eq), value = assignment.substr(eq + 1);
+  toml::table parsed;
+  try {
+    parsed = toml::parse("v = " + value);
+  } catch (const toml::parse_error&) {
+    parsed = toml::parse("v = \"" + value + "\"");  // bare words are strings: update=uzawa
+  }
+  toml::table* t = &root;
+  std::size_t start = 0, dot;
+  while ((dot = key.find('.', start)) != std::string::npos) {
+    const std::string part = key.substr(start, dot - start);
+    if (!t->contains(part)) t->insert(part, toml::table{});
+    t = t->get(part)->as_table();
+    if (!t) throw Error(cat(file, ": override '", assignment, "': '", part, "' is not a table"));
+    start = dot + 1;
+  }
+  t->insert_or_assign(key.substr(start), *parsed.get("v"));
+}
+
+}  // namespace
+
+double parse_quantity(const std::string& text, const std::string& si, const std::string& key) {
+  std::istringstream in(text);
+  double value;
+  if (!(in >> value))
+    throw Error(cat("'", text, "' is not \"<number> <unit>\" (expected ", si, ")"));
+  std::string unit;
+  std::getline(in, unit);
+  unit.erase(0, unit.find_first_not_of(' '));
+  unit.erase(unit.find_last_not_of(' ') + 1);
+  if (unit.empty() || unit == si) return value;
+  const auto& t = unit_table();
+  auto it = t.find(unit);
+  if (it == t.end()) throw Error(cat("unknown unit '", unit, "' (expected ", si, ")"));
+  if (it->second.second != si)
+    throw Error(cat("unit '", unit, "' is ", it->second.second, ", but ", key, " is in ", si));
+  return value * it->second.first;
+}
+
+Problem load_problem(const std::string& path, const std::vector<std::string>& overrides) {
+  namespace fs = std::filesystem;
+  if (!fs::exists(path)) throw Error(cat(path, ": no such configuration file"));
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw Error(cat(path, ":", e.source().begin.line, ":", e.source().begin.column,
+                    ": not valid TOML: ", e.description()));
+  }
+  for (const auto& o : overrides) apply_override(root, o, path);
+
+  Problem p;
+  p.config_path = path;
+  {
+    std::ostringstream s;
+    s << root;
+    p.config_text = s.str();
+  }
+  Reader r(root, "", path);
+  r.only({"name", "mesh", "material", "fixed", "symmetry", "displacement", "load", "contact",
+          "algorithm", "time", "output"});
+  p.name = r.string("name", fs::path(path).stem().string());
+
+  // [mesh]: a gmsh .geo (or .msh) file and its ONELAB parameters.
+  const Reader m = r.sub("mesh");
+  m.only({"geometry", "parameters"});
+  const fs::path geo = fs::path(path).parent_path() / m.string("geometry");
+  std::map<std::string, double> params;
+  if (m.has("parameters")) {
+    const Reader mp = m.sub("parameters");
+    for (const auto& [k, v] : mp.table()) {
+      auto x = v.value<double>();
+      if (!x) mp.fail(std::string(k.str()), "expected a number", &v);
+      params[std::string(k.str())] = *x;
+    }
+  }
+  p.mesh = load_mesh(geo.string(), params);
+  const int dim = p.mesh.dim;
+
+  // [material] [LTL87 (1.5), sec. 8]
+  const Reader mat = r.sub("material");
+  const std::string model = mat.string("model");
+  if (model == "mooney-rivlin") {
+    mat.only({"model", "C1", "C2"});
+    p.material.model = MaterialModel::MooneyRivlin;
+    p.material.C1 = mat.quantity("C1", "Pa");
+    p.material.C2 = mat.quantity("C2", "Pa", 0.0);
+  } else if (model == "compressible") {
+    mat.only({"model", "C1", "C3"});
+    p.material.model = MaterialModel::Compressible;
+    p.material.C1 = mat.quantity("C1", "Pa");
+    p.material.C3 = mat.quantity("C3", "Pa");
+  } else {
+    mat.fail("model", "expected \"mooney-rivlin\" or \"compressible\"");
+  }
+
+  // Boundary conditions.
+  for (const auto& f : r.subs("fixed")) {
+    f.only({"group"});
+    DirichletCondition d{f.string("group"), {}, {}, f.key("group")};
+    for (int c = 0; c < dim; ++c) d.components.push_back(c);
+    p.dirichlet.push_back(d);
+  }
+  for (const auto& f : r.subs("symmetry")) {
+    f.only({"group", "component"});
+    p.dirichlet.push_back({f.string("group"), {component_index(f, "component", dim)}, {},
+                           f.key("group")});
+  }
+  for (const auto& f : r.subs("displacement")) {
+    f.only({"group", "value", "gradient"});
+    DirichletCondition d{f.string("group"), {}, {}, f.key("group")};
+    for (int c = 0; c < dim; ++c) d.components.push_back(c);
+    d.field.value = f.vector("value", "m", dim);
+    if (f.has("gradient")) d.field.gradient = f.matrix("gradient", "1", dim);
+    p.dirichlet.push_back(d);
+  }
+
+  // [load]: dead body force and surface tractions [LTL87 (1.2)].
+  if (r.has("load")) {
+    const Reader l = r.sub("load");
+    l.only({"body_force", "traction"});
+    if (l.has("body_force")) p.body_force = l.vector("body_force", "Pa/m", dim);
+    for (const auto& t : l.subs("traction")) {
+      t.only({"group", "value", "gradient"});
+      Traction tr{t.string("group"), {}, t.key("group")};
+      tr.g.value = t.vector("value", "Pa", dim);
+      if (t.has("gradient")) tr.g.gradient = t.matrix("gradient", "Pa/m", dim);
+      p.tractions.push_back(tr);
+    }
+  }
+
+  // [contact]: Gamma_c, the rigid plane and the glue [LTL87 (1.1)-(1.3), (4.11)].
+  if (r.has("contact")) {
+    const Reader c = r.sub("contact");
+    c.only({"group", "plane_point", "plane_normal", "beta0", "w", "kappa", "eps", "d0",
+            "kernel"});
+    ContactCondition cc;
+    cc.group = c.string("group");
+    cc.origin = c.key("group");
+    cc.plane_point = c.vector("plane_point", "m", dim);
+    cc.plane_normal = c.vector("plane_normal", "1", dim);
+    if (cc.plane_normal.norm() == 0) c.fail("plane_normal", "must not be zero");
+    cc.plane_normal.normalize();
+    cc.beta0 = c.number("beta0", 1.0);
+    cc.adhesion.w = c.quantity("w", "J/m^2", 0.0);
+    if (c.has("kappa") && c.has("eps")) c.fail("eps", "give either kappa (= 1/eps) or eps");
+    cc.adhesion.kappa = c.quantity("kappa", "Pa/m", 0.0);
+    if (c.has("eps")) {
+      const double eps = c.quantity("eps", "1");
+      if (!(eps > 0)) c.fail("eps", cat("= ", eps, ": must be > 0 (use kappa = 0 for no glue)"));
+      cc.adhesion.kappa = 1 / eps;
+    }
+    cc.adhesion.d0 = c.quantity("d0", "1/m", 0.0);
+    const std::string kernel = c.string("kernel", "centre");
+    if (kernel != "centre" && kernel != "exact")
+      c.fail("kernel", "expected \"centre\" (the paper's rule) or \"exact\"");
+    cc.adhesion.exact_kernel = kernel == "exact";
+    p.contact = cc;
+  }
+
+  // [algorithm] [LTL87 sec. 3-4, 7]
+  if (r.has("algorithm")) {
+    const Reader a = r.sub("algorithm");
+    a.only({"update", "R", "q", "q_c", "rho", "sweeps", "contact_sweeps", "tol", "max_iter",
+            "blowup"});
+    const std::string update = a.string("update", "uzawa");
+    if (update == "uzawa")
+      p.algorithm.update = Update::Uzawa;
+    else if (update == "bermudez-moreno")
+      p.algorithm.update = Update::BermudezMoreno;
+    else
+      a.fail("update", "expected \"uzawa\" or \"bermudez-moreno\"");
+    p.algorithm.R = a.number("R", p.algorithm.R);
+    p.algorithm.q = a.quantity("q", "Pa", p.algorithm.q);
+    p.algorithm.q_c = a.quantity("q_c", "Pa/m", p.algorithm.q_c);
+    p.algorithm.rho = a.number("rho", p.algorithm.rho);
+    p.algorithm.sweeps = a.integer("sweeps", p.algorithm.sweeps);
+    p.algorithm.contact_sweeps = a.integer("contact_sweeps", p.algorithm.contact_sweeps);
+    p.algorithm.tol = a.number("tol", p.algorithm.tol);
+    p.algorithm.max_iter = a.integer("max_iter", p.algorithm.max_iter);
+    p.algorithm.blowup = a.number("blowup", p.algorithm.blowup);
+  }
+  // [time] (2.1)-(2.2)
+  if (r.has("time")) {
+    const Reader t = r.sub("time");
+    t.only({"dt", "steps"});
+    p.time.dt = t.quantity("dt", "s", p.time.dt);
+    p.time.steps = t.integer("steps", p.time.steps);
+  }
+  if (r.has("output")) r.sub("output").only({"file"});
+
+  try {
+    p.validate();
+  } catch (const KeyError& e) {
+    // Point at the line where the key was given, if it was.
+    const toml::node* n = root.at_path(e.key()).node();
+    std::string loc = n ? where(n->source()) : path;
+    if (!loc.empty() && loc[0] == ':') loc = path + loc;
+    throw Error(cat(loc, ": key '", e.key(), "' ", e.message()));
+  }
+  return p;
+}
+
+}  // namespace ltl

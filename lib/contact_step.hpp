@@ -1,0 +1,139 @@
+// The local adhesion / contact step (4.7), solved facet by facet as in section 6, (6.1)-(6.8).
+//
+// Unknowns per contact facet s (P0): e_s (the paper's h, a vector), beta_s in [0,1], and the
+// multiplier lambda_c_s. The rigid support is a plane with unit normal N pointing INTO the
+// obstacle (away from the body); the unilateral condition is e_s . N <= g_s, with g_s the initial
+// gap at the facet centre (g_s = 0 for a body glued to the support: then this is e.n <= 0, (4.11)).
+// The contact pressure on the body is p_s = -lambda_c_s . N (>= 0 at convergence).
+//
+// Glue is parametrized by kappa = 1/eps >= 0 (kappa = 0: no glue). On facet s, with the other
+// facets' beta frozen (relaxation, Gauss-Seidel in facet order), the paper's (6.1)-(6.2) is
+//
+//   min over e.N <= g, gamma in [0,1]:
+//     (R q_c / 2)|e|^2 - a.e + (kappa/2) gamma^2 |e|^2 + (aa/2) gamma^2 - b gamma
+//
+//   a  = R q_c ubar_s - lambda_c_s                                              (6.3)
+//   aa = k_ss / dt                                                              (6.4)
+//   b  = w - sum_{s' != s} k_ss' (beta_s' - beta_prev_s') / dt + k_ss beta_prev_s / dt  (6.5)
+//
+// where k_ss' approximates  integral over G_s' of d(x_s - y) dy  for the kernel
+// d(y) = d0 exp(-d0 |y|) (1.6): the paper's centre-point rule k_ss' = d(x_s - x_s') |G_s'| by
+// default, or (option) the exact Galerkin integral of the kernel over the facets,
+// k_ss' = (1/|G_s|) integral over G_s integral over G_s' d(x - y) dy dx, so that |G_s| k_ss' is
+// symmetric in both rules.
+// Eliminating e gives e = projection of a / (R q_c + kappa gamma^2) onto {e.N <= g}  (6.6)-(6.7)
+// and a scalar problem in gamma over [0,1] (6.8), solved by taking the best of the end points and
+// of every interior stationary point.
+//
+// Exact kernel (Adhesion::exact_kernel = true), see paper_notes/section6.md:
+//   2-D, collinear segments: closed form. 2-D, other segment pairs and 3-D facets (each quad split
+//   into the triangles (v0,v1,v2), (v0,v2,v3)): the inner integral over G_s' is done in polar
+//   coordinates around the point x (exact in the radius, Gauss-Legendre in the angle variable
+//   tau = asinh(t/h)), the outer integral over G_s by adaptive Gauss-Legendre (relative accuracy
+//   about 1e-9). Facet pairs more than 60/d0 apart get k = 0 (their true value is < e^-60 d0|G|).
+#pragma once
+
+#include <Eigen/Dense>
+#include <vector>
+
+namespace ltl {
+
+/// Geometry of the contact surface Gamma_c as seen by the local step.
+struct ContactSurface {
+  int dim = 2;               ///< 2 (facets are segments) or 3 (facets are planar-ish quads)
+  Eigen::VectorXd area;      ///< #facets, |G_s| (length in 2-D, area in 3-D)
+  Eigen::MatrixXd centre;    ///< dim x #facets, reference centre x_s of each facet
+  Eigen::VectorXd gap;       ///< #facets, initial gap g_s >= 0 to the plane along N
+  Eigen::VectorXd N;         ///< dim, unit normal of the obstacle plane, pointing into it
+  /// Facet vertices for the exact kernel integral: 2-D: 2 x #facets end points stored as
+  /// vertices[k] (dim x #facets) for k = 0,1; 3-D: the 4 corners, k = 0..3, in cyclic order
+  /// (3 corners are accepted for triangular facets). Only read when exact_kernel and d0 > 0.
+  std::vector<Eigen::MatrixXd> vertices;
+  int size() const { return static_cast<int>(area.size()); }
+};
+
+/// Glue and dissipation data [LTL87 (1.2), (1.3), (1.6), (2.2)].
+struct Adhesion {
+  double w = 0.0;       ///< Dupre energy, J/m^2 (>= 0)
+  double kappa = 0.0;   ///< 1/eps, Pa/m (>= 0); 0 means no glue
+  double d0 = 0.0;      ///< kernel parameter of d(y) = d0 exp(-d0|y|), 1/m (>= 0); 0: no dissipation
+  double dt = 1.0;      ///< time step t_p - t_{p-1}, s (> 0)
+  bool exact_kernel = false;  ///< false: centre-point rule (the paper's); true: exact integral
+};
+
+/// Result of one facet problem (6.1).
+struct FacetSolution {
+  Eigen::Vector3d e = Eigen::Vector3d::Zero();  ///< only the first dim entries are used
+  double beta = 1.0;
+};
+
+class ContactStep {
+ public:
+  /// Precomputes the kernel matrix k (#facets x #facets, all zero when d0 = 0) and aa.
+  /// Rqc = R * q_c > 0. N is normalized. Throws std::invalid_argument on inconsistent data.
+  ContactStep(const ContactSurface& surface, const Adhesion& adhesion, double Rqc);
+
+  /// [LTL87 (6.1)-(6.8)] One facet: minimize the functional above given a, aa, b.
+  /// a and N: only the first dim entries are read (N of unit length); gap may be any real.
+  /// Ties between equal minima are broken towards the larger gamma (glue stays). When the
+  /// reduced objective (6.8) does not depend on gamma at all (e.g. kappa = 0 and aa = b = 0, the
+  /// pure contact case), beta is arbitrary and beta_current (the facet's current beta) is
+  /// returned unchanged.
+  static FacetSolution solve_facet(const Eigen::Vector3d& a, double aa, double b, double Rqc,
+                                   double kappa, const Eigen::Vector3d& N, double gap, int dim,
+                                   double beta_current = 1.0);
+
+  /// [LTL87 (6.7)] Euclidean projection of x onto the half-space {e : e.N <= gap} (N unit).
+  /// Returns x itself when it is feasible; otherwise x - (x.N - gap) N, so e.N = gap up to
+  /// round-off. Idempotent up to round-off.
+  static Eigen::Vector3d project(const Eigen::Vector3d& x, const Eigen::Vector3d& N, double gap);
+
+  /// [LTL87 (6.2)] J_c(e, gamma) = (Rqc/2)|e|^2 - a.e + (kappa/2) gamma^2 |e|^2
+  ///                               + (aa/2) gamma^2 - b gamma  (no constraint check).
+  static double facet_objective(const Eigen::Vector3d& a, double aa, double b, double Rqc,
+                                double kappa, const Eigen::Vector3d& e, double gamma);
+
+  /// [LTL87 (6.8)] min over e.N <= gap of J_c(e, gamma), i.e. J_c at e from (6.6)-(6.7). This is
+  /// half the paper's (6.8) functional when gap = 0.
+  static double reduced_objective(const Eigen::Vector3d& a, double aa, double b, double Rqc,
+                                  double kappa, const Eigen::Vector3d& N, double gap, int dim,
+                                  double gamma);
+
+  /// [LTL87 (4.7), sec. 6] `sweeps` Gauss-Seidel sweeps over the facets in order.
+  ///   ubar:      dim x #facets, facet means of the current displacement u^n
+  ///   lambda_c:  dim x #facets, current multiplier
+  ///   beta_prev: #facets, beta at the previous time step (beta_{p-1})
+  ///   e, beta:   in: current iterate, out: updated.
+  /// Allocation-free. O(#facets^2) per sweep when d0 > 0, O(#facets) when d0 = 0.
+  void solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
+             const Eigen::VectorXd& beta_prev, Eigen::MatrixXd& e, Eigen::VectorXd& beta,
+             int sweeps = 1) const;
+
+  /// The adhesion part of J_p (2.2) on the discrete surface, for given e, beta:
+  ///   sum_s |G_s| [ (kappa/2) beta_s^2 |e_s|^2 - w beta_s ]
+  ///   + (1/(2 dt)) sum_s sum_s' |G_s| k_ss' (beta_s - beta_prev_s)(beta_s' - beta_prev_s')
+  /// (+inf if some beta is outside [0,1] or some e violates e.N <= g beyond round-off).
+  double energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta,
+                const Eigen::VectorXd& beta_prev) const;
+
+  /// [LTL87 (4.7), (4.10)] The whole functional minimized by the local step:
+  ///   sum_s |G_s| [ (Rqc/2)|e_s|^2 - a_s.e_s ] + energy(e, beta, beta_prev),
+  /// a_s = Rqc ubar_s - lambda_c_s (6.3). Every facet update of solve() does not increase it.
+  double local_objective(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
+                         const Eigen::VectorXd& beta_prev, const Eigen::MatrixXd& e,
+                         const Eigen::VectorXd& beta) const;
+
+  const Eigen::MatrixXd& kernel() const { return k_; }  ///< k_ss'
+  const ContactSurface& surface() const { return surface_; }
+  const Adhesion& adhesion() const { return adhesion_; }
+
+ private:
+  ContactSurface surface_;
+  Adhesion adhesion_;
+  double Rqc_;
+  Eigen::MatrixXd k_;
+  Eigen::MatrixXd kt_;  ///< k_ transposed: column s holds row s of k, contiguous for the sweep
+  Eigen::Vector3d N3_;  ///< N padded to 3 entries
+};
+
+}  // namespace ltl

@@ -1,0 +1,242 @@
+#include "fe.hpp"
+
+#include <array>
+#include <cmath>
+
+#include "error.hpp"
+
+namespace ltl {
+
+namespace {
+
+using Eigen::Vector3d;
+
+struct QPoint {
+  double xi, eta, zeta, w;
+};
+
+// Six-point degree-4 rule on the reference triangle (area 1/2) [Dunavant 1985].
+const std::array<QPoint, 6> kTriangleRule = [] {
+  const double a = 0.445948490915965, wa = 0.223381589678011 / 2;
+  const double b = 0.091576213509771, wb = 0.109951743655322 / 2;
+  return std::array<QPoint, 6>{{{a, a, 0, wa},
+                                {1 - 2 * a, a, 0, wa},
+                                {a, 1 - 2 * a, 0, wa},
+                                {b, b, 0, wb},
+                                {1 - 2 * b, b, 0, wb},
+                                {b, 1 - 2 * b, 0, wb}}};
+}();
+// Three-point Gauss rule on [-1, 1].
+const std::array<QPoint, 3> kLineRule = {
+    {{-std::sqrt(0.6), 0, 0, 5.0 / 9}, {0, 0, 0, 8.0 / 9}, {std::sqrt(0.6), 0, 0, 5.0 / 9}}};
+const double kG = 1.0 / std::sqrt(3.0);
+const std::array<QPoint, 4> kQuadRule = {
+    {{-kG, -kG, 0, 1}, {kG, -kG, 0, 1}, {kG, kG, 0, 1}, {-kG, kG, 0, 1}}};
+const std::array<QPoint, 8> kHexRule = {{{-kG, -kG, -kG, 1},
+                                         {kG, -kG, -kG, 1},
+                                         {kG, kG, -kG, 1},
+                                         {-kG, kG, -kG, 1},
+                                         {-kG, -kG, kG, 1},
+                                         {kG, -kG, kG, 1},
+                                         {kG, kG, kG, 1},
+                                         {-kG, kG, kG, 1}}};
+
+// gmsh node orders. P2 triangle: vertices (0,0), (1,0), (0,1), then mid-edges 01, 12, 20.
+void p2_triangle(double xi, double eta, Eigen::Matrix<double, 6, 1>& N,
+                 Eigen::Matrix<double, 6, 2>& dN) {
+  const double L0 = 1 - xi - eta, L1 = xi, L2 = eta;
+  N << L0 * (2 * L0 - 1), L1 * (2 * L1 - 1), L2 * (2 * L2 - 1), 4 * L0 * L1, 4 * L1 * L2,
+      4 * L2 * L0;
+  // d/dxi and d/deta, with dL0 = (-1,-1), dL1 = (1,0), dL2 = (0,1).
+  dN << -(4 * L0 - 1), -(4 * L0 - 1), 4 * L1 - 1, 0, 0, 4 * L2 - 1, 4 * (L0 - L1), -4 * L1,
+      4 * L2, 4 * L1, -4 * L2, 4 * (L0 - L2);
+}
+// H8: corners (+-1, +-1, +-1) in gmsh order.
+const int kHexCorner[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
+                              {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
+void h8(double xi, double eta, double zeta, Eigen::Matrix<double, 8, 1>& N,
+        Eigen::Matrix<double, 8, 3>& dN) {
+  for (int a = 0; a < 8; ++a) {
+    const double X = kHexCorner[a][0], Y = kHexCorner[a][1], Z = kHexCorner[a][2];
+    const double fx = 1 + X * xi, fy = 1 + Y * eta, fz = 1 + Z * zeta;
+    N(a) = fx * fy * fz / 8;
+    dN(a, 0) = X * fy * fz / 8;
+    dN(a, 1) = Y * fx * fz / 8;
+    dN(a, 2) = Z * fx * fy / 8;
+  }
+}
+// P2 edge: ends at -1, +1, then the midpoint.
+void p2_line(double xi, Eigen::Matrix<double, 3, 1>& N, Eigen::Matrix<double, 3, 1>& dN) {
+  N << xi * (xi - 1) / 2, xi * (xi + 1) / 2, 1 - xi * xi;
+  dN << xi - 0.5, xi + 0.5, -2 * xi;
+}
+void q4(double xi, double eta, Eigen::Matrix<double, 4, 1>& N, Eigen::Matrix<double, 4, 2>& dN) {
+  const double X[4] = {-1, 1, 1, -1}, Y[4] = {-1, -1, 1, 1};
+  for (int a = 0; a < 4; ++a) {
+    N(a) = (1 + X[a] * xi) * (1 + Y[a] * eta) / 4;
+    dN(a, 0) = X[a] * (1 + Y[a] * eta) / 4;
+    dN(a, 1) = Y[a] * (1 + X[a] * xi) / 4;
+  }
+}
+
+// Calls visit(N, grad N (physical), weight * |J|) at every quadrature point of cell c.
+template <int NPC, int DIM, class Rule, class Shape, class Visit>
+void for_each_cell_point(const Mesh& mesh, int c, const Rule& rule, Shape shape, Visit visit) {
+  Eigen::Matrix<double, NPC, DIM> Xe;
+  for (int a = 0; a < NPC; ++a) Xe.row(a) = mesh.X.row(mesh.cells(c, a));
+  Eigen::Matrix<double, NPC, 1> N;
+  Eigen::Matrix<double, NPC, DIM> dN;
+  for (const auto& p : rule) {
+    shape(p, N, dN);
+    const Eigen::Matrix<double, DIM, DIM> J = Xe.transpose() * dN;  // dx/dxi
+    const double detJ = J.determinant();
+    if (!(detJ > 0))
+      throw Error(cat(mesh.source, ": cell ", c, " is inverted or degenerate (det J = ", detJ,
+                      " at a quadrature point)"));
+    const Eigen::Matrix<double, NPC, DIM> grad = dN * J.inverse();
+    visit(N, grad, p.w * detJ);
+  }
+}
+
+template <class Visit>
+void for_each_point(const Mesh& mesh, int c, Visit visit) {
+  if (mesh.dim == 2)
+    for_each_cell_point<6, 2>(
+        mesh, c, kTriangleRule,
+        [](const QPoint& p, auto& N, auto& dN) { p2_triangle(p.xi, p.eta, N, dN); }, visit);
+  else
+    for_each_cell_point<8, 3>(
+        mesh, c, kHexRule, [](const QPoint& p, auto& N, auto& dN) { h8(p.xi, p.eta, p.zeta, N, dN); },
+        visit);
+}
+
+// Calls visit(N (dynamic), x (3-vector), weight * |dx/dxi|) at every quadrature point of facet f.
+template <class Visit>
+void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f, Visit visit) {
+  const int npf = mesh.nodes_per_facet();
+  Eigen::MatrixXd Xf(npf, mesh.dim);
+  for (int a = 0; a < npf; ++a) Xf.row(a) = mesh.X.row(facets(f, a));
+  Eigen::VectorXd Nd(npf);
+  if (mesh.dim == 2) {
+    Eigen::Matrix<double, 3, 1> N, dN;
+    for (const auto& p : kLineRule) {
+      p2_line(p.xi, N, dN);
+      const Eigen::Vector2d t = Xf.transpose() * dN;
+      Vector3d x = Vector3d::Zero();
+      x.head<2>() = Xf.transpose() * N;
+      Nd = N;
+      visit(Nd, x, p.w * t.norm());
+    }
+  } else {
+    Eigen::Matrix<double, 4, 1> N;
+    Eigen::Matrix<double, 4, 2> dN;
+    for (const auto& p : kQuadRule) {
+      q4(p.xi, p.eta, N, dN);
+      const Eigen::Matrix<double, 3, 2> J = Xf.transpose() * dN;
+      const Vector3d x = Xf.transpose() * N;
+      Nd = N;
+      visit(Nd, x, p.w * J.col(0).cross(J.col(1)).norm());
+    }
+  }
+}
+
+}  // namespace
+
+CellOperators cell_operators(const Mesh& mesh) {
+  const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
+  CellOperators ops;
+  ops.vol.resize(nc);
+  std::vector<Eigen::Triplet<double>> g, lap;
+  g.reserve(static_cast<std::size_t>(nc) * dim * npc);
+  lap.reserve(static_cast<std::size_t>(nc) * npc * npc);
+  Eigen::MatrixXd gint(npc, dim), Ke(npc, npc);
+  for (int c = 0; c < nc; ++c) {
+    double vol = 0;
+    gint.setZero();
+    Ke.setZero();
+    for_each_point(mesh, c, [&](const auto&, const auto& grad, double w) {
+      vol += w;
+      gint += w * grad;
+      Ke.noalias() += w * grad * grad.transpose();
+    });
+    ops.vol(c) = vol;
+    for (int a = 0; a < npc; ++a) {
+      for (int j = 0; j < dim; ++j) g.emplace_back(dim * c + j, mesh.cells(c, a), gint(a, j));
+      for (int b = 0; b < npc; ++b) lap.emplace_back(mesh.cells(c, a), mesh.cells(c, b), Ke(a, b));
+    }
+  }
+  SpMatR Gint(dim * nc, mesh.num_nodes());
+  Gint.setFromTriplets(g.begin(), g.end());
+  ops.GbarT_vol = Gint.transpose();
+  Eigen::VectorXd inv_vol(dim * nc);
+  for (int c = 0; c < nc; ++c) inv_vol.segment(dim * c, dim).setConstant(1.0 / ops.vol(c));
+  ops.Gbar = inv_vol.asDiagonal() * Gint;
+  ops.laplacian.resize(mesh.num_nodes(), mesh.num_nodes());
+  ops.laplacian.setFromTriplets(lap.begin(), lap.end());
+  return ops;
+}
+
+FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary) {
+  const int dim = mesh.dim, nf = static_cast<int>(boundary.facets.rows());
+  const int npf = mesh.nodes_per_facet();
+  FacetOperators ops;
+  ops.area.resize(nf);
+  ops.centre.resize(dim, nf);
+  const int ncorner = dim == 2 ? 2 : 4;
+  ops.vertices.assign(ncorner, Eigen::MatrixXd(dim, nf));
+  std::vector<Eigen::Triplet<double>> m;
+  Eigen::VectorXd mint(npf);
+  for (int f = 0; f < nf; ++f) {
+    double area = 0;
+    mint.setZero();
+    for_each_facet_point(mesh, boundary.facets, f, [&](const Eigen::VectorXd& N, const Vector3d&,
+                                                       double w) {
+      area += w;
+      mint += w * N;
+    });
+    if (!(area > 0))
+      throw Error(cat(mesh.source, ": boundary group '", boundary.name, "' facet ", f,
+                      " has zero measure"));
+    ops.area(f) = area;
+    ops.centre.col(f).setZero();
+    for (int a = 0; a < npf; ++a) {
+      m.emplace_back(f, boundary.facets(f, a), mint(a));
+      ops.centre.col(f) += mint(a) / area * mesh.X.row(boundary.facets(f, a)).transpose();
+    }
+    for (int k = 0; k < ncorner; ++k)
+      ops.vertices[k].col(f) = mesh.X.row(boundary.facets(f, k)).transpose();
+  }
+  SpMatR Mint(nf, mesh.num_nodes());
+  Mint.setFromTriplets(m.begin(), m.end());
+  ops.meanT_area = Mint.transpose();
+  ops.mean = ops.area.cwiseInverse().asDiagonal() * Mint;
+  return ops;
+}
+
+Eigen::MatrixXd body_load(const Mesh& mesh, const Eigen::Vector3d& f) {
+  const int dim = mesh.dim;
+  Eigen::MatrixXd F = Eigen::MatrixXd::Zero(mesh.num_nodes(), dim);
+  if (f.head(dim).isZero(0)) return F;
+  for (int c = 0; c < mesh.num_cells(); ++c)
+    for_each_point(mesh, c, [&](const auto& N, const auto&, double w) {
+      for (int a = 0; a < mesh.nodes_per_cell(); ++a)
+        F.row(mesh.cells(c, a)) += w * N(a) * f.head(dim).transpose();
+    });
+  return F;
+}
+
+Eigen::MatrixXd surface_load(const Mesh& mesh, const Mesh::Boundary& boundary,
+                             const AffineField& g) {
+  const int dim = mesh.dim;
+  Eigen::MatrixXd F = Eigen::MatrixXd::Zero(mesh.num_nodes(), dim);
+  for (int f = 0; f < boundary.facets.rows(); ++f)
+    for_each_facet_point(mesh, boundary.facets, f,
+                         [&](const Eigen::VectorXd& N, const Vector3d& x, double w) {
+                           const Vector3d gx = g(x);
+                           for (int a = 0; a < N.size(); ++a)
+                             F.row(boundary.facets(f, a)) += w * N(a) * gx.head(dim).transpose();
+                         });
+  return F;
+}
+
+}  // namespace ltl

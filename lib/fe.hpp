@@ -1,0 +1,65 @@
+// Reference elements, quadrature, and the discrete operators of the mean-gradient formulation.
+//
+// [LTL87 (2.7), (3.3); algorithm.md sec. 1] The constraint B is imposed on means:
+//   Gbar_e(v) = (1/|O_e|) integral over cell e of grad v        (cell mean gradient)
+//   vbar_s    = (1/|G_s|) integral over facet s of v            (facet mean)
+// Both are linear in the nodal values and are stored as sparse matrices acting on the
+// #nodes x dim matrix of nodal displacements, so that every per-iteration transfer between the
+// nodes and the cells/facets is one sparse product.
+#pragma once
+
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+#include <functional>
+
+#include "mesh.hpp"
+
+namespace ltl {
+
+using SpMat = Eigen::SparseMatrix<double>;
+using SpMatR = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
+/// Cell operators.
+struct CellOperators {
+  Eigen::VectorXd vol;  ///< #cells, |O_e|
+  /// (dim * #cells) x #nodes: row dim*e + j of Gbar * U is the j-th column of the mean
+  /// gradient, i.e. (Gbar * U)(dim*e + j, i) = mean of d u_i / d x_j over cell e (U: #nodes x dim).
+  SpMatR Gbar;
+  /// #nodes x (dim * #cells): transpose of Gbar with rows weighted by |O_e|, so that
+  /// GbarT_vol * T assembles sum_e |O_e| T_e : Gbar_e(v) for T: (dim*#cells) x dim, with
+  /// T(dim*e + j, i) = (T_e)_{ij}.
+  SpMatR GbarT_vol;
+  /// #nodes x #nodes, the scalar Laplacian integral grad phi_a . grad phi_b (exact quadrature on
+  /// affine P2 triangles and on parallelepipeds).
+  SpMat laplacian;
+};
+
+/// Facet operators of one boundary part.
+struct FacetOperators {
+  Eigen::VectorXd area;    ///< #facets, |G_s|
+  Eigen::MatrixXd centre;  ///< dim x #facets, x_s = mean of x over the facet
+  SpMatR mean;             ///< #facets x #nodes, (mean * U).row(s) = vbar_s
+  SpMatR meanT_area;       ///< #nodes x #facets, transpose of mean weighted by |G_s|
+  /// Corner vertices (2 in 2-D, 4 in 3-D), each dim x #facets.
+  std::vector<Eigen::MatrixXd> vertices;
+  int size() const { return static_cast<int>(area.size()); }
+};
+
+CellOperators cell_operators(const Mesh& mesh);
+FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
+
+/// A vector field affine in the reference position: g(x) = value + gradient * x (first dim
+/// entries used). Used for tractions and prescribed displacements.
+struct AffineField {
+  Eigen::Vector3d value = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d gradient = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d operator()(const Eigen::Vector3d& x) const { return value + gradient * x; }
+};
+
+/// Consistent nodal loads (#nodes x dim): integral over the cells of f . phi_a.
+Eigen::MatrixXd body_load(const Mesh& mesh, const Eigen::Vector3d& f);
+/// Consistent nodal loads (#nodes x dim): integral over the facets of g(x) . phi_a.
+Eigen::MatrixXd surface_load(const Mesh& mesh, const Mesh::Boundary& boundary,
+                             const AffineField& g);
+
+}  // namespace ltl

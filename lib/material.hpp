@@ -1,0 +1,39 @@
+// Stored energy functions W(F) of the paper, with their first derivatives.
+//
+// [LTL87 (1.5)] incompressible Mooney-Rivlin:  W(F) = C1 (|F|^2 - 3) + C2 (|adj F|^2 - 3),  det F = 1.
+// [LTL87 sec. 8, Fig 3] compressible law:     W(F) = C1 (|F|^2 - 3) + C3 (det F)^2 - C3
+//                                                     - 2 (C1 + C3) ln det F.
+// Plane strain embeds a 2x2 in-plane gradient as F = diag(F2, 1).
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+
+namespace ltl {
+
+enum class MaterialModel {
+  MooneyRivlin,  ///< incompressible (det F = 1), parameters C1, C2   [LTL87 (1.5)]
+  Compressible   ///< parameters C1, C3                              [LTL87 sec. 8]
+};
+
+struct Material {
+  MaterialModel model = MaterialModel::MooneyRivlin;
+  double C1 = 0.0;  ///< Pa, coefficient of |F|^2 (lives in the global Laplacian, (2.5))
+  double C2 = 0.0;  ///< Pa, coefficient of |adj F|^2 (Mooney-Rivlin)
+  double C3 = 0.0;  ///< Pa, volumetric coefficient (compressible law)
+
+  bool incompressible() const { return model == MaterialModel::MooneyRivlin; }
+  std::string name() const;
+
+  /// W(F) for a 3x3 F. For the compressible law, +inf when det F <= 0. The incompressible law
+  /// returns the Mooney-Rivlin expression without checking det F = 1 (the constraint is the
+  /// caller's).
+  double W(const Eigen::Matrix3d& F) const;
+  /// dW/dF (first Piola-Kirchhoff stress without the pressure term).
+  Eigen::Matrix3d dW(const Eigen::Matrix3d& F) const;
+  /// Plane strain: W(diag(F2, 1)) and the in-plane block of dW.
+  double W(const Eigen::Matrix2d& F2) const;
+  Eigen::Matrix2d dW(const Eigen::Matrix2d& F2) const;
+};
+
+}  // namespace ltl

@@ -1,0 +1,171 @@
+#include "mesh.hpp"
+
+#include <gmsh.h>
+
+#include <algorithm>
+#include <fstream>
+#include <unordered_map>
+
+#include "error.hpp"
+
+namespace ltl {
+
+namespace {
+
+// gmsh element types used here.
+constexpr int kLine3 = 8, kTriangle6 = 9, kQuad4 = 3, kHexahedron8 = 5;
+
+// gmsh 4.8 reports errors by throwing std::string (later versions throw std::exception); the
+// guard turns either into an ltl::Error naming the file, and always finalizes gmsh.
+struct GmshSession {
+  GmshSession() {
+    gmsh::initialize();
+    gmsh::option::setNumber("General.Terminal", 0);
+    gmsh::option::setNumber("General.Verbosity", 1);
+  }
+  ~GmshSession() { gmsh::finalize(); }
+};
+
+std::string gmsh_last_error() {
+  std::vector<std::string> log;
+  gmsh::logger::get(log);
+  std::string out;
+  for (const auto& line : log)
+    if (line.find("Error") != std::string::npos) out += "\n  gmsh: " + line;
+  return out;
+}
+
+}  // namespace
+
+const Mesh::Boundary& Mesh::boundary(const std::string& name, const std::string& what) const {
+  for (const auto& b : boundaries)
+    if (b.name == name) return b;
+  std::string names;
+  for (const auto& b : boundaries) names += (names.empty() ? "" : ", ") + ("'" + b.name + "'");
+  throw Error(cat(source, ": no boundary physical group named '", name, "'",
+                  what.empty() ? "" : " (asked for by " + what + ")",
+                  "; the mesh has: ", names.empty() ? "none" : names,
+                  ". Name boundary parts with Physical Curve(\"name\") (2-D) or ",
+                  "Physical Surface(\"name\") (3-D) in the .geo file."));
+}
+
+bool Mesh::has_boundary(const std::string& name) const {
+  return std::any_of(boundaries.begin(), boundaries.end(),
+                     [&](const Boundary& b) { return b.name == name; });
+}
+
+std::vector<int> Mesh::boundary_nodes(const std::string& name, const std::string& what) const {
+  const auto& f = boundary(name, what).facets;
+  std::vector<int> nodes(f.data(), f.data() + f.size());
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  return nodes;
+}
+
+Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters) {
+  if (!std::ifstream(path).good()) throw Error(cat(path, ": cannot open the mesh/geometry file"));
+  Mesh mesh;
+  mesh.source = path;
+  GmshSession session;
+  try {
+    gmsh::logger::start();
+    gmsh::onelab::clear();  // parameters of an earlier load must not leak into this one
+    for (const auto& [name, value] : parameters)
+      gmsh::onelab::setNumber("Parameters/" + name, {value});
+    gmsh::open(path);
+    const int dim = gmsh::model::getDimension();
+    if (dim != 2 && dim != 3)
+      throw Error(cat(path, ": the model has dimension ", dim, "; expected 2 or 3"));
+    mesh.dim = dim;
+    const bool is_geo = path.size() > 4 && path.substr(path.size() - 4) == ".geo";
+    if (is_geo) {
+      gmsh::model::mesh::generate(dim);
+      if (dim == 2) gmsh::model::mesh::setOrder(2);
+    }
+    const int cell_type = dim == 2 ? kTriangle6 : kHexahedron8;
+    const int facet_type = dim == 2 ? kLine3 : kQuad4;
+
+    // Cells: all elements of dimension dim must be of the one supported type.
+    std::vector<int> types;
+    std::vector<std::vector<std::size_t>> tags, node_tags;
+    gmsh::model::mesh::getElements(types, tags, node_tags, dim);
+    std::vector<std::size_t> cell_nodes;
+    for (std::size_t i = 0; i < types.size(); ++i) {
+      if (types[i] != cell_type) {
+        std::string tname;
+        int d, order, nn, np;
+        std::vector<double> lc;
+        gmsh::model::mesh::getElementProperties(types[i], tname, d, order, nn, lc, np);
+        throw Error(cat(path, ": found ", tags[i].size(), " elements of type '", tname, "'; ",
+                        dim == 2 ? "2-D meshes must be triangles (they are made P2 here)"
+                                 : "3-D meshes must be 8-node hexahedra (use Transfinite + "
+                                   "Recombine in the .geo)"));
+      }
+      cell_nodes.insert(cell_nodes.end(), node_tags[i].begin(), node_tags[i].end());
+    }
+    const int npc = dim == 2 ? 6 : 8;
+    const int ncells = static_cast<int>(cell_nodes.size() / npc);
+    if (ncells == 0) throw Error(cat(path, ": the mesh has no ", dim, "-D cells"));
+
+    // Nodes: keep only those used by cells, numbered in order of first use.
+    std::vector<std::size_t> all_tags;
+    std::vector<double> coords, param;
+    gmsh::model::mesh::getNodes(all_tags, coords, param, -1, -1, true, false);
+    std::unordered_map<std::size_t, std::size_t> position;  // gmsh tag -> position in coords
+    for (std::size_t i = 0; i < all_tags.size(); ++i) position[all_tags[i]] = i;
+    std::unordered_map<std::size_t, int> index;  // gmsh tag -> our node index
+    std::vector<std::size_t> order;
+    for (auto t : cell_nodes)
+      if (index.emplace(t, static_cast<int>(order.size())).second) order.push_back(t);
+    mesh.X.resize(static_cast<Eigen::Index>(order.size()), dim);
+    for (std::size_t i = 0; i < order.size(); ++i)
+      for (int k = 0; k < dim; ++k) mesh.X(i, k) = coords[3 * position.at(order[i]) + k];
+    mesh.cells.resize(ncells, npc);
+    for (int c = 0; c < ncells; ++c)
+      for (int a = 0; a < npc; ++a) mesh.cells(c, a) = index.at(cell_nodes[c * npc + a]);
+
+    // Boundary parts: physical groups of dimension dim-1.
+    gmsh::vectorpair groups;
+    gmsh::model::getPhysicalGroups(groups, dim - 1);
+    for (const auto& [gdim, gtag] : groups) {
+      Mesh::Boundary b;
+      gmsh::model::getPhysicalName(gdim, gtag, b.name);
+      if (b.name.empty()) b.name = "group_" + std::to_string(gtag);
+      std::vector<int> entities;
+      gmsh::model::getEntitiesForPhysicalGroup(gdim, gtag, entities);
+      std::vector<std::size_t> fnodes;
+      for (int ent : entities) {
+        std::vector<int> ftypes;
+        std::vector<std::vector<std::size_t>> ftags, fnode_tags;
+        gmsh::model::mesh::getElements(ftypes, ftags, fnode_tags, gdim, ent);
+        for (std::size_t i = 0; i < ftypes.size(); ++i) {
+          if (ftypes[i] != facet_type)
+            throw Error(cat(path, ": boundary group '", b.name, "' holds elements of gmsh type ",
+                            ftypes[i], "; expected ", dim == 2 ? "3-node edges" : "4-node quads"));
+          fnodes.insert(fnodes.end(), fnode_tags[i].begin(), fnode_tags[i].end());
+        }
+      }
+      const int npf = mesh.nodes_per_facet();
+      b.facets.resize(static_cast<Eigen::Index>(fnodes.size() / npf), npf);
+      for (Eigen::Index f = 0; f < b.facets.rows(); ++f)
+        for (int a = 0; a < npf; ++a) {
+          auto it = index.find(fnodes[f * npf + a]);
+          if (it == index.end())
+            throw Error(cat(path, ": boundary group '", b.name, "' facet ", f,
+                            " has a node that belongs to no cell"));
+          b.facets(f, a) = it->second;
+        }
+      mesh.boundaries.push_back(std::move(b));
+    }
+    gmsh::logger::stop();
+  } catch (const std::string& message) {
+    throw Error(cat(path, ": gmsh: ", message, gmsh_last_error()));
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(cat(path, ": gmsh: ", e.what(), gmsh_last_error()));
+  }
+  return mesh;
+}
+
+}  // namespace ltl

@@ -1,0 +1,46 @@
+// The finite element mesh, generated and read through the gmsh C++ API (no file parser of ours).
+//
+// 2-D: six-node P2 triangles (gmsh type 9) with three-node P2 boundary edges (type 8).
+// 3-D: eight-node trilinear hexahedra H8 (gmsh type 5) with four-node quadrilateral faces (type 3).
+// Boundary parts are gmsh physical groups of dimension dim-1, referred to by name.
+#pragma once
+
+#include <Eigen/Dense>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace ltl {
+
+struct Mesh {
+  int dim = 2;
+  Eigen::MatrixXd X;      ///< #nodes x dim, reference positions (m)
+  Eigen::MatrixXi cells;  ///< #cells x nodes_per_cell (6: P2 triangle, 8: H8), gmsh node order
+
+  /// A named boundary part (gmsh physical group of dimension dim-1).
+  struct Boundary {
+    std::string name;
+    Eigen::MatrixXi facets;  ///< #facets x nodes_per_facet (3: P2 edge, 4: quadrilateral)
+  };
+  std::vector<Boundary> boundaries;
+  std::string source;  ///< the file the mesh came from
+
+  int num_nodes() const { return static_cast<int>(X.rows()); }
+  int num_cells() const { return static_cast<int>(cells.rows()); }
+  int nodes_per_cell() const { return static_cast<int>(cells.cols()); }
+  int nodes_per_facet() const { return dim == 2 ? 3 : 4; }
+  /// The boundary part called `name`; a clear error naming the file and the parts it has if
+  /// there is none. `what` says who asked (e.g. the configuration key).
+  const Boundary& boundary(const std::string& name, const std::string& what = "") const;
+  bool has_boundary(const std::string& name) const;
+  /// Sorted unique node indices of a boundary part.
+  std::vector<int> boundary_nodes(const std::string& name, const std::string& what = "") const;
+};
+
+/// Generates (from a .geo) or reads (from a .msh) the mesh with gmsh. `parameters` set gmsh
+/// ONELAB numbers before the file is read, so that a .geo written with
+///   DefineConstant[ nx = {28, Name "Parameters/nx"} ];
+/// can be refined from a configuration: {"nx", 56}. Errors name the file.
+Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters = {});
+
+}  // namespace ltl

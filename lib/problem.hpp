@@ -1,0 +1,88 @@
+// A problem as the user states it: mesh, material, boundary conditions, loads, contact/adhesion,
+// algorithm parameters and time stepping. Built from a configuration file (config.hpp) or in
+// code (tests). Nothing here is discretized yet; see Discretization (discretization.hpp).
+#pragma once
+
+#include <Eigen/Dense>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "contact_step.hpp"
+#include "fe.hpp"
+#include "material.hpp"
+#include "mesh.hpp"
+
+namespace ltl {
+
+/// Dirichlet condition on a boundary part, u_i(x) = field_i(x) for the listed components.
+/// Gamma_1 of the paper (fixed part, u = 0) has all components and a zero field; a symmetry
+/// plane fixes one component to zero.
+struct DirichletCondition {
+  std::string group;
+  std::vector<int> components;  ///< 0-based
+  AffineField field;            ///< prescribed displacement (zero for fixed parts and symmetry)
+  std::string origin;           ///< where it came from (configuration key), for messages
+};
+
+/// Dead surface traction on Gamma_2, g(x) affine in the reference position (Pa) [LTL87 (1.2)].
+struct Traction {
+  std::string group;
+  AffineField g;
+  std::string origin;
+};
+
+/// The contact surface Gamma_c with a rigid plane, and its glue [LTL87 (1.1)-(1.3), (4.11)].
+struct ContactCondition {
+  std::string group;
+  Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();  ///< a point of the obstacle plane (m)
+  Eigen::Vector3d plane_normal = Eigen::Vector3d::Zero();  ///< unit, pointing into the obstacle
+  Adhesion adhesion;   ///< w, kappa = 1/eps, d0, kernel rule (dt is set from the time step)
+  double beta0 = 1.0;  ///< initial adhesion intensity beta_0 in [0, 1]
+  std::string origin;
+};
+
+/// Multiplier update of the iteration.
+enum class Update {
+  Uzawa,           ///< ALG2 (4.1)-(4.4): lambda -= rho R q B(u^n, G^n)
+  BermudezMoreno,  ///< section 7, (7.7)-(7.10): half-step update before the local step
+};
+
+/// Parameters of ALG2 [LTL87 sec. 3-4, 7].
+struct AlgorithmParams {
+  double R = 1.0;      ///< augmentation parameter (dimensionless), R > 0
+  double q = 1.0;      ///< weight of the strain constraint (Pa), q > 0   (3.3)
+  double q_c = 1.0;    ///< weight of the contact constraint (Pa/m), q_c > 0   (3.3)
+  double rho = 1.0;    ///< Uzawa: step factor in (0, 2); Bermudez-Moreno: in (1/2, 1]
+  Update update = Update::Uzawa;
+  int sweeps = 1;          ///< block-relaxation sweeps (4.1)-(4.2) per multiplier update
+  int contact_sweeps = 1;  ///< Gauss-Seidel sweeps over the facets in one local contact step
+  double tol = 1e-8;       ///< stop when r_G + r_B < tol (scaled, see alg2.hpp)
+  int max_iter = 5000;     ///< iteration cap: reaching it is reported as non-convergence
+  double blowup = 1e8;     ///< residual above blowup * (first residual) is divergence
+};
+
+struct TimeStepping {
+  double dt = 1.0;  ///< t_p - t_{p-1} (s), > 0
+  int steps = 1;    ///< P; a single step is a static contact problem
+};
+
+struct Problem {
+  std::string name;  ///< experiment name (for messages and outputs)
+  Mesh mesh;
+  Material material;
+  std::vector<DirichletCondition> dirichlet;
+  std::vector<Traction> tractions;
+  Eigen::Vector3d body_force = Eigen::Vector3d::Zero();  ///< f (N/m^3)
+  std::optional<ContactCondition> contact;
+  AlgorithmParams algorithm;
+  TimeStepping time;
+  std::string config_text;  ///< the resolved configuration (written into the results)
+  std::string config_path;
+
+  /// Checks ranges and consistency (groups exist, contact group is on the boundary and not
+  /// fixed, ...); throws a clear Error naming the key.
+  void validate() const;
+};
+
+}  // namespace ltl

@@ -1,0 +1,45 @@
+// The iterate of ALG2 and the record of its iterations (plain data, no dependencies).
+#pragma once
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace ltl {
+
+/// The iterate. Cell tensors are stored as (dim * #cells) x dim matrices whose block of rows
+/// dim*c .. dim*c+dim-1 is the TRANSPOSE of the cell's tensor (the layout of Gbar * u, so that
+/// every cell-wise linear operation is one whole-array operation); use cell_tensor() to read one.
+struct State {
+  Eigen::MatrixXd u;         ///< #nodes x dim
+  Eigen::MatrixXd E;         ///< (dim*#cells) x dim, strain (the paper's F), transposed blocks
+  Eigen::MatrixXd lambda;    ///< (dim*#cells) x dim, multiplier of I + grad u = E, transposed
+  Eigen::MatrixXd e;         ///< dim x #facets, contact displacement (the paper's h)
+  Eigen::VectorXd beta;      ///< #facets, adhesion intensity
+  Eigen::MatrixXd lambda_c;  ///< dim x #facets, multiplier of u = e on Gamma_c (a traction)
+};
+
+/// The tensor of cell c (dim x dim) from a transposed-block field.
+inline Eigen::MatrixXd cell_tensor(const Eigen::MatrixXd& field, int c) {
+  const auto d = field.cols();
+  return field.block(d * c, 0, d, d).transpose();
+}
+
+/// One row of the iteration history.
+struct IterationRecord {
+  int n = 0;
+  double r_G = 0;  ///< ||G^n - G^{n-1}|| / ||I||_q (+ RMS change of beta)
+  double r_B = 0;  ///< ||B(u^n, G^n)|| / ||I||_q, weights of (3.3)
+  double t_global = 0, t_strain = 0, t_contact = 0, t_update = 0;  ///< seconds in each phase
+  double wall = 0;  ///< seconds since the start of the time step
+};
+
+struct StepReport {
+  bool converged = false;
+  std::string status;  ///< "converged", "iteration cap reached", "NaN", "residual blow-up"
+  int iterations = 0;
+  std::vector<IterationRecord> history;
+  int strain_failures = 0;  ///< local strain problems whose Newton iteration did not converge
+};
+
+}  // namespace ltl

@@ -1,0 +1,153 @@
+// The discrete operators of the mean-gradient formulation and the global matrix of (4.5).
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+
+#include "error.hpp"
+#include "fe.hpp"
+#include "global_step.hpp"
+#include "testing.hpp"
+
+using namespace ltl;
+using ltl::testing::source_path;
+using ltl::testing::test_path;
+
+namespace {
+
+// Moves the interior nodes of a mesh (distorted cells); P2 mid-edge nodes move with the average
+// of their edge's vertices so that edges stay straight.
+Mesh distorted_box(int n) {
+  Mesh m = load_mesh(test_path("geometry/box.geo"), {{"n", n}});
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(-0.25, 0.25);
+  const double h = 1.0 / n;
+  for (int i = 0; i < m.num_nodes(); ++i) {
+    bool interior = true;
+    for (int k = 0; k < 3; ++k) interior &= m.X(i, k) > 1e-9 && m.X(i, k) < 1 - 1e-9;
+    if (interior)
+      for (int k = 0; k < 3; ++k) m.X(i, k) += U(rng) * h;
+  }
+  return m;
+}
+
+// Mean gradient of u(x) = A x + c is A in every cell.
+void expect_mean_gradient_exact(const Mesh& m, const Eigen::MatrixXd& A) {
+  const CellOperators ops = cell_operators(m);
+  const Eigen::MatrixXd U = m.X * A.transpose() + Eigen::MatrixXd::Constant(m.num_nodes(), m.dim, 0.3);
+  const Eigen::MatrixXd GU = ops.Gbar * U;  // transposed blocks
+  for (int c = 0; c < m.num_cells(); ++c)
+    ASSERT_LT((GU.block(m.dim * c, 0, m.dim, m.dim).transpose() - A).norm(), 1e-12 * A.norm())
+        << "cell " << c;
+}
+
+}  // namespace
+
+TEST(Operators, MeanGradientOfALinearFieldIsExact_2D_3D) {
+  // [LTL87 (2.7)] B_h uses cell means of grad v: exact for linear fields, including on curved
+  // (isoparametric) P2 cells and distorted hexahedra.
+  Eigen::Matrix2d A2;
+  A2 << 0.3, -1.2, 0.7, 2.1;
+  expect_mean_gradient_exact(load_mesh(test_path("geometry/square.geo")), A2);
+  expect_mean_gradient_exact(load_mesh(source_path("experiments/fig5/half_disc.geo")), A2);
+  Eigen::Matrix3d A3;
+  A3 << 0.3, -1.2, 0.7, 2.1, 0.1, -0.4, 0.5, 0.9, -1.3;
+  expect_mean_gradient_exact(distorted_box(3), A3);
+}
+
+TEST(Operators, VolumesAreasAndLoadsAddUp) {
+  const Mesh bar = load_mesh(source_path("experiments/fig3/bar.geo"));
+  const CellOperators c = cell_operators(bar);
+  EXPECT_NEAR(c.vol.sum(), 0.2, 1e-14);
+  const FacetOperators f = facet_operators(bar, bar.boundary("contact"));
+  EXPECT_NEAR(f.area.sum(), 1.0, 1e-14);
+  EXPECT_NEAR(f.area(0), 1.0 / 28, 1e-12);
+  // The facet mean of a linear field is its value at the facet centre.
+  const Eigen::MatrixXd U = bar.X * Eigen::Vector2d(2.0, -1.0).asDiagonal();
+  const Eigen::MatrixXd ubar = f.mean * U;
+  for (int s = 0; s < f.size(); ++s)
+    EXPECT_NEAR((ubar.row(s).transpose() - Eigen::Vector2d(2.0, -1.0).asDiagonal() *
+                                               f.centre.col(s)).norm(), 0, 1e-14);
+  // Consistent loads: body force over the area, the affine Fig 3 traction over the top face
+  // (integral of 1e4 (1 - x1) over [0, 1] = 5e3 N/m).
+  const Eigen::MatrixXd F = body_load(bar, Eigen::Vector3d(0, -3.0, 0));
+  EXPECT_NEAR(F.col(1).sum(), -0.6, 1e-13);
+  AffineField g;
+  g.value << 0, 1e4, 0;
+  g.gradient(1, 0) = -1e4;
+  const Eigen::MatrixXd G = surface_load(bar, bar.boundary("top"), g);
+  EXPECT_NEAR(G.col(1).sum(), 5e3, 1e-9);
+  EXPECT_NEAR(G.col(0).sum(), 0, 1e-12);
+  // Curved contact arc of the half disc: length pi/2 up to the P2 geometry error.
+  const Mesh disc = load_mesh(source_path("experiments/fig5/half_disc.geo"));
+  EXPECT_NEAR(facet_operators(disc, disc.boundary("contact")).area.sum(), M_PI / 2, 2e-4);
+  EXPECT_NEAR(cell_operators(disc).vol.sum(), M_PI / 2, 2e-4);
+}
+
+TEST(Operators, LaplacianAnnihilatesConstantsAndIsSymmetric) {
+  for (const Mesh& m : {load_mesh(test_path("geometry/square.geo")), distorted_box(2)}) {
+    const CellOperators c = cell_operators(m);
+    EXPECT_LT((c.laplacian * Eigen::VectorXd::Ones(m.num_nodes())).norm(), 1e-12);
+    EXPECT_LT((SpMat(c.laplacian.transpose()) - c.laplacian).norm(), 1e-14);
+  }
+}
+
+TEST(GlobalMatrix, IsSymmetricPositiveDefinite_4_5) {
+  // [LTL87 (4.5)] K = 2 C1 L + R q Gbar^T |O| Gbar + R q_c M^T |G| M is SPD on the free nodes,
+  // and definite with NO fixed node when a contact surface has q_c > 0.
+  const Mesh bar = load_mesh(source_path("experiments/fig3/bar.geo"), {{"nx", 6}, {"ny", 2}});
+  const CellOperators c = cell_operators(bar);
+  const FacetOperators f = facet_operators(bar, bar.boundary("contact"));
+  const SpMat K = global_matrix(c, &f, 187.5e3, 3e6, 8e9);
+  EXPECT_LT((SpMat(K.transpose()) - K).norm(), 1e-9 * K.norm());
+  const Eigen::MatrixXd Kd(K);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Kd);
+  EXPECT_GT(eig.eigenvalues().minCoeff(), 0.0);
+  // Without the contact term and without Dirichlet nodes, constants are in the kernel.
+  const SpMat K0 = global_matrix(c, nullptr, 187.5e3, 3e6, 0);
+  EXPECT_LT((K0 * Eigen::VectorXd::Ones(bar.num_nodes())).norm(), 1e-6);
+}
+
+TEST(GlobalStep, SolvesWithDirichletValuesAndOneFactorPerDistinctSet) {
+  const Mesh m = load_mesh(test_path("geometry/square.geo"));
+  const CellOperators c = cell_operators(m);
+  const SpMat K = global_matrix(c, nullptr, 1.0, 2.0, 0);
+  DirichletData bc;
+  bc.value = Eigen::MatrixXd::Zero(m.num_nodes(), 2);
+  // Component x fixed on left and bottom, y only on the left (two distinct sets).
+  bc.fixed = {m.boundary_nodes("boundary"), m.boundary_nodes("left")};
+  for (int i : bc.fixed[0]) bc.value(i, 0) = 0.1 * m.X(i, 1);
+  for (int i : bc.fixed[1]) bc.value(i, 1) = -0.2;
+  GlobalStep step(K, bc);
+  EXPECT_EQ(step.num_factors(), 2);
+  EXPECT_GT(step.min_rcond(), 1e-6);
+  Eigen::MatrixXd b = Eigen::MatrixXd::Random(m.num_nodes(), 2), u;
+  step.solve(b, u);
+  const Eigen::MatrixXd r = K * u - b;
+  for (int comp = 0; comp < 2; ++comp) {
+    std::vector<char> fixed(m.num_nodes(), 0);
+    for (int i : bc.fixed[comp]) {
+      fixed[i] = 1;
+      EXPECT_EQ(u(i, comp), bc.value(i, comp));
+    }
+    for (int i = 0; i < m.num_nodes(); ++i) {
+      if (!fixed[i]) {
+        EXPECT_LT(std::abs(r(i, comp)), 1e-10) << "node " << i;
+      }
+    }
+  }
+  // Same set for both components: one factor, solved as one two-column right-hand side.
+  bc.fixed = {m.boundary_nodes("left"), m.boundary_nodes("left")};
+  EXPECT_EQ(GlobalStep(K, bc).num_factors(), 1);
+}
+
+TEST(GlobalStep, SingularMatrixIsAClearError) {
+  const Mesh m = load_mesh(test_path("geometry/square.geo"));
+  const SpMat K = global_matrix(cell_operators(m), nullptr, 1.0, 2.0, 0);
+  DirichletData bc{{{}, {}}, Eigen::MatrixXd::Zero(m.num_nodes(), 2)};  // nothing fixed
+  try {
+    GlobalStep step(K, bc);
+    FAIL() << "no error; condition estimate " << step.min_rcond();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rigid motion"), std::string::npos) << e.what();
+  }
+}
