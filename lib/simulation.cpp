@@ -50,7 +50,8 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     const Eigen::VectorXd beta_prev = state.beta;
     auto progress = [&](const IterationRecord& r) {
       if (options.verbosity >= 2 || (options.verbosity == 1 && P == 1 && r.n % 50 == 0))
-        std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall);
+        std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
+            std::fflush(stdout);
     };
     const StepReport report = solver.solve_step(state, beta_prev, progress);
     summary.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
@@ -72,6 +73,7 @@ RunSummary run(const Problem& problem, const RunOptions& options,
                                                " local strain solves not at round-off)")
                                                .c_str()
                                          : "");
+    std::fflush(stdout);
     if (!options.output.empty()) {
       if (!file) {
         RunInfo info{problem.name, problem.config_text, problem.config_path, library_versions()};
