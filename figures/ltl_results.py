@@ -1,0 +1,160 @@
+"""Read a results file of the solver (HDF5, layout in lib/results.hpp) into plain numpy arrays.
+
+    import ltl_results
+    r = ltl_results.load("run.h5")
+    r.attrs["status"], r.mesh.X, r.steps[-1].p, r.steps[-1].fields["u"], r.steps[-1].history["r_B"]
+
+Arrays keep the file's layout: u (#nodes, dim); E, lambda, P, sigma (#cells, dim, dim) with
+[c, i, j] the (i, j) entry of cell c's tensor; pressure (#cells); e, lambda_c (#facets, dim);
+beta, contact_pressure, gap (#facets). The 2-D "xdmf" subgroup (padded copies for ParaView) is
+not loaded. Nothing here plots; figure scripts print what they plot with print_table().
+
+Use /usr/bin/python3 (it has h5py and numpy).
+"""
+
+import sys
+
+import h5py
+import numpy as np
+
+HISTORY_COLUMNS = ("n", "r_G", "r_B", "t_global", "t_strain", "t_contact", "t_update", "wall")
+
+
+class Mesh:
+    """The reference mesh: X (#nodes, dim), cells (#cells, nodes per cell, gmsh order),
+    cell_volume (#cells), and on the contact surface (None without one) contact_facets
+    (#facets, nodes per facet), contact_centre (#facets, dim), contact_area (#facets)."""
+
+    def __init__(self, X, cells, cell_volume, contact_facets=None, contact_centre=None,
+                 contact_area=None, cell_type="", contact_boundary=""):
+        self.X = X
+        self.cells = cells
+        self.cell_volume = cell_volume
+        self.contact_facets = contact_facets
+        self.contact_centre = contact_centre
+        self.contact_area = contact_area
+        self.cell_type = cell_type
+        self.contact_boundary = contact_boundary
+
+    @property
+    def dim(self):
+        return self.X.shape[1]
+
+
+class Step:
+    """One stored time step: p, t, iterations, status, fields (name -> array), history
+    (column name -> array over the iterations), attrs (all attributes of the step)."""
+
+    def __init__(self, p, t, iterations, status, fields, history, attrs):
+        self.p = p
+        self.t = t
+        self.iterations = iterations
+        self.status = status
+        self.fields = fields
+        self.history = history
+        self.attrs = attrs
+
+    def __repr__(self):
+        return "Step(p=%d, t=%g, iterations=%d, fields=%s)" % (
+            self.p, self.t, self.iterations, sorted(self.fields))
+
+
+class Results:
+    """A loaded results file: path, attrs (dict of root attributes), mesh, steps (by p)."""
+
+    def __init__(self, path, attrs, mesh, steps):
+        self.path = path
+        self.attrs = attrs
+        self.mesh = mesh
+        self.steps = steps
+
+    def step(self, p):
+        """The step with number p (KeyError if it is not stored)."""
+        for s in self.steps:
+            if s.p == p:
+                return s
+        raise KeyError("%s: no step %d (stored: %s)" % (self.path, p, [s.p for s in self.steps]))
+
+    def times(self):
+        return np.array([s.t for s in self.steps])
+
+
+def _value(v):
+    """An attribute value as plain Python (str, int, float)."""
+    if isinstance(v, bytes):
+        return v.decode("utf-8")
+    if isinstance(v, np.ndarray) and v.shape == ():
+        v = v[()]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _attrs(obj):
+    return {k: _value(v) for k, v in obj.attrs.items()}
+
+
+def _open(path):
+    # Without file locking, a file that a running simulation is writing can be read too.
+    try:
+        return h5py.File(path, "r", locking=False)
+    except TypeError:  # h5py older than 3.5
+        return h5py.File(path, "r")
+
+
+def load(path, fields=None):
+    """Loads the results file `path`. `fields` (a list of names) limits the per-step fields read;
+    None reads all of them. Raises OSError/ValueError naming the file if it cannot be read."""
+    try:
+        f = _open(path)
+    except OSError as err:
+        raise OSError("%s: cannot read the results file (%s)" % (path, err)) from err
+    with f:
+        if "mesh" not in f or "steps" not in f:
+            raise ValueError("%s: not a results file (no /mesh or /steps group)" % path)
+        m = f["mesh"]
+        get = lambda name: m[name][()] if name in m else None
+        mesh = Mesh(X=m["X"][()], cells=m["cells"][()], cell_volume=get("cell_volume"),
+                    contact_facets=get("contact_facets"), contact_centre=get("contact_centre"),
+                    contact_area=get("contact_area"), cell_type=_value(m.attrs.get("cell_type", "")),
+                    contact_boundary=_value(m["contact_facets"].attrs.get("boundary", ""))
+                    if "contact_facets" in m else "")
+        steps = []
+        for name in sorted(k for k in f["steps"] if len(k) == 6 and k.isdigit()):
+            g = f["steps"][name]
+            a = _attrs(g)
+            data = {k: g[k][()] for k in g
+                    if isinstance(g[k], h5py.Dataset) and k != "history"
+                    and (fields is None or k in fields)}
+            h = g["history"][()] if "history" in g else np.zeros((0, len(HISTORY_COLUMNS)))
+            columns = _value(g["history"].attrs.get("columns", "")) if "history" in g else ""
+            names = columns.split() if columns else list(HISTORY_COLUMNS)
+            history = {c: h[:, i] for i, c in enumerate(names)}
+            steps.append(Step(p=int(a["p"]), t=float(a["t"]), iterations=int(a["iterations"]),
+                              status=a.get("status", ""), fields=data, history=history, attrs=a))
+        steps.sort(key=lambda s: s.p)
+        return Results(path, _attrs(f), mesh, steps)
+
+
+def deformed(X, u, scale=1.0):
+    """Deformed positions X + scale * u (both (#nodes, dim))."""
+    X = np.asarray(X, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if X.shape != u.shape:
+        raise ValueError("deformed: X has shape %s, u %s" % (X.shape, u.shape))
+    return X + scale * u
+
+
+def print_table(title, columns, file=None, fmt="%.6g"):
+    """Prints the numbers a figure plots: `columns` maps a column name to a 1-D array (all of one
+    length, or scalars), printed as an aligned table under `title` (to stdout by default)."""
+    out = file if file is not None else sys.stdout
+    names = list(columns)
+    cols = [np.atleast_1d(np.asarray(columns[n])) for n in names]
+    rows = max((len(c) for c in cols), default=0)
+    cells = [[fmt % c[i] if len(c) > i else "" for c in cols] for i in range(rows)]
+    width = [max([len(n)] + [len(r[j]) for r in cells]) for j, n in enumerate(names)]
+    print("# " + title, file=out)
+    print("  ".join(n.rjust(w) for n, w in zip(names, width)), file=out)
+    for r in cells:
+        print("  ".join(v.rjust(w) for v, w in zip(r, width)), file=out)

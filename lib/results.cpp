@@ -1,0 +1,894 @@
+// Results in HDF5 through the HDF5 C API, with an XDMF file beside it for ParaView.
+// See results.hpp for the file layout. Every HDF5 call is checked; HDF5's own error stack printing
+// is switched off and failures become ltl::Error naming the file and the object.
+#include "results.hpp"
+
+#include <cholmod.h>
+#include <gmsh.h>
+#include <hdf5.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "error.hpp"
+
+namespace ltl {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// HDF5 plumbing
+
+void quiet_hdf5() {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+}
+
+using CloseFn = herr_t (*)(hid_t);
+
+/// Owns an HDF5 identifier and closes it.
+class Handle {
+ public:
+  Handle() = default;
+  Handle(hid_t id, CloseFn close) : id_(id), close_(close) {}
+  Handle(Handle&& o) noexcept : id_(std::exchange(o.id_, -1)), close_(o.close_) {}
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) {
+      reset();
+      id_ = std::exchange(o.id_, -1);
+      close_ = o.close_;
+    }
+    return *this;
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() { reset(); }
+  void reset() {
+    if (id_ >= 0 && close_) close_(id_);
+    id_ = -1;
+  }
+  hid_t get() const { return id_; }
+
+ private:
+  hid_t id_ = -1;
+  CloseFn close_ = nullptr;
+};
+
+[[noreturn]] void fail(const std::string& file, const std::string& what) {
+  throw Error(cat(file, ": ", what));
+}
+
+Handle checked(hid_t id, CloseFn close, const std::string& file, const std::string& what) {
+  if (id < 0) fail(file, what);
+  return Handle(id, close);
+}
+
+void ok(herr_t status, const std::string& file, const std::string& what) {
+  if (status < 0) fail(file, what);
+}
+
+/// Whether the object at absolute `path` ("/a/b/c") exists (every component is checked, as
+/// H5Lexists requires).
+bool exists(hid_t file_id, const std::string& path, const std::string& file) {
+  std::string prefix;
+  std::size_t start = 1;
+  while (start <= path.size()) {
+    std::size_t end = path.find('/', start);
+    if (end == std::string::npos) end = path.size();
+    prefix = path.substr(0, end);
+    const htri_t e = H5Lexists(file_id, prefix.c_str(), H5P_DEFAULT);
+    if (e < 0) fail(file, cat("cannot look up ", prefix));
+    if (e == 0) return false;
+    start = end + 1;
+  }
+  return true;
+}
+
+Handle open_group(hid_t file_id, const std::string& path, const std::string& file) {
+  return checked(H5Gopen2(file_id, path.c_str(), H5P_DEFAULT), H5Gclose, file,
+                 cat("cannot open group ", path));
+}
+
+Handle create_group(hid_t file_id, const std::string& path, const std::string& file) {
+  return checked(H5Gcreate2(file_id, path.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                 file, cat("cannot create group ", path));
+}
+
+std::string shape_text(const std::vector<hsize_t>& dims) {
+  std::ostringstream s;
+  s << '(';
+  for (std::size_t i = 0; i < dims.size(); ++i) s << (i ? ", " : "") << dims[i];
+  s << (dims.size() == 1 ? ",)" : ")");
+  return s.str();
+}
+
+/// Writes a dataset `path` (absolute) of the given shape from row-major `data`.
+void write_array(hid_t file_id, const std::string& path, hid_t mem_type, hid_t file_type,
+                 const std::vector<hsize_t>& dims, const void* data, const std::string& file) {
+  Handle space = checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
+                         H5Sclose, file, cat("cannot create the dataspace of dataset ", path));
+  Handle set = checked(H5Dcreate2(file_id, path.c_str(), file_type, space.get(), H5P_DEFAULT,
+                                  H5P_DEFAULT, H5P_DEFAULT),
+                       H5Dclose, file, cat("cannot create dataset ", path));
+  hsize_t total = 1;
+  for (hsize_t d : dims) total *= d;
+  if (total > 0)
+    ok(H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), file,
+       cat("cannot write dataset ", path));
+}
+
+void write_doubles(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
+                   const std::vector<double>& data, const std::string& file) {
+  write_array(f, path, H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, dims, data.data(), file);
+}
+
+void write_ints(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
+                const std::vector<int>& data, const std::string& file) {
+  write_array(f, path, H5T_NATIVE_INT, H5T_STD_I32LE, dims, data.data(), file);
+}
+
+/// A dense array read from a dataset (row-major) with its shape.
+template <class T>
+struct Array {
+  std::vector<hsize_t> dims;
+  std::vector<T> data;
+};
+
+/// Reads dataset `path` converting to T (double or int); a clear Error if it is missing or is not
+/// numeric.
+template <class T>
+Array<T> read_array(hid_t file_id, const std::string& path, const std::string& file) {
+  if (!exists(file_id, path, file)) fail(file, cat("missing dataset ", path));
+  Handle set = checked(H5Dopen2(file_id, path.c_str(), H5P_DEFAULT), H5Dclose, file,
+                       cat("cannot open dataset ", path));
+  Handle type = checked(H5Dget_type(set.get()), H5Tclose, file, cat("bad type of ", path));
+  const H5T_class_t cls = H5Tget_class(type.get());
+  if (cls != H5T_FLOAT && cls != H5T_INTEGER) fail(file, cat("dataset ", path, " is not numeric"));
+  Handle space = checked(H5Dget_space(set.get()), H5Sclose, file, cat("bad dataspace of ", path));
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) fail(file, cat("bad dataspace of ", path));
+  Array<T> a;
+  a.dims.resize(rank);
+  if (rank > 0 && H5Sget_simple_extent_dims(space.get(), a.dims.data(), nullptr) < 0)
+    fail(file, cat("bad dataspace of ", path));
+  hsize_t total = 1;
+  for (hsize_t d : a.dims) total *= d;
+  a.data.resize(total);
+  const hid_t mem = std::is_same_v<T, int> ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
+  if (total > 0)
+    ok(H5Dread(set.get(), mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.data.data()), file,
+       cat("cannot read dataset ", path));
+  return a;
+}
+
+template <class T>
+void expect_shape(const Array<T>& a, const std::vector<hsize_t>& dims, const std::string& path,
+                  const std::string& file) {
+  if (a.dims != dims)
+    fail(file,
+         cat("dataset ", path, " has shape ", shape_text(a.dims), ", expected ", shape_text(dims)));
+}
+
+/// The shape of dataset `path` (which must exist).
+std::vector<hsize_t> dataset_shape(hid_t file_id, const std::string& path,
+                                   const std::string& file) {
+  Handle set = checked(H5Dopen2(file_id, path.c_str(), H5P_DEFAULT), H5Dclose, file,
+                       cat("cannot open dataset ", path));
+  Handle space = checked(H5Dget_space(set.get()), H5Sclose, file, cat("bad dataspace of ", path));
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) fail(file, cat("bad dataspace of ", path));
+  std::vector<hsize_t> dims(rank);
+  if (rank > 0 && H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr) < 0)
+    fail(file, cat("bad dataspace of ", path));
+  return dims;
+}
+
+void delete_attribute_if_any(hid_t obj, const std::string& name, const std::string& file,
+                             const std::string& where) {
+  const htri_t e = H5Aexists(obj, name.c_str());
+  if (e < 0) fail(file, cat("cannot look up attribute ", name, " of ", where));
+  if (e > 0)
+    ok(H5Adelete(obj, name.c_str()), file, cat("cannot replace attribute ", name, " of ", where));
+}
+
+/// Writes (or replaces) a variable-length UTF-8 string attribute.
+void write_string_attr(hid_t obj, const std::string& name, const std::string& value,
+                       const std::string& file, const std::string& where) {
+  const std::string what = cat("cannot write attribute ", name, " of ", where);
+  Handle type = checked(H5Tcopy(H5T_C_S1), H5Tclose, file, what);
+  ok(H5Tset_size(type.get(), H5T_VARIABLE), file, what);
+  ok(H5Tset_cset(type.get(), H5T_CSET_UTF8), file, what);
+  delete_attribute_if_any(obj, name, file, where);
+  Handle space = checked(H5Screate(H5S_SCALAR), H5Sclose, file, what);
+  Handle attr =
+      checked(H5Acreate2(obj, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
+              H5Aclose, file, what);
+  const char* s = value.c_str();
+  ok(H5Awrite(attr.get(), type.get(), &s), file, what);
+}
+
+template <class T>
+void write_scalar_attr(hid_t obj, const std::string& name, T value, const std::string& file,
+                       const std::string& where) {
+  const std::string what = cat("cannot write attribute ", name, " of ", where);
+  const hid_t mem = std::is_same_v<T, int> ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
+  const hid_t ftype = std::is_same_v<T, int> ? H5T_STD_I32LE : H5T_IEEE_F64LE;
+  delete_attribute_if_any(obj, name, file, where);
+  Handle space = checked(H5Screate(H5S_SCALAR), H5Sclose, file, what);
+  Handle attr = checked(H5Acreate2(obj, name.c_str(), ftype, space.get(), H5P_DEFAULT, H5P_DEFAULT),
+                        H5Aclose, file, what);
+  ok(H5Awrite(attr.get(), mem, &value), file, what);
+}
+
+/// Opens attribute `name` of `obj` checking it holds one value; an empty Handle if absent.
+Handle open_scalar_attr(hid_t obj, const std::string& name, const std::string& file,
+                        const std::string& where) {
+  const htri_t e = H5Aexists(obj, name.c_str());
+  if (e < 0) fail(file, cat("cannot look up attribute ", name, " of ", where));
+  if (e == 0) return Handle();
+  Handle attr = checked(H5Aopen(obj, name.c_str(), H5P_DEFAULT), H5Aclose, file,
+                        cat("cannot open attribute ", name, " of ", where));
+  Handle space =
+      checked(H5Aget_space(attr.get()), H5Sclose, file, cat("bad attribute ", name, " of ", where));
+  if (H5Sget_simple_extent_npoints(space.get()) != 1)
+    fail(file, cat("attribute ", name, " of ", where, " is not a single value"));
+  return attr;
+}
+
+/// A string attribute (fixed or variable length); nullopt if absent.
+std::optional<std::string> read_string_attr(hid_t obj, const std::string& name,
+                                            const std::string& file, const std::string& where) {
+  Handle attr = open_scalar_attr(obj, name, file, where);
+  if (attr.get() < 0) return std::nullopt;
+  const std::string what = cat("cannot read attribute ", name, " of ", where);
+  Handle ftype = checked(H5Aget_type(attr.get()), H5Tclose, file, what);
+  if (H5Tget_class(ftype.get()) != H5T_STRING)
+    fail(file, cat("attribute ", name, " of ", where, " is not a string"));
+  const htri_t variable = H5Tis_variable_str(ftype.get());
+  if (variable < 0) fail(file, what);
+  if (variable > 0) {
+    Handle mtype = checked(H5Tcopy(H5T_C_S1), H5Tclose, file, what);
+    ok(H5Tset_size(mtype.get(), H5T_VARIABLE), file, what);
+    ok(H5Tset_cset(mtype.get(), H5Tget_cset(ftype.get())), file, what);
+    char* s = nullptr;
+    ok(H5Aread(attr.get(), mtype.get(), &s), file, what);
+    std::string out = s ? s : "";
+    H5free_memory(s);
+    return out;
+  }
+  const std::size_t n = H5Tget_size(ftype.get());
+  if (n == 0) fail(file, what);
+  std::vector<char> buf(n, '\0');
+  ok(H5Aread(attr.get(), ftype.get(), buf.data()), file, what);
+  std::string out(buf.data(), strnlen(buf.data(), n));
+  while (!out.empty() && out.back() == ' ') out.pop_back();  // space-padded strings
+  return out;
+}
+
+template <class T>
+T read_scalar_attr(hid_t obj, const std::string& name, const std::string& file,
+                   const std::string& where) {
+  Handle attr = open_scalar_attr(obj, name, file, where);
+  if (attr.get() < 0) fail(file, cat("missing attribute ", name, " of ", where));
+  T value{};
+  const hid_t mem = std::is_same_v<T, int> ? H5T_NATIVE_INT : H5T_NATIVE_DOUBLE;
+  ok(H5Aread(attr.get(), mem, &value), file, cat("cannot read attribute ", name, " of ", where));
+  return value;
+}
+
+/// Opens an existing file read-only, with clear errors for a missing or non-HDF5 file. When
+/// another process is writing the file (and holds its lock), the file is opened without locking,
+/// so that a running simulation can be inspected.
+Handle open_for_reading(const std::string& path) {
+  quiet_hdf5();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail(path, "no such file");
+  if (std::filesystem::is_directory(path, ec)) fail(path, "is a directory, not a results file");
+  const htri_t is_hdf5 = H5Fis_hdf5(path.c_str());
+  if (is_hdf5 <= 0) fail(path, "not an HDF5 file (or not readable)");
+  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) {
+    Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, path, "cannot open the file");
+#if (H5_VERS_MAJOR == 1 && H5_VERS_MINOR == 10 && H5_VERS_RELEASE >= 7) || H5_VERSION_GE(1, 12, 1)
+    ok(H5Pset_file_locking(fapl.get(), false, true), path, "cannot open the file");
+#endif
+    f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get());
+  }
+  return checked(f, H5Fclose, path, "cannot open the file (damaged HDF5 file?)");
+}
+
+/// Checks that the file holds /mesh/X, /mesh/cells and /steps.
+void expect_results_file(hid_t f, const std::string& file) {
+  for (const char* p : {"/mesh/X", "/mesh/cells", "/steps"})
+    if (!exists(f, p, file)) fail(file, cat("not a results file of this code (no ", p, ")"));
+}
+
+bool is_step_name(const std::string& name) {
+  if (name.size() != 6) return false;
+  for (char c : name)
+    if (c < '0' || c > '9') return false;
+  return true;
+}
+
+std::string step_name(int p) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%06d", p);
+  return buf;
+}
+
+/// Names of the complete steps in /steps, in increasing p.
+std::vector<std::string> step_names(hid_t f, const std::string& file) {
+  Handle g = open_group(f, "/steps", file);
+  H5G_info_t info;
+  ok(H5Gget_info(g.get(), &info), file, "cannot read group /steps");
+  std::vector<std::string> names;
+  for (hsize_t i = 0; i < info.nlinks; ++i) {
+    const ssize_t n =
+        H5Lget_name_by_idx(g.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, nullptr, 0, H5P_DEFAULT);
+    if (n < 0) fail(file, "cannot list group /steps");
+    std::string name(static_cast<std::size_t>(n) + 1, '\0');
+    if (H5Lget_name_by_idx(g.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, name.data(), name.size(),
+                           H5P_DEFAULT) < 0)
+      fail(file, "cannot list group /steps");
+    name.resize(static_cast<std::size_t>(n));
+    if (is_step_name(name)) names.push_back(name);
+  }
+  return names;  // zero-padded: name order is p order
+}
+
+// ---------------------------------------------------------------------------------------------
+// Layout conversions (Eigen is column-major, the file is row-major)
+
+std::vector<double> rows_of(const Eigen::MatrixXd& m) {
+  std::vector<double> out(m.size());
+  for (Eigen::Index r = 0; r < m.rows(); ++r)
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out[r * m.cols() + c] = m(r, c);
+  return out;
+}
+
+std::vector<int> rows_of(const Eigen::MatrixXi& m) {
+  std::vector<int> out(m.size());
+  for (Eigen::Index r = 0; r < m.rows(); ++r)
+    for (Eigen::Index c = 0; c < m.cols(); ++c) out[r * m.cols() + c] = m(r, c);
+  return out;
+}
+
+Eigen::MatrixXd from_rows(const std::vector<double>& a, int rows, int cols) {
+  Eigen::MatrixXd m(rows, cols);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) m(r, c) = a[r * cols + c];
+  return m;
+}
+
+/// Transposed-block field ((dim*#cells) x dim, block c = T_c^T) -> [c][i][j] = T_c(i, j),
+/// padded with zeros to pad x pad per cell.
+std::vector<double> tensors_of(const Eigen::MatrixXd& field, int dim, int pad) {
+  const int nc = static_cast<int>(field.rows()) / dim;
+  std::vector<double> out(static_cast<std::size_t>(nc) * pad * pad, 0.0);
+  for (int c = 0; c < nc; ++c)
+    for (int i = 0; i < dim; ++i)
+      for (int j = 0; j < dim; ++j) out[(c * pad + i) * pad + j] = field(dim * c + j, i);
+  return out;
+}
+
+Eigen::MatrixXd tensors_from(const std::vector<double>& a, int nc, int dim) {
+  Eigen::MatrixXd field(dim * nc, dim);
+  for (int c = 0; c < nc; ++c)
+    for (int i = 0; i < dim; ++i)
+      for (int j = 0; j < dim; ++j) field(dim * c + j, i) = a[(c * dim + i) * dim + j];
+  return field;
+}
+
+/// dim x #facets -> (#facets, dim).
+std::vector<double> columns_of(const Eigen::MatrixXd& m) {
+  return rows_of(Eigen::MatrixXd(m.transpose()));
+}
+
+Eigen::MatrixXd columns_from(const std::vector<double>& a, int n, int dim) {
+  return from_rows(a, n, dim).transpose();
+}
+
+std::vector<double> vec(const Eigen::VectorXd& v) {
+  return {v.data(), v.data() + v.size()};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cells
+
+const char* topology(int dim, int nodes_per_cell) {
+  if (dim == 2 && nodes_per_cell == 6) return "Triangle_6";
+  if (dim == 3 && nodes_per_cell == 8) return "Hexahedron";
+  return nullptr;
+}
+
+/// Area of a six-node P2 triangle (gmsh order: vertices, then mid-edges 01, 12, 20): the integral
+/// of det J with the three-point rule, exact since det J is quadratic.
+double p2_triangle_area(const Eigen::MatrixXd& X, const int* n) {
+  static const double pts[3][2] = {{1.0 / 6, 1.0 / 6}, {2.0 / 3, 1.0 / 6}, {1.0 / 6, 2.0 / 3}};
+  double area = 0;
+  for (const auto& q : pts) {
+    const double L[3] = {1 - q[0] - q[1], q[0], q[1]};
+    const double dL[3][2] = {{-1, -1}, {1, 0}, {0, 1}};
+    Eigen::Matrix2d J = Eigen::Matrix2d::Zero();  // J(i, k) = d x_i / d xi_k
+    for (int k = 0; k < 2; ++k) {
+      double dN[6];
+      for (int a = 0; a < 3; ++a) dN[a] = (4 * L[a] - 1) * dL[a][k];
+      for (int a = 0; a < 3; ++a) {
+        const int b = (a + 1) % 3;
+        dN[3 + a] = 4 * (dL[a][k] * L[b] + L[a] * dL[b][k]);
+      }
+      for (int a = 0; a < 6; ++a) J.col(k) += dN[a] * X.row(n[a]).transpose().head<2>();
+    }
+    area += J.determinant() / 6;
+  }
+  return std::abs(area);
+}
+
+/// Volume of an eight-node hexahedron (gmsh order): 2x2x2 Gauss rule, exact for trilinear maps.
+double hexahedron_volume(const Eigen::MatrixXd& X, const int* n) {
+  static const int s[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
+                              {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
+  const double g = 1 / std::sqrt(3.0);
+  double vol = 0;
+  for (int q = 0; q < 8; ++q) {
+    const double xi[3] = {s[q][0] * g, s[q][1] * g, s[q][2] * g};
+    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    for (int a = 0; a < 8; ++a) {
+      const double f[3] = {1 + s[a][0] * xi[0], 1 + s[a][1] * xi[1], 1 + s[a][2] * xi[2]};
+      const Eigen::Vector3d dN(s[a][0] * f[1] * f[2] / 8, f[0] * s[a][1] * f[2] / 8,
+                               f[0] * f[1] * s[a][2] / 8);
+      J += X.row(n[a]).transpose().head<3>() * dN.transpose();
+    }
+    vol += J.determinant();
+  }
+  return std::abs(vol);
+}
+
+std::string xml_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+/// Shortest of %.15g, %.16g, %.17g that reads back as x.
+std::string number(double x) {
+  char buf[40];
+  for (int precision : {15, 16, 17}) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, x);
+    if (std::strtod(buf, nullptr) == x) break;
+  }
+  return buf;
+}
+
+std::string xdmf_path_of(const std::string& path) {
+  const std::string ext = ".h5";
+  if (path.size() > ext.size() && path.compare(path.size() - ext.size(), ext.size(), ext) == 0)
+    return path.substr(0, path.size() - ext.size()) + ".xdmf";
+  return path + ".xdmf";
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const RunInfo& info,
+                                const Mesh::Boundary* contact_facets,
+                                const Eigen::MatrixXd* contact_centre,
+                                const Eigen::VectorXd* contact_area) {
+  quiet_hdf5();
+  const int dim = mesh.dim, nn = mesh.num_nodes(), nc = mesh.num_cells();
+  const int npc = mesh.nodes_per_cell();
+  if (!topology(dim, npc))
+    fail(path, cat("cannot store a mesh of ", npc, "-node cells in ", dim,
+                   "-D (six-node triangles in 2-D and eight-node hexahedra in 3-D are supported)"));
+  if (mesh.X.cols() != dim) fail(path, cat("mesh X has ", mesh.X.cols(), " columns, dim is ", dim));
+  if (nc > 0 && (mesh.cells.minCoeff() < 0 || mesh.cells.maxCoeff() >= nn))
+    fail(path, "mesh cells refer to nodes that do not exist");
+  const int nf = contact_facets ? static_cast<int>(contact_facets->facets.rows()) : 0;
+  Eigen::MatrixXd centre;  // #facets x dim
+  if (contact_facets) {
+    const auto& F = contact_facets->facets;
+    if (F.cols() != mesh.nodes_per_facet())
+      fail(path,
+           cat("contact facets have ", F.cols(), " nodes, expected ", mesh.nodes_per_facet()));
+    if (nf > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= nn))
+      fail(path, "contact facets refer to nodes that do not exist");
+    if (contact_centre) {
+      if (contact_centre->rows() == dim && contact_centre->cols() == nf)
+        centre = contact_centre->transpose();
+      else if (contact_centre->rows() == nf && contact_centre->cols() == dim)
+        centre = *contact_centre;
+      else
+        fail(path, cat("contact centres are ", contact_centre->rows(), " x ",
+                       contact_centre->cols(), ", expected ", dim, " x ", nf));
+    }
+    if (contact_area && contact_area->size() != nf)
+      fail(path, cat("contact areas have ", contact_area->size(), " entries, expected ", nf));
+  }
+
+  ResultsFile r;
+  r.path_ = path;
+  r.dim_ = dim;
+  r.num_nodes_ = nn;
+  r.num_cells_ = nc;
+  r.num_facets_ = nf;
+  r.contact_ = contact_facets != nullptr;
+  r.file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (r.file_ < 0)
+    fail(path,
+         "cannot create the file (does its directory exist, is it writable, is the file "
+         "open elsewhere?)");
+  const hid_t f = r.file_;
+
+  {
+    Handle root = open_group(f, "/", path);
+    for (const auto& [key, value] : info.attributes)
+      write_string_attr(root.get(), key, value, path, "/");
+    write_string_attr(root.get(), "name", info.name, path, "/");
+    write_string_attr(root.get(), "config", info.config_text, path, "/");
+    write_string_attr(root.get(), "config_path", info.config_path, path, "/");
+    write_string_attr(root.get(), "status", "running", path, "/");
+  }
+  {
+    Handle g = create_group(f, "/mesh", path);
+    write_string_attr(g.get(), "cell_type", topology(dim, npc), path, "/mesh");
+    write_string_attr(g.get(), "source", mesh.source, path, "/mesh");
+  }
+  const auto un = [](int n) { return static_cast<hsize_t>(n); };
+  write_doubles(f, "/mesh/X", {un(nn), un(dim)}, rows_of(mesh.X), path);
+  write_ints(f, "/mesh/cells", {un(nc), un(npc)}, rows_of(mesh.cells), path);
+  std::vector<double> volume(nc);
+  for (int c = 0; c < nc; ++c) {
+    const Eigen::RowVectorXi row = mesh.cells.row(c);
+    volume[c] =
+        dim == 2 ? p2_triangle_area(mesh.X, row.data()) : hexahedron_volume(mesh.X, row.data());
+  }
+  write_doubles(f, "/mesh/cell_volume", {un(nc)}, volume, path);
+  if (contact_facets) {
+    const auto& F = contact_facets->facets;
+    write_ints(f, "/mesh/contact_facets", {un(nf), un(static_cast<int>(F.cols()))}, rows_of(F),
+               path);
+    Handle set = checked(H5Dopen2(f, "/mesh/contact_facets", H5P_DEFAULT), H5Dclose, path,
+                         "cannot open dataset /mesh/contact_facets");
+    write_string_attr(set.get(), "boundary", contact_facets->name, path, "/mesh/contact_facets");
+    if (contact_centre)
+      write_doubles(f, "/mesh/contact_centre", {un(nf), un(dim)}, rows_of(centre), path);
+    if (contact_area) write_doubles(f, "/mesh/contact_area", {un(nf)}, vec(*contact_area), path);
+  }
+  create_group(f, "/steps", path);
+  ok(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "cannot flush the file");
+  r.write_xdmf();
+  return r;
+}
+
+ResultsFile ResultsFile::open(const std::string& path) {
+  {
+    Handle check = open_for_reading(path);  // clear errors for missing / non-HDF5 files
+    expect_results_file(check.get(), path);
+  }
+  ResultsFile r;
+  r.path_ = path;
+  r.file_ = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (r.file_ < 0)
+    fail(path, "cannot open the file for writing (read-only, or open in another process?)");
+  const hid_t f = r.file_;
+  const auto X = dataset_shape(f, "/mesh/X", path);
+  const auto cells = dataset_shape(f, "/mesh/cells", path);
+  if (X.size() != 2 || cells.size() != 2 ||
+      !topology(static_cast<int>(X[1]), static_cast<int>(cells[1])))
+    fail(path,
+         cat("bad mesh: /mesh/X has shape ", shape_text(X), ", /mesh/cells ", shape_text(cells)));
+  r.dim_ = static_cast<int>(X[1]);
+  r.num_nodes_ = static_cast<int>(X[0]);
+  r.num_cells_ = static_cast<int>(cells[0]);
+  r.contact_ = exists(f, "/mesh/contact_facets", path);
+  if (r.contact_) {
+    const auto F = dataset_shape(f, "/mesh/contact_facets", path);
+    if (F.size() != 2) fail(path, "dataset /mesh/contact_facets is not a matrix");
+    r.num_facets_ = static_cast<int>(F[0]);
+  }
+  if (exists(f, "/steps/incomplete", path))  // left by a process killed while writing a step
+    ok(H5Ldelete(f, "/steps/incomplete", H5P_DEFAULT), path, "cannot delete /steps/incomplete");
+  return r;
+}
+
+ResultsFile::ResultsFile(ResultsFile&& o) noexcept
+    : file_(std::exchange(o.file_, -1)),
+      path_(std::move(o.path_)),
+      dim_(o.dim_),
+      num_nodes_(o.num_nodes_),
+      num_cells_(o.num_cells_),
+      num_facets_(o.num_facets_),
+      contact_(o.contact_) {}
+
+ResultsFile& ResultsFile::operator=(ResultsFile&& o) noexcept {
+  if (this != &o) {
+    close();
+    file_ = std::exchange(o.file_, -1);
+    path_ = std::move(o.path_);
+    dim_ = o.dim_;
+    num_nodes_ = o.num_nodes_;
+    num_cells_ = o.num_cells_;
+    num_facets_ = o.num_facets_;
+    contact_ = o.contact_;
+  }
+  return *this;
+}
+
+ResultsFile::~ResultsFile() {
+  close();
+}
+
+void ResultsFile::close() noexcept {
+  if (file_ < 0) return;
+  try {
+    write_xdmf();
+  } catch (...) {
+  }
+  H5Fclose(file_);
+  file_ = -1;
+}
+
+void ResultsFile::append(const StepData& step) {
+  const std::string& file = path_;
+  if (file_ < 0) fail(file, "append to a closed results file");
+  if (!step.state) fail(file, cat("step ", step.p, ": no state to write"));
+  if (step.p < 0 || step.p > 999999) fail(file, cat("step number ", step.p, " out of 0..999999"));
+  const State& s = *step.state;
+  const int dim = dim_, nn = num_nodes_, nc = num_cells_, nf = num_facets_;
+  const std::string name = step_name(step.p), g = "/steps/" + name;
+  auto expect = [&](const char* what, Eigen::Index rows, Eigen::Index cols, Eigen::Index r,
+                    Eigen::Index c) {
+    if (rows != r || cols != c)
+      fail(file,
+           cat("step ", step.p, ": ", what, " is ", rows, " x ", cols, ", expected ", r, " x ", c));
+  };
+  expect("u", s.u.rows(), s.u.cols(), nn, dim);
+  expect("E", s.E.rows(), s.E.cols(), dim * nc, dim);
+  expect("lambda", s.lambda.rows(), s.lambda.cols(), dim * nc, dim);
+  if (contact_) {
+    expect("e", s.e.rows(), s.e.cols(), dim, nf);
+    expect("lambda_c", s.lambda_c.rows(), s.lambda_c.cols(), dim, nf);
+    expect("beta", s.beta.size(), 1, nf, 1);
+  }
+  if (step.P.size()) expect("P", step.P.rows(), step.P.cols(), dim * nc, dim);
+  if (step.sigma.size()) expect("sigma", step.sigma.rows(), step.sigma.cols(), dim * nc, dim);
+  if (step.pressure.size()) expect("pressure", step.pressure.size(), 1, nc, 1);
+  if (step.contact_pressure.size())
+    expect("contact_pressure", step.contact_pressure.size(), 1, nf, 1);
+  if (step.gap.size()) expect("gap", step.gap.size(), 1, nf, 1);
+  if (exists(file_, g, file)) fail(file, cat("step ", step.p, " is already stored (", g, ")"));
+
+  // Written under a temporary name and renamed when complete.
+  const std::string tmp = "/steps/incomplete";
+  if (exists(file_, tmp, file))
+    ok(H5Ldelete(file_, tmp.c_str(), H5P_DEFAULT), file, cat("cannot delete ", tmp));
+  {
+    Handle group = create_group(file_, tmp, file);
+    const StepReport* rep = step.report;
+    write_scalar_attr<int>(group.get(), "p", step.p, file, g);
+    write_scalar_attr<double>(group.get(), "t", step.t, file, g);
+    write_scalar_attr<int>(group.get(), "iterations", rep ? rep->iterations : 0, file, g);
+    write_string_attr(group.get(), "status", rep ? rep->status : "", file, g);
+    write_scalar_attr<int>(group.get(), "converged", rep && rep->converged ? 1 : 0, file, g);
+    write_scalar_attr<int>(group.get(), "strain_failures", rep ? rep->strain_failures : 0, file, g);
+  }
+  const auto un = [](Eigen::Index n) { return static_cast<hsize_t>(n); };
+  const auto put = [&](const std::string& ds, const std::vector<hsize_t>& dims,
+                       const std::vector<double>& data) {
+    write_doubles(file_, tmp + "/" + ds, dims, data, file);
+  };
+  put("u", {un(nn), un(dim)}, rows_of(s.u));
+  put("E", {un(nc), un(dim), un(dim)}, tensors_of(s.E, dim, dim));
+  put("lambda", {un(nc), un(dim), un(dim)}, tensors_of(s.lambda, dim, dim));
+  if (step.P.size()) put("P", {un(nc), un(dim), un(dim)}, tensors_of(step.P, dim, dim));
+  if (step.sigma.size()) put("sigma", {un(nc), un(dim), un(dim)}, tensors_of(step.sigma, dim, dim));
+  if (step.pressure.size()) put("pressure", {un(nc)}, vec(step.pressure));
+  if (contact_) {
+    put("beta", {un(nf)}, vec(s.beta));
+    put("e", {un(nf), un(dim)}, columns_of(s.e));
+    put("lambda_c", {un(nf), un(dim)}, columns_of(s.lambda_c));
+  }
+  if (step.contact_pressure.size()) put("contact_pressure", {un(nf)}, vec(step.contact_pressure));
+  if (step.gap.size()) put("gap", {un(nf)}, vec(step.gap));
+  {
+    const std::size_t ni = step.report ? step.report->history.size() : 0;
+    std::vector<double> h(8 * ni);
+    for (std::size_t i = 0; i < ni; ++i) {
+      const IterationRecord& r = step.report->history[i];
+      const double row[8] = {static_cast<double>(r.n),
+                             r.r_G,
+                             r.r_B,
+                             r.t_global,
+                             r.t_strain,
+                             r.t_contact,
+                             r.t_update,
+                             r.wall};
+      std::copy(row, row + 8, h.begin() + 8 * i);
+    }
+    put("history", {un(ni), 8}, h);
+    Handle set = checked(H5Dopen2(file_, (tmp + "/history").c_str(), H5P_DEFAULT), H5Dclose, file,
+                         cat("cannot open dataset ", g, "/history"));
+    write_string_attr(set.get(), "columns", "n r_G r_B t_global t_strain t_contact t_update wall",
+                      file, g + "/history");
+  }
+  if (dim == 2) {  // 3-vectors and 3x3 tensors for ParaView
+    create_group(file_, tmp + "/xdmf", file);
+    Eigen::MatrixXd u3 = Eigen::MatrixXd::Zero(nn, 3);
+    u3.leftCols(2) = s.u;
+    put("xdmf/u", {un(nn), 3}, rows_of(u3));
+    if (step.P.size()) put("xdmf/P", {un(nc), 3, 3}, tensors_of(step.P, dim, 3));
+    if (step.sigma.size()) put("xdmf/sigma", {un(nc), 3, 3}, tensors_of(step.sigma, dim, 3));
+  }
+  ok(H5Lmove(file_, tmp.c_str(), file_, g.c_str(), H5P_DEFAULT, H5P_DEFAULT), file,
+     cat("cannot rename ", tmp, " to ", g));
+  ok(H5Fflush(file_, H5F_SCOPE_GLOBAL), file, "cannot flush the file");
+  write_xdmf();
+}
+
+void ResultsFile::set_status(const std::string& status) {
+  if (file_ < 0) fail(path_, "set_status on a closed results file");
+  Handle root = open_group(file_, "/", path_);
+  write_string_attr(root.get(), "status", status, path_, "/");
+  ok(H5Fflush(file_, H5F_SCOPE_GLOBAL), path_, "cannot flush the file");
+}
+
+// XDMF: one temporal collection with a uniform grid per step, all referring to the datasets of
+// the HDF5 file by its file name (the two files are meant to stay side by side).
+void ResultsFile::write_xdmf() const {
+  const std::string& file = path_;
+  const std::string xdmf = xdmf_path_of(path_);
+  const std::string h5 = xml_escape(std::filesystem::path(path_).filename().string());
+  const int dim = dim_, nn = num_nodes_, nc = num_cells_;
+  const auto npc = dataset_shape(file_, "/mesh/cells", file).at(1);
+  const char* topo = topology(dim, static_cast<int>(npc));
+
+  std::ostringstream o;
+  auto item = [&](const std::string& indent, const std::string& dims, bool integer,
+                  const std::string& dataset) {
+    o << indent << "<DataItem Dimensions=\"" << dims << "\" NumberType=\""
+      << (integer ? "Int" : "Float") << "\" Precision=\"" << (integer ? 4 : 8)
+      << "\" Format=\"HDF\">" << h5 << ":" << dataset << "</DataItem>\n";
+  };
+  auto attribute = [&](const std::string& name, const char* type, const char* centre,
+                       const std::string& dims, const std::string& dataset) {
+    o << "        <Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\""
+      << centre << "\">\n";
+    item("          ", dims, false, dataset);
+    o << "        </Attribute>\n";
+  };
+  o << "<?xml version=\"1.0\"?>\n"
+    << "<!-- Written by ltl::ResultsFile: the time steps of " << h5 << " for ParaView. -->\n"
+    << "<Xdmf Version=\"3.0\">\n  <Domain>\n"
+    << "    <Grid Name=\"steps\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const std::string& name : step_names(file_, file)) {
+    const std::string g = "/steps/" + name;
+    double t = 0;
+    {
+      Handle group = open_group(file_, g, file);
+      t = read_scalar_attr<double>(group.get(), "t", file, g);
+    }
+    o << "      <Grid Name=\"step_" << name << "\" GridType=\"Uniform\">\n"
+      << "        <Time Value=\"" << number(t) << "\"/>\n"
+      << "        <Topology TopologyType=\"" << topo << "\" NumberOfElements=\"" << nc << "\">\n";
+    item("          ", cat(nc, ' ', npc), true, "/mesh/cells");
+    o << "        </Topology>\n"
+      << "        <Geometry GeometryType=\"" << (dim == 2 ? "XY" : "XYZ") << "\">\n";
+    item("          ", cat(nn, ' ', dim), false, "/mesh/X");
+    o << "        </Geometry>\n";
+    const std::string v = dim == 2 ? g + "/xdmf" : g;  // 3-vectors and 3x3 tensors
+    attribute("u", "Vector", "Node", cat(nn, " 3"), v + "/u");
+    if (exists(file_, g + "/pressure", file))
+      attribute("pressure", "Scalar", "Cell", cat(nc), g + "/pressure");
+    for (const char* T : {"P", "sigma"})
+      if (exists(file_, v + "/" + T, file))
+        attribute(T, "Tensor", "Cell", cat(nc, " 3 3"), v + "/" + T);
+    o << "      </Grid>\n";
+  }
+  o << "    </Grid>\n  </Domain>\n</Xdmf>\n";
+
+  // Written beside and renamed, so that a reader never sees half a file.
+  const std::string tmp = xdmf + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << o.str();
+    out.close();
+    if (!out) fail(xdmf, "cannot write the XDMF file");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, xdmf, ec);
+  if (ec) fail(xdmf, cat("cannot write the XDMF file: ", ec.message()));
+}
+
+std::optional<StoredStep> ResultsFile::read_last_step(const std::string& path) {
+  Handle fh = open_for_reading(path);
+  const hid_t f = fh.get();
+  expect_results_file(f, path);
+  const std::vector<std::string> names = step_names(f, path);
+  if (names.empty()) return std::nullopt;
+
+  const auto X = dataset_shape(f, "/mesh/X", path);
+  const auto cells = dataset_shape(f, "/mesh/cells", path);
+  if (X.size() != 2 || cells.size() != 2 || (X[1] != 2 && X[1] != 3))
+    fail(path,
+         cat("bad mesh: /mesh/X has shape ", shape_text(X), ", /mesh/cells ", shape_text(cells)));
+  const int dim = static_cast<int>(X[1]), nn = static_cast<int>(X[0]);
+  const int nc = static_cast<int>(cells[0]);
+  const hsize_t d = dim;
+
+  const std::string g = "/steps/" + names.back();
+  StoredStep out;
+  {
+    Handle group = open_group(f, g, path);
+    out.p = read_scalar_attr<int>(group.get(), "p", path, g);
+    out.t = read_scalar_attr<double>(group.get(), "t", path, g);
+    out.iterations = read_scalar_attr<int>(group.get(), "iterations", path, g);
+  }
+  if (step_name(out.p) != names.back()) fail(path, cat("group ", g, " has attribute p = ", out.p));
+  const auto get = [&](const std::string& ds, const std::vector<hsize_t>& dims) {
+    const std::string full = g + "/" + ds;
+    Array<double> a = read_array<double>(f, full, path);
+    expect_shape(a, dims, full, path);
+    return a.data;
+  };
+  State& s = out.state;
+  s.u = from_rows(get("u", {X[0], d}), nn, dim);
+  s.E = tensors_from(get("E", {cells[0], d, d}), nc, dim);
+  s.lambda = tensors_from(get("lambda", {cells[0], d, d}), nc, dim);
+  if (exists(f, "/mesh/contact_facets", path)) {
+    const auto F = dataset_shape(f, "/mesh/contact_facets", path);
+    if (F.size() != 2) fail(path, "dataset /mesh/contact_facets is not a matrix");
+    const int nf = static_cast<int>(F[0]);
+    s.e = columns_from(get("e", {F[0], d}), nf, dim);
+    s.lambda_c = columns_from(get("lambda_c", {F[0], d}), nf, dim);
+    const auto beta = get("beta", {F[0]});
+    s.beta = Eigen::Map<const Eigen::VectorXd>(beta.data(), nf);
+  } else {
+    s.e = Eigen::MatrixXd::Zero(dim, 0);
+    s.lambda_c = Eigen::MatrixXd::Zero(dim, 0);
+    s.beta = Eigen::VectorXd::Zero(0);
+  }
+  return out;
+}
+
+std::string ResultsFile::read_attribute(const std::string& path, const std::string& name) {
+  Handle f = open_for_reading(path);
+  Handle root = open_group(f.get(), "/", path);
+  return read_string_attr(root.get(), name, path, "/").value_or("");
+}
+
+std::map<std::string, std::string> library_versions() {
+  unsigned major = 0, minor = 0, release = 0;
+  const bool hdf5 = H5get_libversion(&major, &minor, &release) >= 0;
+  return {
+      {"eigen", cat(EIGEN_WORLD_VERSION, '.', EIGEN_MAJOR_VERSION, '.', EIGEN_MINOR_VERSION)},
+      {"cholmod", cat(CHOLMOD_MAIN_VERSION, '.', CHOLMOD_SUB_VERSION, '.', CHOLMOD_SUBSUB_VERSION)},
+      {"hdf5", hdf5 ? cat(major, '.', minor, '.', release) : std::string(H5_VERSION)},
+      {"gmsh", GMSH_API_VERSION},
+  };
+}
+
+}  // namespace ltl
