@@ -311,6 +311,24 @@ Eigen::VectorXd Solver::contact_gap(const State& s) const {
   return contact_->surface().gap - s.e.transpose() * contact_->surface().N;
 }
 
+double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {
+  const int d = dim(), nc = problem_.mesh.num_cells();
+  const Material& m = problem_.material;
+  double J = 0;
+  for (int c = 0; c < nc; ++c) {
+    if (d == 2)
+      J += cells_.vol(c) * m.W(Eigen::Matrix2d(s.E.block<2, 2>(2 * c, 0).transpose()));
+    else
+      J += cells_.vol(c) * m.W(Eigen::Matrix3d(s.E.block<3, 3>(3 * c, 0).transpose()));
+  }
+  const Eigen::MatrixXd GU = cells_.Gbar * s.u;
+  const double grad2 = (s.u.transpose() * (cells_.laplacian * s.u)).trace();
+  const double mean2 = (GU.array().square().colwise() * vol_rows_.array()).sum();
+  J += m.C1 * (grad2 - mean2) - (F_ext_.array() * s.u.array()).sum();
+  if (contact_) J += contact_->energy(s.e, s.beta, beta_prev);
+  return J;
+}
+
 Eigen::MatrixXd Solver::energy_gradient(const Eigen::MatrixXd& u) const {
   const int d = dim(), nc = problem_.mesh.num_cells();
   const Material& m = problem_.material;

@@ -58,6 +58,12 @@ class Solver {
   /// for the compressible law without contact: zero at the discrete equilibrium.
   Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u) const;
 
+  /// [LTL87 (2.2)] The discrete functional J_p at a state, with beta_prev = beta_{p-1}:
+  ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - f.u - g.u
+  ///   + sum_s |G_s| [(kappa/2) beta_s^2 |e_s|^2 - w beta_s] + dissipation(beta - beta_prev).
+  /// (At a converged state E = I + Gbar u and e = ubar up to the tolerance.)
+  double energy(const State& s, const Eigen::VectorXd& beta_prev) const;
+
   const Problem& problem() const { return problem_; }
   const CellOperators& cells() const { return cells_; }
   const FacetOperators* facets() const { return facets_ ? facets_.get() : nullptr; }

@@ -1,0 +1,76 @@
+// Stored energy functions of the paper and their first derivatives (see material.hpp).
+#include "material.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace ltl {
+
+namespace {
+
+/// cof F = det(F) F^{-T}, written without the inverse so that it holds for singular F too.
+Eigen::Matrix3d cofactor(const Eigen::Matrix3d& F) {
+  Eigen::Matrix3d c;
+  c.col(0) = F.col(1).cross(F.col(2));
+  c.col(1) = F.col(2).cross(F.col(0));
+  c.col(2) = F.col(0).cross(F.col(1));
+  return c;
+}
+
+Eigen::Matrix3d embed(const Eigen::Matrix2d& F2) {
+  Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+  F.topLeftCorner<2, 2>() = F2;
+  return F;
+}
+
+}  // namespace
+
+std::string Material::name() const {
+  return model == MaterialModel::MooneyRivlin ? "MooneyRivlin" : "Compressible";
+}
+
+/// [LTL87 (1.5)] W = C1 (|F|^2 - 3) + C2 (|adj F|^2 - 3);
+/// [LTL87 sec. 8, Fig 3] W = C1 (|F|^2 - 3) + C3 J^2 - C3 - 2 (C1 + C3) ln J, J = det F.
+double Material::W(const Eigen::Matrix3d& F) const {
+  const double I1 = F.squaredNorm();
+  if (model == MaterialModel::MooneyRivlin) {
+    // |adj F|^2 = |cof F|^2 (= I2), from the cofactor columns: the textbook form
+    // ((tr C)^2 - tr C^2) / 2 loses eps |F|^2 relative accuracy at large stretch.
+    const double I2 = cofactor(F).squaredNorm();
+    return C1 * (I1 - 3.0) + C2 * (I2 - 3.0);
+  }
+  const double J = F.determinant();
+  if (!(J > 0.0)) return std::numeric_limits<double>::infinity();
+  return C1 * (I1 - 3.0) + C3 * J * J - C3 - 2.0 * (C1 + C3) * std::log(J);
+}
+
+/// dW/dF: Mooney-Rivlin 2 C1 F + C2 dI2/dF with dI2/dF = 2 (|F|^2 F - F F^T F), evaluated from
+/// the cofactor columns c_k = f_{k+1} x f_{k+2} as column k = 2 (c_{k+1} x f_{k+2} +
+/// f_{k+1} x c_{k+2}) (indices mod 3), which avoids the cancellation of the textbook form;
+/// compressible 2 C1 F + (2 C3 J - 2 (C1 + C3) / J) cof F   (dJ/dF = cof F).
+Eigen::Matrix3d Material::dW(const Eigen::Matrix3d& F) const {
+  if (model == MaterialModel::MooneyRivlin) {
+    const Eigen::Matrix3d c = cofactor(F);
+    Eigen::Matrix3d dI2;
+    for (int k = 0; k < 3; ++k) {
+      const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+      dI2.col(k) = 2.0 * (c.col(k1).cross(F.col(k2)) + F.col(k1).cross(c.col(k2)));
+    }
+    return 2.0 * C1 * F + C2 * dI2;
+  }
+  const double J = F.determinant();
+  if (!(J > 0.0)) {
+    return Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+  return 2.0 * C1 * F + (2.0 * C3 * J - 2.0 * (C1 + C3) / J) * cofactor(F);
+}
+
+double Material::W(const Eigen::Matrix2d& F2) const {
+  return W(embed(F2));
+}
+
+Eigen::Matrix2d Material::dW(const Eigen::Matrix2d& F2) const {
+  return dW(embed(F2)).topLeftCorner<2, 2>();
+}
+
+}  // namespace ltl
