@@ -33,7 +33,7 @@ bench: build
 
 # Regenerate the stored reference data of the regression tests (review the diff).
 reference: build
-	$(RUN)/make_reference tests/reference
+	$(BUILD)/tests/make_reference tests/reference/regression.toml
 
 format:
 	clang-format -i lib/*.cpp lib/*.hpp tests/*.cpp experiments/*.cpp experiments/*/*.cpp
