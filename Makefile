@@ -28,6 +28,12 @@ fig3 fig4 fig5 fig6: build
 	$(RUN)/$@ experiments/$@/$@.toml -o $(RESULTS)/$@.h5
 	$(PYTHON) figures/$@.py $(RESULTS)/$@.h5 $(RESULTS)/$@.png
 
+# Uzawa vs Bermudez-Moreno on every figure's problem, with sweeps of R and rho.
+compare: build
+	@mkdir -p $(RESULTS)/compare
+	$(RUN)/compare $(RESULTS)/compare
+	$(PYTHON) figures/compare.py $(RESULTS)/compare $(RESULTS)/compare.pdf
+
 bench: build
 	$(RUN)/bench
 

@@ -158,3 +158,27 @@ def print_table(title, columns, file=None, fmt="%.6g"):
     print("  ".join(n.rjust(w) for n, w in zip(names, width)), file=out)
     for r in cells:
         print("  ".join(v.rjust(w) for v, w in zip(r, width)), file=out)
+
+
+_PREFIX = {"G": 1e9, "M": 1e6, "k": 1e3, "m": 1e-3, "u": 1e-6, "µ": 1e-6}
+
+
+def quantity(value):
+    """A configuration value in SI as a float: a number, or a string "number unit" whose unit's
+    first symbol may carry a prefix G, M, k, m, u (e.g. "-400 kN/m^3" -> -4e5, "10 kPa" -> 1e4,
+    "1000 1/m" -> 1000, "0.5 m" -> 0.5). Only the prefix is applied; the unit is not checked."""
+    if isinstance(value, (int, float)):
+        return float(value)
+    parts = str(value).split(None, 1)
+    number = float(parts[0])
+    unit = parts[1].strip() if len(parts) > 1 else ""
+    if len(unit) > 1 and unit[0] in _PREFIX and unit[1].isalpha():
+        number *= _PREFIX[unit[0]]
+    return number
+
+
+def config(results):
+    """The resolved configuration stored in the file (root attribute "config", TOML) as a dict;
+    convert its values with quantity()."""
+    import tomllib  # Python >= 3.11
+    return tomllib.loads(results.attrs["config"])

@@ -54,6 +54,7 @@ struct AlgorithmParams {
   double q = 1.0;      ///< weight of the strain constraint (Pa), q > 0   (3.3)
   double q_c = 1.0;    ///< weight of the contact constraint (Pa/m), q_c > 0   (3.3)
   double rho = 1.0;    ///< Uzawa: step factor in (0, 2); Bermudez-Moreno: in (1/2, 1]
+                       ///< (configurations default to 0.75 for Bermudez-Moreno)
   Update update = Update::Uzawa;
   int sweeps = 1;          ///< block-relaxation sweeps (4.1)-(4.2) per multiplier update
   int contact_sweeps = 1;  ///< Gauss-Seidel sweeps over the facets in one local contact step

@@ -1,0 +1,109 @@
+//                      LTL87 Figure 3: a compressible bar peeled off its support
+//
+// Paper:    Le Tallec & Lotfi (1987), section 8, Figure 3. The figure is lost; its caption
+//           survives as "RAPPORT= 0.2000E02" (displacements magnified x20). The text: "The
+//           obtained numerical solution is represented in Fig. 3, is quite similar to the small
+//           strains one of GUIDOUCHE and POINT."
+//
+// Make:     make fig3
+// Run:      build/experiments/fig3 experiments/fig3/fig3.toml -o results/fig3.h5
+//           /usr/bin/python3 figures/fig3.py results/fig3.h5 results/fig3.png
+//
+// Problem:  plane strain, the bar [0,1] x [0,0.2] m glued (beta_0 = 1) on a rigid support
+//           x2 = 0, fixed at x1 = 1, pulled up on its top face; for p = 1..160, t_p = 5 p s,
+//           find a local minimum {u_p, beta_p} over K of                       [LTL87 (2.1)]
+//
+//             J_p(v, gamma) = int_Omega W(I + grad v) - int_top g.v
+//                           + int_Gc ( gamma^2 |v|^2 / (2 eps) - w gamma )
+//                           + 1/(2 dt) int_Gc int_Gc d(x - y) [gamma - beta_{p-1}](x)
+//                                                             [gamma - beta_{p-1}](y)  (2.2)
+//             K: 0 <= gamma <= 1, v.n <= 0 on Gc, v = 0 on x1 = 1                  (1.1)
+//             W(F) = C1 (|F|^2 - 3) + C3 (det F)^2 - C3 - 2 (C1 + C3) ln det F,
+//                    C1 = C3 = 187.5 kPa  (E = 1000 kPa, nu = 0.33 in small strains)
+//             d(y) = d0 exp(-d0 |y|), d0 = 1000 /m; w = 0.01 J/m^2; eps = 1e-9 m/Pa  (1.6)
+//             g = (0, 10 (1 - x1)) kPa
+//
+//                    g2 = 10 (1 - x1) kPa, upward
+//               ^    ^    ^    ^    ^    ^    .    .
+//        x2   +-------------------------------------+//
+//         ^   |                                     |//  Gamma_1: u = 0
+//         |   |                bar                  |//
+//         |   +-------------------------------------+//
+//         +--> x1 ///// glue beta, Gamma_c: x2 = 0 /////   rigid support
+//         free end x1 = 0                      x1 = 1
+//
+// Writes:   results/fig3.h5 (mesh, and per step u, E, lambda, stresses, beta, e, lambda_c,
+//           contact pressure, gap, iteration history; layout in lib/results.hpp) with
+//           results/fig3.xdmf beside it for ParaView; prints the debonding front and the
+//           largest opening at t = 800 s.
+
+#include <algorithm>
+#include <cstdio>
+
+#include "cli.hpp"
+#include "fe.hpp"
+
+// The experiment is entirely in experiments/fig3/fig3.toml: mesh (28 x 3 rectangles split into
+// 168 P2 triangles, 28 contact segments, as in the paper), material, the fixed end, the
+// traction, the glue, and the algorithm (R = 8, q = 2 C1, dt = 5 s, two block-relaxation sweeps
+// per multiplier update, the paper's variant; q_c = 3e7 Pa/m instead of the paper's 1/eps, a
+// choice explained in the configuration). The library does the rest:
+//
+//   for each time step p (backward Euler in beta, [LTL87 (2.1)-(2.2)]), starting from step
+//   p - 1, iterate ALG2 until the change of the local unknowns and the constraint residual
+//   are small [LTL87 (4.4)]:
+//     (4.1) global step: one Poisson-like solve for u with the matrix factorized once (4.5);
+//     (4.2) local steps: the strain E per cell (4.6) and, per contact facet, the contact
+//           displacement e and the adhesion intensity beta (4.7), (6.1)-(6.8);
+//     (4.3) multiplier update of lambda (strains) and lambda_c (contact tractions).
+//
+// What to expect: the glue first yields slowly near the free end x1 = 0 (beta decreases over a
+// few steps, the dissipation (1.3) slowing it down), then the peel runs away within a single
+// step and the bar lifts off its support.
+
+namespace {
+
+// The numbers of the figure, from the state at the last step: where the glue has broken and
+// how far the bar has lifted off its support.
+void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
+  const ltl::State& s = run.state;
+  const auto& contact = *problem.contact;
+  const ltl::FacetOperators facets =
+      ltl::facet_operators(problem.mesh, problem.mesh.boundary(contact.group));
+  const Eigen::VectorXd N = contact.plane_normal.head(problem.mesh.dim).normalized();
+
+  // Debonding front: the largest facet-centre x1 where less than half the glue links survive.
+  int broken = 0;
+  double front = -1;
+  for (int f = 0; f < facets.size(); ++f)
+    if (s.beta(f) < 0.5) ++broken, front = std::max(front, facets.centre(0, f));
+
+  // Opening (lift-off) of a facet: its contact displacement along -N, away from the support
+  // [LTL87 (4.11): e.n <= 0 on Gamma_c, here n = N].
+  const Eigen::VectorXd opening = -(s.e.transpose() * N);
+  int f_max = 0;
+  opening.maxCoeff(&f_max);
+
+  // The hardest step is the one where the peel runs away.
+  const auto hardest = std::max_element(run.iterations.begin(), run.iterations.end());
+
+  std::printf("fig3 at t = %g s (step %d):\n", run.last_step * problem.time.dt, run.last_step);
+  if (front >= 0)
+    std::printf("  debonding front (largest x1 with beta < 0.5): %.4f m; %d of %d facets\n", front,
+                broken, facets.size());
+  else
+    std::printf("  debonding front (largest x1 with beta < 0.5): none\n");
+  std::printf("  beta: min %.3g, max %.3g\n", s.beta.minCoeff(), s.beta.maxCoeff());
+  std::printf("  maximum opening e.(-N): %.4g m at x1 = %.4f m\n", opening(f_max),
+              facets.centre(0, f_max));
+  if (hardest != run.iterations.end()) {
+    const int p = run.first_step + static_cast<int>(hardest - run.iterations.begin());
+    std::printf("  hardest step: %d (t = %g s), %d iterations\n", p, p * problem.time.dt, *hardest);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return ltl::cli_main(argc, argv, {"fig3", "experiments/fig3/fig3.toml", report});
+}

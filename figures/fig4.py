@@ -1,0 +1,117 @@
+"""Fig 4 of [LTL87]: the thin incompressible Mooney-Rivlin bar at t = 800 s.
+
+    /usr/bin/python3 figures/fig4.py results/fig4.h5 results/fig4.png
+
+Reads only the results file. The paper shows, at t = 800 s, the adhesion intensity beta and the
+vertical displacement of the contact surface along x1, and the deformed configuration magnified
+x50 ("RAPPORT = 50"). Here the bar has peeled off completely long before 800 s and its
+displacements are O(1 m), so a x50 picture of that state would be meaningless: panel (c) shows
+the x50 view at the last step before the peel runs away (chosen from the data as in Fig 3), and
+panel (d) the state at t = 800 s at true scale. Prints the numbers it plots.
+"""
+
+import sys
+
+import numpy as np
+
+import style  # noqa: F401  (Agg backend and rc parameters, before pyplot)
+import matplotlib.pyplot as plt  # noqa: E402
+
+import ltl_results as lr  # noqa: E402
+from fig3 import (RUNAWAY_OPENING, contact_normal, draw_state,  # noqa: E402
+                  front_and_opening, pre_runaway)
+
+RAPPORT = 50  # the paper's magnification
+
+
+def main(h5, png):
+    r = lr.load(h5)
+    if not r.steps:
+        sys.exit("%s: no time step stored" % h5)
+    N = contact_normal(r)
+    m = r.mesh
+    xc = m.contact_centre[:, 0]
+    front, opening = front_and_opening(r, N)
+    last = r.steps[-1]
+    k_pre = pre_runaway(r, opening)
+    if k_pre is None:
+        print("note: the opening exceeds %g m from the first step on" % RUNAWAY_OPENING)
+        k_pre = 0
+    pre = r.steps[k_pre]
+    print("t = %g s (step %d); last step before the runaway (largest opening < %g m): step %d, "
+          "t = %g s" % (last.t, last.p, RUNAWAY_OPENING, pre.p, pre.t))
+
+    # The contact surface at the last step: facet values (beta, e) at the facet centres, and the
+    # nodal displacement u2 of the contact nodes (P2: vertices and mid-edge nodes).
+    nodes = np.unique(m.contact_facets)
+    nodes = nodes[np.argsort(m.X[nodes, 0])]
+    lift = last.fields["e"] @ -N          # e . (-N) = e2: vertical displacement, facet means
+    u2 = last.fields["u"][nodes] @ -N     # the same at the contact nodes
+
+    fig = plt.figure(figsize=(11.0, 9.0))
+    gs = fig.add_gridspec(2, 2, height_ratios=[0.55, 1.5], hspace=0.3, wspace=0.22, top=0.91)
+
+    # (c) the paper's x50 view, at the last step before the runaway.
+    ax = fig.add_subplot(gs[0, :])
+    draw_state(ax, r, pre, RAPPORT,
+               "(c) RAPPORT = %d: deformed configuration, displacements x%d, at t = %g s (step %d, "
+               "the last before the runaway)" % (RAPPORT, RAPPORT, pre.t, pre.p))
+
+    # (d) the state at t = 800 s, true scale.
+    ax = fig.add_subplot(gs[1, 0])
+    draw_state(ax, r, last, 1.0, "(d) deformed configuration at t = %g s, true scale (x1)" % last.t,
+               legend_loc="upper left")
+
+    sub = gs[1, 1].subgridspec(2, 1, hspace=0.35)
+    # (a) beta along x1.
+    ax = fig.add_subplot(sub[0])
+    ax.plot(xc, last.fields["beta"], color="k", marker="o", ms=3, label="t = %g s" % last.t)
+    ax.plot(xc, pre.fields["beta"], color=style.REFERENCE, ls="--", marker=".", ms=3,
+            label="t = %g s (before the runaway)" % pre.t)
+    ax.set_ylim(-0.03, 1.03)
+    ax.set_xlim(0, xc.max() + xc.min())
+    ax.set_xlabel("x1 (m)")
+    ax.set_ylabel("adhesion intensity beta")
+    ax.set_title("(a) beta along the contact surface, t = %g s" % last.t)
+    ax.legend(loc="center right")
+
+    # (b) vertical displacement of the contact surface.
+    ax = fig.add_subplot(sub[1])
+    ax.plot(m.X[nodes, 0], u2, color=style.BODY, lw=1.2, label="u2 at the contact nodes")
+    ax.plot(xc, lift, ls="none", marker="o", ms=3.5, color=style.CONTACT,
+            label="e2 per facet (facet centres)")
+    ax.set_xlim(0, xc.max() + xc.min())
+    ax.set_xlabel("x1 (reference, m)")
+    ax.set_ylabel("vertical displacement (m)")
+    ax.set_title("(b) vertical displacement of the contact surface, t = %g s" % last.t)
+    ax.legend(loc="upper right")
+
+    fig.suptitle("Fig 4 [LTL87]: incompressible Mooney-Rivlin bar [0,1] x [0,0.05] m, "
+                 "C1 = 187.5 kPa, C2 = 0.\nAt t = %g s the bar has peeled off (|u| ~ %.2g m): "
+                 "x%d is shown before the runaway (c), the %g s state at x1 (d)"
+                 % (last.t, np.abs(last.fields["u"]).max(), RAPPORT, last.t), fontsize=11)
+
+    lr.print_table("contact surface at t = %g s (panels a, b): facet centres" % last.t,
+                   {"x1_m": xc, "beta": last.fields["beta"], "e2_m": lift,
+                    "beta_t=%gs" % pre.t: pre.fields["beta"],
+                    "e2_t=%gs_m" % pre.t: pre.fields["e"] @ -N}, fmt="%.5g")
+    lr.print_table("contact nodes at t = %g s (panel b)" % last.t,
+                   {"X1_m": m.X[nodes, 0], "u2_m": u2}, fmt="%.5g")
+    lr.print_table("front and largest opening against time (up to the runaway + 1, and the last)",
+                   {"p": [s.p for s in r.steps[:k_pre + 2]] + [last.p],
+                    "t_s": [s.t for s in r.steps[:k_pre + 2]] + [last.t],
+                    "iterations": [s.iterations for s in r.steps[:k_pre + 2]] + [last.iterations],
+                    "front_x1_m": np.r_[front[:k_pre + 2], front[-1]],
+                    "max_opening_m": np.r_[opening[:k_pre + 2], opening[-1]]})
+    for s, scale, name in ((pre, RAPPORT, "c"), (last, 1.0, "d")):
+        u = s.fields["u"]
+        i = np.argmax(np.linalg.norm(u, axis=1))
+        print("panel (%s): t = %g s, magnification x%g, largest |u| = %.4g m at X = (%.3f, %.3f)"
+              % (name, s.t, scale, np.linalg.norm(u[i]), *m.X[i]))
+    style.save(fig, png)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3:
+        sys.exit("usage: fig4.py RESULTS.h5 OUTPUT.png")
+    main(sys.argv[1], sys.argv[2])
