@@ -7,4 +7,6 @@
 // Every configuration key is described in experiments/README.md.
 #include "cli.hpp"
 
-int main(int argc, char** argv) { return ltl::cli_main(argc, argv, {"ltl_run", "", {}}); }
+int main(int argc, char** argv) {
+  return ltl::cli_main(argc, argv, {"ltl_run", "", {}});
+}

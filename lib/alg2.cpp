@@ -343,8 +343,8 @@ Eigen::MatrixXd Solver::energy_gradient(const Eigen::MatrixXd& u) const {
       P.block<3, 3>(3 * c, 0) = m.dW(F).transpose();
     }
   }
-  Eigen::MatrixXd g = cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU) -
-                      F_ext_;
+  Eigen::MatrixXd g =
+      cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU) - F_ext_;
   for (int c = 0; c < d; ++c)
     for (int i : bc_.fixed[c]) g(i, c) = 0;
   return g;

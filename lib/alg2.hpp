@@ -3,8 +3,8 @@
 //
 // Unknowns (algorithm.md sec. 1): u (P2 / H8 nodal displacement), E and lambda (P0 per cell),
 // e, beta, lambda_c (P0 per contact facet). One iteration reads as three phases:
-//   (4.1) global step:  K u = f + g + GbarT [ R q (E - I) + lambda - 2 C1 I ] + MT [ R q_c e + lambda_c ]
-//   (4.2) local steps:  E per cell (4.6, sec. 5), {e, beta} per facet (4.7, sec. 6)
+//   (4.1) global step:  K u = f + g + GbarT [ R q (E - I) + lambda - 2 C1 I ] + MT [ R q_c e +
+//   lambda_c ] (4.2) local steps:  E per cell (4.6, sec. 5), {e, beta} per facet (4.7, sec. 6)
 //   (4.3) update:       lambda -= rho R q (I + Gbar u - E),  lambda_c -= rho R q_c (ubar - e)
 // Stopping [LTL87 (4.4)]: r_G + r_B < tol, with both parts scaled by ||I||_q (see residuals()).
 #pragma once
@@ -39,7 +39,6 @@ class Solver {
   StepReport solve_step(State& state, const Eigen::VectorXd& beta_prev,
                         const std::function<void(const IterationRecord&)>& progress = {});
 
-
   // Outputs at a converged state, per cell (transposed-block layout like E) or per facet.
   /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
   Eigen::MatrixXd piola(const State& s) const;
@@ -72,7 +71,7 @@ class Solver {
   int dim() const { return problem_.mesh.dim; }
 
  private:
-  void global_solve(State& s);                       // (4.1)
+  void global_solve(State& s);                                // (4.1)
   int strain_solve(const Eigen::MatrixXd& lambda, State& s);  // (4.6)
   void contact_solve(const Eigen::MatrixXd& lambda_c, const Eigen::VectorXd& beta_prev,
                      State& s);  // (4.7)

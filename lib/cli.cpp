@@ -77,9 +77,9 @@ int cli_main(int argc, char** argv, const Command& command) {
     if (!dir.empty()) std::filesystem::create_directories(dir);
     const RunSummary s = run(problem, options);
     if (options.verbosity > 0)
-      std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n",
-                  problem.name.c_str(), s.first_step, s.last_step, s.setup_seconds,
-                  s.solver_seconds, options.output.c_str());
+      std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
+                  s.first_step, s.last_step, s.setup_seconds, s.solver_seconds,
+                  options.output.c_str());
     if (command.report) command.report(problem, s);
   } catch (const Error& e) {
     std::fprintf(stderr, "%s: error: %s\n", command.program.c_str(), e.what());

@@ -1,11 +1,12 @@
 #include "config.hpp"
 
+#include <toml++/toml.h>
+
 #include <cmath>
 #include <filesystem>
 #include <map>
 #include <set>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include "error.hpp"
 
@@ -16,14 +17,18 @@ namespace {
 // unit -> (factor to SI, canonical SI unit)
 const std::map<std::string, std::pair<double, std::string>>& unit_table() {
   static const std::map<std::string, std::pair<double, std::string>> t = {
-      {"Pa", {1, "Pa"}},          {"kPa", {1e3, "Pa"}},         {"MPa", {1e6, "Pa"}},
-      {"GPa", {1e9, "Pa"}},       {"N/m^2", {1, "Pa"}},         {"kN/m^2", {1e3, "Pa"}},
-      {"Pa/m", {1, "Pa/m"}},      {"kPa/m", {1e3, "Pa/m"}},     {"MPa/m", {1e6, "Pa/m"}},
-      {"GPa/m", {1e9, "Pa/m"}},   {"N/m^3", {1, "Pa/m"}},       {"kN/m^3", {1e3, "Pa/m"}},
-      {"MN/m^3", {1e6, "Pa/m"}},  {"m", {1, "m"}},              {"cm", {1e-2, "m"}},
-      {"mm", {1e-3, "m"}},        {"J/m^2", {1, "J/m^2"}},      {"N/m", {1, "J/m^2"}},
-      {"mJ/m^2", {1e-3, "J/m^2"}}, {"1/m", {1, "1/m"}},         {"/m", {1, "1/m"}},
-      {"s", {1, "s"}},            {"min", {60, "s"}},           {"h", {3600, "s"}},
+      {"Pa", {1, "Pa"}},           {"kPa", {1e3, "Pa"}},
+      {"MPa", {1e6, "Pa"}},        {"GPa", {1e9, "Pa"}},
+      {"N/m^2", {1, "Pa"}},        {"kN/m^2", {1e3, "Pa"}},
+      {"Pa/m", {1, "Pa/m"}},       {"kPa/m", {1e3, "Pa/m"}},
+      {"MPa/m", {1e6, "Pa/m"}},    {"GPa/m", {1e9, "Pa/m"}},
+      {"N/m^3", {1, "Pa/m"}},      {"kN/m^3", {1e3, "Pa/m"}},
+      {"MN/m^3", {1e6, "Pa/m"}},   {"m", {1, "m"}},
+      {"cm", {1e-2, "m"}},         {"mm", {1e-3, "m"}},
+      {"J/m^2", {1, "J/m^2"}},     {"N/m", {1, "J/m^2"}},
+      {"mJ/m^2", {1e-3, "J/m^2"}}, {"1/m", {1, "1/m"}},
+      {"/m", {1, "1/m"}},          {"s", {1, "s"}},
+      {"min", {60, "s"}},          {"h", {3600, "s"}},
   };
   return t;
 }
@@ -277,8 +282,8 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   }
   for (const auto& f : r.subs("symmetry")) {
     f.only({"group", "component"});
-    p.dirichlet.push_back({f.string("group"), {component_index(f, "component", dim)}, {},
-                           f.key("group")});
+    p.dirichlet.push_back(
+        {f.string("group"), {component_index(f, "component", dim)}, {}, f.key("group")});
   }
   for (const auto& f : r.subs("displacement")) {
     f.only({"group", "value", "gradient"});
@@ -306,8 +311,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   // [contact]: Gamma_c, the rigid plane and the glue [LTL87 (1.1)-(1.3), (4.11)].
   if (r.has("contact")) {
     const Reader c = r.sub("contact");
-    c.only({"group", "plane_point", "plane_normal", "beta0", "w", "kappa", "eps", "d0",
-            "kernel"});
+    c.only({"group", "plane_point", "plane_normal", "beta0", "w", "kappa", "eps", "d0", "kernel"});
     ContactCondition cc;
     cc.group = c.string("group");
     cc.origin = c.key("group");

@@ -48,8 +48,8 @@ void p2_triangle(double xi, double eta, Eigen::Matrix<double, 6, 1>& N,
   N << L0 * (2 * L0 - 1), L1 * (2 * L1 - 1), L2 * (2 * L2 - 1), 4 * L0 * L1, 4 * L1 * L2,
       4 * L2 * L0;
   // d/dxi and d/deta, with dL0 = (-1,-1), dL1 = (1,0), dL2 = (0,1).
-  dN << -(4 * L0 - 1), -(4 * L0 - 1), 4 * L1 - 1, 0, 0, 4 * L2 - 1, 4 * (L0 - L1), -4 * L1,
-      4 * L2, 4 * L1, -4 * L2, 4 * (L0 - L2);
+  dN << -(4 * L0 - 1), -(4 * L0 - 1), 4 * L1 - 1, 0, 0, 4 * L2 - 1, 4 * (L0 - L1), -4 * L1, 4 * L2,
+      4 * L1, -4 * L2, 4 * (L0 - L2);
 }
 // H8: corners (+-1, +-1, +-1) in gmsh order.
 const int kHexCorner[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
@@ -106,8 +106,8 @@ void for_each_point(const Mesh& mesh, int c, Visit visit) {
         [](const QPoint& p, auto& N, auto& dN) { p2_triangle(p.xi, p.eta, N, dN); }, visit);
   else
     for_each_cell_point<8, 3>(
-        mesh, c, kHexRule, [](const QPoint& p, auto& N, auto& dN) { h8(p.xi, p.eta, p.zeta, N, dN); },
-        visit);
+        mesh, c, kHexRule,
+        [](const QPoint& p, auto& N, auto& dN) { h8(p.xi, p.eta, p.zeta, N, dN); }, visit);
 }
 
 // Calls visit(N (dynamic), x (3-vector), weight * |dx/dxi|) at every quadrature point of facet f.
@@ -189,11 +189,11 @@ FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary)
   for (int f = 0; f < nf; ++f) {
     double area = 0;
     mint.setZero();
-    for_each_facet_point(mesh, boundary.facets, f, [&](const Eigen::VectorXd& N, const Vector3d&,
-                                                       double w) {
-      area += w;
-      mint += w * N;
-    });
+    for_each_facet_point(mesh, boundary.facets, f,
+                         [&](const Eigen::VectorXd& N, const Vector3d&, double w) {
+                           area += w;
+                           mint += w * N;
+                         });
     if (!(area > 0))
       throw Error(cat(mesh.source, ": boundary group '", boundary.name, "' facet ", f,
                       " has zero measure"));

@@ -41,8 +41,9 @@ void Problem::validate() const {
   const int dim = mesh.dim;
   // Material [LTL87 (1.5), sec. 8].
   require(std::isfinite(material.C1) && material.C1 > 0, "material.C1",
-          cat("= ", material.C1, " Pa: must be > 0 (it is the coefficient of |F|^2 and the "
-                                 "global Laplacian (4.5))"));
+          cat("= ", material.C1,
+              " Pa: must be > 0 (it is the coefficient of |F|^2 and the "
+              "global Laplacian (4.5))"));
   require(std::isfinite(material.C2) && material.C2 >= 0, "material.C2",
           cat("= ", material.C2, " Pa: must be >= 0"));
   require(std::isfinite(material.C3) && material.C3 >= 0, "material.C3",
@@ -57,8 +58,9 @@ void Problem::validate() const {
     require(a.rho > 0.5 && a.rho <= 1, "algorithm.rho",
             cat("= ", a.rho, ": the Bermudez-Moreno update (7.10) needs 1/2 < rho <= 1"));
     require(a.sweeps == 1, "algorithm.sweeps",
-            cat("= ", a.sweeps, ": the Bermudez-Moreno update (7.7)-(7.10) does one block "
-                                "relaxation per iteration; set sweeps = 1"));
+            cat("= ", a.sweeps,
+                ": the Bermudez-Moreno update (7.7)-(7.10) does one block "
+                "relaxation per iteration; set sweeps = 1"));
   } else {
     require(a.rho > 0 && a.rho < 2, "algorithm.rho",
             cat("= ", a.rho, ": the Uzawa update (4.3) needs 0 < rho < 2"));
@@ -90,8 +92,9 @@ void Problem::validate() const {
             cat("= ", cc.beta0, ": the adhesion intensity must be in [0, 1]"));
     require(cc.adhesion.w >= 0, "contact.w", cat("= ", cc.adhesion.w, " J/m^2: must be >= 0"));
     require(cc.adhesion.kappa >= 0, "contact.kappa",
-            cat("= ", cc.adhesion.kappa, " Pa/m: kappa = 1/eps must be >= 0 (eps < 0 is not a "
-                                         "glue)"));
+            cat("= ", cc.adhesion.kappa,
+                " Pa/m: kappa = 1/eps must be >= 0 (eps < 0 is not a "
+                "glue)"));
     require(cc.adhesion.d0 >= 0, "contact.d0", cat("= ", cc.adhesion.d0, " 1/m: must be >= 0"));
     require(std::abs(cc.plane_normal.norm() - 1) < 1e-12, "contact.plane_normal",
             "must be a unit vector");
@@ -104,14 +107,15 @@ void Problem::validate() const {
       std::sort(key.begin(), key.end());
       require(boundary_keys.count(key) > 0, "contact.group",
               cat("'", cc.group, "' facet ", f, " (nodes ", key[0], ", ", key[1],
-                  corners > 2 ? ", ..." : "", ") is not on the boundary of the body: the contact "
-                                              "surface must be part of the boundary"));
+                  corners > 2 ? ", ..." : "",
+                  ") is not on the boundary of the body: the contact "
+                  "surface must be part of the boundary"));
     }
     // Contact facets must not be fixed: the body is glued, not clamped, there.
     for (const auto& d : dirichlet)
       if (d.group == cc.group && static_cast<int>(d.components.size()) == dim)
-        throw KeyError(d.origin, cat("group '", d.group,
-                                     "' is both fixed and the contact surface"));
+        throw KeyError(d.origin,
+                       cat("group '", d.group, "' is both fixed and the contact surface"));
   }
 }
 

@@ -35,7 +35,7 @@ struct Traction {
 /// The contact surface Gamma_c with a rigid plane, and its glue [LTL87 (1.1)-(1.3), (4.11)].
 struct ContactCondition {
   std::string group;
-  Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();  ///< a point of the obstacle plane (m)
+  Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();   ///< a point of the obstacle plane (m)
   Eigen::Vector3d plane_normal = Eigen::Vector3d::Zero();  ///< unit, pointing into the obstacle
   Adhesion adhesion;   ///< w, kappa = 1/eps, d0, kernel rule (dt is set from the time step)
   double beta0 = 1.0;  ///< initial adhesion intensity beta_0 in [0, 1]
@@ -50,11 +50,11 @@ enum class Update {
 
 /// Parameters of ALG2 [LTL87 sec. 3-4, 7].
 struct AlgorithmParams {
-  double R = 1.0;      ///< augmentation parameter (dimensionless), R > 0
-  double q = 1.0;      ///< weight of the strain constraint (Pa), q > 0   (3.3)
-  double q_c = 1.0;    ///< weight of the contact constraint (Pa/m), q_c > 0   (3.3)
-  double rho = 1.0;    ///< Uzawa: step factor in (0, 2); Bermudez-Moreno: in (1/2, 1]
-                       ///< (configurations default to 0.75 for Bermudez-Moreno)
+  double R = 1.0;    ///< augmentation parameter (dimensionless), R > 0
+  double q = 1.0;    ///< weight of the strain constraint (Pa), q > 0   (3.3)
+  double q_c = 1.0;  ///< weight of the contact constraint (Pa/m), q_c > 0   (3.3)
+  double rho = 1.0;  ///< Uzawa: step factor in (0, 2); Bermudez-Moreno: in (1/2, 1]
+                     ///< (configurations default to 0.75 for Bermudez-Moreno)
   Update update = Update::Uzawa;
   int sweeps = 1;          ///< block-relaxation sweeps (4.1)-(4.2) per multiplier update
   int contact_sweeps = 1;  ///< Gauss-Seidel sweeps over the facets in one local contact step

@@ -25,8 +25,9 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     if (options.output.empty()) throw Error("--resume needs a results file");
     const std::string stored = ResultsFile::read_attribute(options.output, "config");
     if (stored != problem.config_text)
-      throw Error(cat(options.output, ": cannot resume: the file was written with a different "
-                                      "configuration"));
+      throw Error(cat(options.output,
+                      ": cannot resume: the file was written with a different "
+                      "configuration"));
     if (auto last = ResultsFile::read_last_step(options.output)) {
       state = last->state;
       p0 = last->p + 1;
@@ -57,22 +58,21 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     summary.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
     if (!report.converged) {
       const auto& last = report.history.back();
-      const std::string msg =
-          cat("diverged at step ", p, " (t = ", p * problem.time.dt, " s): ", report.status,
-              "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
-              ". Nothing was written for this step");
+      const std::string msg = cat("diverged at step ", p, " (t = ", p * problem.time.dt,
+                                  " s): ", report.status, "; last residuals r_G = ", last.r_G,
+                                  ", r_B = ", last.r_B, ". Nothing was written for this step");
       if (file) file->set_status(msg);
       throw Error(cat(problem.name, ": ", msg,
                       file ? cat("; ", options.output, " keeps steps 1..", p - 1) : "", "."));
     }
     if (options.verbosity > 0 && (P > 1 || options.verbosity == 1))
-      std::printf("step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  %.3f s%s\n", p,
-                  P, p * problem.time.dt, report.iterations, report.history.back().r_G,
-                  report.history.back().r_B, report.history.back().wall,
-                  report.strain_failures ? cat("  (", report.strain_failures,
-                                               " local strain solves not at round-off)")
-                                               .c_str()
-                                         : "");
+      std::printf(
+          "step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  %.3f s%s\n", p, P,
+          p * problem.time.dt, report.iterations, report.history.back().r_G,
+          report.history.back().r_B, report.history.back().wall,
+          report.strain_failures
+              ? cat("  (", report.strain_failures, " local strain solves not at round-off)").c_str()
+              : "");
     std::fflush(stdout);
     if (!options.output.empty()) {
       if (!file) {

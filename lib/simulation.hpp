@@ -12,11 +12,11 @@
 namespace ltl {
 
 struct RunOptions {
-  std::string output;    ///< results file (.h5); empty: write nothing
-  bool resume = false;   ///< continue from the last step stored in `output`
-  int verbosity = 1;     ///< 0: silent, 1: one line per step (and per 50 iterations), 2: every
-                         ///< iteration
-  int stop_after = 0;    ///< stop (as if interrupted) after this many steps; 0: run to the end
+  std::string output;   ///< results file (.h5); empty: write nothing
+  bool resume = false;  ///< continue from the last step stored in `output`
+  int verbosity = 1;    ///< 0: silent, 1: one line per step (and per 50 iterations), 2: every
+                        ///< iteration
+  int stop_after = 0;   ///< stop (as if interrupted) after this many steps; 0: run to the end
 };
 
 struct RunSummary {

@@ -86,8 +86,8 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
       last.push_back({"contact_facets", double(in_contact), 0.5});
       last.push_back(quantity("peak_contact_pressure", pc.maxCoeff(), pc.maxCoeff()));
       last.push_back(quantity("total_contact_force", force, std::abs(force)));
-      last.push_back(quantity("max_displacement", s.u.cwiseAbs().maxCoeff(),
-                              s.u.cwiseAbs().maxCoeff()));
+      last.push_back(
+          quantity("max_displacement", s.u.cwiseAbs().maxCoeff(), s.u.cwiseAbs().maxCoeff()));
       last.push_back({"min_gap", gap.minCoeff(), 1e-6});
     }
   });

@@ -76,7 +76,8 @@ std::string with(const std::string& from, const std::string& to) {
 void expect_error(const Outcome& o, const std::vector<std::string>& words) {
   EXPECT_EQ(o.status, 1) << o.err;
   EXPECT_FALSE(o.wrote) << "a results file was written for a failed run";
-  for (const auto& w : words) EXPECT_NE(o.err.find(w), std::string::npos) << "'" << w << "' not in: " << o.err;
+  for (const auto& w : words)
+    EXPECT_NE(o.err.find(w), std::string::npos) << "'" << w << "' not in: " << o.err;
 }
 
 }  // namespace
@@ -130,13 +131,13 @@ TEST(BadInput, MeshAndGroupErrors) {
                {"starts inside the obstacle", "facet"});
   // A contact group that is not on the boundary.
   const fs::path dir = ltl::testing::temp_dir("cli_geo");
-  ltl::testing::write_file(
-      dir / "inner.geo",
-      "Point(1)={0,0,0};Point(2)={1,0,0};Point(3)={1,1,0};Point(4)={0,1,0};"
-      "Point(5)={0.2,0.5,0};Point(6)={0.8,0.5,0};"
-      "Line(1)={1,2};Line(2)={2,3};Line(3)={3,4};Line(4)={4,1};Line(5)={5,6};"
-      "Curve Loop(1)={1,2,3,4};Plane Surface(1)={1};Curve{5} In Surface{1};"
-      "Physical Curve(\"bottom\")={1};Physical Curve(\"inside\")={5};Physical Surface(\"b\")={1};\n");
+  ltl::testing::write_file(dir / "inner.geo",
+                           "Point(1)={0,0,0};Point(2)={1,0,0};Point(3)={1,1,0};Point(4)={0,1,0};"
+                           "Point(5)={0.2,0.5,0};Point(6)={0.8,0.5,0};"
+                           "Line(1)={1,2};Line(2)={2,3};Line(3)={3,4};Line(4)={4,1};Line(5)={5,6};"
+                           "Curve Loop(1)={1,2,3,4};Plane Surface(1)={1};Curve{5} In Surface{1};"
+                           "Physical Curve(\"bottom\")={1};Physical Curve(\"inside\")={5};Physical "
+                           "Surface(\"b\")={1};\n");
   std::string t = with("@SRC@experiments/fig5/half_disc.geo", (dir / "inner.geo").string());
   t = t.replace(t.find("group = \"symmetry_x\""), 20, "group = \"bottom\"");
   t = t.replace(t.find("group = \"contact\""), 17, "group = \"inside\"");

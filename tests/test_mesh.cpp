@@ -41,8 +41,7 @@ TEST(Mesh, Fig6GutterHas270Hexahedra) {
   EXPECT_EQ(m.boundary("inner").facets.rows(), 9 * 15);
   EXPECT_EQ(m.boundary("clamped").facets.rows(), 2 * 9);
   // Outer face at radius 1.2 from the axis x1.
-  for (int i : m.boundary_nodes("outer"))
-    EXPECT_NEAR(std::hypot(m.X(i, 1), m.X(i, 2)), 1.2, 1e-12);
+  for (int i : m.boundary_nodes("outer")) EXPECT_NEAR(std::hypot(m.X(i, 1), m.X(i, 2)), 1.2, 1e-12);
 }
 
 TEST(Mesh, Fig5HalfDiscIsCurvedP2) {

@@ -33,7 +33,8 @@ Mesh distorted_box(int n) {
 // Mean gradient of u(x) = A x + c is A in every cell.
 void expect_mean_gradient_exact(const Mesh& m, const Eigen::MatrixXd& A) {
   const CellOperators ops = cell_operators(m);
-  const Eigen::MatrixXd U = m.X * A.transpose() + Eigen::MatrixXd::Constant(m.num_nodes(), m.dim, 0.3);
+  const Eigen::MatrixXd U =
+      m.X * A.transpose() + Eigen::MatrixXd::Constant(m.num_nodes(), m.dim, 0.3);
   const Eigen::MatrixXd GU = ops.Gbar * U;  // transposed blocks
   for (int c = 0; c < m.num_cells(); ++c)
     ASSERT_LT((GU.block(m.dim * c, 0, m.dim, m.dim).transpose() - A).norm(), 1e-12 * A.norm())
@@ -65,8 +66,10 @@ TEST(Operators, VolumesAreasAndLoadsAddUp) {
   const Eigen::MatrixXd U = bar.X * Eigen::Vector2d(2.0, -1.0).asDiagonal();
   const Eigen::MatrixXd ubar = f.mean * U;
   for (int s = 0; s < f.size(); ++s)
-    EXPECT_NEAR((ubar.row(s).transpose() - Eigen::Vector2d(2.0, -1.0).asDiagonal() *
-                                               f.centre.col(s)).norm(), 0, 1e-14);
+    EXPECT_NEAR(
+        (ubar.row(s).transpose() - Eigen::Vector2d(2.0, -1.0).asDiagonal() * f.centre.col(s))
+            .norm(),
+        0, 1e-14);
   // Consistent loads: body force over the area, the affine Fig 3 traction over the top face
   // (integral of 1e4 (1 - x1) over [0, 1] = 5e3 N/m).
   const Eigen::MatrixXd F = body_load(bar, Eigen::Vector3d(0, -3.0, 0));

@@ -2,7 +2,6 @@
 // of Figs 3-6 summarized by norms, extremes, positions and iteration counts, each compared with
 // its stored value within its stored tolerance. Regenerate with `make reference`.
 #include <gtest/gtest.h>
-
 #include <toml++/toml.h>
 
 #include "regression.hpp"

@@ -61,10 +61,10 @@ TEST(Updates, FixedPointDoesNotDependOnRqQcRho_3_2) {
     Update update;
     double R, q, q_c, rho;
   };
-  for (const Params& a : {Params{Update::Uzawa, 1, 2.6e5, 1e5, 1.0},
-                          Params{Update::Uzawa, 3, 1e5, 1e7, 1.5},
-                          Params{Update::BermudezMoreno, 1, 2.6e5, 1e5, 0.75},
-                          Params{Update::BermudezMoreno, 2, 5e5, 1e6, 0.6}}) {
+  for (const Params& a :
+       {Params{Update::Uzawa, 1, 2.6e5, 1e5, 1.0}, Params{Update::Uzawa, 3, 1e5, 1e7, 1.5},
+        Params{Update::BermudezMoreno, 1, 2.6e5, 1e5, 0.75},
+        Params{Update::BermudezMoreno, 2, 5e5, 1e6, 0.6}}) {
     Problem p;
     p.mesh = load_mesh(ltl::testing::test_path("geometry/square.geo"));
     p.material.model = MaterialModel::MooneyRivlin;

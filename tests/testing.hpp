@@ -20,7 +20,9 @@
 
 namespace ltl::testing {
 
-inline std::string test_path(const std::string& rel) { return std::string(LTL_TEST_DIR) + "/" + rel; }
+inline std::string test_path(const std::string& rel) {
+  return std::string(LTL_TEST_DIR) + "/" + rel;
+}
 inline std::string source_path(const std::string& rel) {
   return std::string(LTL_TEST_DIR) + "/../" + rel;
 }

@@ -57,24 +57,30 @@ std::vector<Run> runs() {
     const std::string Rs = "algorithm.R=" + std::to_string(R);
     char tag[32];
     std::snprintf(tag, sizeof tag, "R%g", R);
-    r.push_back({"sweep-fig5", std::string("uzawa-") + tag, "experiments/fig5/fig5.toml",
-                 {uzawa, Rs}});
-    r.push_back({"sweep-fig5", std::string("bermudez-moreno-") + tag,
-                 "experiments/fig5/fig5.toml", {bm, Rs}});
+    r.push_back(
+        {"sweep-fig5", std::string("uzawa-") + tag, "experiments/fig5/fig5.toml", {uzawa, Rs}});
+    r.push_back({"sweep-fig5",
+                 std::string("bermudez-moreno-") + tag,
+                 "experiments/fig5/fig5.toml",
+                 {bm, Rs}});
   }
   for (const double R : {4.0, 8.0, 16.0, 32.0}) {
     const std::string Rs = "algorithm.R=" + std::to_string(R);
     char tag[32];
     std::snprintf(tag, sizeof tag, "R%g", R);
     for (const auto& [name, upd] : {std::pair{"uzawa-", uzawa}, std::pair{"bermudez-moreno-", bm}})
-      r.push_back({"sweep-fig3", std::string(name) + tag, "experiments/fig3/fig3.toml",
+      r.push_back({"sweep-fig3",
+                   std::string(name) + tag,
+                   "experiments/fig3/fig3.toml",
                    {upd, Rs, "algorithm.sweeps=1", "time.steps=6"}});
   }
   for (const double rho : {0.55, 0.7, 0.8, 0.9, 1.0}) {
     char tag[32];
     std::snprintf(tag, sizeof tag, "rho%g", rho);
-    r.push_back({"sweep-fig5", std::string("bermudez-moreno-") + tag,
-                 "experiments/fig5/fig5.toml", {bm, "algorithm.rho=" + std::to_string(rho)}});
+    r.push_back({"sweep-fig5",
+                 std::string("bermudez-moreno-") + tag,
+                 "experiments/fig5/fig5.toml",
+                 {bm, "algorithm.rho=" + std::to_string(rho)}});
   }
   return r;
 }
