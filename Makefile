@@ -6,7 +6,7 @@ RESULTS := results
 JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
-.PHONY: all figures test bench deps build fig3 fig4 fig5 fig6 compare reference format clean
+.PHONY: all figures test bench deps build fig3 fig4 fig5 fig6 compare hertz reference format clean
 
 all: figures
 
@@ -32,7 +32,12 @@ fig3 fig4 fig5 fig6: build
 compare: build
 	@mkdir -p $(RESULTS)/compare
 	$(RUN)/compare $(RESULTS)/compare
+	$(RUN)/hertz 2 0.1 0.75 $(RESULTS)/compare
 	$(PYTHON) figures/compare.py $(RESULTS)/compare $(RESULTS)/compare.pdf
+
+# Section 7: the Signorini solver against Hertz under mesh refinement, both updates.
+hertz: build
+	$(RUN)/hertz
 
 bench: build
 	$(RUN)/bench

@@ -667,12 +667,17 @@ void ResultsFile::append(const StepData& step) {
            cat("step ", step.p, ": ", what, " is ", rows, " x ", cols, ", expected ", r, " x ", c));
   };
   expect("u", s.u.rows(), s.u.cols(), nn, dim);
-  expect("E", s.E.rows(), s.E.cols(), dim * nc, dim);
-  expect("lambda", s.lambda.rows(), s.lambda.cols(), dim * nc, dim);
+  // E and lambda may both be empty for a problem without cell unknowns (the Signorini problem of
+  // section 7), beta for a contact problem without adhesion intensity; they are then not written.
+  const bool cells = s.E.size() || s.lambda.size();
+  if (cells) {
+    expect("E", s.E.rows(), s.E.cols(), dim * nc, dim);
+    expect("lambda", s.lambda.rows(), s.lambda.cols(), dim * nc, dim);
+  }
   if (contact_) {
     expect("e", s.e.rows(), s.e.cols(), dim, nf);
     expect("lambda_c", s.lambda_c.rows(), s.lambda_c.cols(), dim, nf);
-    expect("beta", s.beta.size(), 1, nf, 1);
+    if (s.beta.size()) expect("beta", s.beta.size(), 1, nf, 1);
   }
   if (step.P.size()) expect("P", step.P.rows(), step.P.cols(), dim * nc, dim);
   if (step.sigma.size()) expect("sigma", step.sigma.rows(), step.sigma.cols(), dim * nc, dim);
@@ -702,13 +707,15 @@ void ResultsFile::append(const StepData& step) {
     write_doubles(file_, tmp + "/" + ds, dims, data, file);
   };
   put("u", {un(nn), un(dim)}, rows_of(s.u));
-  put("E", {un(nc), un(dim), un(dim)}, tensors_of(s.E, dim, dim));
-  put("lambda", {un(nc), un(dim), un(dim)}, tensors_of(s.lambda, dim, dim));
+  if (cells) {
+    put("E", {un(nc), un(dim), un(dim)}, tensors_of(s.E, dim, dim));
+    put("lambda", {un(nc), un(dim), un(dim)}, tensors_of(s.lambda, dim, dim));
+  }
   if (step.P.size()) put("P", {un(nc), un(dim), un(dim)}, tensors_of(step.P, dim, dim));
   if (step.sigma.size()) put("sigma", {un(nc), un(dim), un(dim)}, tensors_of(step.sigma, dim, dim));
   if (step.pressure.size()) put("pressure", {un(nc)}, vec(step.pressure));
   if (contact_) {
-    put("beta", {un(nf)}, vec(s.beta));
+    if (s.beta.size()) put("beta", {un(nf)}, vec(s.beta));
     put("e", {un(nf), un(dim)}, columns_of(s.e));
     put("lambda_c", {un(nf), un(dim)}, columns_of(s.lambda_c));
   }

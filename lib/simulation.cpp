@@ -50,7 +50,9 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     if (options.stop_after > 0 && p - p0 >= options.stop_after) break;
     const Eigen::VectorXd beta_prev = state.beta;
     auto progress = [&](const IterationRecord& r) {
-      if (options.verbosity >= 2 || (options.verbosity == 1 && P == 1 && r.n % 50 == 0))
+      // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
+      // time step of an evolution.
+      if (options.verbosity >= 2 || (options.verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0))
         std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
             std::fflush(stdout);
     };
