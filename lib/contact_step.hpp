@@ -29,8 +29,10 @@
 //   2-D, collinear segments: closed form. 2-D, other segment pairs and 3-D facets (each quad split
 //   into the triangles (v0,v1,v2), (v0,v2,v3)): the inner integral over G_s' is done in polar
 //   coordinates around the point x (exact in the radius, Gauss-Legendre in the angle variable
-//   tau = asinh(t/h)), the outer integral over G_s by adaptive Gauss-Legendre (relative accuracy
-//   about 1e-9). Facet pairs more than 60/d0 apart get k = 0 (their true value is < e^-60 d0|G|).
+//   tau = asinh(t/h)), the outer integral over G_s by adaptive Gauss-Legendre. Relative accuracy
+//   ~1e-12 in 2-D, < 1e-8 in 3-D (measured); 3-D costs ~0.2 s CPU per facet pair when d0 h ~ 36
+//   (OpenMP-parallel over pairs). Facet pairs more than 60/d0 apart get k = 0 (true value
+//   < e^-60 d0 |G|).
 #pragma once
 
 #include <Eigen/Dense>
@@ -40,11 +42,11 @@ namespace ltl {
 
 /// Geometry of the contact surface Gamma_c as seen by the local step.
 struct ContactSurface {
-  int dim = 2;               ///< 2 (facets are segments) or 3 (facets are planar-ish quads)
-  Eigen::VectorXd area;      ///< #facets, |G_s| (length in 2-D, area in 3-D)
-  Eigen::MatrixXd centre;    ///< dim x #facets, reference centre x_s of each facet
-  Eigen::VectorXd gap;       ///< #facets, initial gap g_s >= 0 to the plane along N
-  Eigen::VectorXd N;         ///< dim, unit normal of the obstacle plane, pointing into it
+  int dim = 2;             ///< 2 (facets are segments) or 3 (facets are planar-ish quads)
+  Eigen::VectorXd area;    ///< #facets, |G_s| (length in 2-D, area in 3-D)
+  Eigen::MatrixXd centre;  ///< dim x #facets, reference centre x_s of each facet
+  Eigen::VectorXd gap;     ///< #facets, initial gap g_s >= 0 to the plane along N
+  Eigen::VectorXd N;       ///< dim, unit normal of the obstacle plane, pointing into it
   /// Facet vertices for the exact kernel integral: 2-D: 2 x #facets end points stored as
   /// vertices[k] (dim x #facets) for k = 0,1; 3-D: the 4 corners, k = 0..3, in cyclic order
   /// (3 corners are accepted for triangular facets). Only read when exact_kernel and d0 > 0.
@@ -54,10 +56,10 @@ struct ContactSurface {
 
 /// Glue and dissipation data [LTL87 (1.2), (1.3), (1.6), (2.2)].
 struct Adhesion {
-  double w = 0.0;       ///< Dupre energy, J/m^2 (>= 0)
-  double kappa = 0.0;   ///< 1/eps, Pa/m (>= 0); 0 means no glue
-  double d0 = 0.0;      ///< kernel parameter of d(y) = d0 exp(-d0|y|), 1/m (>= 0); 0: no dissipation
-  double dt = 1.0;      ///< time step t_p - t_{p-1}, s (> 0)
+  double w = 0.0;      ///< Dupre energy, J/m^2 (>= 0)
+  double kappa = 0.0;  ///< 1/eps, Pa/m (>= 0); 0 means no glue
+  double d0 = 0.0;     ///< kernel parameter of d(y) = d0 exp(-d0|y|), 1/m (>= 0); 0: no dissipation
+  double dt = 1.0;     ///< time step t_p - t_{p-1}, s (> 0)
   bool exact_kernel = false;  ///< false: centre-point rule (the paper's); true: exact integral
 };
 
