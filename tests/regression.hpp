@@ -37,6 +37,18 @@ inline std::vector<Case> cases() {
       {"fig3_exact_kernel", "experiments/fig3/fig3.toml", {"time.steps=3", "contact.kernel=exact"}},
       {"fig5", "experiments/fig5/fig5.toml", {}},
       {"fig6", "experiments/fig6/fig6.toml", {}},
+      // The comparison of section 7: Bermudez-Moreno (7.7)-(7.10) on the same problems
+      // (iterations to tolerance per variant and per problem; Uzawa's are above).
+      {"fig3_reduced_bermudez_moreno",
+       "experiments/fig3/fig3.toml",
+       {"time.steps=6", "algorithm.update=bermudez-moreno", "algorithm.sweeps=1"}},
+      {"fig5_bermudez_moreno", "experiments/fig5/fig5.toml", {"algorithm.update=bermudez-moreno"}},
+      {"fig6_coarse_uzawa",
+       "experiments/fig6/fig6.toml",
+       {"mesh.parameters.nl=5", "mesh.parameters.na=5"}},
+      {"fig6_coarse_bermudez_moreno",
+       "experiments/fig6/fig6.toml",
+       {"mesh.parameters.nl=5", "mesh.parameters.na=5", "algorithm.update=bermudez-moreno"}},
   };
 }
 
@@ -76,11 +88,12 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
       last.push_back(quantity("front_beta_below_0.9", front, 1.0));
       last.push_back(quantity("max_opening", opening, std::max(opening, 1e-12)));
     } else {
-      // Pure contact: contact set, pressure, force, penetration.
+      // Pure contact: contact set (facets carrying more than 1e-3 of the peak pressure: the
+      // iteration leaves pressures of order tol on open facets), pressure, force, penetration.
       int in_contact = 0;
       double force = 0;
       for (int i = 0; i < f.size(); ++i) {
-        if (pc(i) > 1e-6 * pc.cwiseAbs().maxCoeff()) ++in_contact;
+        if (pc(i) > 1e-3 * pc.cwiseAbs().maxCoeff()) ++in_contact;
         force += f.area(i) * pc(i);
       }
       last.push_back({"contact_facets", double(in_contact), 0.5});
