@@ -3,10 +3,17 @@
 //
 // Everything in this file works on fixed-size Eigen types and scalars: no allocation, no shared
 // mutable state, so StrainStep::solve can be called concurrently from OpenMP threads.
+//
+// Performance (paper_notes/performance.md): one cell costs ~120 ns in plane strain and ~280 ns
+// in 3-D (Mooney-Rivlin, C2 = 0, Fig 6 loadings) on one core. The 3-D cost is the signed SVD
+// (signed_svd_fast, ~150 ns, latency-bound chain of square roots and divisions) and the reduced
+// problem (solve_mr3_dual, a scalar Newton iteration on the multiplier, ~100 ns); the general
+// paths (Newton in log variables with certificates, Jacobi SVD) remain as fallbacks.
 #include "strain_step.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 
 namespace ltl {
@@ -135,7 +142,10 @@ struct ReducedMR3 {
   /// Lagrange multiplier of sum s_i = 0 at a stationary point: du_i/ds_i = mu for all i.
   double multiplier(const double x[3]) const {
     double m = 0.0;
-    for (int i = 0; i < 3; ++i) m += Rq * x[i] * x[i] - 2.0 * C2 / (x[i] * x[i]) - d[i] * x[i];
+    for (int i = 0; i < 3; ++i) {
+      m += Rq * x[i] * x[i] - d[i] * x[i];
+      if (C2 != 0.0) m -= 2.0 * C2 / (x[i] * x[i]);
+    }
     return m / 3.0;
   }
 };
@@ -380,7 +390,10 @@ bool component_global(double Rq, double C2, double d, double m, double x_star, d
 /// sublevel set {f <= f(x)} (for feasible s, f(s) = sum_i k_i(s_i)).
 bool certify_mr3(const ReducedMR3& p, const double x[3], double f) {
   const double mu = p.multiplier(x);
-  if (mu >= 0.0 && p.C2 > 0.0) return true;  // each k_i has one stationary point, -> +inf
+  // mu >= 0: each k_i has one stationary point and -> +inf at both ends (C2 > 0); for C2 = 0,
+  // k_i' = Rq t^2 - d t + mu has one positive root and k_i -> +inf at both ends when mu > 0
+  // (mu = 0: k_i = u_i, bounded below)
+  if (mu >= 0.0) return true;
   const double Rq = p.Rq, C2 = p.C2;
   // bounds X_j >= t_j on the sublevel set, from u_j >= Rq/2 t^2 - d_j t >= -d_j+^2 / (2 Rq)
   double low[3], sum_low = 0.0, mag = std::abs(f);
@@ -394,9 +407,6 @@ bool certify_mr3(const ReducedMR3& p, const double x[3], double f) {
   for (int j = 0; j < 3; ++j) {
     const double B = f - (sum_low - low[j]) + 1e-10 * mag;
     X[j] = (p.d[j] + std::sqrt(std::max(0.0, p.d[j] * p.d[j] + 2.0 * Rq * B))) / Rq;
-  }
-  if (mu >= 0.0) {  // C2 = 0: k_i' = Rq t^2 - d t + mu has one positive root; k_i -> +inf
-    return true;    // at both ends when mu > 0 (mu = 0: k_i = u_i, bounded below)
   }
   for (int i = 0; i < 3; ++i) {
     const double Y = 1.0 / (X[(i + 1) % 3] * X[(i + 2) % 3]);
@@ -440,6 +450,91 @@ bool certify_comp(const ReducedComp<N>& p, const Vec<N>& x, double f) {
     if (!component_global(Rq, 0.0, p.d[i], kappa, x[i], Y)) return false;
   }
   return true;
+}
+
+/// Mooney-Rivlin with C2 = 0, fast path (performance.md): at a stationary point of (5.8)
+/// with multiplier mu, Rq t_i^2 - d_i t_i = mu for every i. On the branch where every t_i is the
+/// larger root, t_i(mu) = (d_i + S_i) / (2 Rq), S_i = sqrt(d_i^2 + 4 Rq mu), increasing in mu,
+/// and mu solves h(mu) = t_1 t_2 t_3 - 1 = 0: safeguarded Newton on a bracket, started from the
+/// linearization of ln h at mu = 0; once |h| <= kLinear the last Newton step moves t by its
+/// second-order Taylor expansion, dt_i/dmu = 1/S_i, d2t_i/dmu2 = -2 Rq/S_i^3 (the error of
+/// that step and of the Newton step itself are then at round-off). The result is
+/// accepted only if certify_mr3 proves it global (always when mu >= 0); otherwise (or when the
+/// branch has no root) the caller runs minimize_mr3. Three evaluations of t(mu) (3 square roots
+/// each) on the Fig 6 loadings, instead of a 2-D Newton iteration in log variables with its line
+/// search, the starts and their comparison.
+bool solve_mr3_dual(const ReducedMR3& p, double t[3]) {
+  if (p.C2 != 0.0) return false;
+  const double Rq = p.Rq;
+  constexpr double kLinear = 1e-7;  // Newton's next h is ~0.06 h^2 here: at round-off
+  const double inv2Rq = 0.5 / Rq;
+  double tp[3];                             // dt_i / dmu = 1 / S_i
+  auto eval = [&](double mu, double& hp) {  // h = t1 t2 t3 - 1 (no log), hp = dh/dmu
+    double P = 1.0, sum = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      const double d = p.d[i], S = std::sqrt(std::max(d * d + 4.0 * Rq * mu, 0.0));
+      t[i] = d >= 0.0 ? (d + S) * inv2Rq : 2.0 * mu / (S - d);  // no cancellation
+      tp[i] = 1.0 / S;
+      P *= t[i];
+      sum += 1.0 / (S * t[i]);  // d ln t_i / d mu
+    }
+    hp = P * sum;
+    return P - 1.0;
+  };
+  // Bracket [lo, hi] (hi = inf until a point with h > 0 is seen):
+  // the branch needs d_i^2 + 4 Rq mu >= 0 (all d_i > 0: mu >= -d_3^2 / (4 Rq)) and t_i > 0
+  // (some d_i <= 0: mu > 0; d is sorted, only d_3 can be negative).
+  double lo = 0.0, hi = kInf, mu = 0.0, h, hp;
+  if (p.d[2] > 0.0) {
+    // t_i(0) = d_i / Rq, so the sign of h(0) is known without evaluating; the first iterate is
+    // the Newton step of ln(t1 t2 t3) from 0 (t_i ~ d_i / Rq + mu / d_i)
+    const double P0 = (p.d[0] / Rq) * (p.d[1] / Rq) * (p.d[2] / Rq);
+    if (P0 > 1.0) {
+      lo = -p.d[2] * p.d[2] / (4.0 * Rq);
+      double hplo;
+      if (!(eval(lo, hplo) < 0.0)) return false;  // no stationary point on this branch
+      hi = 0.0;
+    }
+    const double slope =
+        Rq * (1.0 / (p.d[0] * p.d[0]) + 1.0 / (p.d[1] * p.d[1]) + 1.0 / (p.d[2] * p.d[2]));
+    mu = -std::log(P0) / slope;
+    if (!(mu > lo && mu < hi)) mu = hi < kInf ? 0.5 * (lo + hi) : 0.0;
+    h = eval(mu, hp);
+  } else {
+    mu = 1e-2 * Rq;  // h(0) = -inf: start inside
+    h = eval(mu, hp);
+  }
+  bool converged = false;
+  for (int it = 0; it < kMaxIter; ++it) {
+    if (std::abs(h) <= 8.0 * kEps) {
+      converged = true;
+      break;
+    }
+    if (h < 0.0) {
+      lo = mu;
+    } else {
+      hi = mu;
+    }
+    double mn = mu - h / hp;
+    if (std::abs(h) <= kLinear && mn > lo && mn < hi) {  // last step: Taylor, 2nd order
+      const double dm = mn - mu;
+      for (int i = 0; i < 3; ++i) t[i] += dm * tp[i] * (1.0 - dm * Rq * tp[i] * tp[i]);
+      converged = true;
+      break;
+    }
+    if (!(mn > lo && mn < hi)) mn = hi < kInf ? 0.5 * (lo + hi) : 2.0 * mu + Rq;
+    if (mn == mu || (hi < kInf && hi - lo <= 4.0 * kEps * std::max(std::abs(lo), std::abs(hi)))) {
+      converged = std::abs(h) <= 1e-12;
+      break;
+    }
+    mu = mn;
+    h = eval(mu, hp);
+  }
+  if (!converged || !(t[2] > 0.0)) return false;
+  t[2] = 1.0 / (t[0] * t[1]);  // det E = 1 exactly (t_3 the smallest, relative change ~eps)
+  double f = 0.0;
+  for (int i = 0; i < 3; ++i) f += (0.5 * Rq * t[i] - p.d[i]) * t[i];
+  return certify_mr3(p, t, f);
 }
 
 /// Global minimizer of ReducedMR3 (returns converged flag); t sorted decreasingly.
@@ -658,16 +753,112 @@ bool finish_svd3(const Eigen::Matrix3d& A, Eigen::Matrix3d& Q, Eigen::Vector3d& 
 
 }  // namespace
 
-/// [LTL87 (5.4)] 3x3 signed SVD. R from the eigenvectors of A^T A (closed form, Eigen's
+namespace {
+
+/// (n, b1, b2) a right-handed orthonormal basis, for a unit vector n (Duff et al., "Building an
+/// orthonormal basis, revisited", JCGT 2017): orthonormal to a few eps, one division.
+inline void complete_basis(const Eigen::Vector3d& n, Eigen::Vector3d& b1, Eigen::Vector3d& b2) {
+  const double sign = std::copysign(1.0, n.z());
+  const double a = -1.0 / (sign + n.z());
+  const double b = n.x() * n.y() * a;
+  b1 << 1.0 + sign * n.x() * n.x() * a, sign * b, -sign * n.x();
+  b2 << b, sign + n.y() * n.y() * a, -n.y();
+}
+
+/// Fast path of the 3x3 signed SVD (performance.md): only the eigenvector r1 of the largest
+/// eigenvalue of S = A^T A is computed (closed-form eigenvalue, cross products of the rows of
+/// S - lambda_1 I), completed to a rotation R = [r1 r2 r3]; b1 = A r1 = sigma_1 q1 is completed
+/// to a rotation [q1 q2 q3]; then [q1 q2 q3]^T A R is [sigma_1 0; 0 M] up to its entries
+/// (0,1), (0,2), which must be at round-off (checked: r1 accurate enough), and the 2x2 block M
+/// gets the closed-form signed 2x2 SVD. Returns false when the check fails (the caller then
+/// takes the robust path).
+bool signed_svd_fast(const Eigen::Matrix3d& A, Eigen::Matrix3d& Q, Eigen::Vector3d& d,
+                     Eigen::Matrix3d& R, double offtol) {
+  const Eigen::Matrix3d S = A.transpose() * A;
+  // largest eigenvalue of S (trigonometric form of the cubic)
+  const double q = S.trace() / 3.0;
+  const double s00 = S(0, 0) - q, s11 = S(1, 1) - q, s22 = S(2, 2) - q;
+  const double off2 = S(0, 1) * S(0, 1) + S(0, 2) * S(0, 2) + S(1, 2) * S(1, 2);
+  const double p2 = (s00 * s00 + s11 * s11 + s22 * s22 + 2.0 * off2) / 6.0;
+  Eigen::Vector3d r1(1.0, 0.0, 0.0);
+  if (p2 > 0.0) {
+    const double pp = std::sqrt(p2);
+    const double det = s00 * (s11 * s22 - S(1, 2) * S(1, 2)) -
+                       S(0, 1) * (S(0, 1) * s22 - S(1, 2) * S(0, 2)) +
+                       S(0, 2) * (S(0, 1) * S(1, 2) - s11 * S(0, 2));
+    const double r = std::clamp(det / (2.0 * pp * p2), -1.0, 1.0);
+    const double lambda = q + 2.0 * pp * std::cos(std::acos(r) / 3.0);
+    // eigenvector: the largest cross product of two rows of S - lambda I
+    Eigen::Matrix3d M = S;
+    M.diagonal().array() -= lambda;
+    const Eigen::Vector3d c0 = M.row(0).cross(M.row(1)), c1 = M.row(0).cross(M.row(2)),
+                          c2 = M.row(1).cross(M.row(2));
+    const double n0 = c0.squaredNorm(), n1 = c1.squaredNorm(), n2 = c2.squaredNorm();
+    const double rows = std::max({M.row(0).squaredNorm(), M.row(1).squaredNorm(),
+                                  M.row(2).squaredNorm()});
+    const double nmax = std::max({n0, n1, n2});
+    if (nmax > 1e-16 * rows * rows) {
+      r1 = (n0 >= n1 && n0 >= n2 ? c0 : n1 >= n2 ? c1 : c2) / std::sqrt(nmax);
+    } else if (rows > 0.0) {  // rank 1: any unit vector orthogonal to the largest row
+      int k = 0;
+      for (int i = 1; i < 3; ++i)
+        if (M.row(i).squaredNorm() > M.row(k).squaredNorm()) k = i;
+      Eigen::Vector3d w = M.row(k).transpose().normalized(), u, v;
+      complete_basis(w, u, v);
+      r1 = u;
+    }
+  }
+  Eigen::Vector3d r2, r3, q2, q3;
+  complete_basis(r1, r2, r3);
+  const Eigen::Vector3d b0 = A * r1;
+  const double sigma = b0.norm();
+  if (!(sigma > 0.0)) {  // A = 0
+    if (A.cwiseAbs().maxCoeff() != 0.0) return false;
+    Q.setIdentity();
+    R.setIdentity();
+    d.setZero();
+    return true;
+  }
+  const Eigen::Vector3d q1 = b0 / sigma;
+  complete_basis(q1, q2, q3);
+  const Eigen::Vector3d b1 = A * r2, b2 = A * r3;
+  if (std::abs(q1.dot(b1)) + std::abs(q1.dot(b2)) > offtol * sigma) return false;
+  Eigen::Matrix2d M2, Q2, R2;
+  Eigen::Vector2d d2;
+  M2 << q2.dot(b1), q2.dot(b2), q3.dot(b1), q3.dot(b2);
+  signed_svd(M2, Q2, d2, R2);
+  Q.col(0) = q1;
+  Q.col(1) = Q2(0, 0) * q2 + Q2(1, 0) * q3;
+  Q.col(2) = Q2(0, 1) * q2 + Q2(1, 1) * q3;
+  R.col(0) = r1;
+  R.col(1) = R2(0, 0) * r2 + R2(1, 0) * r3;
+  R.col(2) = R2(0, 1) * r2 + R2(1, 1) * r3;
+  d << sigma, d2[0], d2[1];
+  if (d[1] > d[0]) {  // round-off tie of the two largest
+    std::swap(d[0], d[1]);
+    Q.col(0).swap(Q.col(1));
+    R.col(0).swap(R.col(1));
+    Q.col(0) = -Q.col(0);
+    R.col(0) = -R.col(0);
+  }
+  return true;
+}
+
+}  // namespace
+
+/// [LTL87 (5.4)] 3x3 signed SVD. Fast path first (signed_svd_fast: one eigenvector of A^T A,
+/// completed to rotations, the remaining 2x2 block by the closed-form 2x2 SVD). If its
+/// round-off check fails: R from the eigenvectors of A^T A (closed form, Eigen's
 /// computeDirect); B = A R, columns sorted by norm; Givens QR B = Q T; T is diagonal up to
 /// O(eps |A|) except its lower 2x2 block, which gets the closed-form 2x2 SVD. When the
 /// closed-form eigenvectors are not accurate enough (close eigenvalues: T(0,1), T(0,2) not at
-/// round-off), R comes from cyclic Jacobi on A^T A instead. Backward stable:
+/// round-off), R comes from cyclic Jacobi on A^T A instead. Backward stable on every path:
 /// |A - Q diag(d) R^T| = O(eps |A|).
 void signed_svd(const Eigen::Matrix3d& A, Eigen::Matrix3d& Q, Eigen::Vector3d& d,
                 Eigen::Matrix3d& R) {
-  Eigen::Matrix3d S = A.transpose() * A;
   const double offtol = 4.0 * kEps;
+  if (signed_svd_fast(A, Q, d, R, offtol)) return;
+  Eigen::Matrix3d S = A.transpose() * A;
   {
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect(S);
@@ -723,7 +914,7 @@ bool StrainStep::solve(const Eigen::Matrix3d& D, Eigen::Matrix3d& E) const {
   if (material_.incompressible()) {
     const ReducedMR3 p{Rq_, material_.C2, d};
     double x[3];
-    ok = minimize_mr3(p, x);
+    ok = solve_mr3_dual(p, x) || minimize_mr3(p, x);
     t << x[0], x[1], x[2];
   } else {
     const ReducedComp<3> p{Rq_, material_.C3, 2.0 * (material_.C1 + material_.C3), d};
