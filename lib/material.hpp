@@ -1,7 +1,7 @@
 // Stored energy functions W(F) of the paper, with their first derivatives.
 //
-// [LTL87 (1.5)] incompressible Mooney-Rivlin:  W(F) = C1 (|F|^2 - 3) + C2 (|adj F|^2 - 3),  det F = 1.
-// [LTL87 sec. 8, Fig 3] compressible law:     W(F) = C1 (|F|^2 - 3) + C3 (det F)^2 - C3
+// [LTL87 (1.5)] incompressible Mooney-Rivlin:  W(F) = C1 (|F|^2 - 3) + C2 (|adj F|^2 - 3),  det F
+// = 1. [LTL87 sec. 8, Fig 3] compressible law:     W(F) = C1 (|F|^2 - 3) + C3 (det F)^2 - C3
 //                                                     - 2 (C1 + C3) ln det F.
 // Plane strain embeds a 2x2 in-plane gradient as F = diag(F2, 1).
 #pragma once
@@ -21,6 +21,15 @@ struct Material {
   double C1 = 0.0;  ///< Pa, coefficient of |F|^2 (lives in the global Laplacian, (2.5))
   double C2 = 0.0;  ///< Pa, coefficient of |adj F|^2 (Mooney-Rivlin)
   double C3 = 0.0;  ///< Pa, volumetric coefficient (compressible law)
+
+  /// Incompressible Mooney-Rivlin (1.5) with moduli C1, C2 (Pa).
+  static Material mooney_rivlin(double C1, double C2) {
+    return {MaterialModel::MooneyRivlin, C1, C2, 0.0};
+  }
+  /// The compressible law of section 8 with moduli C1, C3 (Pa).
+  static Material compressible(double C1, double C3) {
+    return {MaterialModel::Compressible, C1, 0.0, C3};
+  }
 
   bool incompressible() const { return model == MaterialModel::MooneyRivlin; }
   std::string name() const;

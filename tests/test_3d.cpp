@@ -13,42 +13,10 @@
 #include "testing.hpp"
 
 using namespace ltl;
+using ltl::testing::distorted_box;
 using ltl::testing::test_path;
 
 namespace {
-
-Material mooney_rivlin(double C1, double C2) {
-  Material m;
-  m.model = MaterialModel::MooneyRivlin;
-  m.C1 = C1;
-  m.C2 = C2;
-  return m;
-}
-Material compressible(double C1, double C3) {
-  Material m;
-  m.model = MaterialModel::Compressible;
-  m.C1 = C1;
-  m.C3 = C3;
-  return m;
-}
-
-// The unit box of n^3 hexahedra (tests/geometry/box.geo) with its interior nodes moved at random
-// by up to a quarter of a cell (as in test_operators.cpp): the faces stay planar, the cells are
-// general trilinear hexahedra, not parallelepipeds.
-Mesh distorted_box(int n, unsigned seed = 7) {
-  Mesh m = load_mesh(test_path("geometry/box.geo"), {{"n", n}});
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> U(-0.25, 0.25);
-  const double h = 1.0 / n;
-  for (int i = 0; i < m.num_nodes(); ++i) {
-    bool interior = true;
-    for (int k = 0; k < 3; ++k) interior &= m.X(i, k) > 1e-9 && m.X(i, k) < 1 - 1e-9;
-    if (interior) {
-      for (int k = 0; k < 3; ++k) m.X(i, k) += U(rng) * h;
-    }
-  }
-  return m;
-}
 
 struct Solved {
   std::unique_ptr<Solver> solver;
@@ -115,7 +83,7 @@ TEST(PatchTest3D, DistortedHexahedra_IncompressibleMooneyRivlin_detE_is_1_5_7) {
   U /= std::cbrt(U.determinant());
   const Eigen::Matrix3d F = rotation(0.4, {1, 2, 3}) * U;
   ASSERT_NEAR(F.determinant(), 1.0, 1e-14);
-  expect_patch(mesh, mooney_rivlin(100e3, 30e3), F);
+  expect_patch(mesh, Material::mooney_rivlin(100e3, 30e3), F);
 }
 
 TEST(PatchTest3D, DistortedHexahedra_CompressibleLaw_Sec8) {
@@ -123,7 +91,7 @@ TEST(PatchTest3D, DistortedHexahedra_CompressibleLaw_Sec8) {
   Eigen::Matrix3d F;
   F << 1.2, 0.3, -0.1, 0.0, 0.9, 0.2, 0.1, -0.2, 1.1;
   ASSERT_GT(std::abs(F.determinant() - 1), 0.1);  // a genuine volume change
-  expect_patch(mesh, compressible(187.5e3, 187.5e3), F);
+  expect_patch(mesh, Material::compressible(187.5e3, 187.5e3), F);
 }
 
 TEST(UniaxialTension3D, IncompressibleMooneyRivlinDeadLoad_1_5) {
@@ -138,7 +106,7 @@ TEST(UniaxialTension3D, IncompressibleMooneyRivlinDeadLoad_1_5) {
     const double lt = 1 / std::sqrt(l);  // lateral stretch
     Problem p;
     p.mesh = mesh;
-    p.material = mooney_rivlin(C1, C2);
+    p.material = Material::mooney_rivlin(C1, C2);
     p.dirichlet = {{"x0", {0}, {}, "test"}, {"y0", {1}, {}, "test"}, {"z0", {2}, {}, "test"}};
     Traction t{"x1", {}, "test"};
     t.g.value(0) = P;
@@ -197,8 +165,8 @@ TEST(FrameIndifference3D, RigidRotationIsStressFreeForBothLaws) {
   // the compressible law whose stress is fully determined, P = 2 C1 E - lambda = 0 and J_p = 0.
   const Mesh mesh = distorted_box(2, 3);
   const Eigen::Matrix3d Q = rotation(M_PI / 3, {1, -1, 2});
-  expect_patch(mesh, mooney_rivlin(100e3, 30e3), Q);
-  const Material m = compressible(187.5e3, 187.5e3);
+  expect_patch(mesh, Material::mooney_rivlin(100e3, 30e3), Q);
+  const Material m = Material::compressible(187.5e3, 187.5e3);
   const Solved r = homogeneous(mesh, m, Q);
   const Eigen::MatrixXd P = r.solver->piola(r.s);
   EXPECT_LT(P.cwiseAbs().maxCoeff(), 1e-6 * m.C1);
@@ -210,7 +178,7 @@ TEST(FrameIndifference3D, RigidRotationIsStressFreeForBothLaws) {
 TEST(FrameIndifference3D, CauchyStressOfQFIsQSigmaQt_CompressibleLaw) {
   // sigma(Q F) = Q sigma(F) Q^T, and both equal the closed form dW(F) F^T / det F cell by cell.
   const Mesh mesh = distorted_box(2, 5);
-  const Material m = compressible(187.5e3, 187.5e3);
+  const Material m = Material::compressible(187.5e3, 187.5e3);
   Eigen::Matrix3d F;
   F << 1.1, 0.2, 0.0, -0.1, 0.95, 0.15, 0.05, 0.0, 1.2;
   const Eigen::Matrix3d Q = rotation(1.0, {0.3, 1, -0.5});

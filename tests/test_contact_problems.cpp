@@ -21,21 +21,6 @@ using ltl::testing::test_path;
 
 namespace {
 
-Material mooney_rivlin(double C1, double C2) {
-  Material m;
-  m.model = MaterialModel::MooneyRivlin;
-  m.C1 = C1;
-  m.C2 = C2;
-  return m;
-}
-Material compressible(double C1, double C3) {
-  Material m;
-  m.model = MaterialModel::Compressible;
-  m.C1 = C1;
-  m.C3 = C3;
-  return m;
-}
-
 // Pure contact (no glue) on `group` with the plane through the origin of outward normal N.
 ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& N) {
   ContactCondition cc;
@@ -229,8 +214,8 @@ TEST(BlockOnPlane, PlaneStrainMooneyRivlin_1_5_ContactPressureEqualsLoad) {
   ASSERT_NEAR(exact.p, 2 * (1 / 0.729 - 0.9) * 130e3, 1e-6);  // 122653 Pa
   AlgorithmParams alg = ltl::testing::tight(4 * (C1 + C2));
   alg.tol = 1e-11;
-  expect_block_on_plane(load_mesh(test_path("geometry/square.geo")), mooney_rivlin(C1, C2), exact,
-                        alg);
+  expect_block_on_plane(load_mesh(test_path("geometry/square.geo")),
+                        Material::mooney_rivlin(C1, C2), exact, alg);
 }
 
 TEST(BlockOnPlane, PlaneStrainCompressibleLaw_Sec8) {
@@ -240,8 +225,8 @@ TEST(BlockOnPlane, PlaneStrainCompressibleLaw_Sec8) {
   ASSERT_GT(std::abs(exact.stretch(0) * exact.stretch(1) - 1), 0.01);  // a volume change
   AlgorithmParams alg = ltl::testing::tight(4 * C1);
   alg.tol = 1e-11;
-  expect_block_on_plane(load_mesh(test_path("geometry/square.geo")), compressible(C1, C3), exact,
-                        alg);
+  expect_block_on_plane(load_mesh(test_path("geometry/square.geo")), Material::compressible(C1, C3),
+                        exact, alg);
 }
 
 TEST(BlockOnPlane, ThreeDMooneyRivlin_1_5_DistortedHexahedra) {
@@ -250,7 +235,7 @@ TEST(BlockOnPlane, ThreeDMooneyRivlin_1_5_DistortedHexahedra) {
   // R q = 8 (C1 + C2), as in test_3d.cpp: below about 4 C1 the 3-D iteration is unstable.
   AlgorithmParams alg = ltl::testing::tight(8 * (C1 + C2));
   alg.tol = 1e-11;
-  expect_block_on_plane(distorted_box(3), mooney_rivlin(C1, C2), exact, alg);
+  expect_block_on_plane(distorted_box(3), Material::mooney_rivlin(C1, C2), exact, alg);
 }
 
 TEST(BlockOnPlane, ThreeDCompressibleLaw_Sec8_DistortedHexahedra) {
@@ -260,7 +245,7 @@ TEST(BlockOnPlane, ThreeDCompressibleLaw_Sec8_DistortedHexahedra) {
   // residual O(1)); 8 C1 converges in about 300 iterations.
   AlgorithmParams alg = ltl::testing::tight(8 * C1);
   alg.tol = 1e-11;
-  expect_block_on_plane(distorted_box(3), compressible(C1, C3), exact, alg);
+  expect_block_on_plane(distorted_box(3), Material::compressible(C1, C3), exact, alg);
 }
 
 // ---------------------------------------------------------------------------------------------

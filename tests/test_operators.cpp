@@ -9,26 +9,11 @@
 #include "testing.hpp"
 
 using namespace ltl;
+using ltl::testing::distorted_box;
 using ltl::testing::source_path;
 using ltl::testing::test_path;
 
 namespace {
-
-// Moves the interior nodes of a mesh (distorted cells); P2 mid-edge nodes move with the average
-// of their edge's vertices so that edges stay straight.
-Mesh distorted_box(int n) {
-  Mesh m = load_mesh(test_path("geometry/box.geo"), {{"n", n}});
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> U(-0.25, 0.25);
-  const double h = 1.0 / n;
-  for (int i = 0; i < m.num_nodes(); ++i) {
-    bool interior = true;
-    for (int k = 0; k < 3; ++k) interior &= m.X(i, k) > 1e-9 && m.X(i, k) < 1 - 1e-9;
-    if (interior)
-      for (int k = 0; k < 3; ++k) m.X(i, k) += U(rng) * h;
-  }
-  return m;
-}
 
 // Mean gradient of u(x) = A x + c is A in every cell.
 void expect_mean_gradient_exact(const Mesh& m, const Eigen::MatrixXd& A) {

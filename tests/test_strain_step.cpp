@@ -17,22 +17,6 @@ using ltl::Material;
 using ltl::MaterialModel;
 using ltl::StrainStep;
 
-Material mooney_rivlin(double C1, double C2) {
-  Material m;
-  m.model = MaterialModel::MooneyRivlin;
-  m.C1 = C1;
-  m.C2 = C2;
-  return m;
-}
-
-Material compressible(double C1, double C3) {
-  Material m;
-  m.model = MaterialModel::Compressible;
-  m.C1 = C1;
-  m.C3 = C3;
-  return m;
-}
-
 /// The paper's materials with the paper's R q: Fig 3 (R = 8, q = 2 C1), Fig 4 (C2 = 0),
 /// Fig 5 (R = 5, q = 1000: Rq far below C1), and a large Rq.
 struct Case {
@@ -40,13 +24,13 @@ struct Case {
   double Rq;
 };
 std::vector<Case> cases() {
-  return {{compressible(187.5e3, 187.5e3), 8.0 * 375e3},
-          {compressible(187.5e3, 187.5e3), 5e3},
-          {compressible(50e3, 1e6), 1e8},
-          {mooney_rivlin(187.5e3, 0.0), 8.0 * 375e3},
-          {mooney_rivlin(435e3, 65e3), 5e3},
-          {mooney_rivlin(435e3, 65e3), 1e7},
-          {mooney_rivlin(50e3, 0.0), 1e8}};
+  return {{Material::compressible(187.5e3, 187.5e3), 8.0 * 375e3},
+          {Material::compressible(187.5e3, 187.5e3), 5e3},
+          {Material::compressible(50e3, 1e6), 1e8},
+          {Material::mooney_rivlin(187.5e3, 0.0), 8.0 * 375e3},
+          {Material::mooney_rivlin(435e3, 65e3), 5e3},
+          {Material::mooney_rivlin(435e3, 65e3), 1e7},
+          {Material::mooney_rivlin(50e3, 0.0), 1e8}};
 }
 
 template <int n>
@@ -253,7 +237,7 @@ TEST(StrainStep, Eq5_4_FrameIndifference) {
 
 TEST(StrainStep, Eq5_8_PlaneStrainMooneyRivlinClosedForms) {
   // (5.8) in plane strain: min (Rq/2 + C2)(t1^2 + t2^2) - d1 t1 - d2 t2, t1 t2 = 1.
-  const Material m = mooney_rivlin(435e3, 65e3);
+  const Material m = Material::mooney_rivlin(435e3, 65e3);
   const double Rq = 1e6, A = 0.5 * Rq + m.C2;
   const StrainStep st(m, Rq);
   Mat<2> E;
@@ -406,7 +390,7 @@ TEST(StrainStep, Eq5_8_TwoLocalMinimaInTheOrderedCone3D) {
   // local minima with t sorted like d, t ~ (1.11, 0.96, 0.94) and t ~ (1.33, 1.28, 0.59); the
   // second is the global one. A single Newton run from t = 1 stops at the first.
   const double Rq = 1e6;
-  const StrainStep st(mooney_rivlin(187.5e3, 0.0), Rq);
+  const StrainStep st(Material::mooney_rivlin(187.5e3, 0.0), Rq);
   std::mt19937_64 g(70);
   const Eigen::Vector3d d = Rq * Eigen::Vector3d(1.89462, 1.86611, 1.86556);
   const Mat<3> Q1 = random_rotation<3>(g), Q2 = random_rotation<3>(g);

@@ -13,21 +13,6 @@ using ltl::testing::test_path;
 
 namespace {
 
-Material mooney_rivlin(double C1, double C2) {
-  Material m;
-  m.model = MaterialModel::MooneyRivlin;
-  m.C1 = C1;
-  m.C2 = C2;
-  return m;
-}
-Material compressible(double C1, double C3) {
-  Material m;
-  m.model = MaterialModel::Compressible;
-  m.C1 = C1;
-  m.C3 = C3;
-  return m;
-}
-
 StepReport solve(Solver& solver, State& s) {
   const StepReport r = solver.solve_step(s, s.beta);
   EXPECT_TRUE(r.converged) << r.status;
@@ -63,7 +48,7 @@ void patch_test(Problem p, const Eigen::MatrixXd& F) {
 TEST(PatchTest, Compressible2D) {
   Problem p;
   p.mesh = load_mesh(test_path("geometry/square.geo"));
-  p.material = compressible(187.5e3, 187.5e3);
+  p.material = Material::compressible(187.5e3, 187.5e3);
   Eigen::Matrix2d F;
   F << 1.2, 0.3, -0.1, 0.9;
   patch_test(p, F);
@@ -72,7 +57,7 @@ TEST(PatchTest, Compressible2D) {
 TEST(PatchTest, IncompressibleMooneyRivlin2D_detE_is_1) {
   Problem p;
   p.mesh = load_mesh(test_path("geometry/square.geo"));
-  p.material = mooney_rivlin(100e3, 30e3);
+  p.material = Material::mooney_rivlin(100e3, 30e3);
   Eigen::Matrix2d F;
   F << 1.25, 0.3, 0.0, 0.8;  // det F = 1
   patch_test(p, F);
@@ -86,7 +71,7 @@ TEST(PlanarTension, MooneyRivlinClosedForm) {
   for (const double l : {1.5, 2.0}) {
     Problem p;
     p.mesh = load_mesh(test_path("geometry/square.geo"));
-    p.material = mooney_rivlin(C1, C2);
+    p.material = Material::mooney_rivlin(C1, C2);
     p.dirichlet = {{"left", {0}, {}, "test"}, {"bottom", {1}, {}, "test"}};
     Traction t{"right", {}, "test"};
     t.g.value(0) = 2 * (l - std::pow(l, -3)) * (C1 + C2);
@@ -117,7 +102,7 @@ namespace {
 Problem compressible_cantilever(double R) {
   Problem p;
   p.mesh = load_mesh(source_path("experiments/fig3/bar.geo"), {{"nx", 14}, {"ny", 3}});
-  p.material = compressible(187.5e3, 187.5e3);
+  p.material = Material::compressible(187.5e3, 187.5e3);
   p.dirichlet = {{"right", {0, 1}, {}, "test"}};
   Traction t{"top", {}, "test"};
   t.g.value(1) = 1e4;

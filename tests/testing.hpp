@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "mesh.hpp"
 #include "problem.hpp"
 
 #ifndef LTL_TEST_DIR
@@ -51,6 +52,24 @@ inline AlgorithmParams tight(double Rq, double R = 1.0) {
   a.tol = 1e-12;
   a.max_iter = 20000;
   return a;
+}
+
+// The unit box of n^3 hexahedra (tests/geometry/box.geo) with its interior nodes moved at random
+// by up to a quarter of a cell (as in test_operators.cpp): the faces stay planar, the cells are
+// general trilinear hexahedra, not parallelepipeds.
+inline Mesh distorted_box(int n, unsigned seed = 7) {
+  Mesh m = load_mesh(test_path("geometry/box.geo"), {{"n", n}});
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> U(-0.25, 0.25);
+  const double h = 1.0 / n;
+  for (int i = 0; i < m.num_nodes(); ++i) {
+    bool interior = true;
+    for (int k = 0; k < 3; ++k) interior &= m.X(i, k) > 1e-9 && m.X(i, k) < 1 - 1e-9;
+    if (interior) {
+      for (int k = 0; k < 3; ++k) m.X(i, k) += U(rng) * h;
+    }
+  }
+  return m;
 }
 
 }  // namespace ltl::testing
