@@ -14,25 +14,11 @@
 
 using namespace ltl;
 using ltl::testing::distorted_box;
+using ltl::testing::solve_one_step;
+using ltl::testing::Solved;
 using ltl::testing::test_path;
 
 namespace {
-
-struct Solved {
-  std::unique_ptr<Solver> solver;
-  State s;
-  StepReport report;
-};
-
-Solved run(const Problem& p) {
-  Solved r;
-  r.solver = std::make_unique<Solver>(p);
-  r.s = r.solver->initial_state();
-  r.report = r.solver->solve_step(r.s, r.s.beta);
-  EXPECT_TRUE(r.report.converged) << r.report.status;
-  EXPECT_EQ(r.report.strain_failures, 0);
-  return r;
-}
 
 // u = (F - I) x imposed on the whole boundary of `mesh`.
 Solved homogeneous(const Mesh& mesh, const Material& material, const Eigen::Matrix3d& F) {
@@ -43,7 +29,7 @@ Solved homogeneous(const Mesh& mesh, const Material& material, const Eigen::Matr
   bc.field.gradient = F - Eigen::Matrix3d::Identity();
   p.dirichlet = {bc};
   p.algorithm = ltl::testing::tight(2 * material.C1 * 4);
-  return run(p);
+  return solve_one_step(p);
 }
 
 // [LTL87 (2.7), (5.1)] Patch test: every cell has E = F and every node u = (F - I) x.

@@ -16,6 +16,9 @@
 #include "testing.hpp"
 
 using namespace ltl;
+using ltl::testing::distorted_box;
+using ltl::testing::solve_one_step;
+using ltl::testing::Solved;
 using ltl::testing::source_path;
 using ltl::testing::test_path;
 
@@ -30,22 +33,6 @@ ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& 
   cc.beta0 = 0.0;  // w = kappa = d0 = 0 by default
   cc.origin = "test";
   return cc;
-}
-
-// The box of tests/geometry/box.geo with its interior nodes moved at random (faces stay planar).
-Mesh distorted_box(int n, unsigned seed = 7) {
-  Mesh m = load_mesh(test_path("geometry/box.geo"), {{"n", n}});
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> U(-0.25, 0.25);
-  const double h = 1.0 / n;
-  for (int i = 0; i < m.num_nodes(); ++i) {
-    bool interior = true;
-    for (int k = 0; k < 3; ++k) interior &= m.X(i, k) > 1e-9 && m.X(i, k) < 1 - 1e-9;
-    if (interior) {
-      for (int k = 0; k < 3; ++k) m.X(i, k) += U(rng) * h;
-    }
-  }
-  return m;
 }
 
 // Residual of the global equilibrium at a converged state, #nodes x dim:
@@ -74,22 +61,6 @@ Eigen::VectorXd mean_gap(const Solver& solver, const State& s) {
   const Eigen::MatrixXd ubar = solver.facets()->mean * s.u;                // #facets x dim
   const Eigen::VectorXd g0 = solver.contact_gap(s) + s.e.transpose() * N;  // initial gap g_s
   return g0 - ubar * N;
-}
-
-struct Solved {
-  std::unique_ptr<Solver> solver;
-  State s;
-  StepReport report;
-};
-
-Solved run(const Problem& p) {
-  Solved r;
-  r.solver = std::make_unique<Solver>(p);
-  r.s = r.solver->initial_state();
-  r.report = r.solver->solve_step(r.s, r.s.beta);
-  EXPECT_TRUE(r.report.converged) << r.report.status;
-  EXPECT_EQ(r.report.strain_failures, 0);
-  return r;
 }
 
 // The homogeneous answer of a block pressed on the plane: F = diag(stretches), contact pressure p.
@@ -146,7 +117,7 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
     p.contact = plane_contact("z0", N);
   }
   p.algorithm = alg;
-  const Solved r = run(p);
+  const Solved r = solve_one_step(p);
   const Solver& solver = *r.solver;
   const State& s = r.s;
 
@@ -307,7 +278,7 @@ TEST(Fig5, CylinderOnPlane_SignoriniConditionsAndContactForceEqualsWeight) {
   // vertical support is the plane: sum_s |G_s| p_s = |f| |Omega| = 400e3 * pi/2 N/m.
   const Problem problem =
       load_problem(source_path("experiments/fig5/fig5.toml"), {"algorithm.tol=1e-9"});
-  const Solved r = run(problem);
+  const Solved r = solve_one_step(problem);
   const Solver& solver = *r.solver;
   const State& s = r.s;
   const double Rc = 1.0;
@@ -356,7 +327,7 @@ TEST(Fig6, GutterOverPlane_SignoriniConditionsAndVerticalBalanceWithClampReactio
   // residual of the global equilibrium at the clamped nodes (the only vertically fixed ones).
   const Problem problem = load_problem(source_path("experiments/fig6/fig6.toml"),
                                        {"mesh.parameters.nl=5", "algorithm.tol=1e-8"});
-  const Solved r = run(problem);
+  const Solved r = solve_one_step(problem);
   const Solver& solver = *r.solver;
   const State& s = r.s;
   std::printf("  Fig 6 (nl = 5, %d H8): %d iterations\n", problem.mesh.num_cells(),

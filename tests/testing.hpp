@@ -6,9 +6,11 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <string>
 
+#include "alg2.hpp"
 #include "mesh.hpp"
 #include "problem.hpp"
 
@@ -70,6 +72,25 @@ inline Mesh distorted_box(int n, unsigned seed = 7) {
     }
   }
   return m;
+}
+
+/// A solver and the state it converged to in one step from the initial state.
+struct Solved {
+  std::unique_ptr<Solver> solver;
+  State s;
+  StepReport report;
+};
+
+/// One static step (4.1)-(4.4) from the initial state; expects convergence with every local
+/// strain problem solved to round-off.
+inline Solved solve_one_step(const Problem& p) {
+  Solved r;
+  r.solver = std::make_unique<Solver>(p);
+  r.s = r.solver->initial_state();
+  r.report = r.solver->solve_step(r.s, r.s.beta);
+  EXPECT_TRUE(r.report.converged) << r.report.status;
+  EXPECT_EQ(r.report.strain_failures, 0);
+  return r;
 }
 
 }  // namespace ltl::testing

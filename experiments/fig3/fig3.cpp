@@ -41,7 +41,7 @@
 #include <cstdio>
 
 #include "cli.hpp"
-#include "fe.hpp"
+#include "peel_report.hpp"
 
 // The experiment is entirely in experiments/fig3/fig3.toml: mesh (28 x 3 rectangles split into
 // 168 P2 triangles, 28 contact segments, as in the paper), material, the fixed end, the
@@ -66,40 +66,7 @@ namespace {
 // The numbers of the figure, from the state at the last step: where the glue has broken and
 // how far the bar has lifted off its support.
 void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
-  const ltl::State& s = run.state;
-  const auto& contact = *problem.contact;
-  const ltl::FacetOperators facets =
-      ltl::facet_operators(problem.mesh, problem.mesh.boundary(contact.group));
-  const Eigen::VectorXd N = contact.plane_normal.head(problem.mesh.dim).normalized();
-
-  // Debonding front: the largest facet-centre x1 where less than half the glue links survive.
-  int broken = 0;
-  double front = -1;
-  for (int f = 0; f < facets.size(); ++f)
-    if (s.beta(f) < 0.5) ++broken, front = std::max(front, facets.centre(0, f));
-
-  // Opening (lift-off) of a facet: its contact displacement along -N, away from the support
-  // [LTL87 (4.11): e.n <= 0 on Gamma_c, here n = N].
-  const Eigen::VectorXd opening = -(s.e.transpose() * N);
-  int f_max = 0;
-  opening.maxCoeff(&f_max);
-
-  // The hardest step is the one where the peel runs away.
-  const auto hardest = std::max_element(run.iterations.begin(), run.iterations.end());
-
-  std::printf("fig3 at t = %g s (step %d):\n", run.last_step * problem.time.dt, run.last_step);
-  if (front >= 0)
-    std::printf("  debonding front (largest x1 with beta < 0.5): %.4f m; %d of %d facets\n", front,
-                broken, facets.size());
-  else
-    std::printf("  debonding front (largest x1 with beta < 0.5): none\n");
-  std::printf("  beta: min %.3g, max %.3g\n", s.beta.minCoeff(), s.beta.maxCoeff());
-  std::printf("  maximum opening e.(-N): %.4g m at x1 = %.4f m\n", opening(f_max),
-              facets.centre(0, f_max));
-  if (hardest != run.iterations.end()) {
-    const int p = run.first_step + static_cast<int>(hardest - run.iterations.begin());
-    std::printf("  hardest step: %d (t = %g s), %d iterations\n", p, p * problem.time.dt, *hardest);
-  }
+  ltl::figures::peel_report("fig3", problem, run);
 }
 
 }  // namespace

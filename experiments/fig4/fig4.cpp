@@ -34,8 +34,8 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "../fig3/peel_report.hpp"
 #include "cli.hpp"
-#include "fe.hpp"
 
 // The configuration experiments/fig4/fig4.toml reuses the bar of Fig 3 (28 x 2 rectangles, 112
 // P2 triangles, 28 contact segments) and its algorithm (R = 8, q = 2 C1, q_c = 3e7 Pa/m,
@@ -54,46 +54,17 @@ namespace {
 // The numbers of the figure at the last step (t = 800 s): beta and the vertical displacement of
 // the contact surface along x1, summarized by the debonding front and the largest opening.
 void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
-  const ltl::State& s = run.state;
-  const auto& contact = *problem.contact;
-  const ltl::FacetOperators facets =
-      ltl::facet_operators(problem.mesh, problem.mesh.boundary(contact.group));
-  const Eigen::VectorXd N = contact.plane_normal.head(problem.mesh.dim).normalized();
-
-  // Debonding front: the largest facet-centre x1 where less than half the glue links survive.
-  int broken = 0;
-  double front = -1;
-  for (int f = 0; f < facets.size(); ++f)
-    if (s.beta(f) < 0.5) ++broken, front = std::max(front, facets.centre(0, f));
-
-  // Opening of a facet: its contact displacement along -N [LTL87 (4.11)]; here -N = e2, so
-  // this is also the vertical displacement of the contact surface the paper plots.
-  const Eigen::VectorXd opening = -(s.e.transpose() * N);
-  int f_max = 0;
-  opening.maxCoeff(&f_max);
-
-  const auto hardest = std::max_element(run.iterations.begin(), run.iterations.end());
-
-  std::printf("fig4 at t = %g s (step %d):\n", run.last_step * problem.time.dt, run.last_step);
-  if (front >= 0)
-    std::printf("  debonding front (largest x1 with beta < 0.5): %.4f m; %d of %d facets\n", front,
-                broken, facets.size());
-  else
-    std::printf("  debonding front (largest x1 with beta < 0.5): none\n");
-  std::printf("  beta: min %.3g, max %.3g\n", s.beta.minCoeff(), s.beta.maxCoeff());
-  std::printf("  maximum opening e.(-N): %.4g m at x1 = %.4f m\n", opening(f_max),
-              facets.centre(0, f_max));
-  std::printf("  vertical displacement of the contact surface e2 at x1 = 0.25, 0.5, 0.75 m:");
-  for (double x : {0.25, 0.5, 0.75}) {
-    int f_near = 0;
-    (facets.centre.row(0).array() - x).abs().minCoeff(&f_near);
-    std::printf(" %.4g", opening(f_near));
-  }
-  std::printf(" m (nearest facet centres)\n");
-  if (hardest != run.iterations.end()) {
-    const int p = run.first_step + static_cast<int>(hardest - run.iterations.begin());
-    std::printf("  hardest step: %d (t = %g s), %d iterations\n", p, p * problem.time.dt, *hardest);
-  }
+  // Here -N = e2: the opening is the vertical displacement of the contact surface the paper plots.
+  ltl::figures::peel_report(
+      "fig4", problem, run, [](const ltl::FacetOperators& facets, const Eigen::VectorXd& opening) {
+        std::printf("  vertical displacement of the contact surface e2 at x1 = 0.25, 0.5, 0.75 m:");
+        for (double x : {0.25, 0.5, 0.75}) {
+          int f_near = 0;
+          (facets.centre.row(0).array() - x).abs().minCoeff(&f_near);
+          std::printf(" %.4g", opening(f_near));
+        }
+        std::printf(" m (nearest facet centres)\n");
+      });
 }
 
 }  // namespace
