@@ -142,6 +142,15 @@ void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f
 
 }  // namespace
 
+void for_each_quadrature_point(const Mesh& mesh, int c,
+                               const std::function<void(const Eigen::MatrixXd&, double)>& visit) {
+  Eigen::MatrixXd grad;
+  for_each_point(mesh, c, [&](const auto&, const auto& g, double w) {
+    grad = g;
+    visit(grad, w);
+  });
+}
+
 CellOperators cell_operators(const Mesh& mesh) {
   const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
   CellOperators ops;

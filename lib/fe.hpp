@@ -46,6 +46,12 @@ struct FacetOperators {
 };
 
 CellOperators cell_operators(const Mesh& mesh);
+
+/// Calls visit(grad, w) at every quadrature point of cell c, with grad the physical gradients of
+/// the shape functions (#nodes_per_cell x dim) and w the weight times |det J| (the rules used by
+/// cell_operators). For assembling other operators, e.g. the elasticity matrix of section 7.
+void for_each_quadrature_point(const Mesh& mesh, int c,
+                               const std::function<void(const Eigen::MatrixXd&, double)>& visit);
 FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
 
 /// A vector field affine in the reference position: g(x) = value + gradient * x (first dim

@@ -1,7 +1,6 @@
 #include "signorini.hpp"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <numeric>
@@ -17,81 +16,23 @@ double seconds_since(clock_type::time_point t0) {
   return std::chrono::duration<double>(clock_type::now() - t0).count();
 }
 
-// Reference elements (same node orders and rules as fe.cpp, which keeps them private).
-struct QPoint {
-  double xi, eta, zeta, w;
-};
-// Six-point degree-4 rule on the reference triangle (area 1/2) [Dunavant 1985]: exact for the
-// P2 stiffness on straight-sided triangles.
-const std::array<QPoint, 6> kTriangleRule = [] {
-  const double a = 0.445948490915965, wa = 0.223381589678011 / 2;
-  const double b = 0.091576213509771, wb = 0.109951743655322 / 2;
-  return std::array<QPoint, 6>{{{a, a, 0, wa},
-                                {1 - 2 * a, a, 0, wa},
-                                {a, 1 - 2 * a, 0, wa},
-                                {b, b, 0, wb},
-                                {1 - 2 * b, b, 0, wb},
-                                {b, 1 - 2 * b, 0, wb}}};
-}();
-const double kG = 0.57735026918962576;  // 1 / sqrt(3): 2x2x2 Gauss on H8
-const int kHexCorner[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
-                              {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
-
-// gmsh P2 triangle: vertices (0,0), (1,0), (0,1), then mid-edges 01, 12, 20. Derivatives only.
-Eigen::Matrix<double, 6, 2> p2_triangle_dN(double xi, double eta) {
-  const double L0 = 1 - xi - eta, L1 = xi, L2 = eta;
-  Eigen::Matrix<double, 6, 2> dN;
-  dN << -(4 * L0 - 1), -(4 * L0 - 1), 4 * L1 - 1, 0, 0, 4 * L2 - 1, 4 * (L0 - L1), -4 * L1, 4 * L2,
-      4 * L1, -4 * L2, 4 * (L0 - L2);
-  return dN;
-}
-Eigen::Matrix<double, 8, 3> h8_dN(double xi, double eta, double zeta) {
-  Eigen::Matrix<double, 8, 3> dN;
-  for (int a = 0; a < 8; ++a) {
-    const double X = kHexCorner[a][0], Y = kHexCorner[a][1], Z = kHexCorner[a][2];
-    const double fx = 1 + X * xi, fy = 1 + Y * eta, fz = 1 + Z * zeta;
-    dN(a, 0) = X * fy * fz / 8;
-    dN(a, 1) = Y * fx * fz / 8;
-    dN(a, 2) = Z * fx * fy / 8;
-  }
-  return dN;
-}
-
-// [LTL87 (7.1)] Element stiffness of cell c, (DIM * NPC)^2, interleaved local dofs:
+// [LTL87 (7.1)] Element stiffness of cell c, (dim npc)^2, interleaved local dofs:
 //   Ke(d a + i, d b + j) = integral lam dNa_i dNb_j + mu (dNa_j dNb_i + delta_ij grad Na . grad
-//   Nb).
-template <int NPC, int DIM, class Points, class Shape>
-Eigen::Matrix<double, DIM * NPC, DIM * NPC> element_stiffness(const Mesh& mesh, int c,
-                                                              const Points& points, Shape dshape,
-                                                              double lam, double mu) {
-  Eigen::Matrix<double, NPC, DIM> Xe;
-  for (int a = 0; a < NPC; ++a) Xe.row(a) = mesh.X.row(mesh.cells(c, a));
-  Eigen::Matrix<double, DIM * NPC, DIM * NPC> Ke;
-  Ke.setZero();
-  for (const auto& p : points) {
-    const Eigen::Matrix<double, NPC, DIM> dN = dshape(p);
-    const Eigen::Matrix<double, DIM, DIM> J = Xe.transpose() * dN;
-    const double detJ = J.determinant();
-    if (!(detJ > 0))
-      throw Error(cat(mesh.source, ": cell ", c, " is inverted or degenerate (det J = ", detJ,
-                      " at a quadrature point)"));
-    const Eigen::Matrix<double, NPC, DIM> g = dN * J.inverse();
-    const double w = p.w * detJ;
-    const Eigen::Matrix<double, NPC, NPC> gg = g * g.transpose();
-    for (int a = 0; a < NPC; ++a)
-      for (int b = 0; b < NPC; ++b)
-        for (int i = 0; i < DIM; ++i)
-          for (int j = 0; j < DIM; ++j)
-            Ke(DIM * a + i, DIM * b + j) +=
+//   Nb),
+// with the quadrature of fe.hpp (for_each_quadrature_point).
+Eigen::MatrixXd element_stiffness(const Mesh& mesh, int c, double lam, double mu) {
+  const int d = mesh.dim, npc = mesh.nodes_per_cell();
+  Eigen::MatrixXd Ke = Eigen::MatrixXd::Zero(d * npc, d * npc);
+  for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& g, double w) {
+    const Eigen::MatrixXd gg = g * g.transpose();
+    for (int a = 0; a < npc; ++a)
+      for (int b = 0; b < npc; ++b)
+        for (int i = 0; i < d; ++i)
+          for (int j = 0; j < d; ++j)
+            Ke(d * a + i, d * b + j) +=
                 w * (lam * g(a, i) * g(b, j) + mu * (g(a, j) * g(b, i) + (i == j ? gg(a, b) : 0)));
-  }
+  });
   return Ke;
-}
-
-std::vector<QPoint> hex_rule() {
-  std::vector<QPoint> r;
-  for (const auto& c : kHexCorner) r.push_back({c[0] * kG, c[1] * kG, c[2] * kG, 1.0});
-  return r;
 }
 
 void require(bool ok, const std::string& what) {
@@ -173,17 +114,8 @@ SpMat elasticity_matrix(const Mesh& mesh, double E, double nu) {
             t.emplace_back(dim * mesh.cells(c, a) + i, dim * mesh.cells(c, b) + j,
                            Ke(dim * a + i, dim * b + j));
   };
-  if (dim == 2 && npc == 6) {
-    for (int c = 0; c < nc; ++c)
-      scatter(c, element_stiffness<6, 2>(
-                     mesh, c, kTriangleRule,
-                     [](const QPoint& p) { return p2_triangle_dN(p.xi, p.eta); }, lam, mu));
-  } else if (dim == 3 && npc == 8) {
-    const auto rule = hex_rule();
-    for (int c = 0; c < nc; ++c)
-      scatter(c, element_stiffness<8, 3>(
-                     mesh, c, rule, [](const QPoint& p) { return h8_dN(p.xi, p.eta, p.zeta); }, lam,
-                     mu));
+  if ((dim == 2 && npc == 6) || (dim == 3 && npc == 8)) {
+    for (int c = 0; c < nc; ++c) scatter(c, element_stiffness(mesh, c, lam, mu));
   } else {
     throw Error(cat(mesh.source,
                     ": elasticity_matrix supports P2 triangles (6 nodes) in 2-D and "
