@@ -22,17 +22,27 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   const AlgorithmParams& alg = problem_.algorithm;
   const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
 
+  // The split (2.5)-(2.6) of W: C1 |F|^2 in the global quadratic, the rest local. In plane strain
+  // the incompressible Mooney-Rivlin C2 term is C2 (|F|^2 + 1) on det F = 1, so by default it
+  // joins the global quadratic on the full gradient (DiscretizationChoice::c2_pointwise).
+  split_ = problem_.material;
+  if (problem_.discretization.c2_pointwise && dim == 2 && split_.incompressible()) {
+    split_.C1 += split_.C2;
+    split_.C2 = 0;
+  }
+
   cells_ = cell_operators(mesh);
   if (problem_.contact) {
     const ContactCondition& cc = *problem_.contact;
+    const Mesh::Boundary& boundary = mesh.boundary(cc.group, "contact.group");
     facets_ = std::make_unique<FacetOperators>(
-        facet_operators(mesh, mesh.boundary(cc.group, "contact.group")));
+        contact_points(mesh, boundary, problem_.discretization.nodal_contact));
     ContactSurface surface;
     surface.dim = dim;
     surface.area = facets_->area;
     surface.centre = facets_->centre;
     surface.N = cc.plane_normal.head(dim);
-    // Initial gap g_s = (p0 - x_s) . N at each facet centre ([choice] algorithm.md sec. 3).
+    // Initial gap g_s = (p0 - x_s) . N at each facet centre or node (paper_notes/section6.md).
     surface.gap.resize(facets_->size());
     for (int f = 0; f < facets_->size(); ++f)
       surface.gap(f) = (cc.plane_point.head(dim) - facets_->centre.col(f)).dot(surface.N);
@@ -40,8 +50,9 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
     const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
     for (int f = 0; f < facets_->size(); ++f)
       if (surface.gap(f) < -1e-10 * scale)
-        throw Error(cat(mesh.source, ": contact facet ", f, " of '", cc.group,
-                        "' starts inside the obstacle (gap ", surface.gap(f),
+        throw Error(cat(mesh.source, ": contact ",
+                        problem_.discretization.nodal_contact ? "node " : "facet ", f, " of '",
+                        cc.group, "' starts inside the obstacle (gap ", surface.gap(f),
                         " m at its centre): check contact.plane_point and contact.plane_normal "
                         "(the normal points into the obstacle)"));
     Adhesion adhesion = cc.adhesion;
@@ -70,9 +81,9 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   }
 
   // (4.5): K assembled and factorized once.
-  const SpMat K = global_matrix(cells_, facets_.get(), problem_.material.C1, Rq, Rqc);
+  const SpMat K = global_matrix(cells_, facets_.get(), split_.C1, Rq, Rqc);
   global_ = std::make_unique<GlobalStep>(K, bc_);
-  strain_ = std::make_unique<StrainStep>(problem_.material, Rq);
+  strain_ = std::make_unique<StrainStep>(split_, Rq);
 
   F_ext_ = body_load(mesh, problem_.body_force);
   for (const auto& t : problem_.tractions)
@@ -101,7 +112,7 @@ State Solver::initial_state() const {
   State s;
   s.u = bc_.value;
   s.E = Id_;
-  s.lambda = 2 * problem_.material.C1 * Id_;
+  s.lambda = 2 * split_.C1 * Id_;
   const int nf = facets_ ? facets_->size() : 0;
   s.e = Eigen::MatrixXd::Zero(dim, nf);
   s.lambda_c = Eigen::MatrixXd::Zero(dim, nf);
@@ -116,7 +127,7 @@ State Solver::initial_state() const {
 // then one triangular solve per distinct Dirichlet set against the stored factor.
 void Solver::global_solve(State& s) {
   const AlgorithmParams& alg = problem_.algorithm;
-  const double Rq = alg.R * alg.q, C1 = problem_.material.C1;
+  const double Rq = alg.R * alg.q, C1 = split_.C1;
   T_ = Rq * (s.E - Id_) + s.lambda - 2 * C1 * Id_;
   rhs_.noalias() = cells_.GbarT_vol * T_;
   rhs_ += F_ext_;
@@ -279,7 +290,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
 }
 
 Eigen::MatrixXd Solver::piola(const State& s) const {
-  return 2 * problem_.material.C1 * s.E - s.lambda;
+  return 2 * split_.C1 * s.E - s.lambda;
 }
 
 Eigen::MatrixXd Solver::cauchy(const State& s) const {
@@ -313,7 +324,7 @@ Eigen::VectorXd Solver::contact_gap(const State& s) const {
 
 double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {
   const int d = dim(), nc = problem_.mesh.num_cells();
-  const Material& m = problem_.material;
+  const Material& m = split_;
   double J = 0;
   for (int c = 0; c < nc; ++c) {
     if (d == 2)
@@ -331,7 +342,7 @@ double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {
 
 Eigen::MatrixXd Solver::energy_gradient(const Eigen::MatrixXd& u) const {
   const int d = dim(), nc = problem_.mesh.num_cells();
-  const Material& m = problem_.material;
+  const Material& m = split_;
   const Eigen::MatrixXd GU = cells_.Gbar * u;
   Eigen::MatrixXd P(d * nc, d);
   for (int c = 0; c < nc; ++c) {

@@ -64,10 +64,19 @@ class Solver {
   double energy(const State& s, const Eigen::VectorXd& beta_prev) const;
 
   const Problem& problem() const { return problem_; }
+  /// The material as split between the global and the local steps: problem().material, except
+  /// that in plane strain with DiscretizationChoice::c2_pointwise the incompressible C2 term is
+  /// moved into C1 (C1 + C2, C2 = 0), an identity on det F = 1. P = 2 split().C1 E - lambda.
+  const Material& split() const { return split_; }
   const CellOperators& cells() const { return cells_; }
+  /// The contact points: facets (discretization.contact = "facet-mean") or the nodes of the
+  /// contact surface ("nodal"), with their weights (area), positions (centre) and the map from
+  /// nodal values (mean).
   const FacetOperators* facets() const { return facets_ ? facets_.get() : nullptr; }
   const GlobalStep& global_step() const { return *global_; }
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
+  /// Per component, the sorted nodes whose displacement is prescribed (Dirichlet, symmetry).
+  const std::vector<std::vector<int>>& fixed_nodes() const { return bc_.fixed; }
   int dim() const { return problem_.mesh.dim; }
 
  private:
@@ -77,6 +86,7 @@ class Solver {
                      State& s);  // (4.7)
 
   Problem problem_;
+  Material split_;  ///< see split()
   CellOperators cells_;
   std::unique_ptr<FacetOperators> facets_;
   std::unique_ptr<GlobalStep> global_;

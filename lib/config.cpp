@@ -237,7 +237,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   }
   Reader r(root, "", path);
   r.only({"name", "mesh", "material", "fixed", "symmetry", "displacement", "load", "contact",
-          "algorithm", "time", "output"});
+          "algorithm", "discretization", "time", "output"});
   p.name = r.string("name", fs::path(path).stem().string());
 
   // [mesh]: a gmsh .geo (or .msh) file and its ONELAB parameters.
@@ -360,6 +360,20 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     p.algorithm.tol = a.number("tol", p.algorithm.tol);
     p.algorithm.max_iter = a.integer("max_iter", p.algorithm.max_iter);
     p.algorithm.blowup = a.number("blowup", p.algorithm.blowup);
+  }
+  // [discretization]: the defaults converge under refinement; "cell-mean" and "facet-mean" are
+  // the paper's choices (paper_notes/discretization.md).
+  if (r.has("discretization")) {
+    const Reader d = r.sub("discretization");
+    d.only({"c2", "contact"});
+    const std::string c2 = d.string("c2", "pointwise");
+    if (c2 != "pointwise" && c2 != "cell-mean")
+      d.fail("c2", "expected \"pointwise\" (default) or \"cell-mean\" (the paper's)");
+    p.discretization.c2_pointwise = c2 == "pointwise";
+    const std::string contact = d.string("contact", "nodal");
+    if (contact != "nodal" && contact != "facet-mean")
+      d.fail("contact", "expected \"nodal\" (default) or \"facet-mean\" (the paper's)");
+    p.discretization.nodal_contact = contact == "nodal";
   }
   // [time] (2.1)-(2.2)
   if (r.has("time")) {

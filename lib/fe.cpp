@@ -1,5 +1,6 @@
 #include "fe.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -219,6 +220,37 @@ FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary)
   Mint.setFromTriplets(m.begin(), m.end());
   ops.meanT_area = Mint.transpose();
   ops.mean = ops.area.cwiseInverse().asDiagonal() * Mint;
+  return ops;
+}
+
+FacetOperators nodal_operators(const Mesh& mesh, const Mesh::Boundary& boundary) {
+  const FacetOperators facets = facet_operators(mesh, boundary);
+  // integral of phi_a over the part = column sums of meanT_area's transpose (sum_s |G_s| mean_sa).
+  const Eigen::VectorXd weight_all = facets.meanT_area * Eigen::VectorXd::Ones(facets.size());
+  std::vector<int> nodes;
+  for (int f = 0; f < boundary.facets.rows(); ++f)
+    for (int a = 0; a < boundary.facets.cols(); ++a) nodes.push_back(boundary.facets(f, a));
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  const int np = static_cast<int>(nodes.size());
+  FacetOperators ops;
+  ops.area.resize(np);
+  ops.centre.resize(mesh.dim, np);
+  std::vector<Eigen::Triplet<double>> sel;
+  for (int i = 0; i < np; ++i) {
+    ops.area(i) = weight_all(nodes[i]);
+    if (!(ops.area(i) > 0))
+      throw Error(cat(mesh.source, ": node ", nodes[i], " of boundary group '", boundary.name,
+                      "' has a non-positive nodal weight ", ops.area(i),
+                      ": nodal contact needs positive weights (use discretization.contact = "
+                      "\"facet-mean\")"));
+    ops.centre.col(i) = mesh.X.row(nodes[i]).transpose();
+    sel.emplace_back(i, nodes[i], 1.0);
+  }
+  ops.nodes = nodes;
+  ops.mean.resize(np, mesh.num_nodes());
+  ops.mean.setFromTriplets(sel.begin(), sel.end());
+  ops.meanT_area = SpMatR(ops.mean.transpose()) * ops.area.asDiagonal();
   return ops;
 }
 

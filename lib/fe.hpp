@@ -42,6 +42,8 @@ struct FacetOperators {
   SpMatR meanT_area;       ///< #nodes x #facets, transpose of mean weighted by |G_s|
   /// Corner vertices (2 in 2-D, 4 in 3-D), each dim x #facets.
   std::vector<Eigen::MatrixXd> vertices;
+  /// Nodal contact points only (nodal_operators): the mesh node of each point; empty for facets.
+  std::vector<int> nodes;
   int size() const { return static_cast<int>(area.size()); }
 };
 
@@ -53,6 +55,20 @@ CellOperators cell_operators(const Mesh& mesh);
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit);
 FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
+
+/// The contact "points" of a nodal (collocation) contact condition on a boundary part: one point
+/// per node of the part, weight area(a) = integral over the part of phi_a (> 0 for P2 edges:
+/// |G|/6 at the ends, 2|G|/3 at the mid-side node; |G|/4 per corner of a parallelogram face),
+/// centre = the node's reference position, mean = the selection u -> u_a (so that "vbar_s" is the
+/// nodal value and meanT_area assembles sum_a area(a) c_a . v_a). No vertices: the exact kernel
+/// integral is defined on facets only. Throws if a weight is not positive (e.g. P2 triangle
+/// faces in 3-D, whose vertex integrals vanish).
+FacetOperators nodal_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
+
+/// The contact points of a contact surface: nodal_operators when `nodal`, else facet_operators.
+inline FacetOperators contact_points(const Mesh& mesh, const Mesh::Boundary& boundary, bool nodal) {
+  return nodal ? nodal_operators(mesh, boundary) : facet_operators(mesh, boundary);
+}
 
 /// A vector field affine in the reference position: g(x) = value + gradient * x (first dim
 /// entries used). Used for tractions and prescribed displacements.

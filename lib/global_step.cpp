@@ -53,7 +53,8 @@ inline void axpy_rows(const double* a, const double* x, double* w, int lo, int h
   if constexpr (NR == 2) {
     const __m128d xv = _mm_set_pd(x[1], x[0]);
     for (int i = lo; i < hi; ++i)
-      _mm_storeu_pd(w + 2 * i, _mm_sub_pd(_mm_loadu_pd(w + 2 * i), _mm_mul_pd(_mm_set1_pd(a[i]), xv)));
+      _mm_storeu_pd(w + 2 * i,
+                    _mm_sub_pd(_mm_loadu_pd(w + 2 * i), _mm_mul_pd(_mm_set1_pd(a[i]), xv)));
     return;
   }
 #endif
@@ -99,7 +100,8 @@ void super_forward(const SuperView& L, double* Y, double* W) {
     }
     std::copy(W, W + NR * nscol, y);
     for (int i = nscol; i < nsrow; ++i)
-      for (int c = 0; c < NR; ++c) Y[NR * static_cast<std::ptrdiff_t>(rows[i]) + c] += W[NR * i + c];
+      for (int c = 0; c < NR; ++c)
+        Y[NR * static_cast<std::ptrdiff_t>(rows[i]) + c] += W[NR * i + c];
   }
 }
 
@@ -126,8 +128,8 @@ void super_backward(const SuperView& L, double* Y, double* W) {
 
 }  // namespace
 
-SpMat global_matrix(const CellOperators& cells, const FacetOperators* facets, double C1,
-                    double Rq, double Rqc) {
+SpMat global_matrix(const CellOperators& cells, const FacetOperators* facets, double C1, double Rq,
+                    double Rqc) {
   SpMat K = 2 * C1 * cells.laplacian;
   SpMat mean_grad = SpMat(cells.GbarT_vol * cells.Gbar);
   K += Rq * mean_grad;
@@ -315,12 +317,13 @@ GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, Storage storage)
     if (!ok || !(rcond > kMinRcond)) {
       std::string comps;
       for (int c : g.components) comps += std::string(comps.empty() ? "" : ", ") + "xyz"[c];
-      throw Error(cat("global matrix (4.5): the Cholesky factorization failed for displacement "
-                      "component(s) ",
-                      comps, " (", nf, " free nodes, condition estimate ", rcond,
-                      "): the matrix is singular or not positive definite. ",
-                      "Most likely a rigid motion is not removed: fix part of the boundary, add "
-                      "a symmetry plane, or give the contact surface q_c > 0."));
+      throw Error(
+          cat("global matrix (4.5): the Cholesky factorization failed for displacement "
+              "component(s) ",
+              comps, " (", nf, " free nodes, condition estimate ", rcond,
+              "): the matrix is singular or not positive definite. ",
+              "Most likely a rigid motion is not removed: fix part of the boundary, add "
+              "a symmetry plane, or give the contact surface q_c > 0."));
     }
     g.storage = storage == Storage::Auto ? Storage::Supernodal : storage;
     if (g.storage == Storage::Simplicial) {
@@ -346,7 +349,8 @@ GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, Storage storage)
       g.Yi.resize(static_cast<std::size_t>(nf) * nc);
       const int* pi = static_cast<const int*>(g.L->pi);
       int maxrow = 0;
-      for (std::size_t sn = 0; sn < g.L->nsuper; ++sn) maxrow = std::max(maxrow, pi[sn + 1] - pi[sn]);
+      for (std::size_t sn = 0; sn < g.L->nsuper; ++sn)
+        maxrow = std::max(maxrow, pi[sn + 1] - pi[sn]);
       g.Ei.resize(static_cast<std::size_t>(maxrow) * nc);
     } else {
       g.Y = cholmod_allocate_dense(nf, nc, nf, CHOLMOD_REAL, &g.common);
@@ -360,16 +364,22 @@ GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, Storage storage)
 
 GlobalStep::~GlobalStep() = default;
 
-int GlobalStep::factor_rows(int k) const { return static_cast<int>(groups_.at(k)->node.size()); }
+int GlobalStep::factor_rows(int k) const {
+  return static_cast<int>(groups_.at(k)->node.size());
+}
 int GlobalStep::factor_columns(int k) const {
   return static_cast<int>(groups_.at(k)->components.size());
 }
-double GlobalStep::factor_nonzeros(int k) const { return groups_.at(k)->lnz; }
+double GlobalStep::factor_nonzeros(int k) const {
+  return groups_.at(k)->lnz;
+}
 double GlobalStep::factor_entries(int k) const {
   const cholmod_factor* L = groups_.at(k)->L;
   return static_cast<double>(L->is_super ? L->xsize : L->nzmax);
 }
-GlobalStep::Storage GlobalStep::storage(int k) const { return groups_.at(k)->storage; }
+GlobalStep::Storage GlobalStep::storage(int k) const {
+  return groups_.at(k)->storage;
+}
 
 void GlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -36,8 +36,8 @@ struct DirichletData {
 
 /// [LTL87 (4.5)] K = 2 C1 L + R q Gbar^T diag(|O|) Gbar + R q_c M^T diag(|G|) M, with L the
 /// Laplacian, Gbar the mean gradient, M the facet mean (pass nullptr when there is no contact).
-SpMat global_matrix(const CellOperators& cells, const FacetOperators* facets, double C1,
-                    double Rq, double Rqc);
+SpMat global_matrix(const CellOperators& cells, const FacetOperators* facets, double C1, double Rq,
+                    double Rqc);
 
 class GlobalStep {
  public:
@@ -65,7 +65,7 @@ class GlobalStep {
   double analyze_seconds() const { return analyze_seconds_; }
   double factorize_seconds() const { return factorize_seconds_; }
   double factor_nonzeros() const { return factor_nnz_; }  ///< sum over the factors of nnz(L)
-  double min_rcond() const { return min_rcond_; }  ///< smallest CHOLMOD condition estimate
+  double min_rcond() const { return min_rcond_; }         ///< smallest CHOLMOD condition estimate
   /// Factor k: number of rows (free nodes), of right-hand-side columns, nnz(L), and storage.
   int factor_rows(int k) const;
   int factor_columns(int k) const;

@@ -98,6 +98,10 @@ void Problem::validate() const {
     require(cc.adhesion.d0 >= 0, "contact.d0", cat("= ", cc.adhesion.d0, " 1/m: must be >= 0"));
     require(std::abs(cc.plane_normal.norm() - 1) < 1e-12, "contact.plane_normal",
             "must be a unit vector");
+    require(!(cc.adhesion.exact_kernel && cc.adhesion.d0 > 0 && discretization.nodal_contact),
+            "contact.kernel",
+            "= \"exact\" integrates the kernel over facets: it needs discretization.contact = "
+            "\"facet-mean\" (the nodal contact has no facets)");
     // Every contact facet must lie on the boundary of the mesh.
     const auto boundary_keys = boundary_facet_keys(mesh);
     const int corners = dim == 2 ? 2 : 4;

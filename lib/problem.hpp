@@ -63,6 +63,21 @@ struct AlgorithmParams {
   double blowup = 1e8;     ///< residual above blowup * (first residual) is divergence
 };
 
+/// Discrete choices where the paper's own (P2/H8 with everything on cell and facet means) does not
+/// converge under refinement (paper_notes/discretization.md). The defaults converge; the paper's
+/// choices stay one key away.
+struct DiscretizationChoice {
+  /// Plane-strain incompressible Mooney-Rivlin: on det F = 1, |adj F|^2 = |F|^2 + 1 exactly, so the
+  /// C2 term is a second |F|^2 term. true (default, "pointwise"): it joins C1 in the global
+  /// quadratic, evaluated on the full gradient (the local step sees C2 = 0). false ("cell-mean",
+  /// the paper's split (2.5)-(2.6)): it stays in the local step, on cell-mean gradients.
+  bool c2_pointwise = true;
+  /// true (default, "nodal"): the contact unknowns e, beta, lambda_c live at the nodes of the
+  /// contact surface, weighted by integral phi_a (non-penetration at every node). false
+  /// ("facet-mean", the paper's): P0 per facet, constraint on facet means.
+  bool nodal_contact = true;
+};
+
 struct TimeStepping {
   double dt = 1.0;  ///< t_p - t_{p-1} (s), > 0
   int steps = 1;    ///< P; a single step is a static contact problem
@@ -77,6 +92,7 @@ struct Problem {
   Eigen::Vector3d body_force = Eigen::Vector3d::Zero();  ///< f (N/m^3)
   std::optional<ContactCondition> contact;
   AlgorithmParams algorithm;
+  DiscretizationChoice discretization;
   TimeStepping time;
   std::string config_text;  ///< the resolved configuration (written into the results)
   std::string config_path;

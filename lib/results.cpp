@@ -494,10 +494,25 @@ std::string xdmf_path_of(const std::string& path) {
 
 // ---------------------------------------------------------------------------------------------
 
+namespace {
+/// Number of contact points of a file: its contact nodes (nodal contact) or its contact facets.
+int contact_points(hid_t f, const std::string& path) {
+  if (exists(f, "/mesh/contact_nodes", path)) {
+    const auto n = dataset_shape(f, "/mesh/contact_nodes", path);
+    if (n.size() != 1) fail(path, "dataset /mesh/contact_nodes is not a vector");
+    return static_cast<int>(n[0]);
+  }
+  const auto F = dataset_shape(f, "/mesh/contact_facets", path);
+  if (F.size() != 2) fail(path, "dataset /mesh/contact_facets is not a matrix");
+  return static_cast<int>(F[0]);
+}
+}  // namespace
+
 ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const RunInfo& info,
                                 const Mesh::Boundary* contact_facets,
                                 const Eigen::MatrixXd* contact_centre,
-                                const Eigen::VectorXd* contact_area) {
+                                const Eigen::VectorXd* contact_area,
+                                const std::vector<int>* contact_nodes) {
   quiet_hdf5();
   const int dim = mesh.dim, nn = mesh.num_nodes(), nc = mesh.num_cells();
   const int npc = mesh.nodes_per_cell();
@@ -507,7 +522,11 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
   if (mesh.X.cols() != dim) fail(path, cat("mesh X has ", mesh.X.cols(), " columns, dim is ", dim));
   if (nc > 0 && (mesh.cells.minCoeff() < 0 || mesh.cells.maxCoeff() >= nn))
     fail(path, "mesh cells refer to nodes that do not exist");
-  const int nf = contact_facets ? static_cast<int>(contact_facets->facets.rows()) : 0;
+  // Contact fields live on the contact points: the facets, or the nodes of a nodal contact.
+  const int nf = !contact_facets ? 0
+                 : contact_nodes ? static_cast<int>(contact_nodes->size())
+                                 : static_cast<int>(contact_facets->facets.rows());
+  if (contact_nodes && !contact_facets) fail(path, "contact nodes given without contact facets");
   Eigen::MatrixXd centre;  // #facets x dim
   if (contact_facets) {
     const auto& F = contact_facets->facets;
@@ -569,8 +588,9 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
   write_doubles(f, "/mesh/cell_volume", {un(nc)}, volume, path);
   if (contact_facets) {
     const auto& F = contact_facets->facets;
-    write_ints(f, "/mesh/contact_facets", {un(nf), un(static_cast<int>(F.cols()))}, rows_of(F),
-               path);
+    write_ints(f, "/mesh/contact_facets",
+               {un(static_cast<int>(F.rows())), un(static_cast<int>(F.cols()))}, rows_of(F), path);
+    if (contact_nodes) write_ints(f, "/mesh/contact_nodes", {un(nf)}, *contact_nodes, path);
     Handle set = checked(H5Dopen2(f, "/mesh/contact_facets", H5P_DEFAULT), H5Dclose, path,
                          "cannot open dataset /mesh/contact_facets");
     write_string_attr(set.get(), "boundary", contact_facets->name, path, "/mesh/contact_facets");
@@ -606,9 +626,7 @@ ResultsFile ResultsFile::open(const std::string& path) {
   r.num_cells_ = static_cast<int>(cells[0]);
   r.contact_ = exists(f, "/mesh/contact_facets", path);
   if (r.contact_) {
-    const auto F = dataset_shape(f, "/mesh/contact_facets", path);
-    if (F.size() != 2) fail(path, "dataset /mesh/contact_facets is not a matrix");
-    r.num_facets_ = static_cast<int>(F[0]);
+    r.num_facets_ = contact_points(f, path);
   }
   if (exists(f, "/steps/incomplete", path))  // left by a process killed while writing a step
     ok(H5Ldelete(f, "/steps/incomplete", H5P_DEFAULT), path, "cannot delete /steps/incomplete");
@@ -866,12 +884,11 @@ std::optional<StoredStep> ResultsFile::read_last_step(const std::string& path) {
   s.E = tensors_from(get("E", {cells[0], d, d}), nc, dim);
   s.lambda = tensors_from(get("lambda", {cells[0], d, d}), nc, dim);
   if (exists(f, "/mesh/contact_facets", path)) {
-    const auto F = dataset_shape(f, "/mesh/contact_facets", path);
-    if (F.size() != 2) fail(path, "dataset /mesh/contact_facets is not a matrix");
-    const int nf = static_cast<int>(F[0]);
-    s.e = columns_from(get("e", {F[0], d}), nf, dim);
-    s.lambda_c = columns_from(get("lambda_c", {F[0], d}), nf, dim);
-    const auto beta = get("beta", {F[0]});
+    const int nf = contact_points(f, path);
+    const hsize_t hf = static_cast<hsize_t>(nf);
+    s.e = columns_from(get("e", {hf, d}), nf, dim);
+    s.lambda_c = columns_from(get("lambda_c", {hf, d}), nf, dim);
+    const auto beta = get("beta", {hf});
     s.beta = Eigen::Map<const Eigen::VectorXd>(beta.data(), nf);
   } else {
     s.e = Eigen::MatrixXd::Zero(dim, 0);

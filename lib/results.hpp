@@ -75,14 +75,17 @@ struct StoredStep {
 class ResultsFile {
  public:
   /// Creates `path` (truncating it), writing the root attributes and the mesh. `contact_facets`
-  /// is the contact boundary's facets (may be null) with their centres and areas (each may be
-  /// null). `contact_centre` is dim x #facets (the layout of FacetOperators::centre); #facets x dim
-  /// is accepted too when the shape is not square. Supported cells: six-node P2 triangles (2-D)
-  /// and eight-node hexahedra (3-D); /mesh/cell_volume is computed here by exact quadrature.
+  /// is the contact boundary's facets (may be null) with the contact points' centres and areas
+  /// (each may be null). The contact points are the facets, or with `contact_nodes` (nodal
+  /// contact, written as /mesh/contact_nodes) those nodes, in that order. `contact_centre` is dim x
+  /// #facets (the layout of FacetOperators::centre); #facets x dim is accepted too when the shape
+  /// is not square. Supported cells: six-node P2 triangles (2-D) and eight-node hexahedra (3-D);
+  /// /mesh/cell_volume is computed here by exact quadrature.
   static ResultsFile create(const std::string& path, const Mesh& mesh, const RunInfo& info,
                             const Mesh::Boundary* contact_facets = nullptr,
                             const Eigen::MatrixXd* contact_centre = nullptr,
-                            const Eigen::VectorXd* contact_area = nullptr);
+                            const Eigen::VectorXd* contact_area = nullptr,
+                            const std::vector<int>* contact_nodes = nullptr);
   /// Opens an existing file to append further steps (resume).
   static ResultsFile open(const std::string& path);
 

@@ -39,7 +39,7 @@ RunSummary run(const Problem& problem, const RunOptions& options,
   }
   summary.first_step = p0;
   if (options.verbosity > 0)
-    std::printf("%s: %d cells, %d nodes, %d contact facets, %d factor(s), setup %.3f s\n",
+    std::printf("%s: %d cells, %d nodes, %d contact points, %d factor(s), setup %.3f s\n",
                 problem.name.c_str(), problem.mesh.num_cells(), problem.mesh.num_nodes(),
                 solver.facets() ? solver.facets()->size() : 0, solver.global_step().num_factors(),
                 summary.setup_seconds);
@@ -83,9 +83,11 @@ RunSummary run(const Problem& problem, const RunOptions& options,
         info.attributes["git_version"] = LTL_GIT_VERSION;
         const Mesh::Boundary* cb =
             problem.contact ? &problem.mesh.boundary(problem.contact->group) : nullptr;
-        file = ResultsFile::create(options.output, problem.mesh, info, cb,
-                                   solver.facets() ? &solver.facets()->centre : nullptr,
-                                   solver.facets() ? &solver.facets()->area : nullptr);
+        file = ResultsFile::create(
+            options.output, problem.mesh, info, cb,
+            solver.facets() ? &solver.facets()->centre : nullptr,
+            solver.facets() ? &solver.facets()->area : nullptr,
+            solver.facets() && !solver.facets()->nodes.empty() ? &solver.facets()->nodes : nullptr);
       }
       StepData d;
       d.p = p;

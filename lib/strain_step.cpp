@@ -794,8 +794,8 @@ bool signed_svd_fast(const Eigen::Matrix3d& A, Eigen::Matrix3d& Q, Eigen::Vector
     const Eigen::Vector3d c0 = M.row(0).cross(M.row(1)), c1 = M.row(0).cross(M.row(2)),
                           c2 = M.row(1).cross(M.row(2));
     const double n0 = c0.squaredNorm(), n1 = c1.squaredNorm(), n2 = c2.squaredNorm();
-    const double rows = std::max({M.row(0).squaredNorm(), M.row(1).squaredNorm(),
-                                  M.row(2).squaredNorm()});
+    const double rows =
+        std::max({M.row(0).squaredNorm(), M.row(1).squaredNorm(), M.row(2).squaredNorm()});
     const double nmax = std::max({n0, n1, n2});
     if (nmax > 1e-16 * rows * rows) {
       r1 = (n0 >= n1 && n0 >= n2 ? c0 : n1 >= n2 ? c1 : c2) / std::sqrt(nmax);

@@ -11,6 +11,7 @@
 
 #include "alg2.hpp"
 #include "config.hpp"
+#include "measures.hpp"
 #include "simulation.hpp"
 
 namespace ltl::regression {
@@ -72,7 +73,7 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
   summary = run(p, options, [&](const Solver& solver, int, const State& s) {
     last.clear();
     if (!p.contact) return;
-    const Eigen::VectorXd pc = solver.contact_pressure(s), gap = solver.contact_gap(s);
+    const Eigen::VectorXd gap = solver.contact_gap(s);
     const FacetOperators& f = *solver.facets();
     const Eigen::VectorXd N = p.contact->plane_normal.head(p.mesh.dim);
     const double L = f.area.sum();
@@ -88,17 +89,12 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
       last.push_back(quantity("front_beta_below_0.9", front, 1.0));
       last.push_back(quantity("max_opening", opening, std::max(opening, 1e-12)));
     } else {
-      // Pure contact: contact set (facets carrying more than 1e-3 of the peak pressure: the
-      // iteration leaves pressures of order tol on open facets), pressure, force, penetration.
-      int in_contact = 0;
-      double force = 0;
-      for (int i = 0; i < f.size(); ++i) {
-        if (pc(i) > 1e-3 * pc.cwiseAbs().maxCoeff()) ++in_contact;
-        force += f.area(i) * pc(i);
-      }
-      last.push_back({"contact_facets", double(in_contact), 0.5});
-      last.push_back(quantity("peak_contact_pressure", pc.maxCoeff(), pc.maxCoeff()));
-      last.push_back(quantity("total_contact_force", force, std::abs(force)));
+      // Pure contact: the measures of lib/measures.hpp (contact set, peak pressure, force),
+      // the largest displacement and the equilibrium measure's penetration.
+      const ContactMeasures cm = contact_measures(solver, s);
+      last.push_back({"contact_points", double(cm.in_contact), 0.5});
+      last.push_back(quantity("peak_contact_pressure", cm.p_max, cm.p_max));
+      last.push_back(quantity("total_contact_force", cm.force, std::abs(cm.force)));
       last.push_back(
           quantity("max_displacement", s.u.cwiseAbs().maxCoeff(), s.u.cwiseAbs().maxCoeff()));
       last.push_back({"min_gap", gap.minCoeff(), 1e-6});

@@ -128,7 +128,7 @@ TEST(BadInput, MeshAndGroupErrors) {
                {"rigid motion"});
   // The plane cuts the body: the contact surface starts inside the obstacle.
   expect_error(run_config("inside", with("plane_point = [0, -1]", "plane_point = [0, -0.5]")),
-               {"starts inside the obstacle", "facet"});
+               {"starts inside the obstacle", "contact node 0 of 'contact'"});
   // A contact group that is not on the boundary.
   const fs::path dir = ltl::testing::temp_dir("cli_geo");
   ltl::testing::write_file(dir / "inner.geo",

@@ -45,7 +45,7 @@ ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& 
 // (Gbar 1 = 0, L 1 = 0), so sum_nodes f_int = 0 and sum_nodes r = -(total load + contact force).
 Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s) {
   const CellOperators& c = solver.cells();
-  const double C1 = solver.problem().material.C1;
+  const double C1 = solver.split().C1;
   const Eigen::MatrixXd GU = c.Gbar * s.u;
   Eigen::MatrixXd r = c.GbarT_vol * solver.piola(s) +
                       2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - solver.external_load();

@@ -28,9 +28,9 @@
 //           Table 5) use the thread's CPU time, which preemption does not inflate.
 
 #include <dlfcn.h>
-#include <time.h>
 #include <omp.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <Eigen/Dense>
@@ -149,7 +149,9 @@ struct Case {
   long cells;  ///< expected number of cells (for --max-cells)
 };
 
-std::string src(const std::string& rel) { return std::string(LTL_SOURCE_DIR) + "/" + rel; }
+std::string src(const std::string& rel) {
+  return std::string(LTL_SOURCE_DIR) + "/" + rel;
+}
 
 std::vector<Case> all_cases() {
   std::vector<Case> cs;
@@ -158,7 +160,9 @@ std::vector<Case> all_cases() {
   const int bars[][2] = {{28, 3}, {50, 10}, {110, 22}, {225, 45}, {500, 100}, {710, 142}};
   for (auto& b : bars) {
     const long cells = 2L * b[0] * b[1];
-    cs.push_back({"bar-" + std::to_string(cells), "2d", src("experiments/fig3/fig3.toml"),
+    cs.push_back({"bar-" + std::to_string(cells),
+                  "2d",
+                  src("experiments/fig3/fig3.toml"),
                   {"mesh.parameters.nx=" + std::to_string(b[0]),
                    "mesh.parameters.ny=" + std::to_string(b[1])},
                   cells});
@@ -166,11 +170,13 @@ std::vector<Case> all_cases() {
   // Fig 5 half disc (122 P2 triangles), the small-matrix case.
   cs.push_back({"disc-122", "2d", src("experiments/fig5/fig5.toml"), {}, 122});
   // Fig 6 gutter quarter: nt x na x nl H8 (Fig 6 itself: 2 x 9 x 15 = 270).
-  const int gutters[][3] = {{2, 9, 15},   {2, 18, 30},  {3, 30, 50},
-                            {4, 40, 75},  {6, 60, 110}, {8, 80, 160}, {10, 100, 200}};
+  const int gutters[][3] = {{2, 9, 15},   {2, 18, 30},  {3, 30, 50},   {4, 40, 75},
+                            {6, 60, 110}, {8, 80, 160}, {10, 100, 200}};
   for (auto& g : gutters) {
     const long cells = 1L * g[0] * g[1] * g[2];
-    cs.push_back({"gutter-" + std::to_string(cells), "3d", src("experiments/fig6/fig6.toml"),
+    cs.push_back({"gutter-" + std::to_string(cells),
+                  "3d",
+                  src("experiments/fig6/fig6.toml"),
                   {"mesh.parameters.nt=" + std::to_string(g[0]),
                    "mesh.parameters.na=" + std::to_string(g[1]),
                    "mesh.parameters.nl=" + std::to_string(g[2])},
@@ -186,7 +192,9 @@ struct Phases {
   std::vector<double> global, solve, strain, contact, update, total;
 };
 
-double vmin(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+double vmin(const std::vector<double>& v) {
+  return *std::min_element(v.begin(), v.end());
+}
 double vmed(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
@@ -240,11 +248,13 @@ void solve_variants(const ltl::Solver& solver, std::map<std::string, double>& ou
     f.erase(std::unique(f.begin(), f.end()), f.end());
   }
   const double Rq = p.algorithm.R * p.algorithm.q, Rqc = p.algorithm.R * p.algorithm.q_c;
-  const ltl::SpMat K = ltl::global_matrix(solver.cells(), solver.facets(), p.material.C1, Rq, Rqc);
+  const ltl::SpMat K =
+      ltl::global_matrix(solver.cells(), solver.facets(), solver.split().C1, Rq, Rqc);
   const Eigen::MatrixXd b = Eigen::MatrixXd::Random(nn, dim);
   Eigen::MatrixXd u;
   using S = ltl::GlobalStep::Storage;
-  for (auto [name, storage] : {std::pair{"ours", S::Supernodal}, {"cholsup", S::CholmodSupernodal},
+  for (auto [name, storage] : {std::pair{"ours", S::Supernodal},
+                               {"cholsup", S::CholmodSupernodal},
                                {"simplicial", S::Simplicial}}) {
     ltl::GlobalStep gs(K, bc, storage);
     gs.solve(b, u);
@@ -400,8 +410,9 @@ int main(int argc, char** argv) {
     } else if (a == "--quick") {
       quick = true;
     } else {
-      std::fprintf(stderr,
-                   "usage: bench [--quick] [--iters N] [--warm N] [--max-cells N] [--only 2d|3d|NAME]\n");
+      std::fprintf(
+          stderr,
+          "usage: bench [--quick] [--iters N] [--warm N] [--max-cells N] [--only 2d|3d|NAME]\n");
       return 2;
     }
   }
@@ -419,8 +430,8 @@ int main(int argc, char** argv) {
     max_cells = std::min(max_cells, 20000L);
   }
 
-  std::printf("ALG2 benchmark (LTL87): %d timed iterations per run after %d warm-up ones\n",
-              iters, warm);
+  std::printf("ALG2 benchmark (LTL87): %d timed iterations per run after %d warm-up ones\n", iters,
+              warm);
   {
     std::ifstream f("/proc/cpuinfo");
     std::string line;
@@ -433,10 +444,11 @@ int main(int argc, char** argv) {
   }
   std::printf("load average at start: %s\n", loadavg().c_str());
   const Bandwidth bw1 = measure_bandwidth(1), bw2 = measure_bandwidth(2);
-  std::printf("memory bandwidth (STREAM-like, 128 MB arrays, best of 10; 1 thread: CPU time, 2 "
-              "threads: wall):\n  1 thread read %.1f GB/s, triad %.1f GB/s; 2 threads read %.1f "
-              "GB/s, triad %.1f GB/s\n\n",
-              bw1.read, bw1.triad, bw2.read, bw2.triad);
+  std::printf(
+      "memory bandwidth (STREAM-like, 128 MB arrays, best of 10; 1 thread: CPU time, 2 "
+      "threads: wall):\n  1 thread read %.1f GB/s, triad %.1f GB/s; 2 threads read %.1f "
+      "GB/s, triad %.1f GB/s\n\n",
+      bw1.read, bw1.triad, bw2.read, bw2.triad);
   std::fflush(stdout);
 
   std::vector<std::map<std::string, std::string>> rows;
@@ -449,9 +461,8 @@ int main(int argc, char** argv) {
         (!only.empty() && c.kind != only && c.name.find(only) == std::string::npos))
       continue;
     std::fprintf(stderr, "bench: %s ...\n", c.name.c_str());
-    const std::string cmd = "'" + self + "' --case " +
-                            std::to_string(k) + " --iters " + std::to_string(iters) +
-                            " --warm " + std::to_string(warm);
+    const std::string cmd = "'" + self + "' --case " + std::to_string(k) + " --iters " +
+                            std::to_string(iters) + " --warm " + std::to_string(warm);
     FILE* p = popen(cmd.c_str(), "r");
     if (!p) continue;
     char buf[8192];
@@ -490,13 +501,14 @@ int main(int argc, char** argv) {
         "\nTable %d. One ALG2 iteration on %d thread%s, ms: minimum over the iterations of each "
         "phase (wall clock, IterationRecord)\n",
         t + 1, t, t == 1 ? "" : "s");
-    std::printf("  global = rhs assembly + triangular solve + Gbar u (+ facet means); solve = "
-                "GlobalStep::solve; floor = 2 x 8 B x nnz(L) / %.1f GB/s;\n  other = global - "
-                "solve + update (the update includes the residuals); total = min of the sums "
-                "[median]%s\n",
-                bw, t == 1 ? "; cpu = min CPU time of the (only) computing thread per iteration" : "");
-    std::printf("%-13s %8s %8s %8s %5s %8s %7s %8s %8s %18s %8s %6s\n", "case", "global",
-                "solve", "floor", "x", "strain", "ns/cell", "contact", "update", "total [median]",
+    std::printf(
+        "  global = rhs assembly + triangular solve + Gbar u (+ facet means); solve = "
+        "GlobalStep::solve; floor = 2 x 8 B x nnz(L) / %.1f GB/s;\n  other = global - "
+        "solve + update (the update includes the residuals); total = min of the sums "
+        "[median]%s\n",
+        bw, t == 1 ? "; cpu = min CPU time of the (only) computing thread per iteration" : "");
+    std::printf("%-13s %8s %8s %8s %5s %8s %7s %8s %8s %18s %8s %6s\n", "case", "global", "solve",
+                "floor", "x", "strain", "ns/cell", "contact", "update", "total [median]",
                 t == 1 ? "cpu" : "", "other%");
     for (const auto& r : rows) {
       const double floor = 16.0 * num(r, "nnzL") / (bw * 1e9) * 1e3;
@@ -512,8 +524,9 @@ int main(int argc, char** argv) {
     }
   }
 
-  std::printf("\nTable 4. Speed-up on 2 threads vs 1 (ratio of the minima); local strain step "
-              "alone on the final state (1 thread, CPU time); load average during the case\n");
+  std::printf(
+      "\nTable 4. Speed-up on 2 threads vs 1 (ratio of the minima); local strain step "
+      "alone on the final state (1 thread, CPU time); load average during the case\n");
   std::printf("%-13s %7s %7s %7s %7s %7s %9s %8s %11s\n", "case", "global", "solve", "strain",
               "contact", "total", "alone ns", "failures", "load");
   for (const auto& r : rows) {
@@ -527,11 +540,12 @@ int main(int argc, char** argv) {
                 num(r, "failures1") + num(r, "failures2"), load);
   }
 
-  std::printf("\nTable 5. Triangular solves alone, one call (all factors, all columns), 1 thread, "
-              "CPU time, best of many: ours (GlobalStep::Storage::Supernodal, the default) vs "
-              "CHOLMOD's supernodal sweeps (BLAS per supernode) vs CHOLMOD simplicial; floor as in "
-              "Table 2 (%.1f GB/s); stored = values stored by the supernodal factor\n",
-              bw1.read);
+  std::printf(
+      "\nTable 5. Triangular solves alone, one call (all factors, all columns), 1 thread, "
+      "CPU time, best of many: ours (GlobalStep::Storage::Supernodal, the default) vs "
+      "CHOLMOD's supernodal sweeps (BLAS per supernode) vs CHOLMOD simplicial; floor as in "
+      "Table 2 (%.1f GB/s); stored = values stored by the supernodal factor\n",
+      bw1.read);
   std::printf("%-13s %11s %11s %9s %9s %6s %10s %11s\n", "case", "nnz(L)", "stored", "floor ms",
               "ours ms", "x", "CHOLMOD sn", "simplicial");
   for (const auto& r : rows) {

@@ -60,6 +60,7 @@
 
 #include "alg2.hpp"
 #include "config.hpp"
+#include "measures.hpp"
 
 namespace {
 
@@ -75,6 +76,7 @@ struct Row {
   double p_max = NAN;        // peak facet contact pressure (nominal, Pa)
   double force_ratio = NAN;  // sum |G_s| p_s / (|f| |Omega|)
   double penetration = NAN;  // max over contact nodes of (x - p0) . N, > 0 inside the plane
+  double residual = NAN;     // equilibrium measure: max nodal force residual / max nodal load
 };
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -112,46 +114,17 @@ Row run(const std::string& config, int K, const std::vector<std::string>& extra)
 
   // 4. Contact quantities per facet s: the pressure p_s = -lambda_c . N (per reference length),
   //    the force F_s = |G_s| p_s, and the deformed position of the facet centre x_s + ubar_s.
-  const ltl::FacetOperators& facets = *solver.facets();
-  const auto& boundary = mesh.boundary(problem.contact->group);
-  row.facets = facets.size();
-  const Eigen::VectorXd p = solver.contact_pressure(s);
-  row.p_max = p.maxCoeff();
-  const Eigen::MatrixXd x = mesh.X + s.u;        // deformed nodes, #nodes x 2
-  const Eigen::MatrixXd xbar = facets.mean * x;  // deformed facet centres, #facets x 2
-
-  // 5. Contact half-width, two definitions (a facet is in contact where p_s > 1e-6 p_max):
-  //    a_edge:   the deformed x1 of the outer end vertex of the outermost facet in contact
-  //              (the vertex it shares with the first open facet); its error is O(h), h the
-  //              facet length, by construction;
-  //    a_moment: 2 sqrt(M2 / M0) with M_k = sum_s F_s (x1 of the deformed facet centre)^k,
-  //              the half-width of the elliptic (Hertz) distribution with the same first two
-  //              even moments; exact for Hertz, a smooth functional of the pressure otherwise.
-  double M0 = 0, M2 = 0, force = 0;
-  row.a_edge = 0;
-  for (int f = 0; f < facets.size(); ++f) {
-    force += facets.area(f) * p(f);
-    if (!(p(f) > 1e-6 * row.p_max)) continue;
-    ++row.in_contact;
-    for (int k = 0; k < 2; ++k) row.a_edge = std::max(row.a_edge, x(boundary.facets(f, k), 0));
-    M0 += facets.area(f) * p(f);
-    M2 += facets.area(f) * p(f) * xbar(f, 0) * xbar(f, 0);
-  }
-  row.a_moment = 2 * std::sqrt(M2 / M0);
-  const double weight = problem.body_force.head(2).norm() * solver.cells().vol.sum();
-  row.force_ratio = force / weight;
-
-  // 6. The drop of the top of the cylinder, and how far P2 contact nodes cross the plane (the
-  //    constraint holds on facet means only).
+  const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
+  row.facets = m.points;
+  row.in_contact = m.in_contact;
+  row.p_max = m.p_max;
+  row.a_edge = m.a_edge;
+  row.a_moment = m.a_moment;
+  row.penetration = m.penetration;
+  row.force_ratio = m.force / (problem.body_force.head(2).norm() * solver.cells().vol.sum());
+  row.residual = ltl::equilibrium_measure(solver, s).force_residual;
   for (int n = 0; n < mesh.num_nodes(); ++n)
     if ((mesh.X.row(n) - Eigen::RowVector2d(0, 1)).norm() < 1e-9) row.drop = -s.u(n, 1);
-  const Eigen::Vector2d N = problem.contact->plane_normal.head(2);
-  const Eigen::Vector2d p0 = problem.contact->plane_point.head(2);
-  row.penetration = -INFINITY;
-  for (int f = 0; f < facets.size(); ++f)
-    for (int k = 0; k < boundary.facets.cols(); ++k)
-      row.penetration =
-          std::max(row.penetration, (x.row(boundary.facets(f, k)).transpose() - p0).dot(N));
   return row;
 }
 
@@ -179,13 +152,22 @@ void convergence(const char* name, const std::vector<Row>& rows, double Row::*q)
 int main(int argc, char** argv) {
   std::string config = "experiments/fig5/fig5.toml";
   std::vector<std::string> extra;
+  std::vector<int> levels = {7, 14, 28, 56};
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "-h" || arg == "--help") {
       std::printf("usage: %s [CONFIG.toml] [key=value]...\n", argv[0]);
       return 0;
     }
-    if (arg.find('=') != std::string::npos)
+    if (arg.rfind("levels=", 0) == 0) {
+      levels.clear();
+      for (size_t i = 7; i < arg.size();) {
+        size_t j = arg.find(',', i);
+        if (j == std::string::npos) j = arg.size();
+        levels.push_back(std::stoi(arg.substr(i, j - i)));
+        i = j + 1;
+      }
+    } else if (arg.find('=') != std::string::npos)
       extra.push_back(arg);
     else
       config = arg;
@@ -196,16 +178,16 @@ int main(int argc, char** argv) {
   try {
     std::printf("Fig 5 under refinement (%s; R = 20, other parameters as configured)\n\n",
                 config.c_str());
-    std::printf("%4s %6s %6s %6s %6s %8s %8s %9s %9s %8s %11s %9s %9s %10s\n", "K", "cells",
+    std::printf("%4s %6s %6s %6s %6s %8s %8s %9s %9s %8s %11s %9s %9s %9s %10s\n", "K", "cells",
                 "nodes", "facets", "iters", "time s", "contact", "a_edge m", "a_mom m", "drop m",
-                "p_max Pa", "F/weight", "pen. m", "status");
-    for (int K : {7, 14, 28, 56}) {
+                "p_max Pa", "F/weight", "pen. m", "residual", "status");
+    for (int K : levels) {
       const Row r = run(config, K, extra);
       all_converged &= r.converged;
-      std::printf("%4d %6d %6d %6d %6d %8.2f %5d/%-2d %9.5f %9.5f %8.5f %11.5g %9.6f %9.5f %s\n",
-                  r.K, r.cells, r.nodes, r.facets, r.iterations, r.seconds, r.in_contact, r.facets,
-                  r.a_edge, r.a_moment, r.drop, r.p_max, r.force_ratio, r.penetration,
-                  r.status.c_str());
+      std::printf(
+          "%4d %6d %6d %6d %6d %8.2f %5d/%-2d %9.5f %9.5f %8.5f %11.5g %9.6f %9.5f %9.2e %s\n", r.K,
+          r.cells, r.nodes, r.facets, r.iterations, r.seconds, r.in_contact, r.facets, r.a_edge,
+          r.a_moment, r.drop, r.p_max, r.force_ratio, r.penetration, r.residual, r.status.c_str());
       std::fflush(stdout);
       rows.push_back(r);
     }

@@ -32,24 +32,27 @@
 //      /////////+/////////  plane x2 = -3    //////////+////////////  plane x2 = -3
 //
 // Writes:   results/fig6.h5 (+ results/fig6.xdmf), layout in lib/results.hpp; prints the
-//           sag, the contact zone (facets, area) and the contact force against the load.
+//           sag, the contact zone (contact points, area) and the contact force against the load.
 
 #include <algorithm>
 #include <cstdio>
 
 #include "cli.hpp"
 #include "fe.hpp"
+#include "measures.hpp"
 
 // The configuration experiments/fig6/fig6.toml meshes the quarter with 270 H8 hexahedra (2
 // through the thickness, 9 around the quarter arc, 15 along the half length) and uses R = 5,
 // q = q_c = 100 kPa (Fig 5's choice scaled to this material, 2 C1). As in Fig 5 the local
-// contact step (4.7) is a projection onto e.N <= g per facet [LTL87 (6.6)-(6.7)]:
+// contact step (4.7) is a projection onto e.N <= g per contact point [LTL87 (6.6)-(6.7)]; the
+// contact points are the nodes of the outer face (discretization.contact = "nodal", the default;
+// "facet-mean" is the paper's P0 choice, see paper_notes/discretization.md):
 //
 //   iterate (4.1) global solve for u, (4.2) local steps in E per cell (4.6, det E = 1) and in e
-//   per contact facet (4.7), (4.3) multiplier update, until (4.4); one step only.
+//   per contact point (4.7), (4.3) multiplier update, until (4.4); one step only.
 //
-// Numbers for the whole body are four times those of the computed quarter (facets on the
-// symmetry planes have their mirror images as separate facets).
+// Numbers for the whole body are four times those of the computed quarter (nodal weights on the
+// symmetry planes are half weights, so that 4 x quarter is the whole body).
 
 namespace {
 
@@ -57,20 +60,9 @@ void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
   const ltl::State& s = run.state;
   const ltl::Mesh& mesh = problem.mesh;
   const auto& contact = *problem.contact;
-  const auto& boundary = mesh.boundary(contact.group);
-  const ltl::FacetOperators facets = ltl::facet_operators(mesh, boundary);
-  const Eigen::VectorXd N = contact.plane_normal.head(mesh.dim).normalized();
-  const Eigen::VectorXd p0 = contact.plane_point.head(mesh.dim);
-  const Eigen::MatrixXd x = mesh.X + s.u;  // deformed positions, #nodes x 3
-
-  // Contact pressure p = -lambda_c . N per facet (nominal: per reference area); a facet is in
-  // contact where p exceeds round-off.
-  const Eigen::VectorXd p = -(s.lambda_c.transpose() * N);
-  const double p_max = p.maxCoeff();
-  int in_contact = 0;
-  double force = 0, area = 0;
-  for (int f = 0; f < facets.size(); ++f)
-    if (p(f) > 1e-6 * p_max) ++in_contact, force += p(f) * facets.area(f), area += facets.area(f);
+  const ltl::FacetOperators points =
+      ltl::contact_points(mesh, mesh.boundary(contact.group), problem.discretization.nodal_contact);
+  const ltl::ContactMeasures m = ltl::contact_measures(problem, points, s, 0);
 
   // The applied load: the dead tractions integrated over their facets (exact at the facet mean
   // position for an affine g), component along -N (downward).
@@ -89,23 +81,20 @@ void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
   int n_sag = 0;
   const double sag = (-s.u.col(1)).maxCoeff(&n_sag);
 
-  // How far the outer-face nodes go through the plane, (x - p0).N > 0.
-  double penetration = 0;
-  for (int f = 0; f < facets.size(); ++f)
-    for (int k = 0; k < boundary.facets.cols(); ++k)
-      penetration = std::max(penetration, (x.row(boundary.facets(f, k)).transpose() - p0).dot(N));
-
   std::printf("fig6 (computed quarter; whole body = 4 x quarter):\n");
   std::printf("  maximum sag -u2: %.4f m at X = (%.3f, %.3f, %.3f)\n", sag, mesh.X(n_sag, 0),
               mesh.X(n_sag, 1), mesh.X(n_sag, 2));
-  std::printf("  facets in contact: %d of %d; contact area %.4g m^2 (whole body %.4g m^2)\n",
-              in_contact, facets.size(), area, 4 * area);
-  std::printf("  peak contact pressure: %.4g Pa\n", p_max);
+  std::printf(
+      "  contact points (%s) in contact: %d of %d; contact area %.4g m^2 (whole body %.4g "
+      "m^2)\n",
+      problem.discretization.nodal_contact ? "nodes" : "facets", m.in_contact, m.points, m.area,
+      4 * m.area);
+  std::printf("  peak contact pressure: %.4g Pa\n", m.p_max);
   std::printf(
       "  contact force: %.5g N (whole body %.5g N); load on the quarter %.5g N "
       "(fraction carried by the plane %.3f)\n",
-      force, 4 * force, load, load > 0 ? force / load : 0.0);
-  std::printf("  largest nodal penetration of the plane: %.4g m\n", penetration);
+      m.force, 4 * m.force, load, load > 0 ? m.force / load : 0.0);
+  std::printf("  largest nodal penetration of the plane: %.4g m\n", m.penetration);
   if (!run.iterations.empty()) std::printf("  iterations: %d (paper: 70)\n", run.iterations[0]);
 }
 

@@ -1,0 +1,578 @@
+#!/usr/bin/python3
+"""Independent dolfinx 0.5 peer for the contact problems of Le Tallec & Lotfi (1987), Figs 5 and 6.
+
+Incompressible Mooney-Rivlin, mixed displacement/pressure (Taylor-Hood P2/P1 on triangles,
+Q2/Q1 on hexahedra; optionally Q1/P0 in 3-D), full Newton (MUMPS LU, backtracking line search),
+frictionless contact with a rigid plane by a quadratic penalty on the gap at facet quadrature
+points, with load stepping at a moderate penalty and then penalty continuation at full load.
+
+Usage (from the repository root):
+  OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py fig5 --levels 7 14 28 56 --out results/peer/fig5.json
+  OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py fig6 --levels 1 2 3 --out results/peer/fig6.json
+  /usr/bin/python3 experiments/peer/peer.py table results/peer/fig5.json
+"""
+import argparse
+import json
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from peer_common import (  # noqa: E402
+    ROOT, MPI, PETSc, Timer, FacetSampler, NewtonSolver, assemble, basix, fem, load_geo, np, ufl)
+
+
+def mooney_rivlin_psi(Fm, q, C1, C2):
+    """W(F) - q (det F - 1) for the 3x3 deformation gradient Fm."""
+    C = Fm.T * Fm
+    I1 = ufl.tr(C)
+    I2 = 0.5 * (I1 ** 2 - ufl.tr(C * C))
+    return C1 * (I1 - 3) + C2 * (I2 - 3) - q * (ufl.det(Fm) - 1)
+
+
+def mixed_space(mesh, element):
+    cell = mesh.ufl_cell()
+    if element == "taylor-hood":  # P2/P1 (triangles) or Q2/Q1 (hexahedra)
+        Ue = ufl.VectorElement("Lagrange", cell, 2)
+        Pe = ufl.FiniteElement("Lagrange", cell, 1)
+    elif element == "q1p0":
+        Ue = ufl.VectorElement("Lagrange", cell, 1)
+        Pe = ufl.FiniteElement("DG", cell, 0)
+    else:
+        raise ValueError(element)
+    return fem.FunctionSpace(mesh, ufl.MixedElement([Ue, Pe]))
+
+
+def pos(x):
+    return ufl.max_value(x, 0.0)
+
+
+class Damping:
+    """Pseudo-transient continuation: the residual carries + c (u - u_old) . v dx; c = 0 except
+    inside ptc(). Used to pass limit points (snap-through) of the load/obstacle path: a damped
+    (gradient-flow-like) sequence of solves at a fixed load that ends in a stable equilibrium,
+    after which c is set to 0 and the undamped problem is solved (the result carries no damping)."""
+
+    def __init__(self, mesh, W, c0):
+        self.c = fem.Constant(mesh, PETSc.ScalarType(0.0))
+        self.w_old = fem.Function(W)
+        self.c0 = c0
+
+    def term(self, u, v):
+        u_old, _ = ufl.split(self.w_old)
+        return self.c * ufl.dot(u - u_old, v)
+
+
+def ptc(solver, damp, ref_norm, log, verbose=False, max_steps=600, rtol=1e-10):
+    w = solver.w
+    umask = solver.is_u
+    c = damp.c0
+    steps = 0
+    while steps < max_steps:
+        steps += 1
+        damp.c.value = c
+        damp.w_old.x.array[:] = w.x.array
+        w_save = w.x.array.copy()
+        ok, its = solver.solve(ref_norm, rtol=rtol, verbose=verbose, max_it=15)
+        if not ok:
+            w.x.array[:] = w_save
+            w.x.scatter_forward()
+            c *= 4.0
+            log.append({"ptc_c": c / 4.0, "ok": False, "newton": its})
+            continue
+        move = float(np.max(np.abs(w.x.array[umask] - w_save[umask])))
+        log.append({"ptc_c": c, "ok": True, "newton": its, "move": move})
+        if verbose or steps % 10 == 0:
+            print(f"      ptc step {steps}: c = {c:.2e}, {its} Newton, max move {move:.2e}", flush=True)
+        if its <= 5:
+            c /= 3.0
+        if move < 1e-4 or c < 1e-6 * damp.c0:
+            # try the undamped problem from here
+            damp.c.value = 0.0
+            w_save = w.x.array.copy()
+            ok, its = solver.solve(ref_norm, rtol=rtol, verbose=verbose, max_it=15)
+            log.append({"ptc_c": 0.0, "ok": ok, "newton": its})
+            if ok:
+                print(f"      ptc: undamped solve converged after {steps} damped steps", flush=True)
+                return True
+            w.x.array[:] = w_save
+            w.x.scatter_forward()
+    damp.c.value = 0.0
+    return False
+
+
+def ramp(solver, const, start, end, step0, name, ref_norm_fn, log, first_guess=None, verbose=False,
+         rtol=1e-10, max_it=25, min_step=1e-5, damp=None, ptc_below=2e-3):
+    """Adaptive continuation of the fem.Constant `const` from start to end (Newton at each value;
+    halve the step on failure, grow it by 1.5 after an easy solve). With `damp`, a step that
+    still fails when shorter than ptc_below * (end - start) is done by pseudo-transient
+    continuation instead (a limit point has been met)."""
+    w = solver.w
+    cur, step = start, step0 * (end - start)
+    total = end - start
+    while (end - cur) / total > 1e-12:
+        trial = end if (end - (cur + step)) / total < 1e-12 else cur + step
+        w_save = w.x.array.copy()
+        const.value = trial
+        if cur == start and first_guess is not None:
+            first_guess(trial)
+        ok, its = solver.solve(ref_norm_fn(trial), rtol=rtol, verbose=verbose, max_it=max_it)
+        print(f"    {name} {trial:.5g}: {'ok' if ok else 'FAILED'} in {its} Newton", flush=True)
+        log.append({name: trial, "ok": ok, "newton": its})
+        if ok:
+            cur = trial
+            if its <= 6:
+                step *= 1.5
+        else:
+            w.x.array[:] = w_save
+            w.x.scatter_forward()
+            if damp is not None and abs(step / total) < ptc_below:
+                print(f"    {name} {trial:.5g}: limit point? pseudo-transient continuation", flush=True)
+                ok = ptc(solver, damp, ref_norm_fn(trial), log, verbose=verbose, rtol=rtol)
+                if not ok:
+                    raise RuntimeError(f"pseudo-transient continuation in {name} failed at {trial}")
+                log.append({name: trial, "ok": True, "ptc": True})
+                cur = trial
+                step = max(step, 0.05 * total)
+                continue
+            step *= 0.5
+            if abs(step / total) < min_step:
+                raise RuntimeError(f"continuation in {name} failed at {cur}")
+    const.value = end
+
+
+def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=0.25, verbose=False,
+                     rtol=1e-10, history_cb=None, plane=None, damp=None):
+    """Load stepping lam: 0 -> 1 at penalty k_list[0] (adaptive step); optionally (plane =
+    (Constant, start, end)) move the obstacle from start to end at full load; then penalty
+    continuation through k_list at lam = 1. Returns a log dict."""
+    log = {"load_steps": [], "plane_steps": [], "penalty_steps": []}
+    kpen.value = k_list[0]
+    if plane is not None:
+        plane[0].value = plane[1]
+    ramp(solver, lam, 0.0, 1.0, dl0, "load", lambda t: ref_norm * t, log["load_steps"],
+         first_guess=first_guess, verbose=verbose, rtol=rtol, damp=damp)
+    if plane is not None:
+        ramp(solver, plane[0], plane[1], plane[2], 0.1, "plane", lambda t: ref_norm,
+             log["plane_steps"], verbose=verbose, rtol=rtol, damp=damp)
+    w = solver.w
+    for kk in k_list[1:]:
+        w_save = w.x.array.copy()
+        kprev = float(kpen.value)
+        kpen.value = kk
+        ok, its = solver.solve(ref_norm, rtol=rtol, verbose=verbose)
+        if not ok:  # retry with an intermediate penalty
+            w.x.array[:] = w_save
+            w.x.scatter_forward()
+            kpen.value = math.sqrt(kprev * kk)
+            ok1, its1 = solver.solve(ref_norm, rtol=rtol, verbose=verbose)
+            kpen.value = kk
+            ok, its2 = solver.solve(ref_norm, rtol=rtol, verbose=verbose)
+            its = its1 + its2
+            ok = ok1 and ok
+        print(f"    penalty k = {kk:.1e}: {'ok' if ok else 'FAILED'} in {its} Newton", flush=True)
+        entry = {"k": kk, "ok": ok, "newton": its}
+        if history_cb is not None:
+            entry.update(history_cb())
+        log["penalty_steps"].append(entry)
+        if not ok:
+            raise RuntimeError(f"Newton failed at penalty {kk}")
+    # The penalty error is O(1/k): estimate v(k_final) - v(inf) ~ (v(k_final/10) - v(k_final)) / 9
+    ps = log["penalty_steps"]
+    if len(ps) >= 2:
+        log["penalty_error_estimate"] = {
+            key: abs(ps[-2][key] - ps[-1][key]) / 9.0 for key in ps[-1]
+            if key not in ("k", "ok", "newton") and isinstance(ps[-1][key], float)}
+    return log
+
+
+# --------------------------------------------------------------------------------------------
+# Fig 5: plane-strain half cylinder on the plane x2 = -1 under its own weight
+# --------------------------------------------------------------------------------------------
+FIG5 = dict(Rc=1.0, C1=435e3, C2=65e3, f2=-400e3, plane=-1.0)
+
+
+def contact_rule(rule, facet_cell, cdeg):
+    """(ufl metadata, reference-facet points) of the contact quadrature. 'gll' with degree 3 is
+    nodal collocation for P2/Q2 (3 points per edge, 3x3 per face); 'gauss' with degree 3 is the
+    2-point (2x2) Gauss rule."""
+    name = {"gll": "GLL", "gauss": "GL"}[rule]
+    qt = {"gll": basix.QuadratureType.gll, "gauss": basix.QuadratureType.gauss_jacobi}[rule]
+    pts, _ = basix.make_quadrature(qt, facet_cell, cdeg)
+    return {"quadrature_degree": cdeg, "quadrature_rule": name}, pts
+
+
+def solve_fig5(K, geom_order=2, k_list=None, verbose=False, qdeg=4, cdeg=3, rule="gll"):
+    T = Timer()
+    P = FIG5
+    geo = os.path.join(ROOT, "experiments", "fig5", "half_disc.geo")
+    mesh, ct, ft, groups = load_geo(geo, {"Rc": P["Rc"], "n": K, "nd": K}, geom_order)
+    t_mesh = T()
+    W = mixed_space(mesh, "taylor-hood")
+    w = fem.Function(W)
+    u, q = ufl.split(w)
+    wt = ufl.TestFunction(W)
+    v, _ = ufl.split(wt)
+    dw = ufl.TrialFunction(W)
+    x = ufl.SpatialCoordinate(mesh)
+    lam = fem.Constant(mesh, PETSc.ScalarType(0.0))
+    kpen = fem.Constant(mesh, PETSc.ScalarType(1.0))
+    f = ufl.as_vector([0.0, P["f2"]])
+    dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": qdeg})
+    cmeta, qpts = contact_rule(rule, basix.CellType.interval, cdeg)
+    dsc = ufl.Measure("ds", domain=mesh, subdomain_data=ft, subdomain_id=groups["contact"],
+                      metadata=cmeta)
+    dsc_hi = ufl.Measure("ds", domain=mesh, subdomain_data=ft, subdomain_id=groups["contact"],
+                         metadata={"quadrature_degree": 20})
+    F2 = ufl.Identity(2) + ufl.grad(u)
+    F3 = ufl.as_matrix([[F2[0, 0], F2[0, 1], 0.0], [F2[1, 0], F2[1, 1], 0.0], [0.0, 0.0, 1.0]])
+    psi = mooney_rivlin_psi(F3, q, P["C1"], P["C2"])
+    gap = x[1] + u[1] - P["plane"]  # >= 0
+    pc = kpen * pos(-gap)  # penalty contact pressure (nominal, per reference length)
+    R = ufl.derivative(psi * dx, w, wt) - lam * ufl.dot(f, v) * dx - pc * v[1] * dsc
+    Jf = ufl.derivative(R, w, dw)
+
+    tdim = mesh.topology.dim
+    symf = ft.indices[ft.values == groups["symmetry_x"]]
+    dofs = fem.locate_dofs_topological(W.sub(0).sub(0), tdim - 1, symf)
+    bcs = [fem.dirichletbc(PETSc.ScalarType(0.0), dofs, W.sub(0).sub(0))]
+
+    solver = NewtonSolver(R, Jf, w, bcs)
+    solver.set_scales(W.sub(0).collapse()[1], P["Rc"], P["C1"] + P["C2"])
+    # Reference residual norm: the full external load vector.
+    bl = fem.petsc.assemble_vector(fem.form(ufl.dot(f, v) * dx))
+    bl.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    fem.petsc.set_bc(bl, bcs)
+    ref_norm = bl.norm()
+
+    area = assemble(fem.Constant(mesh, 1.0) * dx)
+    weight = abs(P["f2"]) * area
+    _, u2map = W.sub(0).sub(1).collapse()
+    k0 = k_list[0]
+
+    def first_guess(lmb):
+        # rigid translation for which a rigid disc with penalty k0 would carry lmb * weight:
+        # force = k0 * (2/3) * delta * sqrt(2 R delta)
+        delta = (3 * lmb * weight / (2 * k0 * math.sqrt(2 * P["Rc"]))) ** (2.0 / 3.0)
+        w.x.array[:] = 0.0
+        w.x.array[np.asarray(u2map)] = -delta
+        w.x.scatter_forward()
+
+    V, umap = W.sub(0).collapse()
+    umap = np.asarray(umap)
+    uh = fem.Function(V)
+    Xv = V.tabulate_dof_coordinates()[:, :2]
+    cdofs = fem.locate_dofs_topological(V, tdim - 1, ft.indices[ft.values == groups["contact"]])
+    top = int(np.argmin(np.linalg.norm(Xv - [0.0, P["Rc"]], axis=1)))
+    bot = int(np.argmin(np.linalg.norm(Xv - [0.0, -P["Rc"]], axis=1)))
+    assert np.linalg.norm(Xv[top] - [0, P["Rc"]]) < 1e-12 and np.linalg.norm(Xv[bot] - [0, -P["Rc"]]) < 1e-12
+    samp_qp = FacetSampler(V, ft, groups["contact"], qpts)
+    ndense = 65
+    samp_dense = FacetSampler(V, ft, groups["contact"], np.linspace(0, 1, ndense)[:, None])
+    M0f = fem.form(pc * dsc)
+    M2f = fem.form(pc * (x[0] + u[0]) ** 2 * dsc)
+    Lc = fem.form(ufl.conditional(ufl.lt(gap, 0.0), 1.0, 0.0) * dsc_hi)
+
+    def observables():
+        uh.x.array[:] = w.x.array[umap]
+        ua = uh.x.array.reshape(-1, 2)
+        k = float(kpen.value)
+        M0 = MPI.COMM_WORLD.allreduce(fem.assemble_scalar(M0f), op=MPI.SUM)
+        M2 = MPI.COMM_WORLD.allreduce(fem.assemble_scalar(M2f), op=MPI.SUM)
+        Xq, Uq = samp_qp(uh)
+        gq = Xq[:, 1] + Uq[:, 1] - P["plane"]
+        pq = k * np.maximum(-gq, 0.0)
+        pmax = float(pq.max())
+        x1q = Xq[:, 0] + Uq[:, 0]
+        act = pq > 1e-6 * pmax
+        Xd, Ud = samp_dense(uh)
+        gd = Xd[:, 1] + Ud[:, 1] - P["plane"]
+        pd = k * np.maximum(-gd, 0.0)
+        x1d = Xd[:, 0] + Ud[:, 0]
+        actd = pd > 1e-6 * pmax
+        gn = Xv[cdofs, 1] + ua[cdofs, 1] - P["plane"]
+        i0 = int(np.argmin(Xq[:, 0]))
+        return {
+            "drop": float(-ua[top, 1]),
+            "M0": M0, "M2": M2,
+            "a_moment": float(2 * math.sqrt(M2 / M0)) if M0 > 0 else 0.0,
+            "a_edge": float(x1q[act].max()),
+            "a_edge_dense": float(x1d[actd].max()),
+            "p_max": pmax,
+            "p_max_x1": float(x1q[int(np.argmax(pq))]),
+            "p_x1_0": float(k * max(-(Xv[bot, 1] + ua[bot, 1] - P["plane"]), 0.0)),
+            "p_first_qp": float(pq[i0]),
+            "first_qp_x1": float(x1q[i0]),
+            "force_ratio": M0 / weight,
+            "contact_length_ref": MPI.COMM_WORLD.allreduce(fem.assemble_scalar(Lc), op=MPI.SUM),
+            "penetration": float(max((-gn).max(), 0.0)),
+            "penetration_dense": float(max((-gd).max(), 0.0)),
+            "penalty": k,
+        }
+
+    log = run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=first_guess,
+                           verbose=verbose, history_cb=lambda: {
+                               kk: vv for kk, vv in observables().items()
+                               if kk in ("drop", "a_moment", "p_max", "penetration", "force_ratio")})
+    obs = observables()
+    ncells = mesh.topology.index_map(tdim).size_global
+    return {
+        "level": K, "n": K, "nd": K, "geom_order": geom_order,
+        "cells": ncells,
+        "dofs": W.dofmap.index_map.size_global * W.dofmap.index_map_bs,
+        "dofs_u": V.dofmap.index_map.size_global * V.dofmap.index_map_bs,
+        "contact_facets": int(np.sum(ft.values == groups["contact"])),
+        "area": area, "area_exact": math.pi * P["Rc"] ** 2 / 2,
+        "observables": obs,
+        "newton_total": solver.total_iterations,
+        "time_mesh_s": t_mesh, "time_s": T(),
+        "log": log,
+        "quadrature": {"bulk": qdeg, "contact": cdeg, "contact_rule": rule,
+                       "contact_points_per_facet": len(qpts),
+                       "dense_samples_per_facet": ndense},
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# Fig 6: the gutter over the plane x2 = -3
+# --------------------------------------------------------------------------------------------
+FIG6 = dict(Ri=1.0, t=0.2, L=20.0, nt=2, na=9, nl=15, C1=50e3, C2=0.0, traction=-500.0, plane=-3.0)
+
+
+def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=False, cdeg=3, rule="gll",
+               gap0=0.02, c0=5e4):
+    T = Timer()
+    P = FIG6
+    geo = os.path.join(ROOT, "experiments", "fig6", "gutter.geo")
+    prm = {"Ri": P["Ri"], "t": P["t"], "L": P["L"],
+           "nt": P["nt"] * level, "na": P["na"] * level, "nl": P["nl"] * level}
+    mesh, ct, ft, groups = load_geo(geo, prm, geom_order)
+    t_mesh = T()
+    W = mixed_space(mesh, element)
+    qdeg = 4 if element == "taylor-hood" else 2
+    w = fem.Function(W)
+    u, q = ufl.split(w)
+    wt = ufl.TestFunction(W)
+    v, _ = ufl.split(wt)
+    dw = ufl.TrialFunction(W)
+    x = ufl.SpatialCoordinate(mesh)
+    lam = fem.Constant(mesh, PETSc.ScalarType(0.0))
+    kpen = fem.Constant(mesh, PETSc.ScalarType(1.0))
+    tr = ufl.as_vector([0.0, P["traction"], 0.0])
+    dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": qdeg})
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft, metadata={"quadrature_degree": qdeg})
+    if element == "q1p0" and rule == "gll":
+        cdeg = 1  # nodal for Q1
+    cmeta, qpts = contact_rule(rule, basix.CellType.quadrilateral, cdeg)
+    dsc = ufl.Measure("ds", domain=mesh, subdomain_data=ft, subdomain_id=groups["outer"],
+                      metadata=cmeta)
+    dsc_hi = ufl.Measure("ds", domain=mesh, subdomain_data=ft, subdomain_id=groups["outer"],
+                         metadata={"quadrature_degree": 11})
+    F = ufl.Identity(3) + ufl.grad(u)
+    psi = mooney_rivlin_psi(F, q, P["C1"], P["C2"])
+    plane = fem.Constant(mesh, PETSc.ScalarType(P["plane"]))
+    gap = x[1] + u[1] - plane
+    pc = kpen * pos(-gap)
+    damp = Damping(mesh, W, c0)
+    R = (ufl.derivative(psi * dx, w, wt) - lam * ufl.dot(tr, v) * ds(groups["inner"])
+         - pc * v[1] * dsc + damp.term(u, v) * dx)
+    Jf = ufl.derivative(R, w, dw)
+
+    tdim = 3
+    bcs = []
+    for grp, comps in (("symmetry_x", [0]), ("symmetry_z", [2]), ("clamped", [0, 1, 2])):
+        facets = ft.indices[ft.values == groups[grp]]
+        for c in comps:
+            dofs = fem.locate_dofs_topological(W.sub(0).sub(c), tdim - 1, facets)
+            bcs.append(fem.dirichletbc(PETSc.ScalarType(0.0), dofs, W.sub(0).sub(c)))
+    solver = NewtonSolver(R, Jf, w, bcs)
+    solver.set_scales(W.sub(0).collapse()[1], P["Ri"], P["C1"] + P["C2"])
+    bl = fem.petsc.assemble_vector(fem.form(ufl.dot(tr, v) * ds(groups["inner"])))
+    bl.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    fem.petsc.set_bc(bl, bcs)
+    ref_norm = bl.norm()
+    area_inner = assemble(fem.Constant(mesh, 1.0) * ds(groups["inner"]))
+    load = abs(P["traction"]) * area_inner
+
+    V, umap = W.sub(0).collapse()
+    umap = np.asarray(umap)
+    uh = fem.Function(V)
+    Xv = V.tabulate_dof_coordinates()
+    cdofs = fem.locate_dofs_topological(V, tdim - 1, ft.indices[ft.values == groups["outer"]])
+    # mesh vertices (the H8 nodes) among the V dofs on the outer face
+    vert = mesh.geometry.x[:mesh.topology.index_map(0).size_local]
+    vset = {tuple(np.round(p, 10)) for p in vert}
+    cvert = np.array([d for d in cdofs if tuple(np.round(Xv[d], 10)) in vset])
+    samp_qp = FacetSampler(V, ft, groups["outer"], qpts) if element == "taylor-hood" else None
+    M0f = fem.form(pc * dsc)
+    Af = fem.form(ufl.conditional(ufl.lt(gap, 0.0), 1.0, 0.0) * dsc_hi)
+
+    def observables():
+        uh.x.array[:] = w.x.array[umap]
+        ua = uh.x.array.reshape(-1, 3)
+        k = float(kpen.value)
+        M0 = MPI.COMM_WORLD.allreduce(fem.assemble_scalar(M0f), op=MPI.SUM)
+        i = int(np.argmax(-ua[:, 1]))
+        gn = Xv[cdofs, 1] + ua[cdofs, 1] - P["plane"]
+        gv = Xv[cvert, 1] + ua[cvert, 1] - P["plane"]
+        out = {
+            "sag": float(-ua[i, 1]),
+            "sag_at": [float(c) for c in Xv[i]],
+            "contact_force": M0,
+            "load": load,
+            "force_ratio": M0 / load,
+            "contact_area_ref": MPI.COMM_WORLD.allreduce(fem.assemble_scalar(Af), op=MPI.SUM),
+            "contact_nodes": int(np.sum(gn < 0.0)),
+            "contact_nodes_1e-6": int(np.sum(gn < 1e-6)),
+            "contact_vertices": int(np.sum(gv < 0.0)),
+            "outer_nodes": int(len(cdofs)), "outer_vertices": int(len(cvert)),
+            "penetration": float(max((-gn).max(), 0.0)),
+            "penalty": k,
+        }
+        if samp_qp is not None:
+            Xq, Uq = samp_qp(uh)
+            gq = Xq[:, 1] + Uq[:, 1] - P["plane"]
+            pq = k * np.maximum(-gq, 0.0)
+            out["p_max"] = float(pq.max())
+            out["p_max_at"] = [float(c) for c in Xq[int(np.argmax(pq))]]
+            out["penetration_qp"] = float(max((-gq).max(), 0.0))
+        return out
+
+    # Load control alone meets a limit point near 5 % of the load (the gutter collapses onto the
+    # plane), so: load stepping with the plane just below the gutter (x2 = -(Ri+t) - gap0), then
+    # the plane is moved down to x2 = -3 at full load, then penalty continuation.
+    plane_start = -(P["Ri"] + P["t"]) - gap0
+    log = run_continuation(solver, lam, kpen, k_list, ref_norm, verbose=verbose, dl0=0.1,
+                           plane=(plane, plane_start, P["plane"]), damp=damp,
+                           history_cb=lambda: {
+                               kk: vv for kk, vv in observables().items()
+                               if kk in ("sag", "force_ratio", "penetration", "contact_area_ref")})
+    obs = observables()
+    return {
+        "level": level, **{kk: prm[kk] for kk in ("nt", "na", "nl")},
+        "geom_order": geom_order, "element": element,
+        "cells": mesh.topology.index_map(tdim).size_global,
+        "dofs": W.dofmap.index_map.size_global * W.dofmap.index_map_bs,
+        "dofs_u": V.dofmap.index_map.size_global * V.dofmap.index_map_bs,
+        "area_inner": area_inner, "area_inner_exact": math.pi / 2 * P["Ri"] * P["L"] / 2,
+        "observables": obs,
+        "newton_total": solver.total_iterations,
+        "time_mesh_s": t_mesh, "time_s": T(),
+        "log": log,
+        "quadrature": {"bulk": qdeg, "contact": cdeg, "contact_rule": rule,
+                       "contact_points_per_facet": len(qpts)},
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# Tables
+# --------------------------------------------------------------------------------------------
+def observed_order(h, v):
+    """Order p from three (h, value) pairs, h decreasing: (v2-v1)/(v3-v2) = (h1^p-h2^p)/(h2^p-h3^p).
+    Equals log2(d_{i-1}/d_i) when the ratio of successive h is 2. None if not monotone."""
+    d1, d2 = v[1] - v[0], v[2] - v[1]
+    if d1 == 0 or d2 == 0 or d1 * d2 < 0:
+        return None
+    ratio = d1 / d2
+
+    def fn(p):
+        return (h[0] ** p - h[1] ** p) / (h[1] ** p - h[2] ** p) - ratio
+
+    lo, hi = 1e-3, 20.0
+    if fn(lo) * fn(hi) > 0:
+        return None
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if fn(lo) * fn(mid) <= 0:
+            hi = mid
+        else:
+            lo = mid
+    return 0.5 * (lo + hi)
+
+
+SCALARS = {
+    "fig5": ["drop", "a_moment", "a_edge", "a_edge_dense", "p_max", "p_x1_0", "force_ratio",
+             "contact_length_ref", "penetration"],
+    "fig6": ["sag", "contact_force", "force_ratio", "contact_area_ref", "contact_nodes",
+             "contact_vertices", "p_max", "penetration"],
+}
+
+
+def print_table(data):
+    fig = data["figure"]
+    runs = sorted(data["runs"], key=lambda r: r["level"])
+    h = [1.0 / r["level"] for r in runs]
+    print(f"\n{fig}: geometry order {runs[0]['geom_order']}, element {runs[0].get('element', 'taylor-hood')}")
+    print(f"{'level':>6} {'cells':>7} {'dofs':>8} {'newton':>6} {'time[s]':>8} {'k_final':>8}")
+    for r in runs:
+        print(f"{r['level']:>6} {r['cells']:>7} {r['dofs']:>8} {r['newton_total']:>6} {r['time_s']:>8.1f} "
+              f"{r['observables']['penalty']:>8.1e}")
+    for key in SCALARS[fig]:
+        vals = [r["observables"].get(key) for r in runs]
+        if any(v is None for v in vals):
+            continue
+        print(f"\n  {key}")
+        print(f"  {'level':>6} {'value':>16} {'diff':>12} {'order':>7}")
+        for i, r in enumerate(runs):
+            d = "" if i == 0 else f"{vals[i] - vals[i - 1]:12.4e}"
+            o = ""
+            if i >= 2:
+                p = observed_order(h[i - 2:i + 1], vals[i - 2:i + 1])
+                o = "  n/a" if p is None else f"{p:7.2f}"
+            print(f"  {r['level']:>6} {vals[i]:16.8g} {d:>12} {o:>7}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    for fig in ("fig5", "fig6"):
+        s = sub.add_parser(fig)
+        s.add_argument("--levels", type=int, nargs="+", required=True,
+                       help="fig5: K = n = nd; fig6: refinement factor of (nt, na, nl) = (2, 9, 15)")
+        s.add_argument("--out", required=True)
+        s.add_argument("--geom-order", type=int, default=2, choices=[1, 2])
+        s.add_argument("--kmin", type=float, default=1e8 if fig == "fig5" else 1e6,
+                       help="penalty during load stepping [Pa/m]")
+        s.add_argument("--kmax", type=float, default=1e13 if fig == "fig5" else 1e11,
+                       help="final penalty [Pa/m] (continuation by factors of 10)")
+        s.add_argument("--contact-rule", default="gll", choices=["gll", "gauss"],
+                       help="gll: nodal collocation (default); gauss: 2-point Gauss per edge direction")
+        s.add_argument("--verbose", action="store_true")
+        if fig == "fig6":
+            s.add_argument("--element", default="taylor-hood", choices=["taylor-hood", "q1p0"])
+    t = sub.add_parser("table")
+    t.add_argument("json")
+    a = ap.parse_args()
+    if a.cmd == "table":
+        with open(a.json) as fh:
+            print_table(json.load(fh))
+        return
+    nk = int(round(math.log10(a.kmax / a.kmin)))
+    k_list = [a.kmin * 10.0 ** i for i in range(nk + 1)]
+    out = os.path.abspath(a.out)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    data = {"figure": a.cmd, "runs": []}
+    if os.path.exists(out):  # keep other levels already in the file (same settings assumed)
+        with open(out) as fh:
+            old = json.load(fh)
+        if old.get("figure") == a.cmd:
+            data["runs"] = [r for r in old["runs"] if r["level"] not in a.levels
+                            and r["geom_order"] == a.geom_order
+                            and r.get("element", "taylor-hood") == getattr(a, "element", "taylor-hood")]
+    for lev in a.levels:
+        print(f"== {a.cmd} level {lev}", flush=True)
+        if a.cmd == "fig5":
+            r = solve_fig5(lev, a.geom_order, k_list, verbose=a.verbose, rule=a.contact_rule)
+        else:
+            r = solve_fig6(lev, a.geom_order, a.element, k_list, verbose=a.verbose, rule=a.contact_rule)
+        print(json.dumps({kk: r[kk] for kk in ("level", "cells", "dofs", "newton_total", "time_s")}))
+        print(json.dumps(r["observables"]), flush=True)
+        data["runs"] = [x for x in data["runs"] if x["level"] != lev] + [r]
+        data["runs"].sort(key=lambda x: x["level"])
+        with open(out, "w") as fh:
+            json.dump(data, fh, indent=1)
+    print_table(data)
+
+
+if __name__ == "__main__":
+    main()

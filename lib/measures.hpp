@@ -1,0 +1,62 @@
+// The numbers the figures report, each with one definition (computed here and nowhere else).
+//
+// Contact measures are taken over the solver's contact points (facets with
+// discretization.contact = "facet-mean", nodes with "nodal"): p_i = -lambda_c_i . N is the
+// nominal contact pressure (per reference length/area) at point i with weight w_i; a point is in
+// contact where p_i > kContactThreshold * max_i p_i.
+//
+// The equilibrium measure is the residual of the discrete equilibrium of the reduced energy with
+// the contact forces, the (4.5) equation at a fixed point of (4.1)-(4.3) written with the stress
+// P = 2 C1 E - lambda: "converged" means the same thing for plain and accelerated iterations and
+// for a Newton solver.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include "alg2.hpp"
+
+namespace ltl {
+
+/// A contact point is in contact where its pressure exceeds this fraction of the peak pressure.
+inline constexpr double kContactThreshold = 1e-6;
+
+struct ContactMeasures {
+  int points = 0;          ///< contact points (facets or nodes)
+  int in_contact = 0;      ///< points with p_i > kContactThreshold * p_max
+  double p_max = 0;        ///< peak nominal contact pressure (Pa)
+  double force = 0;        ///< sum_i w_i p_i (N/m in plane strain, N in 3-D)
+  double area = 0;         ///< sum of w_i over the points in contact (reference measure)
+  double a_edge = 0;       ///< largest deformed coordinate along `axis` of a node that carries
+                           ///< a point in contact (a facet's nodes, or the node itself)
+  double a_moment = 0;     ///< 2 sqrt(M2 / M0), M0 = sum w_i p_i, M2 = sum w_i p_i x_i^2, x_i
+                           ///< the deformed coordinate along `axis` of point i (smooth in h)
+  double penetration = 0;  ///< max over the contact surface's nodes of (x - p0) . N (> 0: inside)
+};
+
+/// [LTL87 (1.1), (4.11)] The contact measures at a state; `points` are the problem's contact
+/// points (contact_points(problem) = Solver::facets()); `axis` is the coordinate along which the
+/// contact zone's half-width is measured (x1 for Figs 5-6).
+ContactMeasures contact_measures(const Problem& problem, const FacetOperators& points,
+                                 const State& s, int axis = 0);
+inline ContactMeasures contact_measures(const Solver& solver, const State& s, int axis = 0) {
+  return solver.facets() ? contact_measures(solver.problem(), *solver.facets(), s, axis)
+                         : ContactMeasures{};
+}
+
+/// Residual of the discrete equilibrium, #nodes x dim:
+///   r = GbarT_vol P + 2 C1 (L u - GbarT_vol Gbar u) - f_ext - meanT_area lambda_c^T,
+///   P = 2 C1 E - lambda (C1 of Solver::split()).
+/// Zero on every free degree of freedom at a fixed point of (4.1)-(4.3); on a fixed one it is the
+/// reaction of the support.
+Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s);
+
+struct EquilibriumMeasure {
+  double force_residual = 0;  ///< max |r| over free dofs / max |f_ext| (largest nodal load)
+  double det_error = 0;       ///< max over cells of |det E - 1| (incompressible law; else 0)
+  double penetration = 0;     ///< ContactMeasures::penetration (0 without contact)
+};
+
+/// The equilibrium measure of a state (reported with every converged step).
+EquilibriumMeasure equilibrium_measure(const Solver& solver, const State& s);
+
+}  // namespace ltl
