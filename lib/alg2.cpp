@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "error.hpp"
+#include "measures.hpp"
 
 namespace ltl {
 
@@ -282,10 +283,16 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     if (r < alg.tol) {
       report.converged = true;
       report.status = "converged";
-      return report;
+      break;
     }
   }
-  report.status = cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
+  if (!report.converged)
+    report.status =
+        cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
+  const EquilibriumMeasure eq = equilibrium_measure(*this, s);
+  report.force_residual = eq.force_residual;
+  report.det_error = eq.det_error;
+  report.penetration = eq.penetration;
   return report;
 }
 

@@ -40,6 +40,9 @@ struct StepReport {
   int iterations = 0;
   std::vector<IterationRecord> history;
   int strain_failures = 0;  ///< local strain problems whose Newton iteration did not converge
+  /// The equilibrium measure at the last iterate (lib/measures.hpp): max nodal force residual /
+  /// max nodal load, max |det E - 1|, max penetration of a contact-surface node (m).
+  double force_residual = 0, det_error = 0, penetration = 0;
 };
 
 }  // namespace ltl

@@ -13,6 +13,7 @@
 
 #include "alg2.hpp"
 #include "config.hpp"
+#include "measures.hpp"
 #include "testing.hpp"
 
 using namespace ltl;
@@ -35,23 +36,9 @@ ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& 
   return cc;
 }
 
-// Residual of the global equilibrium at a converged state, #nodes x dim:
-//   r = f_int(u) - f_ext - f_contact,
-//   f_int = GbarT_vol P + 2 C1 (L u - GbarT_vol Gbar u),  P = 2 C1 E - lambda,
-//   f_contact = meanT_area lambda_c^T.
-// It is the (4.5) equation at a fixed point of (4.1)-(4.3) (E = I + Gbar u, e = ubar), rewritten
-// with the stress P: zero on every free degree of freedom, and on a fixed one it is the force
-// the support exerts on the body (the reaction). Both f_int terms annihilate translations
-// (Gbar 1 = 0, L 1 = 0), so sum_nodes f_int = 0 and sum_nodes r = -(total load + contact force).
-Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s) {
-  const CellOperators& c = solver.cells();
-  const double C1 = solver.split().C1;
-  const Eigen::MatrixXd GU = c.Gbar * s.u;
-  Eigen::MatrixXd r = c.GbarT_vol * solver.piola(s) +
-                      2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - solver.external_load();
-  if (solver.facets()) r -= solver.facets()->meanT_area * s.lambda_c.transpose();
-  return r;
-}
+// The residual of the global equilibrium is ltl::equilibrium_residual (lib/measures.hpp): zero
+// on every free degree of freedom at a fixed point of (4.1)-(4.3); on a fixed one it is the
+// reaction of the support.
 
 // Gap of each contact facet computed from the displacement itself, g_s - ubar_s . N (ubar_s the
 // facet mean of u), rather than from the local variable e_s (Solver::contact_gap): at

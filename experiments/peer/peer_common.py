@@ -150,6 +150,35 @@ class NewtonSolver:
         fpetsc.set_bc(self.b, self.bcs)  # bc values are 0 and w satisfies them: zero the rows
         return self.b.norm()
 
+    def step(self, verbose=False):
+        """One Newton iteration from the current w (residual assembled here), with the same
+        backtracking line search as solve(). Returns False on a linear-solver failure."""
+        w = self.w
+        r0 = self.residual()
+        self.A.zeroEntries()
+        fpetsc.assemble_matrix(self.A, self.J, bcs=self.bcs)
+        self.A.assemble()
+        self.b.scale(-1.0)
+        self.ksp.solve(self.b, self.dw)
+        if self.ksp.getConvergedReason() < 0:
+            return False
+        self.total_iterations += 1
+        dw = self.dw.array.copy()
+        if not np.all(np.isfinite(dw)):
+            return False
+        w0 = w.x.array.copy()
+        alpha = 1.0
+        while True:
+            w.x.array[:] = w0 + alpha * dw
+            w.x.scatter_forward()
+            r = self.residual()
+            if (np.isfinite(r) and r <= (1 - 1e-4 * alpha) * r0) or alpha < 1e-2:
+                break
+            alpha *= 0.5
+        if verbose:
+            print(f"      step: |R| {r0:.3e} -> {r:.3e}, alpha = {alpha:.3g}", flush=True)
+        return bool(np.isfinite(r))
+
     def solve(self, ref_norm, rtol=1e-10, stol=1e-12, max_it=40, verbose=False):
         """Returns (converged, iterations). ref_norm scales the residual test
         ||R|| <= rtol * ref_norm; also converged when the full-step increment is below
@@ -168,6 +197,11 @@ class NewtonSolver:
             self.ksp.solve(self.b, self.dw)
             if self.ksp.getConvergedReason() < 0:
                 return False, it
+            if verbose:
+                rl = self.A.createVecLeft()
+                self.A.mult(self.dw, rl)
+                rl.axpy(-1.0, self.b)
+                print(f"      linear residual {rl.norm() / self.b.norm():.2e}", flush=True)
             self.total_iterations += 1
             dw = self.dw.array.copy()
             if not np.all(np.isfinite(dw)):
