@@ -6,7 +6,8 @@ RESULTS := results
 JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
-.PHONY: all figures test bench deps build fig3 fig4 fig5 fig6 compare hertz reference format clean
+.PHONY: all figures test bench deps build fig3 fig4 fig5 fig6 compare hertz reference format clean \
+        verify peer-deps peer-reference
 
 all: figures
 
@@ -38,6 +39,27 @@ compare: build
 # Section 7: the Signorini solver against Hertz under mesh refinement, both updates.
 hertz: build
 	$(RUN)/hertz
+
+# The package against the independent dolfinx Newton solver under refinement (Figs 5 and 6):
+# both codes on the same gmsh meshes, then figures/verify.py draws values and errors against h
+# with the fitted orders. Installs python3-dolfinx python3-gmsh (never needed by `make test`).
+VERIFY := $(RESULTS)/verify
+FIG5_LEVELS ?= 7 14 28 56
+FIG6_LEVELS ?= 1 2
+peer-deps:
+	@bash .ci/deps.sh peer
+
+verify: build peer-deps
+	@mkdir -p $(VERIFY)
+	$(RUN)/refinement fig5 levels=$(shell echo $(FIG5_LEVELS) | tr ' ' ',') json=$(VERIFY)/fig5_ltl.json
+	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig5 --levels $(FIG5_LEVELS) --out $(VERIFY)/fig5_peer.json
+	$(RUN)/refinement fig6 levels=$(shell echo $(FIG6_LEVELS) | tr ' ' ',') json=$(VERIFY)/fig6_ltl.json
+	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig6 --levels $(FIG6_LEVELS) --out $(VERIFY)/fig6_peer.json
+	$(PYTHON) figures/verify.py $(VERIFY) $(RESULTS)/verify.png
+
+# Freeze the peer's converged values (after `make verify`) as tests/reference/peer.toml.
+peer-reference:
+	$(PYTHON) experiments/peer/make_reference.py $(VERIFY) tests/reference/peer.toml
 
 bench: build
 	$(RUN)/bench

@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Installs the Debian packages this project needs, if any is missing. As root it runs apt-get;
 # otherwise it prints the exact command to run and fails.
+#   bash .ci/deps.sh        what `make figures` and `make test` need
+#   bash .ci/deps.sh peer   also the independent dolfinx solver of `make verify` (never CI's)
 set -euo pipefail
 packages=(cmake make g++ pkg-config libeigen3-dev libsuitesparse-dev libopenblas-dev
           gmsh libgmsh-dev libhdf5-dev libtomlplusplus-dev libgtest-dev
           python3-matplotlib python3-h5py python3-numpy)
+if [[ ${1:-} == peer ]]; then packages+=(python3-dolfinx python3-gmsh); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -4,9 +4,10 @@
 
 Reads only the results file. Panels: (a) the deformed cylinder (the computed half x1 >= 0
 mirrored to the whole) on the plane, at true scale; (b) a zoom on the contact zone; (c) the
-contact pressure p = -lambda_c . N per contact facet against the deformed x1 (each facet drawn
-over its deformed extent). Prints the contact half-width, the peak pressure, the total contact
-force against the weight, and the table of the facets.
+contact pressure p = -lambda_c . N per contact point against the deformed x1: per contact node
+(discretization.contact = "nodal", the default) or per facet over its deformed extent
+("facet-mean", the paper's). Prints the contact half-width, the peak pressure, the total contact
+force against the weight, and the table of the contact points.
 """
 
 import sys
@@ -40,9 +41,14 @@ def main(h5, png):
     gap = s.fields["gap"]
     area = m.contact_area
     touching = p > 1e-6 * max(p.max(), 0.0) if p.max() > 0 else np.zeros(len(p), bool)
-    ends = m.contact_facets[:, :2]           # end vertices of each P2 edge
-    x_end = x[ends, 0]                       # (#facets, 2) deformed x1 of the ends
-    x_centre = m.contact_centre[:, 0] + s.fields["e"][:, 0]   # deformed facet centres (means)
+    nodal = m.contact_nodes is not None
+    if nodal:   # one point per contact node: its deformed x1 is both "ends"
+        ends = np.stack([m.contact_nodes, m.contact_nodes], axis=1)
+    else:
+        ends = m.contact_facets[:, :2]       # end vertices of each P2 edge
+    x_end = x[ends, 0]                       # (#points, 2) deformed x1 of the ends
+    x_centre = m.contact_centre[:, 0] + s.fields["e"][:, 0]   # deformed points (nodes or means)
+    what = "nodes" if nodal else "facets"
 
     # The numbers of the figure.
     half_width = x_end[touching].max() if touching.any() else 0.0
@@ -52,21 +58,22 @@ def main(h5, png):
     cnodes = np.unique(m.contact_facets)
     cnodes = cnodes[np.argsort(np.arctan2(m.X[cnodes, 1], m.X[cnodes, 0]))]  # along the arc
     penetration = ((x[cnodes] - p0) @ N).max()
-    print("facets in contact: %d of %d" % (touching.sum(), len(p)))
-    print("contact half-width a = %.4f m (deformed x1 of the outer end of the outermost facet in "
-          "contact; facets %.3f m long)" % (half_width, area.max()))
+    print("contact %s in contact: %d of %d" % (what, touching.sum(), len(p)))
+    print("contact half-width a = %.4f m (deformed x1 of the outermost contact %s carrying "
+          "pressure)" % (half_width, "node" if nodal else "facet's outer end"))
     print("peak contact pressure: %.4g Pa" % p.max())
     print("total contact force (half cylinder): %.5g N/m; weight |f| |Omega| = %.4g N/m^3 x "
           "%.5f m^2 = %.5g N/m; ratio %.4f"
           % (force, np.linalg.norm(f), m.cell_volume.sum(), weight, force / weight))
     print("drop of the top (u2 at X = (%.3g, %.3g)): %.4f m" % (*m.X[top], -u[top, 1]))
     print("largest penetration of a contact node into the plane: %.4g m "
-          "(the constraint is imposed on facet means)" % max(penetration, 0.0))
+          "(the constraint is imposed on %s)" % (max(penetration, 0.0),
+                                                 "every node" if nodal else "facet means"))
     print("iterations: %d" % s.iterations)
-    lr.print_table("contact facets (panel c)", {
+    lr.print_table("contact %s (panel c)" % what, {
         "X1_centre_m": m.contact_centre[:, 0], "X2_centre_m": m.contact_centre[:, 1],
         "x1_from_m": x_end.min(axis=1), "x1_to_m": x_end.max(axis=1), "x1_centre_m": x_centre,
-        "pressure_Pa": p, "gap_m": gap, "length_m": area}, fmt="%.5g")
+        "pressure_Pa": p, "gap_m": gap, "weight_m": area}, fmt="%.5g")
     lr.print_table("contact nodes (panel b)", {
         "X1_m": m.X[cnodes, 0], "X2_m": m.X[cnodes, 1], "x1_m": x[cnodes, 0],
         "x2_m": x[cnodes, 1], "above_plane_m": -(x[cnodes] - p0) @ N}, fmt="%.5g")
@@ -108,18 +115,25 @@ def main(h5, png):
     ax.set_xlabel("x1 (m)")
     ax.set_ylabel("x2 (m)")
     ax.set_title("(b) contact zone, x2 exaggerated x%g: contact nodes cross the plane by up to "
-                 "%.3f m;\nnon-penetration is imposed on the facet means" %
-                 (ZOOM_EXAGGERATION, max(penetration, 0.0)))
+                 "%.2g m;\nnon-penetration is imposed on %s" %
+                 (ZOOM_EXAGGERATION, max(penetration, 0.0),
+                  "every contact node" if nodal else "the facet means"))
     ax.legend(loc="upper center", ncol=3)
 
     # (c) contact pressure per facet over its deformed extent.
     ax = fig.add_subplot(gs[1, :])
+    order = np.argsort(x_centre)
     for sign in (1.0, -1.0):
-        for k in range(len(p)):
-            ax.plot(sign * x_end[k], [p[k] / 1e6] * 2, color=style.CONTACT, lw=2)
-        ax.plot(sign * x_centre, p / 1e6, "o", ms=3.5, color="k",
-                label="facet centres (deformed)" if sign > 0 else None)
-    ax.plot([], [], color=style.CONTACT, lw=2, label="p per facet, over its deformed extent")
+        if nodal:
+            ax.plot(sign * x_centre[order], p[order] / 1e6, "o-", ms=3.5, color=style.CONTACT,
+                    label="p per contact node (deformed x1)" if sign > 0 else None)
+        else:
+            for k in range(len(p)):
+                ax.plot(sign * x_end[k], [p[k] / 1e6] * 2, color=style.CONTACT, lw=2)
+            ax.plot(sign * x_centre, p / 1e6, "o", ms=3.5, color="k",
+                    label="facet centres (deformed)" if sign > 0 else None)
+    if not nodal:
+        ax.plot([], [], color=style.CONTACT, lw=2, label="p per facet, over its deformed extent")
     ax.axvspan(-half_width, half_width, color=style.CONTACT, alpha=0.08)
     ax.set_xlim(-1.15, 1.15)
     ax.set_ylim(-0.05, 1.5 * p.max() / 1e6)

@@ -23,10 +23,13 @@ HISTORY_COLUMNS = ("n", "r_G", "r_B", "t_global", "t_strain", "t_contact", "t_up
 class Mesh:
     """The reference mesh: X (#nodes, dim), cells (#cells, nodes per cell, gmsh order),
     cell_volume (#cells), and on the contact surface (None without one) contact_facets
-    (#facets, nodes per facet), contact_centre (#facets, dim), contact_area (#facets)."""
+    (#facets, nodes per facet), and per contact point contact_centre (#points, dim) and
+    contact_area (#points, its weight). The contact points are the facets (discretization.contact
+    = "facet-mean") or, when contact_nodes (#points, mesh node of each) is not None, the nodes of
+    the contact surface (the default, "nodal")."""
 
     def __init__(self, X, cells, cell_volume, contact_facets=None, contact_centre=None,
-                 contact_area=None, cell_type="", contact_boundary=""):
+                 contact_area=None, cell_type="", contact_boundary="", contact_nodes=None):
         self.X = X
         self.cells = cells
         self.cell_volume = cell_volume
@@ -35,6 +38,7 @@ class Mesh:
         self.contact_area = contact_area
         self.cell_type = cell_type
         self.contact_boundary = contact_boundary
+        self.contact_nodes = contact_nodes
 
     @property
     def dim(self):
@@ -118,7 +122,7 @@ def load(path, fields=None):
                     contact_facets=get("contact_facets"), contact_centre=get("contact_centre"),
                     contact_area=get("contact_area"), cell_type=_value(m.attrs.get("cell_type", "")),
                     contact_boundary=_value(m["contact_facets"].attrs.get("boundary", ""))
-                    if "contact_facets" in m else "")
+                    if "contact_facets" in m else "", contact_nodes=get("contact_nodes"))
         steps = []
         for name in sorted(k for k in f["steps"] if len(k) == 6 and k.isdigit()):
             g = f["steps"][name]

@@ -33,6 +33,38 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   }
 
   cells_ = cell_operators(mesh);
+  // Mean-det incompressibility (DiscretizationChoice::mean_det): the point gradients at the
+  // cell quadrature points (degree 4: exact for det(delta), quadratic on affine P2 triangles).
+  mean_det_ =
+      problem_.discretization.mean_det && dim == 2 && split_.incompressible() && split_.C2 == 0;
+  if (mean_det_) {
+    std::vector<Eigen::Triplet<double>> g, gt;
+    std::vector<double> w;
+    for (int c = 0; c < nc; ++c) {
+      int k = 0;
+      for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double wt) {
+        const int q = static_cast<int>(w.size());
+        for (int a = 0; a < grad.rows(); ++a)
+          for (int j = 0; j < dim; ++j) {
+            g.emplace_back(dim * q + j, mesh.cells(c, a), grad(a, j));
+            gt.emplace_back(mesh.cells(c, a), dim * q + j, wt * grad(a, j));
+          }
+        w.push_back(wt);
+        ++k;
+      });
+      if (c == 0) nq_ = k;
+      if (k != nq_) throw Error(cat(mesh.source, ": cell ", c, " has ", k, " quadrature points"));
+    }
+    const int nq = static_cast<int>(w.size());
+    Gq_.resize(dim * nq, nn);
+    Gq_.setFromTriplets(g.begin(), g.end());
+    GqT_w_.resize(nn, dim * nq);
+    GqT_w_.setFromTriplets(gt.begin(), gt.end());
+    wq_ = Eigen::Map<const Eigen::VectorXd>(w.data(), nq);
+    Jtarget_ = Eigen::VectorXd::Ones(nc);
+    GQ_.resize(dim * nq, dim);
+    Sq_.resize(dim * nq, dim);
+  }
   if (problem_.contact) {
     const ContactCondition& cc = *problem_.contact;
     const Mesh::Boundary& boundary = mesh.boundary(cc.group, "contact.group");
@@ -82,7 +114,8 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   }
 
   // (4.5): K assembled and factorized once.
-  const SpMat K = global_matrix(cells_, facets_.get(), split_.C1, Rq, Rqc);
+  gamma_ = mean_det_ ? 2 * Rq : 0.0;
+  const SpMat K = global_matrix(cells_, facets_.get(), split_.C1 + gamma_ / 2, Rq - gamma_, Rqc);
   global_ = std::make_unique<GlobalStep>(K, bc_);
   strain_ = std::make_unique<StrainStep>(split_, Rq);
 
@@ -132,6 +165,13 @@ void Solver::global_solve(State& s) {
   T_ = Rq * (s.E - Id_) + s.lambda - 2 * C1 * Id_;
   rhs_.noalias() = cells_.GbarT_vol * T_;
   rhs_ += F_ext_;
+  if (mean_det_) {  // the pressure's work on the fluctuations, lagged
+    fluctuation(s.u, &s.lambda, &s.E, nullptr, &Sq_);
+    GUprev_.noalias() = cells_.Gbar * s.u;
+    rhs_.noalias() += gamma_ * (cells_.laplacian * s.u);
+    rhs_.noalias() -= gamma_ * (cells_.GbarT_vol * GUprev_);
+    rhs_.noalias() += GqT_w_ * Sq_;
+  }
   if (facets_) {
     c_rows_ = (alg.R * alg.q_c * s.e + s.lambda_c).transpose();
     rhs_.noalias() += facets_->meanT_area * c_rows_;
@@ -144,7 +184,7 @@ void Solver::global_solve(State& s) {
 namespace {
 template <int d>
 int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
-                const Eigen::MatrixXd& lambda, Eigen::MatrixXd& E) {
+                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E) {
   const int nc = static_cast<int>(GU.rows() / d);
   int failures = 0;
 #pragma omp parallel for schedule(static) reduction(+ : failures)
@@ -153,8 +193,15 @@ int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
         Rq * GU.template block<d, d>(d * c, 0) - lambda.template block<d, d>(d * c, 0);
     D.diagonal().array() += Rq;
     Eigen::Matrix<double, d, d> Ec;
-    if (!step.solve(D, Ec)) ++failures;
-    E.template block<d, d>(d * c, 0) = Ec;
+    // Mean-det: det E = J_c. The local energy is (R q / 2)|E|^2 - D : E (C2 = 0), homogeneous
+    // of degree 2 under E = s Ehat, so E = s argmin over det Ehat = 1 with D / s, s = sqrt J_c.
+    const double s = J ? std::sqrt((*J)(c)) : 1.0;
+    if (!(s > 0)) {
+      ++failures;
+      continue;
+    }
+    if (!step.solve(D / s, Ec)) ++failures;
+    E.template block<d, d>(d * c, 0) = s * Ec;
   }
   return failures;
 }
@@ -162,8 +209,58 @@ int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
 
 int Solver::strain_solve(const Eigen::MatrixXd& lambda, State& s) {
   const double Rq = problem_.algorithm.R * problem_.algorithm.q;
-  return dim() == 2 ? strain_loop<2>(*strain_, Rq, GU_, lambda, s.E)
-                    : strain_loop<3>(*strain_, Rq, GU_, lambda, s.E);
+  const Eigen::VectorXd* J = mean_det_ ? &Jtarget_ : nullptr;
+  return dim() == 2 ? strain_loop<2>(*strain_, Rq, GU_, lambda, J, s.E)
+                    : strain_loop<3>(*strain_, Rq, GU_, lambda, J, s.E);
+}
+
+// [(2.7), discretization.md] Per cell: delta_k = (point gradient - cell mean) at quadrature point
+// k; c_e = sum_k w_k det(delta_k) / |O_e|; the force block p_e cof(delta_k) (transposed-block
+// layout, cof(A^T) = cof(A)^T), with p_e = lambda_e : E_e / (2 det E_e).
+void Solver::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
+                         const Eigen::MatrixXd* E, Eigen::VectorXd* c,
+                         Eigen::MatrixXd* force) const {
+  GQ_.noalias() = Gq_ * u;
+  const int nc = problem_.mesh.num_cells();
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < nc; ++e) {
+    Eigen::Matrix2d mean = Eigen::Matrix2d::Zero();
+    for (int k = 0; k < nq_; ++k) {
+      const int q = nq_ * e + k;
+      mean += wq_(q) * GQ_.block<2, 2>(2 * q, 0);
+    }
+    mean /= cells_.vol(e);
+    double p = 0;
+    if (lambda) {
+      const Eigen::Matrix2d Ee = E->block<2, 2>(2 * e, 0);
+      p = (lambda->block<2, 2>(2 * e, 0).cwiseProduct(Ee)).sum() / (2 * Ee.determinant());
+    }
+    double ce = 0;
+    for (int k = 0; k < nq_; ++k) {
+      const int q = nq_ * e + k;
+      const Eigen::Matrix2d D = GQ_.block<2, 2>(2 * q, 0) - mean;
+      ce += wq_(q) * D.determinant();
+      if (force) {
+        Eigen::Matrix2d cof;
+        cof << D(1, 1), -D(1, 0), -D(0, 1), D(0, 0);
+        force->block<2, 2>(2 * q, 0) = p * cof;
+      }
+    }
+    if (c) (*c)(e) = ce / cells_.vol(e);
+  }
+}
+
+Eigen::VectorXd Solver::fluctuation_det(const Eigen::MatrixXd& u) const {
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(problem_.mesh.num_cells());
+  if (mean_det_) fluctuation(u, nullptr, nullptr, &c, nullptr);
+  return c;
+}
+
+Eigen::MatrixXd Solver::fluctuation_force(const State& s) const {
+  if (!mean_det_) return Eigen::MatrixXd::Zero(problem_.mesh.num_nodes(), dim());
+  Eigen::MatrixXd S(Sq_.rows(), Sq_.cols());
+  fluctuation(s.u, &s.lambda, &s.E, nullptr, &S);
+  return GqT_w_ * S;
 }
 
 // [LTL87 (4.7), sec. 6] Facet means of u, then Gauss-Seidel over the contact facets.
@@ -183,6 +280,10 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
 
   auto after_global = [&] {
     GU_.noalias() = cells_.Gbar * s.u;
+    if (mean_det_) {  // the local constraint det E_e = 1 - c_e(u)
+      fluctuation(s.u, nullptr, nullptr, &Jtarget_, nullptr);
+      Jtarget_ = 1.0 - Jtarget_.array();
+    }
     if (facets_) {
       ubar_rows_.noalias() = facets_->mean * s.u;
       ubar_ = ubar_rows_.transpose();

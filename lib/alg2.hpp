@@ -79,6 +79,20 @@ class Solver {
   const std::vector<std::vector<int>>& fixed_nodes() const { return bc_.fixed; }
   int dim() const { return problem_.mesh.dim; }
 
+  /// True when incompressibility is imposed on the cell mean of det F
+  /// (DiscretizationChoice::mean_det, active in plane strain with the pointwise C2 split).
+  bool mean_det() const { return mean_det_; }
+  /// [(2.7), discretization.md] Mean-det incompressibility: with delta = grad u - Gbar_e u the
+  /// intra-cell fluctuation, det F = det(Fbar) + cof(Fbar) : delta + det(delta) in 2-D, so
+  ///   (1/|O_e|) integral det F = det(Fbar_e) + c_e(u),  c_e = (1/|O_e|) integral det(delta),
+  /// and the pressure p_e of the constraint does the extra work p_e integral cof(delta) : grad v.
+  /// Returns c_e per cell (zero vector when !mean_det()).
+  Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const;
+  /// The force sum_e p_e integral_e cof(delta) : grad v (#nodes x dim) with p_e read from the
+  /// multiplier, p_e = lambda_e : E_e / (2 det E_e) (lambda = p cof E at a fixed point); zero
+  /// when !mean_det(). ALG2 adds it, lagged, to the right-hand side of (4.1).
+  Eigen::MatrixXd fluctuation_force(const State& s) const;
+
  private:
   void global_solve(State& s);                                // (4.1)
   int strain_solve(const Eigen::MatrixXd& lambda, State& s);  // (4.6)
@@ -101,6 +115,16 @@ class Solver {
   Eigen::MatrixXd rhs_, GU_, T_, ubar_rows_, ubar_, c_rows_, E_prev_, e_prev_, lambda_half_,
       lambda_c_half_;
   Eigen::VectorXd vol_rows_, beta_prev_iter_;
+  // Mean-det incompressibility (mean_det()): point gradients at the cell quadrature points
+  // (rows dim*(nq*e + k) + j, like Gbar), their weighted transpose, and work buffers.
+  bool mean_det_ = false;
+  int nq_ = 0;
+  SpMatR Gq_, GqT_w_;
+  Eigen::VectorXd wq_, Jtarget_;
+  mutable Eigen::MatrixXd GQ_, Sq_, GUprev_;
+  double gamma_ = 0;
+  void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
+                   const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) const;
 };
 
 }  // namespace ltl

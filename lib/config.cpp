@@ -365,7 +365,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   // the paper's choices (paper_notes/discretization.md).
   if (r.has("discretization")) {
     const Reader d = r.sub("discretization");
-    d.only({"c2", "contact"});
+    d.only({"c2", "contact", "incompressibility"});
     const std::string c2 = d.string("c2", "pointwise");
     if (c2 != "pointwise" && c2 != "cell-mean")
       d.fail("c2", "expected \"pointwise\" (default) or \"cell-mean\" (the paper's)");
@@ -374,6 +374,10 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     if (contact != "nodal" && contact != "facet-mean")
       d.fail("contact", "expected \"nodal\" (default) or \"facet-mean\" (the paper's)");
     p.discretization.nodal_contact = contact == "nodal";
+    const std::string inc = d.string("incompressibility", "mean-det");
+    if (inc != "mean-det" && inc != "det-mean")
+      d.fail("incompressibility", "expected \"mean-det\" (default) or \"det-mean\" (the paper's)");
+    p.discretization.mean_det = inc == "mean-det";
   }
   // [time] (2.1)-(2.2)
   if (r.has("time")) {

@@ -43,6 +43,7 @@ Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s) {
   Eigen::MatrixXd r = c.GbarT_vol * solver.piola(s) +
                       2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - solver.external_load();
   if (solver.facets()) r -= solver.facets()->meanT_area * s.lambda_c.transpose();
+  if (solver.mean_det()) r -= solver.fluctuation_force(s);
   return r;
 }
 
@@ -55,8 +56,10 @@ EquilibriumMeasure equilibrium_measure(const Solver& solver, const State& s) {
   const double load = solver.external_load().cwiseAbs().maxCoeff();
   m.force_residual = r.cwiseAbs().maxCoeff() / (load > 0 ? load : 1.0);
   if (solver.problem().material.incompressible()) {
+    // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
+    const Eigen::VectorXd c = solver.fluctuation_det(s.u);
     for (int e = 0; e < solver.problem().mesh.num_cells(); ++e)
-      m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() - 1));
+      m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
   }
   if (solver.facets()) m.penetration = std::max(0.0, contact_measures(solver, s).penetration);
   return m;

@@ -35,6 +35,9 @@ def mixed_space(mesh, element):
     if element == "taylor-hood":  # P2/P1 (triangles) or Q2/Q1 (hexahedra)
         Ue = ufl.VectorElement("Lagrange", cell, 2)
         Pe = ufl.FiniteElement("Lagrange", cell, 1)
+    elif element == "p2p0":  # mean-det: (1/|O_e|) integral det F = 1 per cell
+        Ue = ufl.VectorElement("Lagrange", cell, 2)
+        Pe = ufl.FiniteElement("DG", cell, 0)
     elif element == "q1p0":
         Ue = ufl.VectorElement("Lagrange", cell, 1)
         Pe = ufl.FiniteElement("DG", cell, 0)
@@ -234,17 +237,33 @@ def contact_rule(rule, facet_cell, cdeg):
     return {"quadrature_degree": cdeg, "quadrature_rule": name}, pts
 
 
-def solve_fig5(K, geom_order=2, k_list=None, verbose=False, qdeg=4, cdeg=3, rule="gll"):
+def solve_fig5(K, geom_order=2, k_list=None, verbose=False, qdeg=4, cdeg=3, rule="gll",
+               element="taylor-hood"):
+    """element: "taylor-hood" (P2/P1, the reference), "p2p0" (P2 with a DG0 pressure: the cell
+    mean of det F is 1), or "p2p0-detmean" (the paper's det-mean constraint det(mean F) = 1 with
+    the C2 term as (C1 + C2)|F|^2, i.e. the package's discretization.incompressibility =
+    "det-mean": a three-field form with the cell-mean gradient Fb as a DG0 tensor unknown)."""
     T = Timer()
     P = FIG5
     geo = os.path.join(ROOT, "experiments", "fig5", "half_disc.geo")
     mesh, ct, ft, groups = load_geo(geo, {"Rc": P["Rc"], "n": K, "nd": K}, geom_order)
     t_mesh = T()
-    W = mixed_space(mesh, "taylor-hood")
-    w = fem.Function(W)
-    u, q = ufl.split(w)
-    wt = ufl.TestFunction(W)
-    v, _ = ufl.split(wt)
+    detmean = element == "p2p0-detmean"
+    if detmean:
+        cell = mesh.ufl_cell()
+        W = fem.FunctionSpace(mesh, ufl.MixedElement([
+            ufl.VectorElement("Lagrange", cell, 2), ufl.FiniteElement("DG", cell, 0),
+            ufl.TensorElement("DG", cell, 0, shape=(2, 2))]))
+        w = fem.Function(W)
+        u, q, Fb = ufl.split(w)
+        wt = ufl.TestFunction(W)
+        v, rq, tau = ufl.split(wt)
+    else:
+        W = mixed_space(mesh, element)
+        w = fem.Function(W)
+        u, q = ufl.split(w)
+        wt = ufl.TestFunction(W)
+        v, _ = ufl.split(wt)
     dw = ufl.TrialFunction(W)
     x = ufl.SpatialCoordinate(mesh)
     lam = fem.Constant(mesh, PETSc.ScalarType(0.0))
@@ -262,6 +281,12 @@ def solve_fig5(K, geom_order=2, k_list=None, verbose=False, qdeg=4, cdeg=3, rule
     gap = x[1] + u[1] - P["plane"]  # >= 0
     pc = kpen * pos(-gap)  # penalty contact pressure (nominal, per reference length)
     R = ufl.derivative(psi * dx, w, wt) - lam * ufl.dot(f, v) * dx - pc * v[1] * dsc
+    if detmean:  # stationarity of (C1 + C2)|F|^2 - q (det Fbar - 1) with Fbar = mean F per cell
+        Fbar = ufl.Identity(2) + Fb
+        cofb = ufl.as_matrix([[Fbar[1, 1], -Fbar[1, 0]], [-Fbar[0, 1], Fbar[0, 0]]])
+        R = (ufl.inner(2 * (P["C1"] + P["C2"]) * F2 - q * cofb, ufl.grad(v)) * dx
+             - (ufl.det(Fbar) - 1) * rq * dx + ufl.inner(Fb - ufl.grad(u), tau) * dx
+             - lam * ufl.dot(f, v) * dx - pc * v[1] * dsc)
     Jf = ufl.derivative(R, w, dw)
 
     tdim = mesh.topology.dim
@@ -340,6 +365,9 @@ def solve_fig5(K, geom_order=2, k_list=None, verbose=False, qdeg=4, cdeg=3, rule
             "penetration": float(max((-gn).max(), 0.0)),
             "penetration_dense": float(max((-gd).max(), 0.0)),
             "penalty": k,
+            # integral (det F - 1): the area the discrete solution loses (0 for an exact
+            # incompressible motion; the det-mean constraint leaves it O(1e-3) on every mesh)
+            "area_change": assemble(ufl.det(F2) * dx) - area,
         }
 
     log = run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=first_guess,
@@ -349,7 +377,7 @@ def solve_fig5(K, geom_order=2, k_list=None, verbose=False, qdeg=4, cdeg=3, rule
     obs = observables()
     ncells = mesh.topology.index_map(tdim).size_global
     return {
-        "level": K, "n": K, "nd": K, "geom_order": geom_order,
+        "level": K, "n": K, "nd": K, "geom_order": geom_order, "element": element,
         "cells": ncells,
         "dofs": W.dofmap.index_map.size_global * W.dofmap.index_map_bs,
         "dofs_u": V.dofmap.index_map.size_global * V.dofmap.index_map_bs,
@@ -572,6 +600,9 @@ def main():
         s.add_argument("--contact-rule", default="gll", choices=["gll", "gauss"],
                        help="gll: nodal collocation (default); gauss: 2-point Gauss per edge direction")
         s.add_argument("--verbose", action="store_true")
+        if fig == "fig5":
+            s.add_argument("--element", default="taylor-hood",
+                           choices=["taylor-hood", "p2p0", "p2p0-detmean"])
         if fig == "fig6":
             s.add_argument("--element", default="taylor-hood", choices=["taylor-hood", "q1p0"])
             s.add_argument("--strategy", default="ptc", choices=["ptc", "ramp"],
@@ -600,7 +631,8 @@ def main():
     for lev in a.levels:
         print(f"== {a.cmd} level {lev}", flush=True)
         if a.cmd == "fig5":
-            r = solve_fig5(lev, a.geom_order, k_list, verbose=a.verbose, rule=a.contact_rule)
+            r = solve_fig5(lev, a.geom_order, k_list, verbose=a.verbose, rule=a.contact_rule,
+                           element=a.element)
         else:
             r = solve_fig6(lev, a.geom_order, a.element, k_list, verbose=a.verbose, rule=a.contact_rule,
                                strategy=a.strategy, c0=a.c0)
