@@ -24,6 +24,15 @@
 
 namespace ltl {
 
+/// The stopping policy of a time step [LTL87 (4.4)], kept apart from the iteration: converged
+/// when r_G + r_B < tol; a NaN, a residual above blowup x the first residual, or the iteration
+/// cap end the step unconverged. stop() fills report.converged and report.status.
+struct StoppingRule {
+  const AlgorithmParams& alg;
+  double first = -1;  ///< the first residual r_G + r_B of the step
+  bool stop(const IterationRecord& rec, bool finite, StepReport& report);
+};
+
 class Solver {
  public:
   /// Discretizes the problem, assembles K and factorizes it once [LTL87 (4.5)].
@@ -80,8 +89,13 @@ class Solver {
   int dim() const { return problem_.mesh.dim; }
 
  private:
-  void global_solve(State& s);                                // (4.1)
-  int strain_solve(const Eigen::MatrixXd& lambda, State& s);  // (4.6)
+  /// [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One iteration: global step, local steps, multiplier
+  /// update; returns r_G and r_B of the iteration (timings filled, n and wall not).
+  IterationRecord iterate(State& s, const Eigen::VectorXd& beta_prev, int& strain_failures);
+  void update_multipliers(State& s);                           // (4.3) / (7.10)
+  void residuals(const State& s, IterationRecord& rec) const;  // (4.4)
+  void global_solve(State& s);                                 // (4.1)
+  int strain_solve(const Eigen::MatrixXd& lambda, State& s);   // (4.6)
   void contact_solve(const Eigen::MatrixXd& lambda_c, const Eigen::VectorXd& beta_prev,
                      State& s);  // (4.7)
 
