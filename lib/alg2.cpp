@@ -98,6 +98,19 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   }
   norm_I_ = std::sqrt(alg.q * cells_.vol.sum() * dim);
 
+  // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per facet.
+  w_cell_ = (alg.q * vol_rows_).cwiseSqrt() / norm_I_;
+  if (facets_) w_facet_ = (alg.q_c * facets_->area).cwiseSqrt() / norm_I_;
+  if (alg.acceleration == Acceleration::Anderson) {
+    const Eigen::Index nf = facets_ ? facets_->size() : 0;
+    Eigen::Index n = dim * dim * nc + dim * nf;              // lambda, lambda_c
+    if (alg.accelerate != Accelerated::Multipliers) n *= 2;  // E, e
+    if (alg.accelerate == Accelerated::All) n += nf;         // beta
+    anderson_ = std::make_unique<Anderson>(n, alg.depth);
+    x_.resize(n);
+    g_.resize(n);
+  }
+
   rhs_.resize(nn, dim);
   GU_.resize(dim * nc, dim);
   T_.resize(dim * nc, dim);
@@ -278,6 +291,12 @@ void Solver::residuals(const State& s, IterationRecord& rec) const {
 
 // The stopping policy [LTL87 (4.4)], apart from the iteration: converged when r_G + r_B < tol;
 // a NaN, a residual above blowup x the first one, or the cap end the step unconverged.
+bool StoppingRule::capped(int n, StepReport& report) const {
+  if (n < alg.max_iter) return false;
+  report.status = cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
+  return true;
+}
+
 bool StoppingRule::stop(const IterationRecord& rec, bool finite, StepReport& report) {
   const double r = rec.r_G + rec.r_B;
   if (!std::isfinite(r) || !finite) {
@@ -295,12 +314,62 @@ bool StoppingRule::stop(const IterationRecord& rec, bool finite, StepReport& rep
     report.status = "converged";
     return true;
   }
-  if (rec.n >= alg.max_iter) {
-    report.status =
-        cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
-    return true;
+  return capped(rec.n, report);
+}
+
+namespace {
+// z[k .. k + size) <-> a matrix scaled by a weight per row (cells) or per column (facets).
+using Map = Eigen::Map<Eigen::MatrixXd>;
+using ConstMap = Eigen::Map<const Eigen::MatrixXd>;
+}  // namespace
+
+void Solver::pack(const State& s, Eigen::VectorXd& z) const {
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
+  const bool G = alg.accelerate != Accelerated::Multipliers;
+  double* p = z.data();
+  auto cells = [&](const Eigen::MatrixXd& A, double c) {
+    Map(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_cell_.array()).matrix();
+    p += A.size();
+  };
+  auto facets = [&](const Eigen::MatrixXd& A, double c) {
+    Map(p, A.rows(), A.cols()) = c * (A.array().rowwise() * w_facet_.transpose().array()).matrix();
+    p += A.size();
+  };
+  if (G) cells(s.E, 1.0);
+  cells(s.lambda, 1 / Rq);
+  if (facets_) {
+    if (G) facets(s.e, 1.0);
+    facets(s.lambda_c, 1 / Rqc);
+    if (alg.accelerate == Accelerated::All)
+      for (int f = 0; f < facets_->size(); ++f)
+        *p++ = std::sqrt(facets_->area(f) / area_c_) * s.beta(f);
   }
-  return false;
+}
+
+void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
+  const bool G = alg.accelerate != Accelerated::Multipliers;
+  const double* p = z.data();
+  auto cells = [&](Eigen::MatrixXd& A, double c) {
+    A = (ConstMap(p, A.rows(), A.cols()).array().colwise() / (c * w_cell_.array())).matrix();
+    p += A.size();
+  };
+  auto facets = [&](Eigen::MatrixXd& A, double c) {
+    A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_facet_.transpose().array()))
+            .matrix();
+    p += A.size();
+  };
+  if (G) cells(s.E, 1.0);
+  cells(s.lambda, 1 / Rq);
+  if (facets_) {
+    if (G) facets(s.e, 1.0);
+    facets(s.lambda_c, 1 / Rqc);
+    if (alg.accelerate == Accelerated::All)
+      for (int f = 0; f < facets_->size(); ++f)
+        s.beta(f) = *p++ / std::sqrt(facets_->area(f) / area_c_);
+  }
 }
 
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
@@ -308,14 +377,47 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   StepReport report;
   StoppingRule rule{problem_.algorithm};
   const auto t_start = clock_type::now();
+  // Anderson with a safeguard that can only help: an accelerated iterate is kept when its merit
+  // r_G + r_B (measured by the iteration that follows it) does not exceed the merit of the
+  // iterate it was extrapolated from; otherwise the plain iterate replaces it and the history
+  // restarts.
+  if (anderson_) anderson_->restart();
+  bool extrapolated = false;  // is s an accelerated iterate?
+  double merit_before = 0;    // merit of the iterate s was extrapolated from
   for (int n = 1;; ++n) {
-    IterationRecord rec = iterate(s, beta_prev, report.strain_failures);
+    if (anderson_) pack(s, x_);
+    int failures = 0;
+    IterationRecord rec = iterate(s, beta_prev, failures);
     rec.n = n;
+    const double merit = rec.r_G + rec.r_B;
+    bool reject = false;
+    if (extrapolated) {
+      reject = !(merit <= merit_before) || failures > 0 || !s.u.allFinite();
+      rec.accelerated = reject ? -1 : 1;
+      ++(reject ? report.rejected : report.accepted);
+    }
+    if (!reject) report.strain_failures += failures;
     rec.wall = seconds_since(t_start);
     report.history.push_back(rec);
     report.iterations = n;
     if (progress) progress(rec);
+    extrapolated = false;
+    if (reject) {
+      s = plain_;  // the plain iterate G(x^{n-1})
+      anderson_->restart();
+      if (rule.capped(n, report)) break;
+      continue;
+    }
     if (rule.stop(rec, s.u.allFinite(), report)) break;
+    if (anderson_) {
+      pack(s, g_);
+      if (anderson_->step(x_, g_) > 0) {
+        plain_ = s;
+        unpack(g_, s);
+        extrapolated = true;
+        merit_before = merit;
+      }
+    }
   }
   const EquilibriumMeasure eq = equilibrium_measure(*this, s);
   report.force_residual = eq.force_residual;

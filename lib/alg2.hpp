@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "anderson.hpp"
 #include "contact_step.hpp"
 #include "fe.hpp"
 #include "global_step.hpp"
@@ -31,6 +32,8 @@ struct StoppingRule {
   const AlgorithmParams& alg;
   double first = -1;  ///< the first residual r_G + r_B of the step
   bool stop(const IterationRecord& rec, bool finite, StepReport& report);
+  /// The cap alone (for an iterate the acceleration safeguard rejected).
+  bool capped(int n, StepReport& report) const;
 };
 
 class Solver {
@@ -92,7 +95,11 @@ class Solver {
   /// [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One iteration: global step, local steps, multiplier
   /// update; returns r_G and r_B of the iteration (timings filled, n and wall not).
   IterationRecord iterate(State& s, const Eigen::VectorXd& beta_prev, int& strain_failures);
-  void update_multipliers(State& s);                           // (4.3) / (7.10)
+  void update_multipliers(State& s);  // (4.3) / (7.10)
+  /// The accelerated part of the iterate as one vector, scaled so that its Euclidean norm is
+  /// the norm of r_G + r_B (weights of (3.3), multipliers divided by R q and R q_c).
+  void pack(const State& s, Eigen::VectorXd& z) const;
+  void unpack(const Eigen::VectorXd& z, State& s) const;
   void residuals(const State& s, IterationRecord& rec) const;  // (4.4)
   void global_solve(State& s);                                 // (4.1)
   int strain_solve(const Eigen::MatrixXd& lambda, State& s);   // (4.6)
@@ -115,6 +122,10 @@ class Solver {
   Eigen::MatrixXd rhs_, GU_, T_, ubar_rows_, ubar_, c_rows_, E_prev_, e_prev_, lambda_half_,
       lambda_c_half_;
   Eigen::VectorXd vol_rows_, beta_prev_iter_;
+  // Anderson acceleration (allocated once): history, packed iterates, weights, the plain iterate.
+  std::unique_ptr<Anderson> anderson_;
+  Eigen::VectorXd x_, g_, w_cell_, w_facet_;
+  State plain_;
 };
 
 }  // namespace ltl
