@@ -9,8 +9,8 @@
 //   iterates refill it): a one- or two-column secant step on a map contracting at 0.999 per
 //   iteration jumps ~1/(1 - 0.999) times the residual and is rejected;
 // - bound the extrapolation, ||x_{k+1} - G(x_k)|| <= cap ||f_k|| (gamma scaled down): on the
-//   Fig 6 gutter cap = 10 takes 9x fewer iterations than no bound, which the safeguard rejects
-//   at every try.
+//   Fig 6 gutter (nl = 10, na = 6) cap = 10 takes 1 565 iterations, no bound 7 575 (the safeguard
+//   rejects most unbounded tries).
 #pragma once
 
 #include <Eigen/Dense>
