@@ -63,6 +63,7 @@ peer-reference:
 
 bench: build
 	$(RUN)/bench
+	OMP_NUM_THREADS=1 $(RUN)/bench_accel --quick
 
 # Regenerate the stored reference data of the regression tests (review the diff).
 reference: build

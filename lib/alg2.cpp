@@ -131,6 +131,19 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   }
   norm_I_ = std::sqrt(alg.q * cells_.vol.sum() * dim);
 
+  // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per facet.
+  w_cell_ = (alg.q * vol_rows_).cwiseSqrt() / norm_I_;
+  if (facets_) w_facet_ = (alg.q_c * facets_->area).cwiseSqrt() / norm_I_;
+  if (alg.acceleration == Acceleration::Anderson) {
+    const Eigen::Index nf = facets_ ? facets_->size() : 0;
+    Eigen::Index n = dim * dim * nc + dim * nf;              // lambda, lambda_c
+    if (alg.accelerate != Accelerated::Multipliers) n *= 2;  // E, e
+    if (alg.accelerate == Accelerated::All) n += nf;         // beta
+    anderson_ = std::make_unique<Anderson>(n, alg.depth);
+    x_.resize(n);
+    g_.resize(n);
+  }
+
   rhs_.resize(nn, dim);
   GU_.resize(dim * nc, dim);
   T_.resize(dim * nc, dim);
@@ -269,16 +282,24 @@ void Solver::contact_solve(const Eigen::MatrixXd& lambda_c, const Eigen::VectorX
   contact_->solve(ubar_, lambda_c, beta_prev, s.e, s.beta, problem_.algorithm.contact_sweeps);
 }
 
-StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
-                              const std::function<void(const IterationRecord&)>& progress) {
+// [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One ALG2 iteration: s = (E, e, beta, lambda, lambda_c) ->
+// its successor, u recomputed. Returns the residual parts of the iteration: r_G (change of the
+// local variables) and r_B (constraint residual after the local steps), scaled by ||I||_q.
+IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int& strain_failures) {
   const AlgorithmParams& alg = problem_.algorithm;
   const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
   const bool bm = alg.update == Update::BermudezMoreno;
-  StepReport report;
-  const auto t_start = clock_type::now();
-  double first = -1;
-
-  auto after_global = [&] {
+  IterationRecord rec;
+  E_prev_ = s.E;
+  if (facets_) {
+    e_prev_ = s.e;
+    beta_prev_iter_ = s.beta;
+  }
+  const int sweeps = bm ? 1 : alg.sweeps;
+  for (int k = 0; k < sweeps; ++k) {
+    // Phase 1, (4.1) / (7.7): global step for u, then Gbar u and the facet means ubar.
+    auto t0 = clock_type::now();
+    global_solve(s);
     GU_.noalias() = cells_.Gbar * s.u;
     if (mean_det_) {  // the local constraint det E_e = 1 - c_e(u)
       fluctuation(s.u, nullptr, nullptr, &Jtarget_, nullptr);
@@ -288,108 +309,217 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       ubar_rows_.noalias() = facets_->mean * s.u;
       ubar_ = ubar_rows_.transpose();
     }
-  };
-
-  for (int n = 1; n <= alg.max_iter; ++n) {
-    IterationRecord rec;
-    rec.n = n;
-    E_prev_ = s.E;
-    if (facets_) {
-      e_prev_ = s.e;
-      beta_prev_iter_ = s.beta;
-    }
-    const int sweeps = bm ? 1 : alg.sweeps;
-    for (int k = 0; k < sweeps; ++k) {
-      // (4.1) / (7.7) global step.
-      auto t0 = clock_type::now();
-      global_solve(s);
-      after_global();
-      rec.t_global += seconds_since(t0);
-      const Eigen::MatrixXd* lambda = &s.lambda;
-      const Eigen::MatrixXd* lambda_c = &s.lambda_c;
-      if (bm) {
-        // (7.8) half-step update with the previous local variables G^{n-1}.
-        t0 = clock_type::now();
-        lambda_half_ = s.lambda - Rq * (Id_ + GU_ - s.E);
-        lambda = &lambda_half_;
-        if (facets_) {
-          lambda_c_half_ = s.lambda_c - Rqc * (ubar_ - s.e);
-          lambda_c = &lambda_c_half_;
-        }
-        rec.t_update += seconds_since(t0);
-      }
-      // (4.2) = (4.6) + (4.7) / (7.9) local steps.
-      t0 = clock_type::now();
-      report.strain_failures += strain_solve(*lambda, s);
-      rec.t_strain += seconds_since(t0);
-      if (facets_) {
-        t0 = clock_type::now();
-        contact_solve(*lambda_c, beta_prev, s);
-        rec.t_contact += seconds_since(t0);
-      }
-    }
-    // (4.3) / (7.10) multiplier update, and the two residual parts.
-    auto t0 = clock_type::now();
+    rec.t_global += seconds_since(t0);
+    // Multipliers seen by the local steps: lambda^{n-1} (Uzawa) or the half step (7.8) with the
+    // previous local variables G^{n-1} (Bermudez-Moreno).
+    const Eigen::MatrixXd* lambda = &s.lambda;
+    const Eigen::MatrixXd* lambda_c = &s.lambda_c;
     if (bm) {
-      s.lambda = lambda_half_ - (2 * alg.rho - 1) * Rq * (Id_ + GU_ - s.E);
-      if (facets_) s.lambda_c = lambda_c_half_ - (2 * alg.rho - 1) * Rqc * (ubar_ - s.e);
-    } else {
-      s.lambda -= alg.rho * Rq * (Id_ + GU_ - s.E);
-      if (facets_) s.lambda_c -= alg.rho * Rqc * (ubar_ - s.e);
-    }
-    double B2 = 0, G2 = 0, beta2 = 0;
-    const Eigen::Index rows = GU_.rows();
-    const int dim = this->dim();
-#pragma omp parallel for schedule(static) reduction(+ : B2, G2)
-    for (Eigen::Index r = 0; r < rows; ++r) {
-      double b = 0, g = 0;
-      for (int i = 0; i < dim; ++i) {
-        const double Bri = (i == r % dim ? 1.0 : 0.0) + GU_(r, i) - s.E(r, i);
-        const double Gri = s.E(r, i) - E_prev_(r, i);
-        b += Bri * Bri;
-        g += Gri * Gri;
+      t0 = clock_type::now();
+      lambda_half_ = s.lambda - Rq * (Id_ + GU_ - s.E);
+      lambda = &lambda_half_;
+      if (facets_) {
+        lambda_c_half_ = s.lambda_c - Rqc * (ubar_ - s.e);
+        lambda_c = &lambda_c_half_;
       }
-      B2 += vol_rows_(r) * b;
-      G2 += vol_rows_(r) * g;
+      rec.t_update += seconds_since(t0);
     }
-    B2 *= alg.q;
-    G2 *= alg.q;
+    // Phase 2, (4.2) = (4.6) + (4.7) / (7.9): local steps for E per cell, {e, beta} per facet.
+    t0 = clock_type::now();
+    strain_failures += strain_solve(*lambda, s);
+    rec.t_strain += seconds_since(t0);
     if (facets_) {
-      for (int f = 0; f < facets_->size(); ++f) {
-        const double a = facets_->area(f);
-        B2 += alg.q_c * a * (ubar_.col(f) - s.e.col(f)).squaredNorm();
-        G2 += alg.q_c * a * (s.e.col(f) - e_prev_.col(f)).squaredNorm();
-        beta2 += a * std::pow(s.beta(f) - beta_prev_iter_(f), 2);
-      }
+      t0 = clock_type::now();
+      contact_solve(*lambda_c, beta_prev, s);
+      rec.t_contact += seconds_since(t0);
     }
-    rec.r_B = std::sqrt(B2) / norm_I_;
-    rec.r_G = std::sqrt(G2) / norm_I_ + (facets_ ? std::sqrt(beta2 / area_c_) : 0.0);
-    rec.t_update += seconds_since(t0);
+  }
+  // Phase 3, (4.3) / (7.10): multiplier update.
+  auto t0 = clock_type::now();
+  update_multipliers(s);
+  residuals(s, rec);
+  rec.t_update += seconds_since(t0);
+  return rec;
+}
+
+// [LTL87 (4.3)] Uzawa: lambda -= rho R q (I + Gbar u - E), lambda_c -= rho R q_c (ubar - e).
+// [LTL87 (7.10)] Bermudez-Moreno: the same from the half step (7.8) with factor 2 rho - 1.
+void Solver::update_multipliers(State& s) {
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
+  if (alg.update == Update::BermudezMoreno) {
+    s.lambda = lambda_half_ - (2 * alg.rho - 1) * Rq * (Id_ + GU_ - s.E);
+    if (facets_) s.lambda_c = lambda_c_half_ - (2 * alg.rho - 1) * Rqc * (ubar_ - s.e);
+  } else {
+    s.lambda -= alg.rho * Rq * (Id_ + GU_ - s.E);
+    if (facets_) s.lambda_c -= alg.rho * Rqc * (ubar_ - s.e);
+  }
+}
+
+// [LTL87 (4.4)] The residual parts with the weights of (3.3):
+//   r_B = ||(I + Gbar u - E, ubar - e)|| / ||I||_q,
+//   r_G = ||(E - E^{n-1}, e - e^{n-1})|| / ||I||_q + RMS(beta - beta^{n-1}).
+void Solver::residuals(const State& s, IterationRecord& rec) const {
+  const AlgorithmParams& alg = problem_.algorithm;
+  double B2 = 0, G2 = 0, beta2 = 0;
+  const Eigen::Index rows = GU_.rows();
+  const int dim = this->dim();
+#pragma omp parallel for schedule(static) reduction(+ : B2, G2)
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    double b = 0, g = 0;
+    for (int i = 0; i < dim; ++i) {
+      const double Bri = (i == r % dim ? 1.0 : 0.0) + GU_(r, i) - s.E(r, i);
+      const double Gri = s.E(r, i) - E_prev_(r, i);
+      b += Bri * Bri;
+      g += Gri * Gri;
+    }
+    B2 += vol_rows_(r) * b;
+    G2 += vol_rows_(r) * g;
+  }
+  B2 *= alg.q;
+  G2 *= alg.q;
+  if (facets_) {
+    for (int f = 0; f < facets_->size(); ++f) {
+      const double a = facets_->area(f);
+      B2 += alg.q_c * a * (ubar_.col(f) - s.e.col(f)).squaredNorm();
+      G2 += alg.q_c * a * (s.e.col(f) - e_prev_.col(f)).squaredNorm();
+      beta2 += a * std::pow(s.beta(f) - beta_prev_iter_(f), 2);
+    }
+  }
+  rec.r_B = std::sqrt(B2) / norm_I_;
+  rec.r_G = std::sqrt(G2) / norm_I_ + (facets_ ? std::sqrt(beta2 / area_c_) : 0.0);
+}
+
+// The stopping policy [LTL87 (4.4)], apart from the iteration: converged when r_G + r_B < tol;
+// a NaN, a residual above blowup x the first one, or the cap end the step unconverged.
+bool StoppingRule::capped(int n, StepReport& report) const {
+  if (n < alg.max_iter) return false;
+  report.status = cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
+  return true;
+}
+
+bool StoppingRule::stop(const IterationRecord& rec, bool finite, StepReport& report) {
+  const double r = rec.r_G + rec.r_B;
+  if (!std::isfinite(r) || !finite) {
+    report.status = "NaN in the iterate";
+    return true;
+  }
+  if (first < 0) first = std::max(r, 1e-300);
+  if (r > alg.blowup * first && rec.n > 1) {
+    report.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg.blowup,
+                        " x the first residual ", first, ")");
+    return true;
+  }
+  if (r < alg.tol) {
+    report.converged = true;
+    report.status = "converged";
+    return true;
+  }
+  return capped(rec.n, report);
+}
+
+namespace {
+// z[k .. k + size) <-> a matrix scaled by a weight per row (cells) or per column (facets).
+using Map = Eigen::Map<Eigen::MatrixXd>;
+using ConstMap = Eigen::Map<const Eigen::MatrixXd>;
+}  // namespace
+
+void Solver::pack(const State& s, Eigen::VectorXd& z) const {
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
+  const bool G = alg.accelerate != Accelerated::Multipliers;
+  double* p = z.data();
+  auto cells = [&](const Eigen::MatrixXd& A, double c) {
+    Map(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_cell_.array()).matrix();
+    p += A.size();
+  };
+  auto facets = [&](const Eigen::MatrixXd& A, double c) {
+    Map(p, A.rows(), A.cols()) = c * (A.array().rowwise() * w_facet_.transpose().array()).matrix();
+    p += A.size();
+  };
+  if (G) cells(s.E, 1.0);
+  cells(s.lambda, 1 / Rq);
+  if (facets_) {
+    if (G) facets(s.e, 1.0);
+    facets(s.lambda_c, 1 / Rqc);
+    if (alg.accelerate == Accelerated::All)
+      for (int f = 0; f < facets_->size(); ++f)
+        *p++ = std::sqrt(facets_->area(f) / area_c_) * s.beta(f);
+  }
+}
+
+void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
+  const AlgorithmParams& alg = problem_.algorithm;
+  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
+  const bool G = alg.accelerate != Accelerated::Multipliers;
+  const double* p = z.data();
+  auto cells = [&](Eigen::MatrixXd& A, double c) {
+    A = (ConstMap(p, A.rows(), A.cols()).array().colwise() / (c * w_cell_.array())).matrix();
+    p += A.size();
+  };
+  auto facets = [&](Eigen::MatrixXd& A, double c) {
+    A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_facet_.transpose().array()))
+            .matrix();
+    p += A.size();
+  };
+  if (G) cells(s.E, 1.0);
+  cells(s.lambda, 1 / Rq);
+  if (facets_) {
+    if (G) facets(s.e, 1.0);
+    facets(s.lambda_c, 1 / Rqc);
+    if (alg.accelerate == Accelerated::All)
+      for (int f = 0; f < facets_->size(); ++f)
+        s.beta(f) = *p++ / std::sqrt(facets_->area(f) / area_c_);
+  }
+}
+
+StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
+                              const std::function<void(const IterationRecord&)>& progress) {
+  StepReport report;
+  StoppingRule rule{problem_.algorithm};
+  const auto t_start = clock_type::now();
+  // Anderson with a safeguard that can only help: an accelerated iterate is kept when its merit
+  // r_G + r_B (measured by the iteration that follows it) does not exceed the merit of the
+  // iterate it was extrapolated from; otherwise the plain iterate replaces it and the history
+  // restarts.
+  if (anderson_) anderson_->restart();
+  bool extrapolated = false;  // is s an accelerated iterate?
+  double merit_before = 0;    // merit of the iterate s was extrapolated from
+  for (int n = 1;; ++n) {
+    if (anderson_) pack(s, x_);
+    int failures = 0;
+    IterationRecord rec = iterate(s, beta_prev, failures);
+    rec.n = n;
+    const double merit = rec.r_G + rec.r_B;
+    bool reject = false;
+    if (extrapolated) {
+      reject = !(merit <= merit_before) || failures > 0 || !s.u.allFinite();
+      rec.accelerated = reject ? -1 : 1;
+      ++(reject ? report.rejected : report.accepted);
+    }
+    if (!reject) report.strain_failures += failures;
     rec.wall = seconds_since(t_start);
     report.history.push_back(rec);
     report.iterations = n;
     if (progress) progress(rec);
-
-    const double r = rec.r_G + rec.r_B;
-    if (!std::isfinite(r) || !s.u.allFinite()) {
-      report.status = "NaN in the iterate";
-      return report;
+    extrapolated = false;
+    if (reject) {
+      s = plain_;  // the plain iterate G(x^{n-1})
+      anderson_->restart();
+      if (rule.capped(n, report)) break;
+      continue;
     }
-    if (first < 0) first = std::max(r, 1e-300);
-    if (r > alg.blowup * first && n > 1) {
-      report.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg.blowup,
-                          " x the first residual ", first, ")");
-      return report;
-    }
-    if (r < alg.tol) {
-      report.converged = true;
-      report.status = "converged";
-      break;
+    if (rule.stop(rec, s.u.allFinite(), report)) break;
+    if (anderson_) {
+      pack(s, g_);
+      if (anderson_->step(x_, g_) > 0) {
+        plain_ = s;
+        unpack(g_, s);
+        extrapolated = true;
+        merit_before = merit;
+      }
     }
   }
-  if (!report.converged)
-    report.status =
-        cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
   const EquilibriumMeasure eq = equilibrium_measure(*this, s);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "anderson.hpp"
 #include "contact_step.hpp"
 #include "fe.hpp"
 #include "global_step.hpp"
@@ -23,6 +24,17 @@
 #include "strain_step.hpp"
 
 namespace ltl {
+
+/// The stopping policy of a time step [LTL87 (4.4)], kept apart from the iteration: converged
+/// when r_G + r_B < tol; a NaN, a residual above blowup x the first residual, or the iteration
+/// cap end the step unconverged. stop() fills report.converged and report.status.
+struct StoppingRule {
+  const AlgorithmParams& alg;
+  double first = -1;  ///< the first residual r_G + r_B of the step
+  bool stop(const IterationRecord& rec, bool finite, StepReport& report);
+  /// The cap alone (for an iterate the acceleration safeguard rejected).
+  bool capped(int n, StepReport& report) const;
+};
 
 class Solver {
  public:
@@ -94,8 +106,17 @@ class Solver {
   Eigen::MatrixXd fluctuation_force(const State& s) const;
 
  private:
-  void global_solve(State& s);                                // (4.1)
-  int strain_solve(const Eigen::MatrixXd& lambda, State& s);  // (4.6)
+  /// [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One iteration: global step, local steps, multiplier
+  /// update; returns r_G and r_B of the iteration (timings filled, n and wall not).
+  IterationRecord iterate(State& s, const Eigen::VectorXd& beta_prev, int& strain_failures);
+  void update_multipliers(State& s);  // (4.3) / (7.10)
+  /// The accelerated part of the iterate as one vector, scaled so that its Euclidean norm is
+  /// the norm of r_G + r_B (weights of (3.3), multipliers divided by R q and R q_c).
+  void pack(const State& s, Eigen::VectorXd& z) const;
+  void unpack(const Eigen::VectorXd& z, State& s) const;
+  void residuals(const State& s, IterationRecord& rec) const;  // (4.4)
+  void global_solve(State& s);                                 // (4.1)
+  int strain_solve(const Eigen::MatrixXd& lambda, State& s);   // (4.6)
   void contact_solve(const Eigen::MatrixXd& lambda_c, const Eigen::VectorXd& beta_prev,
                      State& s);  // (4.7)
 
@@ -125,6 +146,10 @@ class Solver {
   double gamma_ = 0;
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) const;
+  // Anderson acceleration (allocated once): history, packed iterates, weights, the plain iterate.
+  std::unique_ptr<Anderson> anderson_;
+  Eigen::VectorXd x_, g_, w_cell_, w_facet_;
+  State plain_;
 };
 
 }  // namespace ltl

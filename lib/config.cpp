@@ -340,7 +340,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   if (r.has("algorithm")) {
     const Reader a = r.sub("algorithm");
     a.only({"update", "R", "q", "q_c", "rho", "sweeps", "contact_sweeps", "tol", "max_iter",
-            "blowup"});
+            "blowup", "acceleration", "depth", "accelerate"});
     const std::string update = a.string("update", "uzawa");
     if (update == "uzawa")
       p.algorithm.update = Update::Uzawa;
@@ -360,6 +360,24 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     p.algorithm.tol = a.number("tol", p.algorithm.tol);
     p.algorithm.max_iter = a.integer("max_iter", p.algorithm.max_iter);
     p.algorithm.blowup = a.number("blowup", p.algorithm.blowup);
+    // Safeguarded Anderson acceleration of the fixed-point map (paper_notes/performance.md).
+    const std::string acceleration = a.string("acceleration", "none");
+    if (acceleration == "none")
+      p.algorithm.acceleration = Acceleration::None;
+    else if (acceleration == "anderson")
+      p.algorithm.acceleration = Acceleration::Anderson;
+    else
+      a.fail("acceleration", "expected \"none\" or \"anderson\"");
+    p.algorithm.depth = a.integer("depth", p.algorithm.depth);
+    const std::string accelerate = a.string("accelerate", "all");
+    if (accelerate == "multipliers")
+      p.algorithm.accelerate = Accelerated::Multipliers;
+    else if (accelerate == "strains-multipliers")
+      p.algorithm.accelerate = Accelerated::StrainsMultipliers;
+    else if (accelerate == "all")
+      p.algorithm.accelerate = Accelerated::All;
+    else
+      a.fail("accelerate", "expected \"multipliers\", \"strains-multipliers\" or \"all\"");
   }
   // [discretization]: the defaults converge under refinement; "cell-mean" and "facet-mean" are
   // the paper's choices (paper_notes/discretization.md).

@@ -66,6 +66,8 @@ void Problem::validate() const {
             cat("= ", a.rho, ": the Uzawa update (4.3) needs 0 < rho < 2"));
   }
   require(a.sweeps >= 1, "algorithm.sweeps", cat("= ", a.sweeps, ": must be >= 1"));
+  require(a.depth >= 1 && a.depth <= 16, "algorithm.depth",
+          cat("= ", a.depth, ": the Anderson history must hold 1 ... 16 differences"));
   require(a.contact_sweeps >= 1, "algorithm.contact_sweeps",
           cat("= ", a.contact_sweeps, ": must be >= 1"));
   require(a.tol > 0, "algorithm.tol", cat("= ", a.tol, ": must be > 0"));

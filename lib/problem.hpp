@@ -49,6 +49,19 @@ enum class Update {
 };
 
 /// Parameters of ALG2 [LTL87 sec. 3-4, 7].
+/// Acceleration of the ALG2 fixed-point map (4.1)-(4.3) (paper_notes/performance.md).
+enum class Acceleration {
+  None,      ///< the paper's plain iteration
+  Anderson,  ///< safeguarded Anderson acceleration of depth `depth`
+};
+/// Which part of the iterate (E, e, beta, lambda, lambda_c) Anderson extrapolates; the rest is
+/// taken from the plain iteration.
+enum class Accelerated {
+  Multipliers,         ///< lambda, lambda_c
+  StrainsMultipliers,  ///< E, e, lambda, lambda_c
+  All,                 ///< E, e, beta, lambda, lambda_c
+};
+
 struct AlgorithmParams {
   double R = 1.0;    ///< augmentation parameter (dimensionless), R > 0
   double q = 1.0;    ///< weight of the strain constraint (Pa), q > 0   (3.3)
@@ -61,6 +74,9 @@ struct AlgorithmParams {
   double tol = 1e-8;       ///< stop when r_G + r_B < tol (scaled, see alg2.hpp)
   int max_iter = 5000;     ///< iteration cap: reaching it is reported as non-convergence
   double blowup = 1e8;     ///< residual above blowup * (first residual) is divergence
+  Acceleration acceleration = Acceleration::None;
+  int depth = 5;  ///< Anderson history (number of differences kept), 1 ... 16
+  Accelerated accelerate = Accelerated::All;
 };
 
 /// Discrete choices where the paper's own (P2/H8 with everything on cell and facet means) does not

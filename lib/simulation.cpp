@@ -70,11 +70,15 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     if (options.verbosity > 0 && (P > 1 || options.verbosity == 1))
       std::printf(
           "step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  force residual %.1e  "
-          "%.3f s%s\n",
+          "%.3f s%s%s\n",
           p, P, p * problem.time.dt, report.iterations, report.history.back().r_G,
           report.history.back().r_B, report.force_residual, report.history.back().wall,
           report.strain_failures
               ? cat("  (", report.strain_failures, " local strain solves not at round-off)").c_str()
+              : "",
+          report.accepted + report.rejected
+              ? cat("  Anderson ", report.accepted, " kept / ", report.rejected, " rejected")
+                    .c_str()
               : "");
     std::fflush(stdout);
     if (!options.output.empty()) {

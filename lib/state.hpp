@@ -32,6 +32,10 @@ struct IterationRecord {
   double r_B = 0;  ///< ||B(u^n, G^n)|| / ||I||_q, weights of (3.3)
   double t_global = 0, t_strain = 0, t_contact = 0, t_update = 0;  ///< seconds in each phase
   double wall = 0;  ///< seconds since the start of the time step
+  /// Anderson acceleration: 0 the iterate this record measures was a plain one; +1 it was an
+  /// accelerated one, kept (its merit r_G + r_B did not exceed the previous record's); -1 it was
+  /// an accelerated one, rejected (the next iterate is the plain one and the history restarts).
+  int accelerated = 0;
 };
 
 struct StepReport {
@@ -40,6 +44,8 @@ struct StepReport {
   int iterations = 0;
   std::vector<IterationRecord> history;
   int strain_failures = 0;  ///< local strain problems whose Newton iteration did not converge
+  int accepted = 0;  ///< accelerated iterates kept by the safeguard (history: accelerated = +1)
+  int rejected = 0;  ///< accelerated iterates rejected by the safeguard (accelerated = -1)
   /// The equilibrium measure at the last iterate (lib/measures.hpp): max nodal force residual /
   /// max nodal load, max |det E - 1|, max penetration of a contact-surface node (m).
   double force_residual = 0, det_error = 0, penetration = 0;

@@ -50,6 +50,16 @@ inline std::vector<Case> cases() {
       {"fig6_coarse_bermudez_moreno",
        "experiments/fig6/fig6.toml",
        {"mesh.parameters.nl=5", "mesh.parameters.na=5", "algorithm.update=bermudez-moreno"}},
+      // Safeguarded Anderson acceleration of (4.1)-(4.3), depth 5 (paper_notes/performance.md):
+      // the same fixed point as the plain runs above, iterations to tolerance.
+      {"fig3_reduced_anderson",
+       "experiments/fig3/fig3.toml",
+       {"time.steps=6", "algorithm.acceleration=anderson"}},
+      // det-mean: Anderson does not extrapolate u, on which mean-det's lagged terms depend.
+      {"fig5_anderson",
+       "experiments/fig5/fig5.toml",
+       {"algorithm.acceleration=anderson", "discretization.incompressibility=det-mean"}},
+      {"fig6_anderson", "experiments/fig6/fig6.toml", {"algorithm.acceleration=anderson"}},
   };
 }
 

@@ -176,6 +176,17 @@ TEST(BlockOnPlane, PlaneStrainMooneyRivlin_1_5_ContactPressureEqualsLoad) {
                         Material::mooney_rivlin(C1, C2), exact, alg);
 }
 
+TEST(BlockOnPlane, PlaneStrainMooneyRivlin_1_5_AndersonAcceleration_4_1_4_3) {
+  // The closed form above reached by the accelerated iteration (depth 5), R = 8.
+  const double C1 = 100e3, C2 = 30e3;
+  const Compression exact = mooney_rivlin_compression(2, C1, C2, 0.9);
+  AlgorithmParams alg = ltl::testing::tight(8 * 4 * (C1 + C2), 8.0);
+  alg.tol = 1e-11;
+  alg.acceleration = Acceleration::Anderson;
+  expect_block_on_plane(load_mesh(test_path("geometry/square.geo")),
+                        Material::mooney_rivlin(C1, C2), exact, alg);
+}
+
 TEST(BlockOnPlane, PlaneStrainCompressibleLaw_Sec8) {
   const double C1 = 187.5e3, C3 = 187.5e3;
   const Compression exact = compressible_compression(2, C1, C3, 0.85);
@@ -304,6 +315,30 @@ TEST(Fig5, CylinderOnPlane_SignoriniConditionsAndContactForceEqualsWeight) {
       "  weight %.8g N/m, contact force %.8g N/m (rel. diff %.1e); max free residual / max "
       "nodal load %.1e\n",
       weight, force, force / weight - 1, worst / scale);
+}
+
+TEST(Fig5, AndersonAndPlainReachTheSameFixedPoint_4_1_4_3) {
+  // The Fig 5 problem at tol 1e-9, plain and accelerated (depth 10, strains and multipliers):
+  // the same displacements, contact pressures and contact force to the accuracy the plain
+  // iteration itself has at that tolerance, the Signorini conditions, fewer iterations.
+  const std::string config = source_path("experiments/fig5/fig5.toml");
+  const Solved plain = solve_one_step(load_problem(config, {"algorithm.tol=1e-9"}));
+  const Solved accel = solve_one_step(load_problem(
+      config, {"algorithm.tol=1e-9", "algorithm.acceleration=anderson", "algorithm.depth=10"}));
+  const double du = (accel.s.u - plain.s.u).cwiseAbs().maxCoeff() / plain.s.u.cwiseAbs().maxCoeff();
+  const Eigen::VectorXd pp = plain.solver->contact_pressure(plain.s),
+                        pa = accel.solver->contact_pressure(accel.s);
+  const double dp = (pa - pp).cwiseAbs().maxCoeff() / pp.cwiseAbs().maxCoeff();
+  std::printf(
+      "  plain %d iterations, Anderson %d; max |du|/max |u| = %.1e, max |dp_c|/max p_c = "
+      "%.1e\n",
+      plain.report.iterations, accel.report.iterations, du, dp);
+  EXPECT_LT(du, 1e-6);
+  EXPECT_LT(dp, 1e-5);
+  const double fp = plain.solver->facets()->area.dot(pp), fa = accel.solver->facets()->area.dot(pa);
+  EXPECT_NEAR(fa, fp, 1e-6 * fp);
+  expect_signorini(*accel.solver, accel.s, 1.0, 1e-6, 1e-6);
+  EXPECT_LT(accel.report.iterations, plain.report.iterations / 2);
 }
 
 TEST(Fig6, GutterOverPlane_SignoriniConditionsAndVerticalBalanceWithClampReaction) {

@@ -63,6 +63,37 @@ TEST(PatchTest, IncompressibleMooneyRivlin2D_detE_is_1) {
   patch_test(p, F);
 }
 
+TEST(PlanarTension, MooneyRivlinClosedForm_AndersonAcceleration_4_1_4_3) {
+  // The closed form of the test below, reached by the accelerated iteration (depth 5) at R = 8,
+  // where the plain iteration is slow; both agree with the closed form to the same accuracy.
+  const double C1 = 100e3, C2 = 30e3, l = 2.0;
+  Problem p;
+  p.mesh = load_mesh(test_path("geometry/square.geo"));
+  p.material = Material::mooney_rivlin(C1, C2);
+  p.dirichlet = {{"left", {0}, {}, "test"}, {"bottom", {1}, {}, "test"}};
+  Traction t{"right", {}, "test"};
+  t.g.value(0) = 2 * (l - std::pow(l, -3)) * (C1 + C2);
+  p.tractions = {t};
+  p.algorithm = ltl::testing::tight(8 * 2 * (C1 + C2), 8.0);
+  p.algorithm.tol = 1e-11;
+  int iterations[2];
+  for (int k = 0; k < 2; ++k) {
+    p.algorithm.acceleration = k ? Acceleration::Anderson : Acceleration::None;
+    Solver solver(p);
+    State s = solver.initial_state();
+    const StepReport r = solve(solver, s);
+    iterations[k] = r.iterations;
+    double worst = 0;
+    for (int i = 0; i < p.mesh.num_nodes(); ++i) {
+      worst = std::max(worst, std::abs(s.u(i, 0) - (l - 1) * p.mesh.X(i, 0)) / l);
+      worst = std::max(worst, std::abs(s.u(i, 1) - (1 / l - 1) * p.mesh.X(i, 1)) / l);
+    }
+    EXPECT_LT(worst, 1e-6) << (k ? "Anderson" : "plain") << " after " << r.iterations;
+  }
+  std::printf("  R = 8: plain %d iterations, Anderson %d\n", iterations[0], iterations[1]);
+  EXPECT_LT(iterations[1], iterations[0]);
+}
+
 TEST(PlanarTension, MooneyRivlinClosedForm) {
   // Plane strain, incompressible Mooney-Rivlin [LTL87 (1.5)] block [0,1]^2 with u1 = 0 on
   // x1 = 0, u2 = 0 on x2 = 0, a dead nominal traction P on x1 = 1 and x2 = 1 free:
@@ -126,6 +157,27 @@ TEST(DiscreteEquilibrium, CompressibleLawIsAStationaryPointOfTheDiscreteEnergy) 
   EXPECT_LT(g / load, 1e-6) << "relative gradient " << g / load;
   // Not trivially: the unconverged initial state is far from equilibrium.
   EXPECT_GT(solver.energy_gradient(solver.initial_state().u).norm() / load, 0.5);
+}
+
+TEST(DiscreteEquilibrium, AndersonAndPlainReachTheSameFixedPoint_4_1_4_3) {
+  // R = 16: the plain iteration takes ~10^4 iterations on this cantilever (issue 10's table).
+  Problem p = compressible_cantilever(16);
+  p.algorithm.max_iter = 40000;
+  Solver plain(p);
+  State xp = plain.initial_state();
+  const StepReport rp = solve(plain, xp);
+  p.algorithm.acceleration = Acceleration::Anderson;
+  Solver accel(p);
+  State xa = accel.initial_state();
+  const StepReport ra = solve(accel, xa);
+  const double du = (xa.u - xp.u).cwiseAbs().maxCoeff() / xp.u.cwiseAbs().maxCoeff();
+  std::printf(
+      "  plain %d iterations, Anderson %d (%d kept, %d rejected); max |du| / max |u| = "
+      "%.1e\n",
+      rp.iterations, ra.iterations, ra.accepted, ra.rejected, du);
+  EXPECT_LT(du, 1e-7);
+  EXPECT_LT(accel.energy_gradient(xa.u).norm() / accel.external_load().norm(), 1e-6);
+  EXPECT_LT(ra.iterations, rp.iterations / 2);
 }
 
 TEST(DiscreteEquilibrium, SolutionDoesNotDependOnRAndQ_3_2) {

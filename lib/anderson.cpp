@@ -1,0 +1,49 @@
+#include "anderson.hpp"
+
+#include "error.hpp"
+
+namespace ltl {
+
+Anderson::Anderson(Eigen::Index n, int m, double cap) : m_(m), cap_(cap) {
+  if (m < 1 || m > max_depth)
+    throw Error(cat("algorithm.depth = ", m, ": must be in 1 ... ", max_depth));
+  dF_.resize(n, m);
+  dG_.resize(n, m);
+  f_.resize(n);
+  f_prev_.resize(n);
+  g_prev_.resize(n);
+  step_.resize(n);
+}
+
+// Walker & Ni (2011), Algorithm AA with mixing 1; the small least-squares problem through its
+// normal equations with a relative Tikhonov shift 1e-12 trace (m <= 16 columns). Extrapolates
+// only with a full history of m differences, and bounds the step (see anderson.hpp).
+int Anderson::step(const Eigen::VectorXd& x, Eigen::VectorXd& g) {
+  f_ = g - x;
+  if (have_previous_) {
+    dF_.col(next_) = f_ - f_prev_;
+    dG_.col(next_) = g - g_prev_;
+    next_ = (next_ + 1) % m_;
+    columns_ = std::min(columns_ + 1, m_);
+  }
+  f_prev_ = f_;
+  g_prev_ = g;
+  have_previous_ = true;
+  if (columns_ < m_) return 0;  // (re)filling the history: the plain iterate
+  const int k = columns_;
+  gram_.resize(k, k);
+  rhs_.resize(k);
+  gram_.noalias() = dF_.leftCols(k).transpose() * dF_.leftCols(k);
+  rhs_.noalias() = dF_.leftCols(k).transpose() * f_;
+  const double shift = 1e-12 * gram_.trace() + 1e-300;
+  gram_.diagonal().array() += shift;
+  gamma_ = gram_.ldlt().solve(rhs_);
+  if (!gamma_.allFinite()) return 0;
+  // Step bound: the extrapolation x_{k+1} - G(x_k) = -dG gamma is at most `cap` ||f_k||.
+  step_.noalias() = dG_.leftCols(k) * gamma_;
+  const double ratio = step_.norm() / (cap_ * f_.norm());
+  g -= ratio > 1 ? step_ / ratio : step_;
+  return k;
+}
+
+}  // namespace ltl
