@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -153,9 +154,9 @@ void write_array(hid_t file_id, const std::string& path, hid_t mem_type, hid_t f
                        H5Dclose, file, cat("cannot create dataset ", path));
   hsize_t total = 1;
   for (hsize_t d : dims) total *= d;
-  if (total > 0)
-    ok(H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), file,
-       cat("cannot write dataset ", path));
+  errno = 0;
+  if (total > 0 && H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    fail(file, cat("cannot write dataset ", path, errno ? ": " + errno_text(errno) : ""));
   fault_point();
 }
 
@@ -695,13 +696,21 @@ void ResultsFile::begin() {
 void ResultsFile::commit() {
   if (file_ < 0) fail(path_, "commit without changes");
   fault_point();
-  ok(H5Fflush(file_, H5F_SCOPE_GLOBAL), path_, "cannot flush the file");
+  errno = 0;
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) {
+    const int e = errno;
+    discard();
+    fail(path_, cat("cannot write the file", e ? ": " + errno_text(e) : ""));
+  }
   const std::string xdmf = xdmf_text();
+  errno = 0;
   const herr_t closed = H5Fclose(file_);
+  const int e = errno;
   file_ = -1;
   if (closed < 0) {
-    std::filesystem::remove(work_);
-    fail(path_, "cannot close the working file (disk full?)");
+    std::error_code ec;
+    std::filesystem::remove(work_, ec);
+    fail(path_, cat("cannot close the working file ", work_, e ? ": " + errno_text(e) : ""));
   }
   sync_path(work_, false);
   fault_point();
