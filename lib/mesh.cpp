@@ -122,9 +122,13 @@ std::size_t gmsh_log_size() {
 std::string gmsh_last_error(std::size_t from = 0) {
   std::vector<std::string> log;
   gmsh::logger::get(log);
+  std::vector<std::string> errors;  // the first three distinct ones
+  for (std::size_t i = from; i < log.size() && errors.size() < 3; ++i)
+    if (log[i].find("Error") != std::string::npos &&
+        std::find(errors.begin(), errors.end(), log[i]) == errors.end())
+      errors.push_back(log[i]);
   std::string out;
-  for (std::size_t i = from; i < log.size(); ++i)
-    if (log[i].find("Error") != std::string::npos) out += "\n  gmsh: " + log[i];
+  for (const auto& e : errors) out += "\n  gmsh: " + e;
   return out;
 }
 
