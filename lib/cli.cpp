@@ -4,6 +4,7 @@
 #include <climits>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <new>
 #include <system_error>
@@ -15,6 +16,37 @@
 namespace ltl {
 
 namespace {
+
+char g_program[256] = "ltl";
+
+// The last resort of the error boundary: an exception that cannot propagate (thrown inside an
+// OpenMP region of ours or of gmsh, e.g. std::bad_alloc while meshing or assembling) ends the
+// program through std::terminate. Print it as one line and exit 1 instead of aborting. Nothing
+// needs unwinding for the results: the file is only ever replaced whole (a stale .partial or
+// .lock beside it is harmless and reused by the next run).
+[[noreturn]] void on_terminate() {
+  std::string what = "unknown exception";
+  if (const std::exception_ptr e = std::current_exception()) {
+    try {
+      std::rethrow_exception(e);
+    } catch (const std::bad_alloc&) {
+      what =
+          "out of memory (the mesh or the problem is too large for this machine; use a coarser "
+          "mesh)";
+    } catch (const std::exception& x) {
+      what = x.what();
+    } catch (const std::string& x) {
+      what = "gmsh: " + x;
+    } catch (...) {
+    }
+  } else {
+    what = "internal error (std::terminate without an exception)";
+  }
+  std::fprintf(stderr, "%s: error: %s\n", g_program, what.c_str());
+  std::fflush(stderr);
+  std::_Exit(1);
+}
+
 void usage(const Command& c) {
   std::fprintf(stderr,
                "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume] [--stop-after N]"
@@ -29,6 +61,8 @@ void usage(const Command& c) {
 }  // namespace
 
 int cli_main(int argc, char** argv, const Command& command) {
+  std::snprintf(g_program, sizeof g_program, "%s", command.program.c_str());
+  std::set_terminate(on_terminate);
   std::string config, output;
   std::vector<std::string> overrides;
   RunOptions options;

@@ -287,6 +287,23 @@ TEST(Hardening, OutputFileKeyIsTheDefaultTarget) {
   EXPECT_FALSE(fs::exists(f.dir / "results"));
 }
 
+TEST(Hardening, OutOfMemoryIsAMessage) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan reserves more address space than the limit used here";
+#else
+  Folder f("memory");
+  const auto before = snapshot(f.dir);
+  // 400 MB of address space; a mesh of n = nd = 400 needs more (in gmsh or in the assembly).
+  const Outcome r = f.run(
+      "case.toml -q -o out.h5 --set mesh.parameters.n=400 "
+      "--set mesh.parameters.nd=400",
+      "ulimit -v 400000 &&");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("out of memory"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+#endif
+}
+
 TEST(Hardening, FailedFreshRunKeepsThePreviousFile) {
   Folder f("keep");
   ASSERT_EQ(f.run("case.toml -q -o out.h5").status, 0);
