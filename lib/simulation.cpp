@@ -185,6 +185,9 @@ RunSummary run(const Problem& problem, const RunOptions& options,
                         " has the fields of another mesh or contact surface (u is ", s.u.rows(),
                         " x ", s.u.cols(), ", this problem's ", state.u.rows(), " x ",
                         state.u.cols(), ")"));
+      if (last->p > problem.time.steps)
+        throw Error(cat(out, ": cannot resume: the file already holds step ", last->p,
+                        ", beyond time.steps = ", problem.time.steps));
       state = s;
       p0 = last->p + 1;
     }

@@ -342,6 +342,12 @@ TEST(Hardening, ResumeRefusesAChangedGeometryAndAllowsALaterHorizon) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(ResultsFile::read_last_step((f.dir / "out.h5").string())->p, 3);
   EXPECT_EQ(ResultsFile::read_attribute((f.dir / "out.h5").string(), "status"), "complete");
+  // A shorter horizon than the file's is refused.
+  before = snapshot(f.dir);
+  r = f.run("case.toml -q -o out.h5 --resume --set time.steps=2");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("beyond time.steps = 2"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
 }
 
 TEST(Hardening, ASecondWriterIsRefused) {
