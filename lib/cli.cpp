@@ -1,7 +1,13 @@
 #include "cli.hpp"
 
+#include <cerrno>
+#include <climits>
 #include <cstdio>
+#include <cstdlib>
+#include <exception>
 #include <filesystem>
+#include <new>
+#include <system_error>
 #include <vector>
 
 #include "config.hpp"
@@ -10,6 +16,37 @@
 namespace ltl {
 
 namespace {
+
+char g_program[256] = "ltl";
+
+// The last resort of the error boundary: an exception that cannot propagate (thrown inside an
+// OpenMP region of ours or of gmsh, e.g. std::bad_alloc while meshing or assembling) ends the
+// program through std::terminate. Print it as one line and exit 1 instead of aborting. Nothing
+// needs unwinding for the results: the file is only ever replaced whole (a stale .partial or
+// .lock beside it is harmless and reused by the next run).
+[[noreturn]] void on_terminate() {
+  std::string what = "unknown exception";
+  if (const std::exception_ptr e = std::current_exception()) {
+    try {
+      std::rethrow_exception(e);
+    } catch (const std::bad_alloc&) {
+      what =
+          "out of memory (the mesh or the problem is too large for this machine; use a coarser "
+          "mesh)";
+    } catch (const std::exception& x) {
+      what = x.what();
+    } catch (const std::string& x) {
+      what = "gmsh: " + x;
+    } catch (...) {
+    }
+  } else {
+    what = "internal error (std::terminate without an exception)";
+  }
+  std::fprintf(stderr, "%s: error: %s\n", g_program, what.c_str());
+  std::fflush(stderr);
+  std::_Exit(1);
+}
+
 void usage(const Command& c) {
   std::fprintf(stderr,
                "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume] [--stop-after N]"
@@ -24,6 +61,8 @@ void usage(const Command& c) {
 }  // namespace
 
 int cli_main(int argc, char** argv, const Command& command) {
+  std::snprintf(g_program, sizeof g_program, "%s", command.program.c_str());
+  std::set_terminate(on_terminate);
   std::string config, output;
   std::vector<std::string> overrides;
   RunOptions options;
@@ -41,12 +80,17 @@ int cli_main(int argc, char** argv, const Command& command) {
     } else if (a == "--resume") {
       options.resume = true;
     } else if (a == "--stop-after") {
-      try {
-        options.stop_after = std::stoi(argv[++i]);
-      } catch (const std::exception&) {
-        std::fprintf(stderr, "%s: --stop-after needs a whole number\n", command.program.c_str());
+      // The whole argument must be a number >= 1: "3abc", "-1", "0" and overflow are refused.
+      const char* text = argv[++i];
+      char* end = nullptr;
+      errno = 0;
+      const long n = std::strtol(text, &end, 10);
+      if (end == text || *end != '\0' || errno == ERANGE || n < 1 || n > INT_MAX) {
+        std::fprintf(stderr, "%s: --stop-after '%s': needs a whole number >= 1\n",
+                     command.program.c_str(), text);
         return 2;
       }
+      options.stop_after = static_cast<int>(n);
     } else if (a == "-v") {
       options.verbosity = 2;
     } else if (a == "-q") {
@@ -70,10 +114,24 @@ int cli_main(int argc, char** argv, const Command& command) {
     usage(command);
     return 2;
   }
+  // The one error boundary: whatever is thrown (our errors, the standard library's, gmsh's
+  // strings, memory exhaustion) is one line on stderr and exit status 1. The results file is
+  // written atomically (results.hpp), so an error leaves the previous file or none.
+  const std::string& prog = command.program;
   try {
     const Problem problem = load_problem(config, overrides);
-    options.output = output.empty() ? "results/" + problem.name + ".h5" : output;
+    options.output = !output.empty()                ? output
+                     : !problem.output_file.empty() ? problem.output_file
+                                                    : "results/" + problem.name + ".h5";
     const auto dir = std::filesystem::path(options.output).parent_path();
+    for (auto d = dir; !d.empty(); d = d.parent_path()) {  // a path below a regular file
+      std::error_code ec;
+      const auto st = std::filesystem::status(d, ec);
+      if (std::filesystem::exists(st) && !std::filesystem::is_directory(st))
+        throw Error(cat(options.output, ": cannot write the results file: '", d.string(),
+                        "' is not a directory"));
+      if (d == d.parent_path()) break;
+    }
     if (!dir.empty()) std::filesystem::create_directories(dir);
     const RunSummary s = run(problem, options);
     if (options.verbosity > 0)
@@ -82,7 +140,29 @@ int cli_main(int argc, char** argv, const Command& command) {
                   options.output.c_str());
     if (command.report) command.report(problem, s);
   } catch (const Error& e) {
-    std::fprintf(stderr, "%s: error: %s\n", command.program.c_str(), e.what());
+    std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), e.what());
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::fprintf(stderr, "%s: error: file system: %s\n", prog.c_str(), e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr,
+                 "%s: error: out of memory (the mesh or the problem is too large for this "
+                 "machine; use a coarser mesh)\n",
+                 prog.c_str());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), e.what());
+    return 1;
+  } catch (const std::string& e) {  // gmsh 4.8 throws strings
+    std::fprintf(stderr, "%s: error: gmsh: %s\n", prog.c_str(), e.c_str());
+    return 1;
+  } catch (const char* e) {
+    std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), e);
+    return 1;
+  } catch (...) {
+    std::fprintf(stderr, "%s: error: unknown exception (a library threw something unexpected)\n",
+                 prog.c_str());
     return 1;
   }
   return 0;

@@ -2,8 +2,10 @@
 
 #include <toml++/toml.h>
 
+#include <cfloat>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -36,7 +38,10 @@ const std::map<std::string, std::pair<double, std::string>>& unit_table() {
 std::string where(const toml::source_region& r) {
   std::ostringstream s;
   if (r.path) s << *r.path;
-  s << ":" << r.begin.line;
+  if (r.begin.line > 0)
+    s << ":" << r.begin.line;
+  else
+    s << ": (--set)";  // a value given on the command line has no line
   return s.str();
 }
 
@@ -65,17 +70,30 @@ class Reader {
       }
   }
 
+  /// Every real value: finite, not subnormal (its reciprocal would overflow), |x| <= kMaxReal (so
+  /// that products of two values stay finite).
+  double real(const std::string& k, double v, const toml::node* n) const {
+    if (!std::isfinite(v)) fail(k, cat("= ", v, ": must be a finite number"), n);
+    if (v != 0 && std::abs(v) < DBL_MIN)
+      fail(k, cat("= ", v, ": subnormal (|x| < ", DBL_MIN, "); use 0 or a normal number"), n);
+    if (std::abs(v) > kMaxReal) fail(k, cat("= ", v, ": out of range (|x| <= ", kMaxReal, ")"), n);
+    return v;
+  }
+  static constexpr double kMaxReal = 1e100;
+
   bool has(const std::string& k) const { return t_.contains(k); }
   const toml::node* node(const std::string& k) const { return t_.get(k); }
 
   double quantity_of(const toml::node& n, const std::string& k, const std::string& si) const {
-    if (auto v = n.value<double>()) return *v;
+    if (auto v = n.value<double>()) return real(k, *v, &n);
     if (auto s = n.value<std::string>()) {
+      double v = 0;
       try {
-        return parse_quantity(*s, si, key(k));
+        v = parse_quantity(*s, si, key(k));
       } catch (const Error& e) {
         fail(k, e.what(), &n);
       }
+      return real(k, v, &n);
     }
     fail(k, cat("expected a number or a string \"<number> <unit>\" in ", si), &n);
   }
@@ -125,19 +143,21 @@ class Reader {
   std::string string(const std::string& k, const std::string& fallback) const {
     return has(k) ? string(k) : fallback;
   }
-  int integer(const std::string& k, int fallback) const {
+  /// An integer in [lo, hi] (checked before narrowing: 2^32 + 1 is not 1).
+  int integer(const std::string& k, int fallback, int lo, int hi) const {
     const toml::node* n = t_.get(k);
     if (!n) return fallback;
-    auto v = n->value<int64_t>();
-    if (!v || n->is_floating_point()) fail(k, "expected an integer", n);
-    return static_cast<int>(*v);
+    if (!n->is_integer()) fail(k, "expected an integer", n);
+    const int64_t v = *n->value<int64_t>();
+    if (v < lo || v > hi) fail(k, cat("= ", v, ": must be in ", lo, "..", hi), n);
+    return static_cast<int>(v);
   }
   double number(const std::string& k, double fallback) const {
     const toml::node* n = t_.get(k);
     if (!n) return fallback;
     auto v = n->value<double>();
     if (!v) fail(k, "expected a number", n);
-    return *v;
+    return real(k, *v, n);
   }
 
   Reader sub(const std::string& k) const {
@@ -219,6 +239,8 @@ double parse_quantity(const std::string& text, const std::string& si, const std:
 Problem load_problem(const std::string& path, const std::vector<std::string>& overrides) {
   namespace fs = std::filesystem;
   if (!fs::exists(path)) throw Error(cat(path, ": no such configuration file"));
+  if (fs::is_directory(path)) throw Error(cat(path, ": is a directory, not a configuration file"));
+  if (!std::ifstream(path).good()) throw Error(cat(path, ": cannot read the configuration file"));
   toml::table root;
   try {
     root = toml::parse_file(path);
@@ -234,23 +256,48 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     std::ostringstream s;
     s << root;
     p.config_text = s.str();
+    toml::table identity = root;
+    if (toml::table* t = identity["time"].as_table()) t->erase("steps");
+    std::ostringstream i;
+    i << identity;
+    p.config_identity = i.str();
   }
   Reader r(root, "", path);
   r.only({"name", "mesh", "material", "fixed", "symmetry", "displacement", "load", "contact",
           "algorithm", "discretization", "time", "output"});
   p.name = r.string("name", fs::path(path).stem().string());
+  // The name makes the default results path results/<name>.h5: a plain file name only.
+  if (p.name.empty() || p.name == "." || p.name == ".." ||
+      p.name.find_first_of("/\\") != std::string::npos || p.name.find('\0') != std::string::npos)
+    r.fail("name", cat("'", p.name, "': must be a plain file name (no '/', not '.' or '..')"));
 
   // [mesh]: a gmsh .geo (or .msh) file and its ONELAB parameters.
   const Reader m = r.sub("mesh");
   m.only({"geometry", "parameters"});
   const fs::path geo = fs::path(path).parent_path() / m.string("geometry");
+  if (fs::is_directory(geo)) m.fail("geometry", cat("'", geo.string(), "' is a directory"));
+  if (!std::ifstream(geo).good())
+    m.fail("geometry", cat("'", geo.string(), "': cannot open the mesh/geometry file"));
   std::map<std::string, double> params;
   if (m.has("parameters")) {
     const Reader mp = m.sub("parameters");
+    // Each parameter must be one the .geo defines: a misspelled name would be ignored by gmsh.
+    const GeometryScan declared = scan_geometry(geo.string());
     for (const auto& [k, v] : mp.table()) {
+      const std::string name(k.str());
       auto x = v.value<double>();
-      if (!x) mp.fail(std::string(k.str()), "expected a number", &v);
-      params[std::string(k.str())] = *x;
+      if (!x) mp.fail(name, "expected a number", &v);
+      mp.real(name, *x, &v);
+      if (!declared.parameters.count(name)) {
+        std::string names;
+        for (const auto& n : declared.parameters) names += (names.empty() ? "" : ", ") + n;
+        mp.fail(name,
+                cat("'", geo.string(), "' defines no parameter '", name,
+                    "' (DefineConstant[... Name \"Parameters/", name,
+                    "\"]); it defines: ", names.empty() ? "none" : names),
+                &v);
+      }
+      params[name] = *x;
     }
   }
   p.mesh = load_mesh(geo.string(), params);
@@ -340,7 +387,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   if (r.has("algorithm")) {
     const Reader a = r.sub("algorithm");
     a.only({"update", "R", "q", "q_c", "rho", "sweeps", "contact_sweeps", "tol", "max_iter",
-            "blowup", "acceleration", "depth", "accelerate"});
+            "blowup", "acceleration", "depth", "accelerate", "max_force_residual"});
     const std::string update = a.string("update", "uzawa");
     if (update == "uzawa")
       p.algorithm.update = Update::Uzawa;
@@ -355,10 +402,10 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     // rho = 1 there is a Peaceman-Rachford step, which does not converge on Figs 3 and 5, and
     // rho = 0.9 cycles on Fig 6.
     p.algorithm.rho = a.number("rho", p.algorithm.update == Update::BermudezMoreno ? 0.75 : 1.0);
-    p.algorithm.sweeps = a.integer("sweeps", p.algorithm.sweeps);
-    p.algorithm.contact_sweeps = a.integer("contact_sweeps", p.algorithm.contact_sweeps);
+    p.algorithm.sweeps = a.integer("sweeps", p.algorithm.sweeps, 1, 1000);
+    p.algorithm.contact_sweeps = a.integer("contact_sweeps", p.algorithm.contact_sweeps, 1, 1000);
     p.algorithm.tol = a.number("tol", p.algorithm.tol);
-    p.algorithm.max_iter = a.integer("max_iter", p.algorithm.max_iter);
+    p.algorithm.max_iter = a.integer("max_iter", p.algorithm.max_iter, 1, 1000000000);
     p.algorithm.blowup = a.number("blowup", p.algorithm.blowup);
     // Safeguarded Anderson acceleration of the fixed-point map (paper_notes/performance.md).
     const std::string acceleration = a.string("acceleration", "none");
@@ -368,7 +415,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
       p.algorithm.acceleration = Acceleration::Anderson;
     else
       a.fail("acceleration", "expected \"none\" or \"anderson\"");
-    p.algorithm.depth = a.integer("depth", p.algorithm.depth);
+    p.algorithm.depth = a.integer("depth", p.algorithm.depth, 1, 16);
     const std::string accelerate = a.string("accelerate", "all");
     if (accelerate == "multipliers")
       p.algorithm.accelerate = Accelerated::Multipliers;
@@ -378,6 +425,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
       p.algorithm.accelerate = Accelerated::All;
     else
       a.fail("accelerate", "expected \"multipliers\", \"strains-multipliers\" or \"all\"");
+    p.algorithm.max_force_residual = a.number("max_force_residual", p.algorithm.max_force_residual);
   }
   // [discretization]: the defaults converge under refinement; "cell-mean" and "facet-mean" are
   // the paper's choices (paper_notes/discretization.md).
@@ -402,9 +450,15 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     const Reader t = r.sub("time");
     t.only({"dt", "steps"});
     p.time.dt = t.quantity("dt", "s", p.time.dt);
-    p.time.steps = t.integer("steps", p.time.steps);
+    p.time.steps = t.integer("steps", p.time.steps, 1, 999999);  // 6-digit step groups
   }
-  if (r.has("output")) r.sub("output").only({"file"});
+  if (r.has("output")) {
+    const Reader o = r.sub("output");
+    o.only({"file"});
+    const std::string file = o.string("file");
+    if (file.empty()) o.fail("file", "must not be empty");
+    p.output_file = (fs::path(path).parent_path() / file).lexically_normal().string();
+  }
 
   try {
     p.validate();

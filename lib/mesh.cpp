@@ -1,12 +1,21 @@
 #include "mesh.hpp"
 
 #include <gmsh.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 #include <unordered_map>
 
 #include "error.hpp"
+#include "hash.hpp"
 
 namespace ltl {
 
@@ -26,16 +35,112 @@ struct GmshSession {
   ~GmshSession() { gmsh::finalize(); }
 };
 
-std::string gmsh_last_error() {
+// A .geo is a script: `Exit;` makes gmsh call exit(0) from inside gmsh::open, which would end the
+// run with status 0 and no message. While gmsh reads a file, an atexit guard turns that into a
+// message and status 1 (nothing else is open at that point: the mesh is read before any output).
+std::atomic<bool> g_reading{false};
+char g_reading_path[4096];
+
+void exit_guard() {
+  if (!g_reading.load()) return;
+  std::fprintf(stderr,
+               "error: %s: the geometry script ended the program (an `Exit;` statement?) before "
+               "a mesh was made\n",
+               g_reading_path);
+  std::fflush(stderr);
+  _exit(1);
+}
+
+struct ReadingGuard {
+  explicit ReadingGuard(const std::string& path) {
+    static const bool registered = (std::atexit(exit_guard), true);
+    (void)registered;
+    std::snprintf(g_reading_path, sizeof g_reading_path, "%s", path.c_str());
+    g_reading = true;
+  }
+  ~ReadingGuard() { g_reading = false; }
+};
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The text of a .geo without its comments (string literals kept).
+std::string strip_comments(const std::string& t) {
+  std::string out;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (t[i] == '"') {
+      const std::size_t end = t.find('"', i + 1);
+      const std::size_t stop = end == std::string::npos ? t.size() : end + 1;
+      out.append(t, i, stop - i);
+      i = stop - 1;
+    } else if (t.compare(i, 2, "//") == 0) {
+      i = std::min(t.find('\n', i), t.size()) - 1;
+      out += ' ';
+    } else if (t.compare(i, 2, "/*") == 0) {
+      const std::size_t end = t.find("*/", i + 2);
+      i = end == std::string::npos ? t.size() : end + 1;
+      out += ' ';
+    } else {
+      out += t[i];
+    }
+  }
+  return out;
+}
+
+void scan(const std::filesystem::path& file, GeometryScan& out, Fingerprint& hash, int depth) {
+  namespace fs = std::filesystem;
+  if (depth > 16) throw Error(cat(file.string(), ": Include nested too deeply"));
+  const std::string text = read_text(file.string());
+  out.files.push_back(file.string());
+  hash.add(text);
+  const std::string ext = file.extension().string();
+  if (ext == ".msh") return;
+  const std::string code = strip_comments(text);
+  static const std::regex name(R"re(Name\s*"Parameters/([^"]+)")re");
+  for (std::sregex_iterator it(code.begin(), code.end(), name), end; it != end; ++it)
+    out.parameters.insert((*it)[1].str());
+  static const std::regex include(R"re(\bInclude\s*"([^"]+)")re");
+  for (std::sregex_iterator it(code.begin(), code.end(), include), end; it != end; ++it) {
+    const fs::path inc = file.parent_path() / (*it)[1].str();
+    if (fs::is_regular_file(inc) &&
+        std::find(out.files.begin(), out.files.end(), inc.string()) == out.files.end())
+      scan(inc, out, hash, depth + 1);
+  }
+}
+
+std::size_t gmsh_log_size() {
   std::vector<std::string> log;
   gmsh::logger::get(log);
+  return log.size();
+}
+
+// The errors gmsh logged (from line `from` of its log on: the log outlives a session).
+std::string gmsh_last_error(std::size_t from = 0) {
+  std::vector<std::string> log;
+  gmsh::logger::get(log);
+  std::vector<std::string> errors;  // the first three distinct ones
+  for (std::size_t i = from; i < log.size() && errors.size() < 3; ++i)
+    if (log[i].find("Error") != std::string::npos &&
+        std::find(errors.begin(), errors.end(), log[i]) == errors.end())
+      errors.push_back(log[i]);
   std::string out;
-  for (const auto& line : log)
-    if (line.find("Error") != std::string::npos) out += "\n  gmsh: " + line;
+  for (const auto& e : errors) out += "\n  gmsh: " + e;
   return out;
 }
 
 }  // namespace
+
+GeometryScan scan_geometry(const std::string& path) {
+  GeometryScan out;
+  Fingerprint hash;
+  scan(path, out, hash, 0);
+  out.hash = hash.hex();
+  return out;
+}
 
 const Mesh::Boundary& Mesh::boundary(const std::string& name, const std::string& what) const {
   for (const auto& b : boundaries)
@@ -63,24 +168,50 @@ std::vector<int> Mesh::boundary_nodes(const std::string& name, const std::string
 }
 
 Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters) {
-  if (!std::ifstream(path).good()) throw Error(cat(path, ": cannot open the mesh/geometry file"));
+  if (std::filesystem::is_directory(path) || !std::ifstream(path).good())
+    throw Error(cat(path, ": cannot open the mesh/geometry file"));
   Mesh mesh;
   mesh.source = path;
+  // Parameters the file does not define would be ignored silently by gmsh (a misspelled name
+  // gives another mesh): refuse them, and non-finite values.
+  const GeometryScan declared = scan_geometry(path);
+  mesh.source_hash = declared.hash;
+  for (const auto& [name, value] : parameters) {
+    if (!declared.parameters.count(name)) {
+      std::string names;
+      for (const auto& n : declared.parameters) names += (names.empty() ? "" : ", ") + n;
+      throw Error(cat(path, ": parameter '", name,
+                      "' is not defined by this file (DefineConstant[... Name \"Parameters/", name,
+                      "\"]); it defines: ", names.empty() ? "none" : names));
+    }
+    if (!std::isfinite(value))
+      throw Error(cat(path, ": parameter '", name, "' = ", value, " is not finite"));
+  }
   GmshSession session;
   try {
     gmsh::logger::start();
     gmsh::onelab::clear();  // parameters of an earlier load must not leak into this one
     for (const auto& [name, value] : parameters)
       gmsh::onelab::setNumber("Parameters/" + name, {value});
-    gmsh::open(path);
+    {
+      ReadingGuard guard(path);
+      gmsh::open(path);
+    }
     const int dim = gmsh::model::getDimension();
     if (dim != 2 && dim != 3)
       throw Error(cat(path, ": the model has dimension ", dim, "; expected 2 or 3"));
     mesh.dim = dim;
     const bool is_geo = path.size() > 4 && path.substr(path.size() - 4) == ".geo";
     if (is_geo) {
+      // gmsh meshes surfaces in an OpenMP region, where a thrown error cannot be caught (the
+      // process aborts): errors are logged instead, and read back from the log.
+      const std::size_t before = gmsh_log_size();
+      gmsh::option::setNumber("General.AbortOnError", 0);
       gmsh::model::mesh::generate(dim);
       if (dim == 2) gmsh::model::mesh::setOrder(2);
+      gmsh::option::setNumber("General.AbortOnError", 2);
+      const std::string errors = gmsh_last_error(before);
+      if (!errors.empty()) throw Error(cat(path, ": gmsh could not mesh the geometry", errors));
     }
     const int cell_type = dim == 2 ? kTriangle6 : kHexahedron8;
     const int facet_type = dim == 2 ? kLine3 : kQuad4;
@@ -120,9 +251,26 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
     mesh.X.resize(static_cast<Eigen::Index>(order.size()), dim);
     for (std::size_t i = 0; i < order.size(); ++i)
       for (int k = 0; k < dim; ++k) mesh.X(i, k) = coords[3 * position.at(order[i]) + k];
+    if (!mesh.X.allFinite()) throw Error(cat(path, ": the mesh has non-finite node coordinates"));
     mesh.cells.resize(ncells, npc);
     for (int c = 0; c < ncells; ++c)
       for (int a = 0; a < npc; ++a) mesh.cells(c, a) = index.at(cell_nodes[c * npc + a]);
+    // Every cell must have a non-zero area (volume): a degenerate geometry (e.g. a radius of 0)
+    // can give flat cells that make the problem singular.
+    for (int c = 0; c < ncells; ++c) {
+      const auto x = [&](int a) { return mesh.X.row(mesh.cells(c, a)).transpose().eval(); };
+      double measure;
+      if (dim == 2) {
+        const Eigen::Vector2d a = x(1) - x(0), b = x(2) - x(0);
+        measure = std::abs(a(0) * b(1) - a(1) * b(0)) / 2;
+      } else {
+        const Eigen::Vector3d a = x(1) - x(0), b = x(3) - x(0), d = x(4) - x(0);
+        measure = std::abs(a.cross(b).dot(d));
+      }
+      if (!(measure > 0))
+        throw Error(cat(path, ": cell ", c, " has zero ", dim == 2 ? "area" : "volume",
+                        " (a degenerate geometry: check the parameters)"));
+    }
 
     // Boundary parts: physical groups of dimension dim-1.
     gmsh::vectorpair groups;
@@ -162,8 +310,12 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
     throw Error(cat(path, ": gmsh: ", message, gmsh_last_error()));
   } catch (const Error&) {
     throw;
+  } catch (const std::bad_alloc&) {
+    throw;
   } catch (const std::exception& e) {
     throw Error(cat(path, ": gmsh: ", e.what(), gmsh_last_error()));
+  } catch (const char* message) {
+    throw Error(cat(path, ": gmsh: ", message, gmsh_last_error()));
   }
   return mesh;
 }

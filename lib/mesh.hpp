@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -23,7 +24,8 @@ struct Mesh {
     Eigen::MatrixXi facets;  ///< #facets x nodes_per_facet (3: P2 edge, 4: quadrilateral)
   };
   std::vector<Boundary> boundaries;
-  std::string source;  ///< the file the mesh came from
+  std::string source;       ///< the file the mesh came from
+  std::string source_hash;  ///< fingerprint of the source file(s) (hash.hpp), for --resume
 
   int num_nodes() const { return static_cast<int>(X.rows()); }
   int num_cells() const { return static_cast<int>(cells.rows()); }
@@ -40,7 +42,20 @@ struct Mesh {
 /// Generates (from a .geo) or reads (from a .msh) the mesh with gmsh. `parameters` set gmsh
 /// ONELAB numbers before the file is read, so that a .geo written with
 ///   DefineConstant[ nx = {28, Name "Parameters/nx"} ];
-/// can be refined from a configuration: {"nx", 56}. Errors name the file.
+/// can be refined from a configuration: {"nx", 56}. Errors name the file: a parameter the .geo
+/// does not define or that is not finite, a script that ends the program (`Exit;`, reported and
+/// exit status 1 from an atexit guard), a gmsh meshing error, no cells, a cell of zero area or
+/// volume, non-finite coordinates.
 Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters = {});
+
+/// What a geometry file declares: the ONELAB parameters "Parameters/NAME" it defines (in a
+/// DefineConstant, in the file or a file it Includes; names without the "Parameters/" prefix),
+/// the files read, and a fingerprint of their contents. A .msh file defines no parameter.
+struct GeometryScan {
+  std::set<std::string> parameters;
+  std::vector<std::string> files;
+  std::string hash;
+};
+GeometryScan scan_geometry(const std::string& path);
 
 }  // namespace ltl

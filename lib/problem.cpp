@@ -70,13 +70,29 @@ void Problem::validate() const {
           cat("= ", a.depth, ": the Anderson history must hold 1 ... 16 differences"));
   require(a.contact_sweeps >= 1, "algorithm.contact_sweeps",
           cat("= ", a.contact_sweeps, ": must be >= 1"));
-  require(a.tol > 0, "algorithm.tol", cat("= ", a.tol, ": must be > 0"));
+  // The residuals are relative: tol >= 1 accepts any iterate.
+  require(std::isfinite(a.tol) && a.tol > 0 && a.tol < 1, "algorithm.tol",
+          cat("= ", a.tol, ": must be in (0, 1) (a relative residual)"));
   require(a.max_iter >= 1, "algorithm.max_iter", cat("= ", a.max_iter, ": must be >= 1"));
-  require(a.blowup > 1, "algorithm.blowup", cat("= ", a.blowup, ": must be > 1"));
+  require(std::isfinite(a.blowup) && a.blowup > 1, "algorithm.blowup",
+          cat("= ", a.blowup, ": must be > 1 and finite"));
+  require(
+      std::isfinite(a.max_force_residual) && a.max_force_residual > 0 && a.max_force_residual < 1,
+      "algorithm.max_force_residual",
+      cat("= ", a.max_force_residual, ": must be in (0, 1) (relative to the largest load)"));
   // Time stepping (2.1)-(2.2).
   require(std::isfinite(time.dt) && time.dt > 0, "time.dt", cat("= ", time.dt, " s: must be > 0"));
-  require(time.steps >= 1, "time.steps", cat("= ", time.steps, ": must be >= 1"));
+  require(time.steps >= 1 && time.steps <= 999999, "time.steps",
+          cat("= ", time.steps, ": must be in 1..999999"));
+  require(
+      std::isfinite(time.dt * time.steps) && time.dt * time.steps < 1e100, "time.dt",
+      cat("= ", time.dt, " s: the final time dt * steps = ", time.dt * time.steps, " s overflows"));
   require(body_force.allFinite(), "load.body_force", "must be finite");
+  for (const auto& t : tractions)
+    require(t.g.value.allFinite() && t.g.gradient.allFinite(), t.origin, "must be finite");
+  for (const auto& d : dirichlet)
+    require(d.field.value.allFinite() && d.field.gradient.allFinite(), d.origin, "must be finite");
+  require(mesh.X.allFinite(), "mesh", "the mesh has non-finite node coordinates");
 
   // Boundary conditions and loads refer to existing boundary parts.
   for (const auto& d : dirichlet) {
@@ -90,6 +106,14 @@ void Problem::validate() const {
     const ContactCondition& cc = *contact;
     const auto& b = mesh.boundary(cc.group, "contact.group");
     require(b.facets.rows() > 0, "contact.group", cat("'", cc.group, "' has no facets"));
+    require(cc.plane_point.allFinite(), "contact.plane_point", "must be finite");
+    require(cc.plane_normal.allFinite(), "contact.plane_normal", "must be finite");
+    require(std::isfinite(cc.adhesion.w) && std::isfinite(cc.adhesion.kappa) &&
+                std::isfinite(cc.adhesion.d0),
+            std::isfinite(cc.adhesion.w)
+                ? std::isfinite(cc.adhesion.kappa) ? "contact.d0" : "contact.kappa"
+                : "contact.w",
+            "must be finite");
     require(cc.beta0 >= 0 && cc.beta0 <= 1, "contact.beta0",
             cat("= ", cc.beta0, ": the adhesion intensity must be in [0, 1]"));
     require(cc.adhesion.w >= 0, "contact.w", cat("= ", cc.adhesion.w, " J/m^2: must be >= 0"));

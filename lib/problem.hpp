@@ -77,6 +77,11 @@ struct AlgorithmParams {
   Acceleration acceleration = Acceleration::None;
   int depth = 5;  ///< Anderson history (number of differences kept), 1 ... 16
   Accelerated accelerate = Accelerated::All;
+  /// A step whose equilibrium measure (StepReport::force_residual: max nodal force residual /
+  /// max nodal load) exceeds this is not converged, whatever r_G and r_B say: with a huge R the
+  /// iterate residuals are small after one iteration far from equilibrium. The figures' steps
+  /// are at 1e-7..2e-3; a step stopped by a loose tol = 1e-4 on a coarse mesh at ~2e-2.
+  double max_force_residual = 0.1;
 };
 
 /// Discrete choices where the paper's own (P2/H8 with everything on cell and facet means) does not
@@ -119,6 +124,10 @@ struct Problem {
   TimeStepping time;
   std::string config_text;  ///< the resolved configuration (written into the results)
   std::string config_path;
+  /// The resolved configuration without time.steps: a resumed run may extend the horizon, and
+  /// nothing else (compared through its fingerprint, hash.hpp).
+  std::string config_identity;
+  std::string output_file;  ///< [output] file (relative to the configuration's folder), or empty
 
   /// Checks ranges and consistency (groups exist, contact group is on the boundary and not
   /// fixed, ...); throws a clear Error naming the key.

@@ -4,9 +4,15 @@
 #include "results.hpp"
 
 #include <cholmod.h>
+#include <fcntl.h>
 #include <gmsh.h>
 #include <hdf5.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -64,6 +70,36 @@ class Handle {
   throw Error(cat(file, ": ", what));
 }
 
+// Test hook for the kill test: LTL_FAULT_AT_WRITE=k kills the process (SIGKILL, no cleanup) at
+// the k-th write event (each dataset written, and each stage of a commit: before the flush,
+// before the rename, after the rename).
+void fault_point() {
+  static const long at = [] {
+    const char* v = std::getenv("LTL_FAULT_AT_WRITE");
+    return v ? std::atol(v) : 0L;
+  }();
+  static long count = 0;
+  if (at > 0 && ++count == at) {
+    std::fflush(nullptr);
+    raise(SIGKILL);
+  }
+}
+
+// errno as text, with ENOSPC spelled out.
+std::string errno_text(int e) {
+  return e == ENOSPC ? "no space left on the device (ENOSPC)" : std::strerror(e);
+}
+
+/// Forces `path` (a file or a directory) to the disk.
+void sync_path(const std::string& path, bool directory) {
+  const int fd = ::open(path.c_str(), directory ? O_RDONLY | O_DIRECTORY : O_RDONLY);
+  if (fd < 0) fail(path, cat("cannot open to sync: ", errno_text(errno)));
+  const int rc = ::fsync(fd);
+  const int e = errno;
+  ::close(fd);
+  if (rc != 0 && !directory) fail(path, cat("cannot sync to disk: ", errno_text(e)));
+}
+
 Handle checked(hid_t id, CloseFn close, const std::string& file, const std::string& what) {
   if (id < 0) fail(file, what);
   return Handle(id, close);
@@ -118,9 +154,10 @@ void write_array(hid_t file_id, const std::string& path, hid_t mem_type, hid_t f
                        H5Dclose, file, cat("cannot create dataset ", path));
   hsize_t total = 1;
   for (hsize_t d : dims) total *= d;
-  if (total > 0)
-    ok(H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), file,
-       cat("cannot write dataset ", path));
+  errno = 0;
+  if (total > 0 && H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    fail(file, cat("cannot write dataset ", path, errno ? ": " + errno_text(errno) : ""));
+  fault_point();
 }
 
 void write_doubles(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
@@ -483,6 +520,10 @@ std::string number(double x) {
   return buf;
 }
 
+std::string work_path_of(const std::string& path) {
+  return path + ".partial";
+}
+
 std::string xdmf_path_of(const std::string& path) {
   const std::string ext = ".h5";
   if (path.size() > ext.size() && path.compare(path.size() - ext.size(), ext.size(), ext) == 0)
@@ -512,7 +553,7 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
                                 const Mesh::Boundary* contact_facets,
                                 const Eigen::MatrixXd* contact_centre,
                                 const Eigen::VectorXd* contact_area,
-                                const std::vector<int>* contact_nodes) {
+                                const std::vector<int>* contact_nodes, bool commit) {
   quiet_hdf5();
   const int dim = mesh.dim, nn = mesh.num_nodes(), nc = mesh.num_cells();
   const int npc = mesh.nodes_per_cell();
@@ -550,12 +591,13 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
 
   ResultsFile r;
   r.path_ = path;
+  r.work_ = work_path_of(path);
   r.dim_ = dim;
   r.num_nodes_ = nn;
   r.num_cells_ = nc;
   r.num_facets_ = nf;
   r.contact_ = contact_facets != nullptr;
-  r.file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  r.file_ = H5Fcreate(r.work_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (r.file_ < 0)
     fail(path,
          "cannot create the file (does its directory exist, is it writable, is the file "
@@ -599,8 +641,7 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
     if (contact_area) write_doubles(f, "/mesh/contact_area", {un(nf)}, vec(*contact_area), path);
   }
   create_group(f, "/steps", path);
-  ok(H5Fflush(f, H5F_SCOPE_GLOBAL), path, "cannot flush the file");
-  r.write_xdmf();
+  if (commit) r.commit();
   return r;
 }
 
@@ -611,10 +652,9 @@ ResultsFile ResultsFile::open(const std::string& path) {
   }
   ResultsFile r;
   r.path_ = path;
-  r.file_ = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-  if (r.file_ < 0)
-    fail(path, "cannot open the file for writing (read-only, or open in another process?)");
-  const hid_t f = r.file_;
+  r.work_ = work_path_of(path);
+  Handle fh = open_for_reading(path);
+  const hid_t f = fh.get();
   const auto X = dataset_shape(f, "/mesh/X", path);
   const auto cells = dataset_shape(f, "/mesh/cells", path);
   if (X.size() != 2 || cells.size() != 2 ||
@@ -628,14 +668,74 @@ ResultsFile ResultsFile::open(const std::string& path) {
   if (r.contact_) {
     r.num_facets_ = contact_points(f, path);
   }
-  if (exists(f, "/steps/incomplete", path))  // left by a process killed while writing a step
-    ok(H5Ldelete(f, "/steps/incomplete", H5P_DEFAULT), path, "cannot delete /steps/incomplete");
+  // Left by a process killed while writing a step (before files were written atomically).
+  const bool incomplete = exists(f, "/steps/incomplete", path);
+  fh.reset();
+  if (incomplete) {
+    r.begin();
+    r.commit();
+  }
   return r;
+}
+
+void ResultsFile::begin() {
+  if (file_ >= 0) return;
+  quiet_hdf5();
+  std::error_code ec;
+  std::filesystem::copy_file(path_, work_, std::filesystem::copy_options::overwrite_existing, ec);
+  if (ec) fail(work_, cat("cannot copy ", path_, " to this working file: ", ec.message()));
+  file_ = H5Fopen(work_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (file_ < 0) fail(work_, "cannot open the working copy of the results file for writing");
+  if (exists(file_, "/steps/incomplete", path_))
+    ok(H5Ldelete(file_, "/steps/incomplete", H5P_DEFAULT), path_,
+       "cannot delete /steps/incomplete");
+}
+
+// The working file is complete and closed before it replaces the results file in one rename(2):
+// a reader, or a process killed at any instant, sees the previous complete file or this one.
+void ResultsFile::commit() {
+  if (file_ < 0) fail(path_, "commit without changes");
+  fault_point();
+  errno = 0;
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) {
+    const int e = errno;
+    discard();
+    fail(path_, cat("cannot write the file", e ? ": " + errno_text(e) : ""));
+  }
+  const std::string xdmf = xdmf_text();
+  errno = 0;
+  const herr_t closed = H5Fclose(file_);
+  const int e = errno;
+  file_ = -1;
+  if (closed < 0) {
+    std::error_code ec;
+    std::filesystem::remove(work_, ec);
+    fail(path_, cat("cannot close the working file ", work_, e ? ": " + errno_text(e) : ""));
+  }
+  sync_path(work_, false);
+  fault_point();
+  if (std::rename(work_.c_str(), path_.c_str()) != 0) {
+    const int e = errno;
+    fail(path_, cat("cannot move ", work_, " into place: ", errno_text(e)));
+  }
+  const auto dir = std::filesystem::path(path_).parent_path();
+  sync_path(dir.empty() ? "." : dir.string(), true);
+  fault_point();
+  write_xdmf(xdmf);
+}
+
+void ResultsFile::discard() noexcept {
+  if (file_ < 0) return;
+  H5Fclose(file_);
+  file_ = -1;
+  std::error_code ec;
+  std::filesystem::remove(work_, ec);
 }
 
 ResultsFile::ResultsFile(ResultsFile&& o) noexcept
     : file_(std::exchange(o.file_, -1)),
       path_(std::move(o.path_)),
+      work_(std::move(o.work_)),
       dim_(o.dim_),
       num_nodes_(o.num_nodes_),
       num_cells_(o.num_cells_),
@@ -647,6 +747,7 @@ ResultsFile& ResultsFile::operator=(ResultsFile&& o) noexcept {
     close();
     file_ = std::exchange(o.file_, -1);
     path_ = std::move(o.path_);
+    work_ = std::move(o.work_);
     dim_ = o.dim_;
     num_nodes_ = o.num_nodes_;
     num_cells_ = o.num_cells_;
@@ -661,18 +762,12 @@ ResultsFile::~ResultsFile() {
 }
 
 void ResultsFile::close() noexcept {
-  if (file_ < 0) return;
-  try {
-    write_xdmf();
-  } catch (...) {
-  }
-  H5Fclose(file_);
-  file_ = -1;
+  discard();  // changes not committed (an error in the middle of a step) are dropped
 }
 
-void ResultsFile::append(const StepData& step) {
+void ResultsFile::append(const StepData& step, const std::string& status) {
   const std::string& file = path_;
-  if (file_ < 0) fail(file, "append to a closed results file");
+  if (path_.empty()) fail(file, "append to a closed results file");
   if (!step.state) fail(file, cat("step ", step.p, ": no state to write"));
   if (step.p < 0 || step.p > 999999) fail(file, cat("step number ", step.p, " out of 0..999999"));
   const State& s = *step.state;
@@ -703,7 +798,11 @@ void ResultsFile::append(const StepData& step) {
   if (step.contact_pressure.size())
     expect("contact_pressure", step.contact_pressure.size(), 1, nf, 1);
   if (step.gap.size()) expect("gap", step.gap.size(), 1, nf, 1);
-  if (exists(file_, g, file)) fail(file, cat("step ", step.p, " is already stored (", g, ")"));
+  begin();
+  if (exists(file_, g, file)) {
+    discard();
+    fail(file, cat("step ", step.p, " is already stored (", g, ")"));
+  }
 
   // Written under a temporary name and renamed when complete.
   const std::string tmp = "/steps/incomplete";
@@ -770,22 +869,27 @@ void ResultsFile::append(const StepData& step) {
   }
   ok(H5Lmove(file_, tmp.c_str(), file_, g.c_str(), H5P_DEFAULT, H5P_DEFAULT), file,
      cat("cannot rename ", tmp, " to ", g));
-  ok(H5Fflush(file_, H5F_SCOPE_GLOBAL), file, "cannot flush the file");
-  write_xdmf();
+  if (!status.empty()) {
+    Handle root = open_group(file_, "/", path_);
+    write_string_attr(root.get(), "status", status, path_, "/");
+  }
+  commit();
 }
 
 void ResultsFile::set_status(const std::string& status) {
-  if (file_ < 0) fail(path_, "set_status on a closed results file");
-  Handle root = open_group(file_, "/", path_);
-  write_string_attr(root.get(), "status", status, path_, "/");
-  ok(H5Fflush(file_, H5F_SCOPE_GLOBAL), path_, "cannot flush the file");
+  if (path_.empty()) fail(path_, "set_status on a closed results file");
+  begin();
+  {
+    Handle root = open_group(file_, "/", path_);
+    write_string_attr(root.get(), "status", status, path_, "/");
+  }
+  commit();
 }
 
 // XDMF: one temporal collection with a uniform grid per step, all referring to the datasets of
 // the HDF5 file by its file name (the two files are meant to stay side by side).
-void ResultsFile::write_xdmf() const {
+std::string ResultsFile::xdmf_text() const {
   const std::string& file = path_;
-  const std::string xdmf = xdmf_path_of(path_);
   const std::string h5 = xml_escape(std::filesystem::path(path_).filename().string());
   const int dim = dim_, nn = num_nodes_, nc = num_cells_;
   const auto npc = dataset_shape(file_, "/mesh/cells", file).at(1);
@@ -834,12 +938,16 @@ void ResultsFile::write_xdmf() const {
     o << "      </Grid>\n";
   }
   o << "    </Grid>\n  </Domain>\n</Xdmf>\n";
+  return o.str();
+}
 
+void ResultsFile::write_xdmf(const std::string& text) const {
+  const std::string xdmf = xdmf_path_of(path_);
   // Written beside and renamed, so that a reader never sees half a file.
   const std::string tmp = xdmf + ".tmp";
   {
     std::ofstream out(tmp, std::ios::trunc);
-    out << o.str();
+    out << text;
     out.close();
     if (!out) fail(xdmf, "cannot write the XDMF file");
   }

@@ -23,8 +23,15 @@
 //                        /mesh/contact_facets has the string attribute "boundary" (its name).
 // Strings are variable-length UTF-8 scalars. A step is written as /steps/incomplete and renamed
 // once complete, so a name of six digits always denotes a complete step.
-// Each step is flushed to disk when appended: a run killed in the middle keeps every step it
-// completed, and can be resumed from the file.
+//
+// Crash consistency: the file at `path` is only ever replaced whole. Every change (the mesh with
+// the first step, each further step, a status) is made in a working file `path + ".partial"`
+// (a copy of `path` when it exists), which is closed, fsync'ed and renamed onto `path`
+// (rename(2) is atomic), and the directory is fsync'ed. A process killed at any instant leaves
+// either the previous complete file or the new one (and perhaps a stale .partial, overwritten by
+// the next writer); a run killed in the middle keeps every step it completed, and can be resumed.
+// Cost: one copy of the file per committed change.
+// Environment LTL_FAULT_AT_WRITE=k (tests only) kills the process at the k-th write event.
 //
 // XDMF (path with .h5 replaced by .xdmf, else path + ".xdmf"; rewritten after every append and on
 // close; it refers to the HDF5 file by its bare name, so keep the two side by side): a temporal
@@ -81,11 +88,13 @@ class ResultsFile {
   /// #facets (the layout of FacetOperators::centre); #facets x dim is accepted too when the shape
   /// is not square. Supported cells: six-node P2 triangles (2-D) and eight-node hexahedra (3-D);
   /// /mesh/cell_volume is computed here by exact quadrature.
+  /// With `commit` false, `path` is left as it is (an existing file stays) until the first
+  /// append(): the mesh is committed together with the first step.
   static ResultsFile create(const std::string& path, const Mesh& mesh, const RunInfo& info,
                             const Mesh::Boundary* contact_facets = nullptr,
                             const Eigen::MatrixXd* contact_centre = nullptr,
                             const Eigen::VectorXd* contact_area = nullptr,
-                            const std::vector<int>* contact_nodes = nullptr);
+                            const std::vector<int>* contact_nodes = nullptr, bool commit = true);
   /// Opens an existing file to append further steps (resume).
   static ResultsFile open(const std::string& path);
 
@@ -97,7 +106,8 @@ class ResultsFile {
   /// without `report` the step has no history and 0 iterations. P, sigma, pressure,
   /// contact_pressure, gap are written when non-empty (wrong sizes are an Error). Storing a p
   /// that is already in the file is an Error.
-  void append(const StepData& step);
+  /// With a non-empty `status`, the root attribute "status" is set in the same commit.
+  void append(const StepData& step, const std::string& status = "");
   /// Sets the root attribute "status" (e.g. "running", "complete",
   /// "diverged at step 12: iteration cap reached") and flushes.
   void set_status(const std::string& status);
@@ -112,10 +122,14 @@ class ResultsFile {
 
  private:
   ResultsFile() = default;
-  void write_xdmf() const;
-  void close() noexcept;  ///< rewrites the XDMF file (errors ignored) and closes the file
-  long long file_ = -1;   ///< hid_t
-  std::string path_;
+  std::string xdmf_text() const;                   ///< from the open working file
+  void write_xdmf(const std::string& text) const;  ///< beside path, atomically
+  void begin();             ///< opens the working file (a copy of path) if it is not open
+  void commit();            ///< closes, syncs and renames the working file onto path
+  void discard() noexcept;  ///< closes and removes an uncommitted working file
+  void close() noexcept;    ///< discards uncommitted changes
+  long long file_ = -1;     ///< hid_t of the working file while a change is being made
+  std::string path_, work_;
   int dim_ = 0;
   int num_nodes_ = 0, num_cells_ = 0, num_facets_ = 0;
   bool contact_ = false;  ///< the file has /mesh/contact_facets

@@ -1,14 +1,135 @@
 #include "simulation.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <optional>
 
 #include "error.hpp"
+#include "hash.hpp"
 #include "results.hpp"
 
 namespace ltl {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+bool same_file(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
+  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+}
+
+/// Refuses an output path that would destroy something: an input of the run (configuration,
+/// geometry and the files it includes), a directory, or an existing file that is not a results
+/// file. The XDMF, working and lock files beside it are checked the same way.
+void check_output_path(const Problem& problem, const std::string& output) {
+  std::vector<std::pair<std::string, std::string>> inputs = {
+      {problem.config_path, "the configuration"}};
+  if (!problem.mesh.source.empty()) {
+    std::vector<std::string> files{problem.mesh.source};
+    try {
+      files = scan_geometry(problem.mesh.source).files;
+    } catch (const Error&) {
+    }
+    for (const auto& f : files) inputs.push_back({f, "the geometry"});
+  }
+  const fs::path out(output);
+  std::string xdmf = output;
+  if (xdmf.size() > 3 && xdmf.compare(xdmf.size() - 3, 3, ".h5") == 0)
+    xdmf = xdmf.substr(0, xdmf.size() - 3) + ".xdmf";
+  else
+    xdmf += ".xdmf";
+  for (const std::string& written : {output, xdmf, output + ".partial", output + ".lock"})
+    for (const auto& [path, what] : inputs)
+      if (!path.empty() && same_file(written, path))
+        throw Error(cat(output, ": refusing to write the results over ", what, " (", path,
+                        written == output ? "" : cat(", via ", written),
+                        "); choose another output path"));
+  std::error_code ec;
+  if (fs::is_directory(out, ec))
+    throw Error(cat(output, ": is a directory; give a file name for the results (e.g. ",
+                    (out / (problem.name + ".h5")).string(), ")"));
+  if (fs::exists(out, ec)) {
+    if (!fs::is_regular_file(out, ec))
+      throw Error(cat(output, ": exists and is not a regular file; refusing to replace it"));
+    try {
+      ResultsFile::read_attribute(output, "config");
+    } catch (const Error&) {
+      throw Error(cat(output,
+                      ": exists and is not a results file of this code; refusing to replace it "
+                      "(remove it or choose another output path)"));
+    }
+  }
+}
+
+/// An exclusive lock on `<output>.lock` held for the whole run: a second writer (fresh or
+/// --resume) is refused while the first runs. The lock file is removed on release; the inode
+/// check after flock() makes that safe against a writer that opened the file just before.
+class OutputLock {
+ public:
+  explicit OutputLock(const std::string& output) : path_(output + ".lock") {
+    for (int attempt = 0; attempt < 100; ++attempt) {
+      fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+      if (fd_ < 0) throw Error(cat(path_, ": cannot create the lock file: ", std::strerror(errno)));
+      if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+        const int e = errno;
+        ::close(fd_);
+        fd_ = -1;
+        if (e == EWOULDBLOCK)
+          throw Error(cat(output, ": another process is writing this results file (", path_,
+                          " is locked); wait for it to finish"));
+        throw Error(cat(path_, ": cannot lock: ", std::strerror(e)));
+      }
+      struct stat held {
+      }, now{};
+      if (::fstat(fd_, &held) == 0 && ::stat(path_.c_str(), &now) == 0 &&
+          held.st_dev == now.st_dev && held.st_ino == now.st_ino)
+        return;      // the file we locked is the one at the path
+      ::close(fd_);  // removed by the previous holder meanwhile: try again
+      fd_ = -1;
+    }
+    throw Error(cat(path_, ": cannot acquire the lock"));
+  }
+  OutputLock(const OutputLock&) = delete;
+  OutputLock& operator=(const OutputLock&) = delete;
+  ~OutputLock() {
+    if (fd_ < 0) return;
+    ::unlink(path_.c_str());
+    ::close(fd_);
+  }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+};
+
+std::string mesh_fingerprint(const Mesh& m) {
+  Fingerprint f;
+  f.add(&m.dim, sizeof m.dim);
+  f.add(m.X.data(), sizeof(double) * static_cast<std::size_t>(m.X.size()));
+  f.add(m.cells.data(), sizeof(int) * static_cast<std::size_t>(m.cells.size()));
+  return f.hex();
+}
+
+/// What a results file must match to be resumed: root attribute -> this run's value.
+std::map<std::string, std::string> identity(const Problem& problem) {
+  return {{"mesh_nodes", std::to_string(problem.mesh.num_nodes())},
+          {"mesh_cells", std::to_string(problem.mesh.num_cells())},
+          {"mesh_hash", mesh_fingerprint(problem.mesh)},
+          {"geometry_hash", problem.mesh.source_hash},
+          {"config_hash", fingerprint(problem.config_identity)}};
+}
+
+}  // namespace
 
 RunSummary run(const Problem& problem, const RunOptions& options,
                const std::function<void(const Solver&, int, const State&)>& on_step) {
@@ -21,21 +142,57 @@ RunSummary run(const Problem& problem, const RunOptions& options,
   State state = solver.initial_state();
   int p0 = 1;
   std::optional<ResultsFile> file;
+  std::optional<OutputLock> lock;
+  const auto ids = identity(problem);
+  if (options.resume && options.output.empty()) throw Error("--resume needs a results file");
+  if (!options.output.empty()) {
+    check_output_path(problem, options.output);
+    lock.emplace(options.output);
+  }
   if (options.resume) {
-    if (options.output.empty()) throw Error("--resume needs a results file");
-    const std::string stored = ResultsFile::read_attribute(options.output, "config");
-    if (stored != problem.config_text)
-      throw Error(cat(options.output,
+    const std::string& out = options.output;
+    // The file must have been written by this problem: same configuration (time.steps may grow),
+    // same geometry file(s), same mesh. Files without the fingerprints are compared on the
+    // configuration text.
+    const bool has_ids = !ResultsFile::read_attribute(out, "config_hash").empty();
+    if (has_ids) {
+      for (const auto& [key, value] : ids) {
+        const std::string stored = ResultsFile::read_attribute(out, key);
+        if (stored != value)
+          throw Error(cat(
+              out, ": cannot resume: ",
+              key == "config_hash" ? "the configuration differs from the one the file was written "
+                                     "with (only time.steps may change)"
+              : key == "geometry_hash" ? cat("the geometry file ", problem.mesh.source,
+                                             " changed since the file was written")
+                                       : cat("the mesh differs from the file's (", key, " ", stored,
+                                             " in the file, ", value, " now)")));
+      }
+    } else if (ResultsFile::read_attribute(out, "config") != problem.config_text) {
+      throw Error(cat(out,
                       ": cannot resume: the file was written with a different "
                       "configuration"));
-    if (auto last = ResultsFile::read_last_step(options.output)) {
-      state = last->state;
+    }
+    if (auto last = ResultsFile::read_last_step(out)) {
+      const State& s = last->state;
+      const auto same = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+        return a.rows() == b.rows() && a.cols() == b.cols();
+      };
+      if (!same(s.u, state.u) || !same(s.E, state.E) || !same(s.lambda, state.lambda) ||
+          !same(s.e, state.e) || !same(s.lambda_c, state.lambda_c) ||
+          s.beta.size() != state.beta.size())
+        throw Error(cat(out, ": cannot resume: step ", last->p,
+                        " has the fields of another mesh or contact surface (u is ", s.u.rows(),
+                        " x ", s.u.cols(), ", this problem's ", state.u.rows(), " x ",
+                        state.u.cols(), ")"));
+      if (last->p > problem.time.steps)
+        throw Error(cat(out, ": cannot resume: the file already holds step ", last->p,
+                        ", beyond time.steps = ", problem.time.steps));
+      state = s;
       p0 = last->p + 1;
     }
-    file = ResultsFile::open(options.output);
+    file = ResultsFile::open(out);
     file->set_status("running");
-  } else if (!options.output.empty()) {
-    std::filesystem::remove(options.output);  // a stale file must not pass for this run's
   }
   summary.first_step = p0;
   if (options.verbosity > 0)
@@ -45,6 +202,7 @@ RunSummary run(const Problem& problem, const RunOptions& options,
                 summary.setup_seconds);
 
   const int P = problem.time.steps;
+  const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   int last_done = p0 - 1;
   for (int p = p0; p <= P; ++p) {
     if (options.stop_after > 0 && p - p0 >= options.stop_after) break;
@@ -56,13 +214,25 @@ RunSummary run(const Problem& problem, const RunOptions& options,
         std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
             std::fflush(stdout);
     };
-    const StepReport report = solver.solve_step(state, beta_prev, progress);
+    StepReport report = solver.solve_step(state, beta_prev, progress);
     summary.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
+    // The stopping test looks at changes of the iterate; with a huge R they are small after one
+    // iteration far from equilibrium. A step is converged only if it is also in equilibrium
+    // (skipped for a problem without loads, where the measure is not relative).
+    const double bound = problem.algorithm.max_force_residual;
+    if (report.converged && !(report.force_residual <= bound) && load_scale > 0) {
+      report.converged = false;
+      report.status =
+          cat("converged by the iterate residuals but the force residual ", report.force_residual,
+              " exceeds ", bound, " (algorithm.max_force_residual); lower algorithm.tol or R");
+    }
     if (!report.converged) {
       const auto& last = report.history.back();
-      const std::string msg = cat("diverged at step ", p, " (t = ", p * problem.time.dt,
-                                  " s): ", report.status, "; last residuals r_G = ", last.r_G,
-                                  ", r_B = ", last.r_B, ". Nothing was written for this step");
+      const bool unbalanced = report.status.rfind("converged by", 0) == 0;
+      const std::string msg = cat(unbalanced ? "not in equilibrium at step " : "diverged at step ",
+                                  p, " (t = ", p * problem.time.dt, " s): ", report.status,
+                                  "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
+                                  ". Nothing was written for this step");
       if (file) file->set_status(msg);
       throw Error(cat(problem.name, ": ", msg,
                       file ? cat("; ", options.output, " keeps steps 1..", p - 1) : "", "."));
@@ -84,6 +254,7 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     if (!options.output.empty()) {
       if (!file) {
         RunInfo info{problem.name, problem.config_text, problem.config_path, library_versions()};
+        for (const auto& [key, value] : ids) info.attributes[key] = value;
         info.attributes["code_version"] = LTL_VERSION;
         info.attributes["git_version"] = LTL_GIT_VERSION;
         const Mesh::Boundary* cb =
@@ -92,7 +263,8 @@ RunSummary run(const Problem& problem, const RunOptions& options,
             options.output, problem.mesh, info, cb,
             solver.facets() ? &solver.facets()->centre : nullptr,
             solver.facets() ? &solver.facets()->area : nullptr,
-            solver.facets() && !solver.facets()->nodes.empty() ? &solver.facets()->nodes : nullptr);
+            solver.facets() && !solver.facets()->nodes.empty() ? &solver.facets()->nodes : nullptr,
+            false);  // committed with the first step: an existing file stays until then
       }
       StepData d;
       d.p = p;
@@ -104,14 +276,15 @@ RunSummary run(const Problem& problem, const RunOptions& options,
       d.pressure = solver.pressure(state);
       d.contact_pressure = solver.contact_pressure(state);
       d.gap = solver.contact_gap(state);
-      file->append(d);
+      file->append(d, p == P ? "complete" : "running");
     }
     summary.iterations.push_back(report.iterations);
     last_done = p;
     if (on_step) on_step(solver, p, state);
   }
   summary.last_step = last_done;
-  if (file) file->set_status(last_done == P ? "complete" : cat("stopped after step ", last_done));
+  if (file && last_done != P) file->set_status(cat("stopped after step ", last_done));
+  if (file && options.resume && last_done == p0 - 1 && last_done == P) file->set_status("complete");
   summary.state = state;
   return summary;
 }

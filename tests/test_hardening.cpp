@@ -1,0 +1,430 @@
+// The hostile-user catalogue of issue 13, run through the real binary: every case asserts the
+// exit status, a fragment of the message, that no file appeared (or disappeared) in the run's
+// folder and that no input changed. Then a kill test: the run is killed (SIGKILL) at every write
+// event of the results file (LTL_FAULT_AT_WRITE=k), and the file left behind must be the
+// previous complete file or a readable new one, and resume to the uninterrupted answer bitwise.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+
+#include "results.hpp"
+#include "testing.hpp"
+
+namespace fs = std::filesystem;
+using ltl::ResultsFile;
+
+namespace {
+
+std::string read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Every entry below `dir` with its content (files) or "<dir>" (folders).
+std::map<std::string, std::string> snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    out[fs::relative(e.path(), dir).string()] =
+        e.is_directory() ? std::string("<dir>") : read_bytes(e.path());
+  return out;
+}
+
+// The Fig 5 half cylinder, coarse: 40 cells, solved in a fraction of a second.
+/// The names of the entries that differ between two snapshots ("" if none).
+std::string changes(const std::map<std::string, std::string>& a,
+                    const std::map<std::string, std::string>& b) {
+  std::string out;
+  for (const auto& [k, v] : a) {
+    const auto it = b.find(k);
+    if (it == b.end())
+      out += " removed:" + k;
+    else if (it->second != v)
+      out += " changed:" + k;
+  }
+  for (const auto& [k, v] : b)
+    if (!a.count(k)) out += " added:" + k;
+  return out;
+}
+
+const std::string kValid = R"(name = "case"
+[mesh]
+geometry = "half_disc.geo"
+parameters = { n = 4, nd = 4 }
+[material]
+model = "mooney-rivlin"
+C1 = "435 kPa"
+C2 = "65 kPa"
+[[symmetry]]
+group = "symmetry_x"
+component = "x"
+[load]
+body_force = [0, "-400 kN/m^3"]
+[contact]
+group = "contact"
+plane_point = [0, -1]
+plane_normal = [0, -1]
+beta0 = 0.0
+[algorithm]
+R = 5
+q = "1 MPa"
+q_c = "1 MPa/m"
+tol = 1e-4
+[time]
+dt = "1 s"
+steps = 1
+)";
+
+struct Outcome {
+  int status;
+  std::string err;
+};
+
+/// A folder with case.toml and half_disc.geo (a copy of Fig 5's).
+struct Folder {
+  fs::path dir;
+  explicit Folder(const std::string& name, const std::string& config = kValid)
+      : dir(ltl::testing::temp_dir("hard_" + name)) {
+    ltl::testing::write_file(dir / "case.toml", config);
+    fs::copy_file(ltl::testing::source_path("experiments/fig5/half_disc.geo"),
+                  dir / "half_disc.geo");
+  }
+  ~Folder() { fs::remove_all(dir); }
+  Outcome run(const std::string& args, const std::string& env = "") const {
+    const fs::path err = dir.parent_path() / (dir.filename().string() + ".err");
+    const std::string cmd = "cd '" + dir.string() + "' && " + env + " " +
+                            ltl::testing::binary_path("experiments/ltl_run") + " " + args +
+                            " 2> '" + err.string() + "' > /dev/null";
+    const int rc = std::system(cmd.c_str());
+    Outcome r{WIFEXITED(rc) ? WEXITSTATUS(rc) : 128 + WTERMSIG(rc), read_bytes(err)};
+    fs::remove(err);
+    return r;
+  }
+};
+
+struct Case {
+  std::string name;
+  std::string from, to;  ///< replace `from` by `to` in kValid (from empty: unchanged)
+  std::string args;      ///< after "case.toml -q"; the default output is -o out.h5
+  int status;
+  std::vector<std::string> words;
+  std::function<void(const fs::path&)> setup = {};  ///< prepares the folder
+};
+
+std::string with(std::string t, const std::string& from, const std::string& to) {
+  if (from.empty()) return t;
+  const auto at = t.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return at == std::string::npos ? t : t.replace(at, from.size(), to);
+}
+
+const std::vector<Case>& catalogue() {
+  const std::string o = " -o out.h5";
+  static const std::vector<Case> cases = {
+      // Non-finite, subnormal and huge values name the key.
+      {"plane_point_nan",
+       "",
+       "",
+       "--set 'contact.plane_point=[nan, -1]'" + o,
+       1,
+       {"contact.plane_point", "finite"}},
+      {"kappa_inf", "", "", "--set contact.kappa=inf" + o, 1, {"contact.kappa", "finite"}},
+      {"w_inf", "", "", "--set contact.w=inf" + o, 1, {"contact.w", "finite"}},
+      {"eps_subnormal", "", "", "--set contact.eps=5e-324" + o, 1, {"contact.eps", "subnormal"}},
+      {"kappa_overflow",
+       "beta0 = 0.0",
+       "beta0 = 0.0\nkappa = \"1e300 GPa/m\"",
+       o,
+       1,
+       {"contact.kappa", "finite"}},
+      {"C1_huge", "", "", "--set material.C1=1e308" + o, 1, {"material.C1", "out of range"}},
+      {"body_force_inf",
+       "",
+       "",
+       "--set 'load.body_force=[0, inf]'" + o,
+       1,
+       {"load.body_force", "finite"}},
+      {"tol_inf", "", "", "--set algorithm.tol=inf" + o, 1, {"algorithm.tol", "finite"}},
+      {"tol_one", "", "", "--set algorithm.tol=1" + o, 1, {"algorithm.tol", "(0, 1)"}},
+      {"tol_negative", "tol = 1e-4", "tol = -1e-4", o, 1, {"case.toml:23", "algorithm.tol"}},
+      // Integer overflow is checked before narrowing.
+      {"steps_2^32+1",
+       "steps = 1",
+       "steps = 4294967297",
+       o,
+       1,
+       {"case.toml:26", "time.steps", "4294967297"}},
+      {"steps_2^31", "", "", "--set time.steps=2147483648" + o, 1, {"time.steps", "2147483648"}},
+      {"steps_float", "steps = 1", "steps = 1.5", o, 1, {"time.steps", "expected an integer"}},
+      {"max_iter_huge",
+       "",
+       "",
+       "--set algorithm.max_iter=4294967296" + o,
+       1,
+       {"algorithm.max_iter"}},
+      {"dt_huge", "", "", "--set time.dt=1e308 --set time.steps=2" + o, 1, {"time.dt"}},
+      {"t_overflows",
+       "",
+       "",
+       "--set time.dt=1e99 --set time.steps=999999" + o,
+       1,
+       {"time.dt", "overflows"}},
+      // Mesh parameters are checked against the .geo; a .geo without a mesh is an error.
+      {"param_misspelled",
+       "",
+       "",
+       "--set mesh.parameters.nn=3" + o,
+       1,
+       {"mesh.parameters.nn", "defines no parameter", "Rc, n, nd"}},
+      {"param_nan", "", "", "--set mesh.parameters.n=nan" + o, 1, {"mesh.parameters.n", "finite"}},
+      {"zero_area",
+       "",
+       "",
+       "--set mesh.parameters.Rc=-1" + o,
+       1,
+       {"half_disc.geo", "could not mesh"}},
+      {"zero_radius", "", "", "--set mesh.parameters.Rc=0" + o, 1, {"half_disc.geo", "gmsh"}},
+      {"geo_exit",
+       "half_disc.geo",
+       "exit.geo",
+       o,
+       1,
+       {"exit.geo", "ended the program"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "exit.geo", read_bytes(d / "half_disc.geo") + "Exit;\n");
+       }},
+      {"geo_directory",
+       "half_disc.geo",
+       "sub",
+       o,
+       1,
+       {"mesh.geometry", "is a directory"},
+       [](const fs::path& d) { fs::create_directory(d / "sub"); }},
+      // False success.
+      {"R_1e6",
+       "",
+       "",
+       "--set algorithm.R=1e6" + o,
+       1,
+       {"not in equilibrium at step 1", "force residual", "exceeds 0.1"}},
+      {"R_1e12", "", "", "--set algorithm.R=1e12" + o, 1, {"force residual", "exceeds"}},
+      // Names and paths.
+      {"name_escapes", "", "", "--set name=../x", 1, {"key 'name'", "plain file name"}},
+      {"stop_after_negative", "", "", "--stop-after -1" + o, 2, {"--stop-after '-1'"}},
+      {"stop_after_zero", "", "", "--stop-after 0" + o, 2, {"--stop-after '0'"}},
+      {"stop_after_garbage", "", "", "--stop-after 3abc" + o, 2, {"--stop-after '3abc'"}},
+      {"output_is_config", "", "", "-o case.toml", 1, {"over the configuration"}},
+      {"output_is_geo", "", "", "-o half_disc.geo", 1, {"over the geometry"}},
+      {"output_empty_dir",
+       "",
+       "",
+       "-o empty",
+       1,
+       {"empty: is a directory"},
+       [](const fs::path& d) { fs::create_directory(d / "empty"); }},
+      {"output_full_dir",
+       "",
+       "",
+       "-o full",
+       1,
+       {"full: is a directory"},
+       [](const fs::path& d) {
+         fs::create_directory(d / "full");
+         ltl::testing::write_file(d / "full" / "x", "x");
+       }},
+      {"output_below_file", "", "", "-o case.toml/out.h5", 1, {"'case.toml' is not a directory"}},
+      {"output_not_results",
+       "",
+       "",
+       "-o notes.txt",
+       1,
+       {"not a results file"},
+       [](const fs::path& d) { ltl::testing::write_file(d / "notes.txt", "my notes\n"); }},
+      {"config_directory", "", "", "", 1, {"is a directory"}},
+  };
+  return cases;
+}
+
+class Catalogue : public ::testing::TestWithParam<Case> {};
+
+TEST_P(Catalogue, ExitStatusMessageNoFileNoInputChanged) {
+  const Case& c = GetParam();
+  Folder f(c.name, with(kValid, c.from, c.to));
+  if (c.setup) c.setup(f.dir);
+  const auto before = snapshot(f.dir);
+  const std::string config = c.name == "config_directory" ? "." : "case.toml";
+  const Outcome r = f.run(config + " -q " + c.args);
+  EXPECT_EQ(r.status, c.status) << r.err;
+  for (const auto& w : c.words)
+    EXPECT_NE(r.err.find(w), std::string::npos) << "'" << w << "' not in: " << r.err;
+  // One line of message.
+  EXPECT_LE(std::count(r.err.begin(), r.err.end(), '\n'), c.name.rfind("zero", 0) == 0 ? 4 : 1)
+      << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "") << "a file appeared, disappeared or changed";
+}
+
+INSTANTIATE_TEST_SUITE_P(Hardening, Catalogue, ::testing::ValuesIn(catalogue()),
+                         [](const auto& info) {
+                           std::string n = info.param.name;
+                           for (char& ch : n)
+                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return n;
+                         });
+
+TEST(Hardening, OutputFileKeyIsTheDefaultTarget) {
+  Folder f("output_key", with(kValid, "steps = 1", "steps = 1\n[output]\nfile = \"res/o.h5\""));
+  const Outcome r = f.run("case.toml -q");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::exists(f.dir / "res" / "o.h5"));
+  EXPECT_FALSE(fs::exists(f.dir / "results"));
+}
+
+TEST(Hardening, OutOfMemoryIsAMessage) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "ASan reserves more address space than the limit used here";
+#else
+  Folder f("memory");
+  const auto before = snapshot(f.dir);
+  // 400 MB of address space; a mesh of n = nd = 400 needs more (in gmsh or in the assembly).
+  const Outcome r = f.run(
+      "case.toml -q -o out.h5 --set mesh.parameters.n=400 "
+      "--set mesh.parameters.nd=400",
+      "ulimit -v 400000 &&");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("out of memory"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+#endif
+}
+
+TEST(Hardening, FailedFreshRunKeepsThePreviousFile) {
+  Folder f("keep");
+  ASSERT_EQ(f.run("case.toml -q -o out.h5").status, 0);
+  const auto before = snapshot(f.dir);
+  const Outcome r = f.run("case.toml -q -o out.h5 --set algorithm.R=1e6");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+}
+
+TEST(Hardening, ResumeRefusesAChangedGeometryAndAllowsALaterHorizon) {
+  Folder f("resume", with(kValid, "steps = 1", "steps = 2"));
+  ASSERT_EQ(f.run("case.toml -q -o out.h5 --stop-after 1").status, 0);
+  EXPECT_EQ(ResultsFile::read_attribute((f.dir / "out.h5").string(), "status"),
+            "stopped after step 1");
+  EXPECT_FALSE(ResultsFile::read_attribute((f.dir / "out.h5").string(), "mesh_hash").empty());
+  // The .geo changes (same configuration text): the stored state has another mesh's shape.
+  const std::string geo = read_bytes(f.dir / "half_disc.geo");
+  ltl::testing::write_file(f.dir / "half_disc.geo",
+                           with(geo, "h = (Pi / 2) * Rc / n;", "h = (Pi / 3) * Rc / n;"));
+  auto before = snapshot(f.dir);
+  Outcome r = f.run("case.toml -q -o out.h5 --resume");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("cannot resume: the geometry file"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  // Another configuration is refused too.
+  ltl::testing::write_file(f.dir / "half_disc.geo", geo);
+  before = snapshot(f.dir);
+  r = f.run("case.toml -q -o out.h5 --resume --set algorithm.R=4");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("configuration differs"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  // The same inputs resume; a later horizon extends the run.
+  r = f.run("case.toml -q -o out.h5 --resume");
+  EXPECT_EQ(r.status, 0) << r.err;
+  r = f.run("case.toml -q -o out.h5 --resume --set time.steps=3");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(ResultsFile::read_last_step((f.dir / "out.h5").string())->p, 3);
+  EXPECT_EQ(ResultsFile::read_attribute((f.dir / "out.h5").string(), "status"), "complete");
+  // A shorter horizon than the file's is refused.
+  before = snapshot(f.dir);
+  r = f.run("case.toml -q -o out.h5 --resume --set time.steps=2");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("beyond time.steps = 2"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+}
+
+TEST(Hardening, ASecondWriterIsRefused) {
+  Folder f("lock");
+  ASSERT_EQ(f.run("case.toml -q -o out.h5").status, 0);
+  const auto before = snapshot(f.dir);
+  // This process holds the lock a running writer would hold.
+  const std::string lock = (f.dir / "out.h5.lock").string();
+  const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  for (const char* mode : {"", "--resume"}) {
+    const Outcome r = f.run(std::string("case.toml -q -o out.h5 ") + mode);
+    EXPECT_EQ(r.status, 1) << mode << r.err;
+    EXPECT_NE(r.err.find("another process is writing"), std::string::npos) << r.err;
+  }
+  ::close(fd);
+  fs::remove(lock);
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  EXPECT_EQ(f.run("case.toml -q -o out.h5").status, 0);
+  EXPECT_FALSE(fs::exists(lock));  // released and removed
+}
+
+// Kill at every write event: the file is the previous complete one or a readable new one, and
+// resuming from it gives the uninterrupted run's last state bitwise.
+TEST(Hardening, KillAtEveryWriteLeavesAFileThatResumesBitwise) {
+  Folder f("kill", with(kValid, "steps = 1", "steps = 2"));
+  ASSERT_EQ(f.run("case.toml -q -o ref.h5").status, 0);
+  ASSERT_EQ(f.run("case.toml -q -o prev.h5 --set time.steps=1").status, 0);
+  const auto ref = ResultsFile::read_last_step((f.dir / "ref.h5").string());
+  ASSERT_TRUE(ref);
+  const std::string prev = read_bytes(f.dir / "prev.h5");
+  const std::string out = (f.dir / "out.h5").string();
+  int kills = 0, readable = 0, previous = 0, bitwise = 0;
+  for (int k = 1; k < 400; ++k) {
+    const bool with_previous = k % 2 == 0;  // half the runs replace an earlier complete file
+    fs::remove(out);
+    fs::remove(f.dir / "out.xdmf");
+    if (with_previous) fs::copy_file(f.dir / "prev.h5", out);
+    const Outcome r = f.run("case.toml -q -o out.h5", "LTL_FAULT_AT_WRITE=" + std::to_string(k));
+    if (r.status == 0) break;  // k is past the last write event
+    ASSERT_EQ(r.status, 128 + SIGKILL) << "k = " << k << ": " << r.err;
+    ++kills;
+    if (fs::exists(out)) {
+      if (with_previous && read_bytes(out) == prev) {
+        ++previous;
+      } else {
+        const auto last = ResultsFile::read_last_step(out);  // throws if damaged
+        ASSERT_TRUE(last) << "k = " << k << ": a results file without a step";
+        ++readable;
+      }
+    }
+    const Outcome resumed =
+        f.run(std::string("case.toml -q -o out.h5") + (fs::exists(out) ? " --resume" : ""));
+    ASSERT_EQ(resumed.status, 0) << "k = " << k << ": " << resumed.err;
+    const auto last = ResultsFile::read_last_step(out);
+    ASSERT_TRUE(last);
+    const ltl::State &a = last->state, &b = ref->state;
+    // Bitwise: memcmp of every field of the last step.
+    const auto bits = [](const auto& x, const auto& y) {
+      return x.rows() == y.rows() && x.cols() == y.cols() &&
+             std::memcmp(x.data(), y.data(), sizeof(double) * x.size()) == 0;
+    };
+    const bool same = last->p == 2 && bits(a.u, b.u) && bits(a.E, b.E) &&
+                      bits(a.lambda, b.lambda) && bits(a.e, b.e) && bits(a.lambda_c, b.lambda_c) &&
+                      bits(a.beta, b.beta);
+    EXPECT_TRUE(same) << "k = " << k << ": last step " << last->p;
+    bitwise += same;
+  }
+  std::printf(
+      "kills tried %d: previous file intact %d, new file readable %d, no file %d; "
+      "resumes bitwise %d\n",
+      kills, previous, readable, kills - previous - readable, bitwise);
+  EXPECT_GT(kills, 20);
+  EXPECT_EQ(bitwise, kills);
+  EXPECT_GT(previous, 0);
+  EXPECT_GT(readable, 0);
+}
+
+}  // namespace
