@@ -10,7 +10,7 @@ driver); no number is typed in. Per run:
             reached at step k (the file keeps steps 1..k-1; status "diverged at step k (t = ...)")
   beta1     beta on the facet nearest x1 = 0 (the free end under the largest load, g2 = 10 kPa)
   front     the largest facet-centre x1 with beta < 0.5 ("-" when no facet has debonded)
-  max|u|    the largest nodal displacement (m)
+  umax      max|u|, the largest nodal displacement (m)
   at t = 30, 100, 800 s; "." when the step is not stored (the run ran away before)
   iterations  the sum over the stored steps ("+cap" when the next step reached the cap)
   x RAPPORT   max|u| at the last stored step times the caption's magnification (20 for Fig 3,
@@ -104,7 +104,7 @@ def fmt(v, f):
 
 COLUMNS = ["case", "bar", "reading", "kernel", "q_c", "cap", "facets", "outcome"] + \
     ["beta1 %gs" % t for t in TIMES] + ["front %gs [m]" % t for t in TIMES] + \
-    ["max|u| %gs [m]" % t for t in TIMES] + ["iterations", "max|u| x RAPPORT / H (t)"]
+    ["umax %gs [m]" % t for t in TIMES] + ["iterations", "umax x RAPPORT / H (t)"]
 
 
 def row(r):
