@@ -21,10 +21,10 @@ as "runaway at t_k". When step 1 itself fails the solver writes no file (by desi
 converged); this script then writes a file with the same study attributes, the solver's message
 as `status` and no /steps group, so that the table is still built from files only.
 
-[choice] max_iter = 20 000 per time step (the figures use 200 000): a stable step of these
-problems needs at most a few thousand iterations (R3: 370 in total for 160 steps), a runaway
-step 50 000-95 000 with q_c = 3e7 and more with 1e9, so a cap of 20 000 marks the runaway step
-and keeps `make readings` within minutes. The `cap` variant reruns R1 with 200 000 to check
+[choice] max_iter = 20 000 per time step (the figures use 200 000): the hardest converged step
+of the study needs 12 323 iterations (R5, Fig 4), under R3 at most 8 095, while a runaway step
+needs 50 000-95 000 with q_c = 3e7 and more with 1e9, so a cap of 20 000 marks the runaway step
+and keeps `make readings` within about 13 minutes on 2 shared cores. The `cap` variant reruns R1 with 200 000 to check
 that the cap does not move the runaway time and to measure the peeled state.
 """
 
