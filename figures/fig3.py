@@ -29,6 +29,27 @@ def contact_normal(r):
     return N / np.linalg.norm(N)
 
 
+def reading(r):
+    """Which reading of the paper's silent data the run is (from its configuration): the fixed
+    ends and the face and direction of the traction g2 = 10 (1 - x1) kPa, as named in the
+    readings study (paper_notes/readings.md), e.g. "R3: fixed at x1 = 1, top face pressed down"."""
+    c = lr.config(r)
+    fixed = sorted(f["group"] for f in c.get("fixed", []))
+    tr = c.get("load", {}).get("traction", [])
+    if len(tr) != 1:
+        return "tractions: %s" % [t["group"] for t in tr]
+    face = tr[0]["group"]
+    up = lr.quantity(tr[0]["value"][1]) > 0
+    where = {("right",): "fixed at x1 = 1", ("left",): "fixed at x1 = 0",
+             ("left", "right"): "both ends fixed"}.get(tuple(fixed), "fixed: %s" % fixed)
+    known = {("fixed at x1 = 1", "top", True): "R1 (the literal reading)",
+             ("fixed at x1 = 0", "top", True): "R2", ("fixed at x1 = 1", "top", False): "R3",
+             ("both ends fixed", "top", True): "R5", ("fixed at x1 = 1", "contact", True): "R7"}
+    name = known.get((where, face, up), "reading")
+    return "%s: %s, %s face %s" % (name, where, "glued" if face == "contact" else face,
+                                   "pulled up" if up else "pressed down")
+
+
 def front_and_opening(r, N):
     """Per step: the debonding front (largest facet-centre x1 with beta < 0.5, NaN if none) and
     the largest opening max_s e_s . (-N)."""
@@ -112,8 +133,9 @@ def main(h5, png):
     # (a) the paper's view: displacements x20 just before the peel runs away.
     ax = fig.add_subplot(gs[0, :])
     draw_state(ax, r, pre, RAPPORT,
-               "(a) RAPPORT = %d: deformed mesh, displacements x%d, t = %g s (step %d, the last "
-               "before the runaway)" % (RAPPORT, RAPPORT, pre.t, pre.p))
+               "(a) RAPPORT = %d: deformed mesh, displacements x%d, t = %g s (step %d, %s)"
+               % (RAPPORT, RAPPORT, pre.t, pre.p,
+                  "the last before the runaway" if k_pre + 1 < len(r.steps) else "the last step"))
 
     # (b) the end of the computation at true scale.
     ax = fig.add_subplot(gs[1, 0])
@@ -121,13 +143,16 @@ def main(h5, png):
 
     # (c) beta along the contact surface.
     ax = fig.add_subplot(gs[1, 1])
-    shown = list(range(k_pre + 1)) + ([k_run] if k_run is not None else [])
+    shown = list(range(k_pre + 1))
+    if len(shown) > 10:  # no runaway: ten steps spread over the run, early ones denser
+        shown = sorted(set(np.unique(np.geomspace(1, k_pre + 1, 10).astype(int) - 1).tolist()))
+    shown += [k_run] if k_run is not None else []
     if len(r.steps) - 1 not in shown:
         shown.append(len(r.steps) - 1)
     for j, k in enumerate(shown):
         s = r.steps[k]
         if k <= k_pre:
-            kw = dict(color=style.SEQUENCE(k, k_pre + 1), marker="o", ms=2.5)
+            kw = dict(color=style.SEQUENCE(j, len(shown)), marker="o", ms=2.5)
         elif k == k_run:
             kw = dict(color=style.CONTACT, marker="s", ms=3, lw=1.8)
         else:
@@ -164,8 +189,8 @@ def main(h5, png):
     ax.set_ylabel("iterations of (4.1)-(4.4)")
     ax.set_title("(e) iterations per time step (dt = %g s)" % (t[1] - t[0] if len(t) > 1 else t[0]))
 
-    fig.suptitle("Fig 3 [LTL87]: compressible bar [0,1] x [0,0.2] m glued on x2 = 0, peeled by "
-                 "g2 = 10 (1 - x1) kPa, fixed at x1 = 1", fontsize=11)
+    fig.suptitle("Fig 3 [LTL87]: compressible bar [0,1] x [0,0.2] m glued on x2 = 0, "
+                 "|g2| = 10 (1 - x1) kPa\nreading %s" % reading(r), fontsize=11)
 
     # The numbers plotted.
     rows = [k for k in range(len(r.steps)) if k <= (k_run or 0) + 2 or r.steps[k].p % 10 == 0

@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 import ltl_results as lr  # noqa: E402
 from fig3 import (RUNAWAY_OPENING, contact_normal, draw_state,  # noqa: E402
-                  front_and_opening, pre_runaway)
+                  front_and_opening, pre_runaway, reading)
 
 RAPPORT = 50  # the paper's magnification
 
@@ -51,11 +51,14 @@ def main(h5, png):
     fig = plt.figure(figsize=(11.0, 9.0))
     gs = fig.add_gridspec(2, 2, height_ratios=[0.55, 1.5], hspace=0.3, wspace=0.22, top=0.91)
 
-    # (c) the paper's x50 view, at the last step before the runaway.
+    # (c) the paper's x50 view, at t = 800 s, or at the last step before the runaway if there is
+    # one.
+    ran_away = pre is not last
     ax = fig.add_subplot(gs[0, :])
     draw_state(ax, r, pre, RAPPORT,
-               "(c) RAPPORT = %d: deformed configuration, displacements x%d, at t = %g s (step %d, "
-               "the last before the runaway)" % (RAPPORT, RAPPORT, pre.t, pre.p))
+               "(c) RAPPORT = %d: deformed configuration, displacements x%d, at t = %g s (step %d%s)"
+               % (RAPPORT, RAPPORT, pre.t, pre.p, ", the last before the runaway" if ran_away
+                  else ", as the caption"))
 
     # (d) the state at t = 800 s, true scale.
     ax = fig.add_subplot(gs[1, 0])
@@ -66,8 +69,9 @@ def main(h5, png):
     # (a) beta along x1.
     ax = fig.add_subplot(sub[0])
     ax.plot(xc, last.fields["beta"], color="k", marker="o", ms=3, label="t = %g s" % last.t)
-    ax.plot(xc, pre.fields["beta"], color=style.REFERENCE, ls="--", marker=".", ms=3,
-            label="t = %g s (before the runaway)" % pre.t)
+    if ran_away:
+        ax.plot(xc, pre.fields["beta"], color=style.REFERENCE, ls="--", marker=".", ms=3,
+                label="t = %g s (before the runaway)" % pre.t)
     ax.set_ylim(-0.03, 1.03)
     ax.set_xlim(0, xc.max() + xc.min())
     ax.set_xlabel("x1 (m)")
@@ -86,10 +90,16 @@ def main(h5, png):
     ax.set_title("(b) vertical displacement of the contact surface, t = %g s" % last.t)
     ax.legend(loc="upper right")
 
+    umax = np.linalg.norm(last.fields["u"], axis=1).max()
+    if ran_away:
+        state = ("at t = %g s the bar has peeled off (max|u| = %.2g m): x%d is shown before the "
+                 "runaway (c), the %g s state at x1 (d)" % (last.t, umax, RAPPORT, last.t))
+    else:
+        state = "max|u| = %.2g m at t = %g s, drawn x%d (c) and at x1 (d)" % (umax, last.t,
+                                                                            RAPPORT)
     fig.suptitle("Fig 4 [LTL87]: incompressible Mooney-Rivlin bar [0,1] x [0,0.05] m, "
-                 "C1 = 187.5 kPa, C2 = 0.\nAt t = %g s the bar has peeled off (|u| ~ %.2g m): "
-                 "x%d is shown before the runaway (c), the %g s state at x1 (d)"
-                 % (last.t, np.abs(last.fields["u"]).max(), RAPPORT, last.t), fontsize=11)
+                 "C1 = 187.5 kPa, C2 = 0, |g2| = 10 (1 - x1) kPa\nreading %s; %s"
+                 % (reading(r), state), fontsize=11)
 
     lr.print_table("contact surface at t = %g s (panels a, b): facet centres" % last.t,
                    {"x1_m": xc, "beta": last.fields["beta"], "e2_m": lift,

@@ -13,9 +13,10 @@ using namespace ltl;
 using ltl::testing::source_path;
 
 namespace {
+// The Fig 3 bar under the literal reading R1 (pulled up), whose glue yields from the first step.
 Problem fig3(int steps, std::vector<std::string> extra = {}) {
   extra.push_back("time.steps=" + std::to_string(steps));
-  return load_problem(source_path("experiments/fig3/fig3.toml"), extra);
+  return load_problem(source_path("experiments/fig3/fig3_literal.toml"), extra);
 }
 }  // namespace
 

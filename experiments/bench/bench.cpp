@@ -162,7 +162,7 @@ std::vector<Case> all_cases() {
     const long cells = 2L * b[0] * b[1];
     cs.push_back({"bar-" + std::to_string(cells),
                   "2d",
-                  src("experiments/fig3/fig3.toml"),
+                  src("experiments/fig3/fig3_literal.toml"),
                   {"mesh.parameters.nx=" + std::to_string(b[0]),
                    "mesh.parameters.ny=" + std::to_string(b[1])},
                   cells});

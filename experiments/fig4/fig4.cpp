@@ -7,6 +7,14 @@
 //           Mooney-Rivlin material ... The adhesion intensity and the vertical displacement of
 //           the contact surface are indicated on Fig. 4 for a time t = 800 s."
 //
+// Readings: the paper does not say where the bar is fixed nor on which face and in which
+//           direction g2 = 10 (1 - x1) kPa acts. experiments/fig4/fig4.toml is reading R3
+//           (fixed at x1 = 1, top face PRESSED DOWN), the only one of the readings study
+//           (`make readings`, paper_notes/readings.md) whose displacements stay at the
+//           millimetre size the caption's x50 implies; fig4_literal.toml is the literal
+//           reading R1 (pulled up, drawn below), which peels off to metre displacements.
+//           The same driver runs both; `make fig4` draws results/fig4.png and fig4_literal.png.
+//
 // Make:     make fig4
 // Run:      build/experiments/fig4 experiments/fig4/fig4.toml -o results/fig4.h5
 //           /usr/bin/python3 figures/fig4.py results/fig4.h5 results/fig4.png
@@ -38,10 +46,10 @@
 #include "cli.hpp"
 
 // The configuration experiments/fig4/fig4.toml reuses the bar of Fig 3 (28 x 2 rectangles, 112
-// P2 triangles, 28 contact segments) and its algorithm (R = 8, q = 2 C1, q_c = 3e7 Pa/m,
-// dt = 5 s, two sweeps per multiplier update). Incompressibility is exact on the cell means: the
-// local strain step (4.6) projects E onto det E = 1 in every cell [LTL87 (4.9), sec. 5];
-// everything else is as in Fig 3:
+// P2 triangles, 28 contact segments) and its algorithm (R = 8, q = 2 C1, q_c = 1/eps = 1e9 Pa/m
+// (3e7 in the literal reading), dt = 5 s, two sweeps per multiplier update). Incompressibility is
+// exact on the cell means: the local strain step (4.6) projects E onto det E = 1 in every cell
+// [LTL87 (4.9), sec. 5]; everything else is as in Fig 3:
 //
 //   per time step [LTL87 (2.1)], iterate (4.1) global solve for u, (4.2) local steps in E per
 //   cell (4.6) and in {e, beta} per contact facet (4.7), (4.3) multiplier update, until (4.4).
