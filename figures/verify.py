@@ -20,6 +20,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import style  # noqa: E402  (selects the Agg backend)
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import NullFormatter  # noqa: E402
 
 # observable -> (label, key in the package's rows, key in the peer's observables)
 OBSERVABLES = {
@@ -115,6 +116,8 @@ def main():
                 ax.set_title(f"{figure}: |v_h - v_peer,finest|")
                 ax.legend()
             ax.set_xlabel("h (m)")
+    for ax in axes.flat:  # no minor tick labels on the log axes (they overlap)
+        ax.xaxis.set_minor_formatter(NullFormatter())
     fig.tight_layout()
     style.save(fig, png)
 

@@ -1,8 +1,8 @@
 // ALG2, the augmented-Lagrangian local/global iteration (4.1)-(4.4) of the paper, and its
 // Bermudez-Moreno variant (7.7)-(7.10), for one time step (2.1) of the adhesion problem.
 //
-// Unknowns (algorithm.md sec. 1): u (P2 / H8 nodal displacement), E and lambda (P0 per cell),
-// e, beta, lambda_c (P0 per contact facet). One iteration reads as three phases:
+// Unknowns (our reading, section3-4.md): u (P2 / H8 nodal displacement), E and lambda (P0 per
+// cell), e, beta, lambda_c (P0 per contact facet). One iteration reads as three phases:
 //   (4.1) global step:  K u = f + g + GbarT [ R q (E - I) + lambda - 2 C1 I ] + MT [ R q_c e +
 //   lambda_c ] (4.2) local steps:  E per cell (4.6, sec. 5), {e, beta} per facet (4.7, sec. 6)
 //   (4.3) update:       lambda -= rho R q (I + Gbar u - E),  lambda_c -= rho R q_c (ubar - e)

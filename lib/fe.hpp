@@ -1,6 +1,6 @@
 // Reference elements, quadrature, and the discrete operators of the mean-gradient formulation.
 //
-// [LTL87 (2.7), (3.3); algorithm.md sec. 1] The constraint B is imposed on means:
+// [LTL87 (2.7), (3.3); paper_notes/section3-4.md] The constraint B is imposed on means:
 //   Gbar_e(v) = (1/|O_e|) integral over cell e of grad v        (cell mean gradient)
 //   vbar_s    = (1/|G_s|) integral over facet s of v            (facet mean)
 // Both are linear in the nodal values and are stored as sparse matrices acting on the

@@ -146,7 +146,7 @@ Problem compressible_cantilever(double R) {
 }  // namespace
 
 TEST(DiscreteEquilibrium, CompressibleLawIsAStationaryPointOfTheDiscreteEnergy) {
-  // algorithm.md sec. 1: at convergence u is a stationary point of
+  // paper_notes/section3-4.md: at convergence u is a stationary point of
   // Pi(u) = sum |O_e| W(I + Gbar u) + C1 (||grad u||^2 - sum |O_e| |Gbar u|^2) - loads.
   Problem p = compressible_cantilever(8);
   Solver solver(p);

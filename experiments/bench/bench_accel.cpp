@@ -2,7 +2,7 @@
 //
 // What:     ALG2 (4.1)-(4.4), plain (algorithm.acceleration = "none", the paper's iteration) and
 //           with safeguarded Anderson acceleration ("anderson", depth m), on the Fig 5 half disc
-//           refined (K = 7, 14, 28, 56 edges per quarter circle; R = 20 as in fig5_refinement)
+//           refined (K = 7, 14, 28, 56 edges per quarter circle; R = 20 as in refinement fig5)
 //           and on the Fig 6 gutter at its size and coarser/finer. For each: iterations, wall time
 //           of the iterations (after the factorization), the accelerated iterates kept/rejected
 //           by the safeguard, and the largest difference of u between the two runs relative to
