@@ -114,7 +114,13 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   }
 
   // (4.5): K assembled and factorized once.
+  // Mean-det's proximal term gamma (L - GbarT Gbar) on the fluctuations (discretization.md):
+  // implicit in K, the same operator lagged on the right-hand side, so it cancels at a fixed point.
   gamma_ = mean_det_ ? 2 * Rq : 0.0;
+  if (mean_det_) {
+    fluctuation_laplacian_ = cells_.laplacian - SpMat(cells_.GbarT_vol * cells_.Gbar);
+    fluctuation_laplacian_.prune(0.0);
+  }
   const SpMat K = global_matrix(cells_, facets_.get(), split_.C1 + gamma_ / 2, Rq - gamma_, Rqc);
   global_ = std::make_unique<GlobalStep>(K, bc_);
   strain_ = std::make_unique<StrainStep>(split_, Rq);
@@ -180,9 +186,7 @@ void Solver::global_solve(State& s) {
   rhs_ += F_ext_;
   if (mean_det_) {  // the pressure's work on the fluctuations, lagged
     fluctuation(s.u, &s.lambda, &s.E, nullptr, &Sq_);
-    GUprev_.noalias() = cells_.Gbar * s.u;
-    rhs_.noalias() += gamma_ * (cells_.laplacian * s.u);
-    rhs_.noalias() -= gamma_ * (cells_.GbarT_vol * GUprev_);
+    rhs_.noalias() += gamma_ * (fluctuation_laplacian_ * s.u);
     rhs_.noalias() += GqT_w_ * Sq_;
   }
   if (facets_) {

@@ -142,8 +142,9 @@ class Solver {
   int nq_ = 0;
   SpMatR Gq_, GqT_w_;
   Eigen::VectorXd wq_, Jtarget_;
-  mutable Eigen::MatrixXd GQ_, Sq_, GUprev_;
-  double gamma_ = 0;
+  mutable Eigen::MatrixXd GQ_, Sq_;
+  double gamma_ = 0;             ///< proximal stiffness on the fluctuations, 2 R q
+  SpMat fluctuation_laplacian_;  ///< L - GbarT_vol Gbar (#nodes x #nodes)
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) const;
   // Anderson acceleration (allocated once): history, packed iterates, weights, the plain iterate.

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "error.hpp"
+
 namespace ltl {
 
 ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points, const State& s,
@@ -34,6 +36,18 @@ ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points
   for (int n : pb.mesh.boundary_nodes(pb.contact->group))
     m.penetration = std::max(m.penetration, (x.row(n).transpose() - p0).dot(N));
   return m;
+}
+
+int node_at(const Mesh& mesh, const Eigen::VectorXd& X) {
+  for (int n = 0; n < mesh.num_nodes(); ++n)
+    if ((mesh.X.row(n).transpose() - X).norm() < 1e-9) return n;
+  throw Error(cat(mesh.source, ": no mesh node at X = (", X.transpose(), ")"));
+}
+
+double load_along_normal(const Solver& solver) {
+  const Problem& pb = solver.problem();
+  if (!pb.contact) return 0;
+  return (solver.external_load() * pb.contact->plane_normal.head(pb.mesh.dim)).sum();
 }
 
 Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s) {

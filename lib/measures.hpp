@@ -43,8 +43,17 @@ inline ContactMeasures contact_measures(const Solver& solver, const State& s, in
                          : ContactMeasures{};
 }
 
+/// The node at reference position X (within 1e-9 m): its index; a clear error if there is none.
+/// (Fig 5's "drop of the top" is -u2 at the node (0, 1).)
+int node_at(const Mesh& mesh, const Eigen::VectorXd& X);
+
+/// The applied load along the contact plane's normal N: sum over nodes of f_ext . N (what the
+/// plane carries when nothing else holds the body). 0 without contact.
+double load_along_normal(const Solver& solver);
+
 /// Residual of the discrete equilibrium, #nodes x dim:
-///   r = GbarT_vol P + 2 C1 (L u - GbarT_vol Gbar u) - f_ext - meanT_area lambda_c^T,
+///   r = GbarT_vol P + 2 C1 (L u - GbarT_vol Gbar u) - f_ext - meanT_area lambda_c^T
+///       - Solver::fluctuation_force (mean-det incompressibility only),
 ///   P = 2 C1 E - lambda (C1 of Solver::split()).
 /// Zero on every free degree of freedom at a fixed point of (4.1)-(4.3); on a fixed one it is the
 /// reaction of the support.
@@ -52,8 +61,10 @@ Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s);
 
 struct EquilibriumMeasure {
   double force_residual = 0;  ///< max |r| over free dofs / max |f_ext| (largest nodal load)
-  double det_error = 0;       ///< max over cells of |det E - 1| (incompressible law; else 0)
-  double penetration = 0;     ///< ContactMeasures::penetration (0 without contact)
+  /// max over cells of |det E + c_e - 1|, the incompressibility as discretized (c_e = 0 for
+  /// det-mean, Solver::fluctuation_det for mean-det); 0 for a compressible law.
+  double det_error = 0;
+  double penetration = 0;  ///< ContactMeasures::penetration (0 without contact)
 };
 
 /// The equilibrium measure of a state (reported with every converged step).

@@ -38,33 +38,7 @@ Outcome run_config(const std::string& name, std::string text, const std::string&
 }
 
 // A valid small problem (the Fig 5 half cylinder, coarse) to break one key at a time.
-const std::string kValid = R"(name = "case"
-[mesh]
-geometry = "@SRC@experiments/fig5/half_disc.geo"
-parameters = { n = 4, nd = 4 }
-[material]
-model = "mooney-rivlin"
-C1 = "435 kPa"
-C2 = "65 kPa"
-[[symmetry]]
-group = "symmetry_x"
-component = "x"
-[load]
-body_force = [0, "-400 kN/m^3"]
-[contact]
-group = "contact"
-plane_point = [0, -1]
-plane_normal = [0, -1]
-beta0 = 0.0
-[algorithm]
-R = 5
-q = "1 MPa"
-q_c = "1 MPa/m"
-tol = 1e-4
-[time]
-dt = "1 s"
-steps = 1
-)";
+const std::string kValid = ltl::testing::coarse_fig5_config("@SRC@experiments/fig5/half_disc.geo");
 
 std::string with(const std::string& from, const std::string& to) {
   std::string t = kValid;

@@ -32,14 +32,9 @@ Answer solve(const std::string& figure, std::vector<std::string> overrides) {
   const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
   a.a_moment = m.a_moment;
   a.p_max = m.p_max;
-  const Eigen::VectorXd N = problem.contact->plane_normal.head(problem.mesh.dim);
-  a.force_ratio = m.force / (solver.external_load() * N).sum();
-  if (figure == "fig5") {
-    for (int n = 0; n < problem.mesh.num_nodes(); ++n)
-      if ((problem.mesh.X.row(n) - Eigen::RowVector2d(0, 1)).norm() < 1e-9) a.drop = -s.u(n, 1);
-  } else {
-    a.drop = (-s.u.col(1)).maxCoeff();
-  }
+  a.force_ratio = m.force / ltl::load_along_normal(solver);
+  a.drop = figure == "fig5" ? -s.u(ltl::node_at(problem.mesh, Eigen::Vector2d(0, 1)), 1)
+                            : (-s.u.col(1)).maxCoeff();
   return a;
 }
 

@@ -45,6 +45,36 @@ inline void write_file(const std::filesystem::path& path, const std::string& tex
   std::ofstream(path) << text;
 }
 
+/// A valid small problem to break one key at a time: Fig 5's half cylinder on a coarse mesh
+/// (n = nd = 4), loose tolerance; `geometry` is the .geo path as the configuration states it.
+inline std::string coarse_fig5_config(const std::string& geometry) {
+  return "name = \"case\"\n[mesh]\ngeometry = \"" + geometry + "\"\n" +
+         R"(parameters = { n = 4, nd = 4 }
+[material]
+model = "mooney-rivlin"
+C1 = "435 kPa"
+C2 = "65 kPa"
+[[symmetry]]
+group = "symmetry_x"
+component = "x"
+[load]
+body_force = [0, "-400 kN/m^3"]
+[contact]
+group = "contact"
+plane_point = [0, -1]
+plane_normal = [0, -1]
+beta0 = 0.0
+[algorithm]
+R = 5
+q = "1 MPa"
+q_c = "1 MPa/m"
+tol = 1e-4
+[time]
+dt = "1 s"
+steps = 1
+)";
+}
+
 /// Default algorithm parameters for verification runs: tight tolerance.
 inline AlgorithmParams tight(double Rq, double R = 1.0) {
   AlgorithmParams a;

@@ -71,10 +71,7 @@ void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
       problem.body_force.head(mesh.dim).norm() * ltl::cell_operators(mesh).vol.sum();
 
   // The drop of the top of the cylinder: u2 at the node (0, 1).
-  int top = -1;
-  for (int n = 0; n < mesh.num_nodes(); ++n)
-    if ((mesh.X.row(n) - Eigen::RowVector2d(0, 1)).norm() < 1e-9) top = n;
-  if (top < 0) throw ltl::Error("fig5: the mesh has no node at (0, 1)");
+  const int top = ltl::node_at(mesh, Eigen::Vector2d(0, 1));
 
   std::printf("fig5 (half cylinder, per metre of length):\n");
   std::printf("  contact points (%s) in contact: %d of %d\n",

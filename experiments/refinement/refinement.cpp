@@ -112,16 +112,10 @@ Row run(const std::string& figure, int level, const std::vector<std::string>& ex
   row.a_moment = m.a_moment;
   row.area = m.area;
   row.penetration = m.penetration;
-  // The load carried by the plane: the body force (fig5) or the tractions (fig6), along -N.
-  const Eigen::VectorXd N = problem.contact->plane_normal.head(mesh.dim);
-  const double load = (solver.external_load() * N).sum();
-  row.force_ratio = m.force / load;
-  if (figure == "fig5") {
-    for (int n = 0; n < mesh.num_nodes(); ++n)
-      if ((mesh.X.row(n) - Eigen::RowVector2d(0, 1)).norm() < 1e-9) row.drop = -s.u(n, 1);
-  } else {
-    row.drop = (-s.u.col(1)).maxCoeff();
-  }
+  // The load carried by the plane: the body force (fig5) or the tractions (fig6), along N.
+  row.force_ratio = m.force / ltl::load_along_normal(solver);
+  row.drop = figure == "fig5" ? -s.u(ltl::node_at(mesh, Eigen::Vector2d(0, 1)), 1)
+                              : (-s.u.col(1)).maxCoeff();
   return row;
 }
 
