@@ -15,6 +15,7 @@
 #include "error.hpp"
 #include "hash.hpp"
 #include "results.hpp"
+#include "version.hpp"
 
 namespace ltl {
 
@@ -255,8 +256,8 @@ RunSummary run(const Problem& problem, const RunOptions& options,
       if (!file) {
         RunInfo info{problem.name, problem.config_text, problem.config_path, library_versions()};
         for (const auto& [key, value] : ids) info.attributes[key] = value;
-        info.attributes["code_version"] = LTL_VERSION;
-        info.attributes["git_version"] = LTL_GIT_VERSION;
+        info.attributes["code_version"] = code_version();
+        info.attributes["git_version"] = git_version();
         const Mesh::Boundary* cb =
             problem.contact ? &problem.mesh.boundary(problem.contact->group) : nullptr;
         file = ResultsFile::create(
