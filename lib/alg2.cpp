@@ -34,9 +34,9 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
 
   cells_ = cell_operators(mesh);
   // Mean-det incompressibility (DiscretizationChoice::mean_det): the point gradients at the
-  // cell quadrature points (degree 4: exact for det(delta), quadratic on affine P2 triangles).
-  mean_det_ =
-      problem_.discretization.mean_det && dim == 2 && split_.incompressible() && split_.C2 == 0;
+  // cell quadrature points (triangles: degree 4, exact for det(delta), quadratic on affine P2
+  // triangles; hexahedra: the 2x2x2 Gauss rule of mean dilatation).
+  mean_det_ = problem_.discretization.mean_det && split_.incompressible() && split_.C2 == 0;
   if (mean_det_) {
     std::vector<Eigen::Triplet<double>> g, gt;
     std::vector<double> w;
@@ -145,6 +145,13 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
     Eigen::Index n = dim * dim * nc + dim * nf;              // lambda, lambda_c
     if (alg.accelerate != Accelerated::Multipliers) n *= 2;  // E, e
     if (alg.accelerate == Accelerated::All) n += nf;         // beta
+    // Mean-det: the lagged fluctuation terms make u part of the state the map acts on, so u is
+    // extrapolated with the rest, weighted like a gradient, sqrt(q |Omega| / #nodes) / h.
+    if (mean_det_) {
+      n += dim * nn;
+      const double vol = cells_.vol.sum(), h = std::pow(vol / nc, 1.0 / dim);
+      w_u_ = std::sqrt(alg.q * vol / nn) / (h * norm_I_);
+    }
     anderson_ = std::make_unique<Anderson>(n, alg.depth);
     x_.resize(n);
     g_.resize(n);
@@ -211,8 +218,8 @@ int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
     D.diagonal().array() += Rq;
     Eigen::Matrix<double, d, d> Ec;
     // Mean-det: det E = J_c. The local energy is (R q / 2)|E|^2 - D : E (C2 = 0), homogeneous
-    // of degree 2 under E = s Ehat, so E = s argmin over det Ehat = 1 with D / s, s = sqrt J_c.
-    const double s = J ? std::sqrt((*J)(c)) : 1.0;
+    // of degree 2 under E = s Ehat, so E = s argmin over det Ehat = 1 with D / s, s = J_c^(1/d).
+    const double s = J ? (d == 2 ? std::sqrt((*J)(c)) : std::cbrt((*J)(c))) : 1.0;
     if (!(s > 0)) {
       ++failures;
       continue;
@@ -231,40 +238,73 @@ int Solver::strain_solve(const Eigen::MatrixXd& lambda, State& s) {
                     : strain_loop<3>(*strain_, Rq, GU_, lambda, J, s.E);
 }
 
-// [(2.7), discretization.md] Per cell: delta_k = (point gradient - cell mean) at quadrature point
-// k; c_e = sum_k w_k det(delta_k) / |O_e|; the force block p_e cof(delta_k) (transposed-block
-// layout, cof(A^T) = cof(A)^T), with p_e = lambda_e : E_e / (2 det E_e).
+// [(2.7), discretization.md] Per cell, with F_k = I + (point gradient at quadrature point k)
+// and Fbar = I + (their cell mean):
+//   c_e = (1/|O_e|) sum_k w_k det F_k - det Fbar,   force block p_e (cof F_k - cof Fbar),
+// p_e = lambda_e : E_e / (d det E_e). In 2-D cof is linear, so c_e is the mean of det(delta_k)
+// and the force block p_e cof(delta_k), delta_k = F_k - Fbar. The blocks are transposed tensors;
+// det and cof commute with the transpose.
+namespace {
+template <int d>
+Eigen::Matrix<double, d, d> cofactor(const Eigen::Matrix<double, d, d>& A) {
+  Eigen::Matrix<double, d, d> C;
+  if constexpr (d == 2) {
+    C << A(1, 1), -A(1, 0), -A(0, 1), A(0, 0);
+  } else {
+    C.row(0) = A.row(1).cross(A.row(2));
+    C.row(1) = A.row(2).cross(A.row(0));
+    C.row(2) = A.row(0).cross(A.row(1));
+  }
+  return C;
+}
+
+template <int d>
+void fluctuation_loop(const Eigen::MatrixXd& GQ, const Eigen::VectorXd& wq,
+                      const Eigen::VectorXd& vol, int nq, const Eigen::MatrixXd* lambda,
+                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) {
+  using Mat = Eigen::Matrix<double, d, d>;
+  const int nc = static_cast<int>(vol.size());
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < nc; ++e) {
+    Mat Fbar = Mat::Zero();
+    for (int k = 0; k < nq; ++k) {
+      const int q = nq * e + k;
+      Fbar += wq(q) * GQ.block<d, d>(d * q, 0);
+    }
+    Fbar /= vol(e);
+    Fbar.diagonal().array() += 1.0;
+    double p = 0;
+    if (lambda) {
+      const Mat Ee = E->block<d, d>(d * e, 0);
+      p = (lambda->block<d, d>(d * e, 0).cwiseProduct(Ee)).sum() / (d * Ee.determinant());
+    }
+    const Mat cof_bar = (d == 3 && force) ? cofactor<d>(Fbar) : Mat::Zero();
+    double mean_det = 0;
+    for (int k = 0; k < nq; ++k) {
+      const int q = nq * e + k;
+      Mat F = GQ.block<d, d>(d * q, 0);
+      F.diagonal().array() += 1.0;
+      if constexpr (d == 2) {  // the linear term cancels exactly: det and cof of delta directly
+        mean_det += wq(q) * (F - Fbar).determinant();
+        if (force) force->block<d, d>(d * q, 0) = p * cofactor<d>(F - Fbar);
+      } else {
+        mean_det += wq(q) * F.determinant();
+        if (force) force->block<d, d>(d * q, 0) = p * (cofactor<d>(F) - cof_bar);
+      }
+    }
+    if (c) (*c)(e) = d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
+  }
+}
+}  // namespace
+
 void Solver::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                          const Eigen::MatrixXd* E, Eigen::VectorXd* c,
                          Eigen::MatrixXd* force) const {
   GQ_.noalias() = Gq_ * u;
-  const int nc = problem_.mesh.num_cells();
-#pragma omp parallel for schedule(static)
-  for (int e = 0; e < nc; ++e) {
-    Eigen::Matrix2d mean = Eigen::Matrix2d::Zero();
-    for (int k = 0; k < nq_; ++k) {
-      const int q = nq_ * e + k;
-      mean += wq_(q) * GQ_.block<2, 2>(2 * q, 0);
-    }
-    mean /= cells_.vol(e);
-    double p = 0;
-    if (lambda) {
-      const Eigen::Matrix2d Ee = E->block<2, 2>(2 * e, 0);
-      p = (lambda->block<2, 2>(2 * e, 0).cwiseProduct(Ee)).sum() / (2 * Ee.determinant());
-    }
-    double ce = 0;
-    for (int k = 0; k < nq_; ++k) {
-      const int q = nq_ * e + k;
-      const Eigen::Matrix2d D = GQ_.block<2, 2>(2 * q, 0) - mean;
-      ce += wq_(q) * D.determinant();
-      if (force) {
-        Eigen::Matrix2d cof;
-        cof << D(1, 1), -D(1, 0), -D(0, 1), D(0, 0);
-        force->block<2, 2>(2 * q, 0) = p * cof;
-      }
-    }
-    if (c) (*c)(e) = ce / cells_.vol(e);
-  }
+  if (dim() == 2)
+    fluctuation_loop<2>(GQ_, wq_, cells_.vol, nq_, lambda, E, c, force);
+  else
+    fluctuation_loop<3>(GQ_, wq_, cells_.vol, nq_, lambda, E, c, force);
 }
 
 Eigen::VectorXd Solver::fluctuation_det(const Eigen::MatrixXd& u) const {
@@ -450,6 +490,7 @@ void Solver::pack(const State& s, Eigen::VectorXd& z) const {
       for (int f = 0; f < facets_->size(); ++f)
         *p++ = std::sqrt(facets_->area(f) / area_c_) * s.beta(f);
   }
+  if (mean_det_) Map(p, s.u.rows(), s.u.cols()) = w_u_ * s.u;
 }
 
 void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
@@ -475,6 +516,7 @@ void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
       for (int f = 0; f < facets_->size(); ++f)
         s.beta(f) = *p++ / std::sqrt(facets_->area(f) / area_c_);
   }
+  if (mean_det_) s.u = ConstMap(p, s.u.rows(), s.u.cols()) / w_u_;
 }
 
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,

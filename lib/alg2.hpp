@@ -92,16 +92,19 @@ class Solver {
   int dim() const { return problem_.mesh.dim; }
 
   /// True when incompressibility is imposed on the cell mean of det F
-  /// (DiscretizationChoice::mean_det, active in plane strain with the pointwise C2 split).
+  /// (DiscretizationChoice::mean_det: incompressible with no C2 term left in the local step,
+  /// i.e. plane strain with the pointwise C2 split, or C2 = 0 in 3-D).
   bool mean_det() const { return mean_det_; }
   /// [(2.7), discretization.md] Mean-det incompressibility: with delta = grad u - Gbar_e u the
-  /// intra-cell fluctuation, det F = det(Fbar) + cof(Fbar) : delta + det(delta) in 2-D, so
-  ///   (1/|O_e|) integral det F = det(Fbar_e) + c_e(u),  c_e = (1/|O_e|) integral det(delta),
-  /// and the pressure p_e of the constraint does the extra work p_e integral cof(delta) : grad v.
+  /// intra-cell fluctuation, (1/|O_e|) integral det F = det(Fbar_e) + c_e(u) with
+  ///   c_e = (1/|O_e|) integral det F - det(Fbar_e)   (= the mean of det(delta) in 2-D),
+  /// and the pressure p_e of the constraint does the extra work
+  /// p_e integral (cof F - cof Fbar) : grad v (= p_e integral cof(delta) : grad v in 2-D).
   /// Returns c_e per cell (zero vector when !mean_det()).
   Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const;
-  /// The force sum_e p_e integral_e cof(delta) : grad v (#nodes x dim) with p_e read from the
-  /// multiplier, p_e = lambda_e : E_e / (2 det E_e) (lambda = p cof E at a fixed point); zero
+  /// The force sum_e p_e integral_e (cof F - cof Fbar) : grad v (#nodes x dim) with p_e read
+  /// from the multiplier, p_e = lambda_e : E_e / (d det E_e) (lambda = p cof E at a fixed point,
+  /// cof E : E = d det E); zero
   /// when !mean_det(). ALG2 adds it, lagged, to the right-hand side of (4.1).
   Eigen::MatrixXd fluctuation_force(const State& s) const;
 
@@ -150,6 +153,7 @@ class Solver {
   // Anderson acceleration (allocated once): history, packed iterates, weights, the plain iterate.
   std::unique_ptr<Anderson> anderson_;
   Eigen::VectorXd x_, g_, w_cell_, w_facet_;
+  double w_u_ = 0;  ///< weight of u in the accelerated vector (mean-det only)
   State plain_;
 };
 

@@ -97,12 +97,13 @@ struct DiscretizationChoice {
   /// contact surface, weighted by integral phi_a (non-penetration at every node). false
   /// ("facet-mean", the paper's): P0 per facet, constraint on facet means.
   bool nodal_contact = true;
-  /// Plane-strain incompressible law with c2_pointwise (the local step then sees a purely
-  /// quadratic energy): true (default, "mean-det") imposes the cell mean of det F,
+  /// Incompressible law whose local step sees a purely quadratic energy (plane strain with
+  /// c2_pointwise, or C2 = 0 in 3-D): true (default, "mean-det") imposes the cell mean of det F,
   /// (1/|O_e|) integral det F = 1, which converges under refinement; false ("det-mean", the
   /// paper's) imposes det of the cell-mean gradient, det(Gbar_e u + I) = 1, which loses area in
-  /// the intra-cell fluctuation of grad u and converges to another answer
-  /// (paper_notes/discretization.md). Ignored (det-mean) in 3-D and with c2 = "cell-mean".
+  /// the intra-cell fluctuation of grad u and converges to another answer in 2-D, and locks in
+  /// bending with H8 (paper_notes/discretization.md). Ignored (det-mean) when a C2 term remains
+  /// in the local step (c2 = "cell-mean", or C2 != 0 in 3-D).
   bool mean_det = true;
 };
 
