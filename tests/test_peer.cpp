@@ -83,4 +83,40 @@ TEST(Peer, Fig5PaperDiscretizationMissesTheNewtonPeer) {
   EXPECT_GT(a.drop, 1.02 * reference("fig5", "drop").value);
 }
 
+// The peer's Q1/P0 (mean dilatation, nodal penalty contact at the H8 vertices) at one level:
+// the same discrete problem as the package's mean-det H8, solved by Newton.
+double q1p0_value(const std::string& key, int level) {
+  static const toml::table ref = toml::parse_file(test_path("reference/peer.toml"));
+  const auto* levels = ref["fig6_q1p0"]["levels"].as_array();
+  const auto* values = ref["fig6_q1p0"][key].as_array();
+  if (!levels || !values) throw std::runtime_error("tests/reference/peer.toml: no [fig6_q1p0]");
+  for (size_t i = 0; i < levels->size(); ++i)
+    if ((*levels)[i].value<int>() == level) return (*values)[i].value<double>().value();
+  throw std::runtime_error("tests/reference/peer.toml: [fig6_q1p0] has no level " +
+                           std::to_string(level));
+}
+
+// (2.7), (4.1)-(4.4): Fig 6 on the paper's mesh (270 H8, level 1), Anderson-accelerated. With
+// mean-det the package solves the peer's Q1/P0 discrete problem: the sag and the share of the
+// load carried by the plane agree with the peer's Newton solution on the same mesh to 1e-5
+// relative (measured: 2.711468 against 2.711470). Against the peer's converged value (level 3)
+// the paper's mesh is within 0.5 % plus the peer's own tolerance (measured 0.27 %); the paper's
+// det-mean H8, which locks in bending, is more than 2 % short (measured 2.5 %).
+TEST(Peer, Fig6MeanDetIsThePeersQ1P0AndApproachesItsConvergedSag_2_7_4_1to4_4) {
+  const std::vector<std::string> accel = {"algorithm.acceleration=anderson"};
+  const Answer a = solve("fig6", accel);
+  ASSERT_TRUE(a.converged);
+  EXPECT_NEAR(a.drop, q1p0_value("sag", 1), 1e-5 * a.drop);
+  EXPECT_NEAR(a.force_ratio, q1p0_value("force_ratio", 1), 1e-5);
+  const Reference sag = reference("fig6", "sag"), ratio = reference("fig6", "force_ratio");
+  EXPECT_NEAR(a.drop, sag.value, 5e-3 * sag.value + sag.tol);
+  EXPECT_NEAR(a.force_ratio, ratio.value, 2e-2 * ratio.value + ratio.tol);
+
+  auto o = accel;
+  o.push_back("discretization.incompressibility=det-mean");
+  const Answer paper = solve("fig6", o);
+  ASSERT_TRUE(paper.converged);
+  EXPECT_LT(paper.drop, 0.98 * sag.value);
+}
+
 }  // namespace
