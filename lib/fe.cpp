@@ -42,6 +42,18 @@ const std::array<QPoint, 8> kHexRule = {{{-kG, -kG, -kG, 1},
                                          {kG, kG, kG, 1},
                                          {-kG, kG, kG, 1}}};
 
+// Six-point degree-3 rule on the reference tetrahedron (volume 1/6), positive weights, points
+// inside [Xiao & Gimbutas 2010, as tabulated by basix]: exact for det of a P2 gradient on an
+// affine tetrahedron (cubic; the cell mean of det F of mean-det) and for the Laplacian
+// (quadratic). Checked against the monomial integrals a! b! c! / (a + b + c + 3)! in test_tets.
+const std::array<QPoint, 6> kTetRule = {
+    {{0.64142979149569634, 0.16200149169852451, 0.18385035049209769, 0.020387000459557516},
+     {0.34544415571973069, 0.010905212211189241, 0.28152380212354622, 0.021344402118457815},
+     {0.43985894764927502, 0.19011700243928389, 0.011403329444557171, 0.022094671190740867},
+     {0.037871631782357022, 0.170816925164989, 0.15281814309092731, 0.023437401610067202},
+     {0.12480486216524719, 0.15868516322744061, 0.58566280565521578, 0.037402527819592898},
+     {0.14148275196950449, 0.57122605214911515, 0.14691839008716959, 0.042000663468250383}}};
+
 // gmsh node orders. P2 triangle: vertices (0,0), (1,0), (0,1), then mid-edges 01, 12, 20.
 void p2_triangle(double xi, double eta, Eigen::Matrix<double, 6, 1>& N,
                  Eigen::Matrix<double, 6, 2>& dN) {
@@ -51,6 +63,23 @@ void p2_triangle(double xi, double eta, Eigen::Matrix<double, 6, 1>& N,
   // d/dxi and d/deta, with dL0 = (-1,-1), dL1 = (1,0), dL2 = (0,1).
   dN << -(4 * L0 - 1), -(4 * L0 - 1), 4 * L1 - 1, 0, 0, 4 * L2 - 1, 4 * (L0 - L1), -4 * L1, 4 * L2,
       4 * L1, -4 * L2, 4 * (L0 - L2);
+}
+// P2 tetrahedron in VTK order (mesh.hpp): vertices (0,0,0), (1,0,0), (0,1,0), (0,0,1), then
+// mid-edges 01, 12, 20, 03, 13, 23.
+const int kTetEdge[6][2] = {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}};
+void p2_tetrahedron(double xi, double eta, double zeta, Eigen::Matrix<double, 10, 1>& N,
+                    Eigen::Matrix<double, 10, 3>& dN) {
+  const double L[4] = {1 - xi - eta - zeta, xi, eta, zeta};
+  static const double dL[4][3] = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (int a = 0; a < 4; ++a) {
+    N(a) = L[a] * (2 * L[a] - 1);
+    for (int k = 0; k < 3; ++k) dN(a, k) = (4 * L[a] - 1) * dL[a][k];
+  }
+  for (int e = 0; e < 6; ++e) {
+    const int i = kTetEdge[e][0], j = kTetEdge[e][1];
+    N(4 + e) = 4 * L[i] * L[j];
+    for (int k = 0; k < 3; ++k) dN(4 + e, k) = 4 * (dL[i][k] * L[j] + L[i] * dL[j][k]);
+  }
 }
 // H8: corners (+-1, +-1, +-1) in gmsh order.
 const int kHexCorner[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
@@ -105,6 +134,11 @@ void for_each_point(const Mesh& mesh, int c, Visit visit) {
     for_each_cell_point<6, 2>(
         mesh, c, kTriangleRule,
         [](const QPoint& p, auto& N, auto& dN) { p2_triangle(p.xi, p.eta, N, dN); }, visit);
+  else if (mesh.nodes_per_cell() == 10)
+    for_each_cell_point<10, 3>(
+        mesh, c, kTetRule,
+        [](const QPoint& p, auto& N, auto& dN) { p2_tetrahedron(p.xi, p.eta, p.zeta, N, dN); },
+        visit);
   else
     for_each_cell_point<8, 3>(
         mesh, c, kHexRule,
@@ -128,6 +162,16 @@ void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f
       Nd = N;
       visit(Nd, x, p.w * t.norm());
     }
+  } else if (npf == 6) {  // P2 triangle face of a P2 tetrahedron, degree-4 rule
+    Eigen::Matrix<double, 6, 1> N;
+    Eigen::Matrix<double, 6, 2> dN;
+    for (const auto& p : kTriangleRule) {
+      p2_triangle(p.xi, p.eta, N, dN);
+      const Eigen::Matrix<double, 3, 2> J = Xf.transpose() * dN;
+      const Vector3d x = Xf.transpose() * N;
+      Nd = N;
+      visit(Nd, x, p.w * J.col(0).cross(J.col(1)).norm());
+    }
   } else {
     Eigen::Matrix<double, 4, 1> N;
     Eigen::Matrix<double, 4, 2> dN;
@@ -142,6 +186,12 @@ void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f
 }
 
 }  // namespace
+
+double cell_measure(const Mesh& mesh, int c) {
+  double measure = 0;
+  for_each_point(mesh, c, [&](const auto&, const auto&, double w) { measure += w; });
+  return measure;
+}
 
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit) {
@@ -192,7 +242,7 @@ FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary)
   FacetOperators ops;
   ops.area.resize(nf);
   ops.centre.resize(dim, nf);
-  const int ncorner = dim == 2 ? 2 : 4;
+  const int ncorner = dim == 2 ? 2 : npf == 6 ? 3 : 4;
   ops.vertices.assign(ncorner, Eigen::MatrixXd(dim, nf));
   std::vector<Eigen::Triplet<double>> m;
   Eigen::VectorXd mint(npf);
@@ -226,7 +276,16 @@ FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary)
 FacetOperators nodal_operators(const Mesh& mesh, const Mesh::Boundary& boundary) {
   const FacetOperators facets = facet_operators(mesh, boundary);
   // integral of phi_a over the part = column sums of meanT_area's transpose (sum_s |G_s| mean_sa).
-  const Eigen::VectorXd weight_all = facets.meanT_area * Eigen::VectorXd::Ones(facets.size());
+  Eigen::VectorXd weight_all = facets.meanT_area * Eigen::VectorXd::Ones(facets.size());
+  if (boundary.facets.cols() == 6) {
+    // P2 triangle faces: integral phi_a vanishes at the vertices. The weights are those of the
+    // face split into four 3-node triangles at its mid-edge nodes (the integrals of their P1 hat
+    // functions): |G|/12 per vertex, |G|/4 per mid-edge node (sum |G|).
+    weight_all.setZero(mesh.num_nodes());
+    for (int f = 0; f < boundary.facets.rows(); ++f)
+      for (int a = 0; a < 6; ++a)
+        weight_all(boundary.facets(f, a)) += facets.area(f) * (a < 3 ? 1.0 / 12 : 1.0 / 4);
+  }
   std::vector<int> nodes;
   for (int f = 0; f < boundary.facets.rows(); ++f)
     for (int a = 0; a < boundary.facets.cols(); ++a) nodes.push_back(boundary.facets(f, a));

@@ -30,7 +30,7 @@ struct CellOperators {
   /// T(dim*e + j, i) = (T_e)_{ij}.
   SpMatR GbarT_vol;
   /// #nodes x #nodes, the scalar Laplacian integral grad phi_a . grad phi_b (exact quadrature on
-  /// affine P2 triangles and on parallelepipeds).
+  /// affine P2 triangles and tetrahedra and on parallelepipeds).
   SpMat laplacian;
 };
 
@@ -40,7 +40,8 @@ struct FacetOperators {
   Eigen::MatrixXd centre;  ///< dim x #facets, x_s = mean of x over the facet
   SpMatR mean;             ///< #facets x #nodes, (mean * U).row(s) = vbar_s
   SpMatR meanT_area;       ///< #nodes x #facets, transpose of mean weighted by |G_s|
-  /// Corner vertices (2 in 2-D, 4 in 3-D), each dim x #facets.
+  /// Corner vertices (2 in 2-D, 3 (triangle faces) or 4 (quadrilateral faces) in 3-D), each
+  /// dim x #facets.
   std::vector<Eigen::MatrixXd> vertices;
   /// Nodal contact points only (nodal_operators): the mesh node of each point; empty for facets.
   std::vector<int> nodes;
@@ -49,20 +50,26 @@ struct FacetOperators {
 
 CellOperators cell_operators(const Mesh& mesh);
 
+/// |O_e|, the area (volume) of cell c by the quadrature of cell_operators.
+double cell_measure(const Mesh& mesh, int c);
+
 /// Calls visit(grad, w) at every quadrature point of cell c, with grad the physical gradients of
 /// the shape functions (#nodes_per_cell x dim) and w the weight times |det J| (the rules used by
-/// cell_operators). For assembling other operators, e.g. the elasticity matrix of section 7.
+/// cell_operators): P2 triangle 6 points, degree 4; P2 tetrahedron 6 points, degree 3 (det of a
+/// P2 gradient on an affine cell is cubic); H8 2x2x2 Gauss. For assembling other operators, e.g.
+/// the elasticity matrix of section 7.
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit);
 FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
 
 /// The contact "points" of a nodal (collocation) contact condition on a boundary part: one point
 /// per node of the part, weight area(a) = integral over the part of phi_a (> 0 for P2 edges:
-/// |G|/6 at the ends, 2|G|/3 at the mid-side node; |G|/4 per corner of a parallelogram face),
+/// |G|/6 at the ends, 2|G|/3 at the mid-side node; |G|/4 per corner of a parallelogram face);
+/// on P2 triangle faces, where integral phi_a = 0 at the vertices, the weights of the face split
+/// into four 3-node triangles: |G|/12 per vertex, |G|/4 per mid-edge node,
 /// centre = the node's reference position, mean = the selection u -> u_a (so that "vbar_s" is the
 /// nodal value and meanT_area assembles sum_a area(a) c_a . v_a). No vertices: the exact kernel
-/// integral is defined on facets only. Throws if a weight is not positive (e.g. P2 triangle
-/// faces in 3-D, whose vertex integrals vanish).
+/// integral is defined on facets only. Throws if a weight is not positive.
 FacetOperators nodal_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
 
 /// The contact points of a contact surface: nodal_operators when `nodal`, else facet_operators.

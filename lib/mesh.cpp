@@ -22,7 +22,58 @@ namespace ltl {
 namespace {
 
 // gmsh element types used here.
-constexpr int kLine3 = 8, kTriangle6 = 9, kQuad4 = 3, kHexahedron8 = 5;
+constexpr int kLine3 = 8, kTriangle3 = 2, kTriangle6 = 9, kQuad4 = 3, kTetrahedron4 = 4,
+              kTetrahedron10 = 11, kHexahedron8 = 5;
+
+// The element type as a user names it: gmsh's "Quadrilateral 4" -> "4-node quadrilateral".
+std::string element_name(int type) {
+  std::string name;
+  int d, order, nn, np;
+  std::vector<double> lc;
+  gmsh::model::mesh::getElementProperties(type, name, d, order, nn, lc, np);
+  const std::size_t space = name.rfind(' ');
+  if (space == std::string::npos) return name;
+  std::string kind = name.substr(0, space);
+  std::transform(kind.begin(), kind.end(), kind.begin(),
+                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  return name.substr(space + 1) + "-node " + kind;
+}
+
+// The element types of dimension `dim` in the model, with their counts, as the user made them.
+std::vector<std::pair<int, std::size_t>> element_counts(int dim) {
+  std::vector<int> types;
+  std::vector<std::vector<std::size_t>> tags, node_tags;
+  gmsh::model::mesh::getElements(types, tags, node_tags, dim);
+  std::vector<std::pair<int, std::size_t>> out;
+  for (std::size_t i = 0; i < types.size(); ++i)
+    if (!tags[i].empty()) out.emplace_back(types[i], tags[i].size());
+  return out;
+}
+
+// [paper_notes/section3-4.md] The cells a mesh may have: 2-D triangles (3-node ones are made P2,
+// 6-node ones taken), 3-D tetrahedra (4-node ones are made 10-node P2, 10-node ones taken) or
+// 8-node hexahedra, one type per mesh. Returns the gmsh type of the cells after elevation, or
+// throws naming what the user made.
+int check_cell_types(const std::string& path, int dim,
+                     const std::vector<std::pair<int, std::size_t>>& made) {
+  const char* supported =
+      dim == 2 ? "2-D meshes must be triangles (3-node ones are made 6-node P2 here; do not "
+                 "Recombine the surfaces)"
+               : "3-D meshes must be tetrahedra (gmsh's default; 4-node ones are made 10-node "
+                 "P2 here) or 8-node hexahedra (Transfinite + Recombine in the .geo)";
+  if (made.empty()) throw Error(cat(path, ": the mesh has no ", dim, "-D cells"));
+  if (made.size() > 1) {
+    std::string kinds;
+    for (const auto& [type, n] : made)
+      kinds += cat(kinds.empty() ? "" : " and ", n, " of type '", element_name(type), "'");
+    throw Error(cat(path, ": a mixed mesh (", kinds, ") is not supported: ", supported));
+  }
+  const auto [type, n] = made.front();
+  if (dim == 2 && (type == kTriangle3 || type == kTriangle6)) return kTriangle6;
+  if (dim == 3 && (type == kTetrahedron4 || type == kTetrahedron10)) return kTetrahedron10;
+  if (dim == 3 && type == kHexahedron8) return kHexahedron8;
+  throw Error(cat(path, ": found ", n, " cells of type '", element_name(type), "'; ", supported));
+}
 
 // gmsh 4.8 reports errors by throwing std::string (later versions throw std::exception); the
 // guard turns either into an ltl::Error naming the file, and always finalizes gmsh.
@@ -202,39 +253,35 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
       throw Error(cat(path, ": the model has dimension ", dim, "; expected 2 or 3"));
     mesh.dim = dim;
     const bool is_geo = path.size() > 4 && path.substr(path.size() - 4) == ".geo";
-    if (is_geo) {
-      // gmsh meshes surfaces in an OpenMP region, where a thrown error cannot be caught (the
-      // process aborts): errors are logged instead, and read back from the log.
-      const std::size_t before = gmsh_log_size();
-      gmsh::option::setNumber("General.AbortOnError", 0);
-      gmsh::model::mesh::generate(dim);
-      if (dim == 2) gmsh::model::mesh::setOrder(2);
-      gmsh::option::setNumber("General.AbortOnError", 2);
-      const std::string errors = gmsh_last_error(before);
-      if (!errors.empty()) throw Error(cat(path, ": gmsh could not mesh the geometry", errors));
-    }
-    const int cell_type = dim == 2 ? kTriangle6 : kHexahedron8;
-    const int facet_type = dim == 2 ? kLine3 : kQuad4;
+    // gmsh meshes surfaces in an OpenMP region, where a thrown error cannot be caught (the
+    // process aborts): errors are logged instead, and read back from the log.
+    const std::size_t before = gmsh_log_size();
+    gmsh::option::setNumber("General.AbortOnError", 0);
+    if (is_geo) gmsh::model::mesh::generate(dim);
+    std::string errors = gmsh_last_error(before);
+    if (!errors.empty()) throw Error(cat(path, ": gmsh could not mesh the geometry", errors));
+    // The cells the user made (named in messages as such), then made quadratic if linear.
+    const int cell_type = check_cell_types(path, dim, element_counts(dim));
+    const bool linear = element_counts(dim).front().first != cell_type;
+    if (linear) gmsh::model::mesh::setOrder(2);
+    gmsh::option::setNumber("General.AbortOnError", 2);
+    errors = gmsh_last_error(before);
+    if (!errors.empty()) throw Error(cat(path, ": gmsh could not make the mesh quadratic", errors));
+    const int facet_type = dim == 2 ? kLine3 : cell_type == kTetrahedron10 ? kTriangle6 : kQuad4;
 
-    // Cells: all elements of dimension dim must be of the one supported type.
+    // Cells: all elements of dimension dim are of the one supported type (checked above).
     std::vector<int> types;
     std::vector<std::vector<std::size_t>> tags, node_tags;
     gmsh::model::mesh::getElements(types, tags, node_tags, dim);
     std::vector<std::size_t> cell_nodes;
     for (std::size_t i = 0; i < types.size(); ++i) {
-      if (types[i] != cell_type) {
-        std::string tname;
-        int d, order, nn, np;
-        std::vector<double> lc;
-        gmsh::model::mesh::getElementProperties(types[i], tname, d, order, nn, lc, np);
-        throw Error(cat(path, ": found ", tags[i].size(), " elements of type '", tname, "'; ",
-                        dim == 2 ? "2-D meshes must be triangles (they are made P2 here)"
-                                 : "3-D meshes must be 8-node hexahedra (use Transfinite + "
-                                   "Recombine in the .geo)"));
-      }
+      if (types[i] != cell_type)
+        throw Error(cat(path, ": after order elevation gmsh gave ", tags[i].size(),
+                        " cells of type '", element_name(types[i]), "', expected '",
+                        element_name(cell_type), "'"));
       cell_nodes.insert(cell_nodes.end(), node_tags[i].begin(), node_tags[i].end());
     }
-    const int npc = dim == 2 ? 6 : 8;
+    const int npc = cell_type == kTriangle6 ? 6 : cell_type == kTetrahedron10 ? 10 : 8;
     const int ncells = static_cast<int>(cell_nodes.size() / npc);
     if (ncells == 0) throw Error(cat(path, ": the mesh has no ", dim, "-D cells"));
 
@@ -255,6 +302,9 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
     mesh.cells.resize(ncells, npc);
     for (int c = 0; c < ncells; ++c)
       for (int a = 0; a < npc; ++a) mesh.cells(c, a) = index.at(cell_nodes[c * npc + a]);
+    // 10-node tetrahedra: gmsh's edge nodes 8 and 9 are on edges 3-2 and 3-1; the VTK/XDMF order
+    // used here (and by fe.cpp) has 1-3 then 2-3.
+    if (npc == 10) mesh.cells.col(8).swap(mesh.cells.col(9));
     // Every cell must have a non-zero area (volume): a degenerate geometry (e.g. a radius of 0)
     // can give flat cells that make the problem singular.
     for (int c = 0; c < ncells; ++c) {
@@ -263,6 +313,9 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
       if (dim == 2) {
         const Eigen::Vector2d a = x(1) - x(0), b = x(2) - x(0);
         measure = std::abs(a(0) * b(1) - a(1) * b(0)) / 2;
+      } else if (npc == 10) {
+        const Eigen::Vector3d a = x(1) - x(0), b = x(2) - x(0), d = x(3) - x(0);
+        measure = std::abs(a.cross(b).dot(d)) / 6;
       } else {
         const Eigen::Vector3d a = x(1) - x(0), b = x(3) - x(0), d = x(4) - x(0);
         measure = std::abs(a.cross(b).dot(d));
@@ -288,8 +341,10 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
         gmsh::model::mesh::getElements(ftypes, ftags, fnode_tags, gdim, ent);
         for (std::size_t i = 0; i < ftypes.size(); ++i) {
           if (ftypes[i] != facet_type)
-            throw Error(cat(path, ": boundary group '", b.name, "' holds elements of gmsh type ",
-                            ftypes[i], "; expected ", dim == 2 ? "3-node edges" : "4-node quads"));
+            throw Error(cat(path, ": boundary group '", b.name, "' holds ", ftags[i].size(),
+                            " elements of type '", element_name(ftypes[i]), "'; the faces of '",
+                            element_name(cell_type), "' cells are '", element_name(facet_type),
+                            "'"));
           fnodes.insert(fnodes.end(), fnode_tags[i].begin(), fnode_tags[i].end());
         }
       }

@@ -1,7 +1,11 @@
 // The finite element mesh, generated and read through the gmsh C++ API (no file parser of ours).
 //
-// 2-D: six-node P2 triangles (gmsh type 9) with three-node P2 boundary edges (type 8).
-// 3-D: eight-node trilinear hexahedra H8 (gmsh type 5) with four-node quadrilateral faces (type 3).
+// 2-D: six-node P2 triangles (gmsh type 9) with three-node P2 boundary edges (type 8); gmsh's
+//      3-node triangles (type 2) are made P2.
+// 3-D: ten-node P2 tetrahedra (gmsh type 11) with six-node triangle faces (type 9); gmsh's
+//      4-node tetrahedra (type 4, its default 3-D mesh) are made P2. Or eight-node trilinear
+//      hexahedra H8 (gmsh type 5) with four-node quadrilateral faces (type 3).
+// One cell type per mesh; other types and mixed meshes are refused, naming what the file holds.
 // Boundary parts are gmsh physical groups of dimension dim-1, referred to by name.
 #pragma once
 
@@ -15,13 +19,18 @@ namespace ltl {
 
 struct Mesh {
   int dim = 2;
-  Eigen::MatrixXd X;      ///< #nodes x dim, reference positions (m)
-  Eigen::MatrixXi cells;  ///< #cells x nodes_per_cell (6: P2 triangle, 8: H8), gmsh node order
+  Eigen::MatrixXd X;  ///< #nodes x dim, reference positions (m)
+  /// #cells x nodes_per_cell (6: P2 triangle, 10: P2 tetrahedron, 8: H8), gmsh node order, which
+  /// is the VTK/XDMF order, except for the 10-node tetrahedron, stored in VTK/XDMF order: vertices
+  /// 0-3, then the mid-edge nodes of edges 01, 12, 20, 03, 13, 23 (gmsh has 32 and 31 last).
+  Eigen::MatrixXi cells;
 
   /// A named boundary part (gmsh physical group of dimension dim-1).
   struct Boundary {
     std::string name;
-    Eigen::MatrixXi facets;  ///< #facets x nodes_per_facet (3: P2 edge, 4: quadrilateral)
+    /// #facets x nodes_per_facet (3: P2 edge, 6: P2 triangle (vertices, then mid-edges 01, 12,
+    /// 20), 4: quadrilateral), gmsh node order.
+    Eigen::MatrixXi facets;
   };
   std::vector<Boundary> boundaries;
   std::string source;       ///< the file the mesh came from
@@ -30,7 +39,7 @@ struct Mesh {
   int num_nodes() const { return static_cast<int>(X.rows()); }
   int num_cells() const { return static_cast<int>(cells.rows()); }
   int nodes_per_cell() const { return static_cast<int>(cells.cols()); }
-  int nodes_per_facet() const { return dim == 2 ? 3 : 4; }
+  int nodes_per_facet() const { return dim == 2 ? 3 : nodes_per_cell() == 10 ? 6 : 4; }
   /// The boundary part called `name`; a clear error naming the file and the parts it has if
   /// there is none. `what` says who asked (e.g. the configuration key).
   const Boundary& boundary(const std::string& name, const std::string& what = "") const;

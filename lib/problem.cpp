@@ -20,7 +20,8 @@ std::set<std::vector<int>> boundary_facet_keys(const Mesh& mesh) {
   static const std::vector<std::vector<int>> tri = {{0, 1}, {1, 2}, {2, 0}};
   static const std::vector<std::vector<int>> hex = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4},
                                                     {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}};
-  const auto& local = mesh.dim == 2 ? tri : hex;
+  static const std::vector<std::vector<int>> tet = {{0, 1, 2}, {0, 1, 3}, {1, 2, 3}, {0, 2, 3}};
+  const auto& local = mesh.dim == 2 ? tri : mesh.nodes_per_cell() == 10 ? tet : hex;
   std::map<std::vector<int>, int> count;
   for (int c = 0; c < mesh.num_cells(); ++c)
     for (const auto& f : local) {
@@ -130,7 +131,7 @@ void Problem::validate() const {
             "\"facet-mean\" (the nodal contact has no facets)");
     // Every contact facet must lie on the boundary of the mesh.
     const auto boundary_keys = boundary_facet_keys(mesh);
-    const int corners = dim == 2 ? 2 : 4;
+    const int corners = dim == 2 ? 2 : mesh.nodes_per_facet() == 6 ? 3 : 4;
     for (Eigen::Index f = 0; f < b.facets.rows(); ++f) {
       std::vector<int> key;
       for (int k = 0; k < corners; ++k) key.push_back(b.facets(f, k));

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "error.hpp"
+#include "fe.hpp"
 
 namespace ltl {
 namespace {
@@ -441,6 +442,7 @@ std::vector<double> vec(const Eigen::VectorXd& v) {
 const char* topology(int dim, int nodes_per_cell) {
   if (dim == 2 && nodes_per_cell == 6) return "Triangle_6";
   if (dim == 3 && nodes_per_cell == 8) return "Hexahedron";
+  if (dim == 3 && nodes_per_cell == 10) return "Tetrahedron_10";  // VTK order, as Mesh::cells
   return nullptr;
 }
 
@@ -624,8 +626,9 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
   std::vector<double> volume(nc);
   for (int c = 0; c < nc; ++c) {
     const Eigen::RowVectorXi row = mesh.cells.row(c);
-    volume[c] =
-        dim == 2 ? p2_triangle_area(mesh.X, row.data()) : hexahedron_volume(mesh.X, row.data());
+    volume[c] = dim == 2    ? p2_triangle_area(mesh.X, row.data())
+                : npc == 10 ? cell_measure(mesh, c)
+                            : hexahedron_volume(mesh.X, row.data());
   }
   write_doubles(f, "/mesh/cell_volume", {un(nc)}, volume, path);
   if (contact_facets) {
