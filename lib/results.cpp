@@ -18,8 +18,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -261,62 +261,60 @@ void write_scalar_attr(hid_t obj, const std::string& name, T value, const std::s
 /// them).
 std::pair<std::string, std::string> dataset_meta(const std::string& path, int dim,
                                                  const std::string& file) {
-  const std::size_t slash = path.rfind('/');
-  const std::string name = path.substr(slash + 1);
+  struct Meta {
+    const char *unit_2d, *unit_3d, *text;
+  };
+  static const std::map<std::string, Meta> table = {
+      {"X", {"m", "m", "reference positions of the nodes (#nodes, dim)"}},
+      {"cells", {"1", "1", "node indices of each cell, gmsh order (= XDMF order)"}},
+      {"cell_volume",
+       {"m^2", "m^3",
+        "reference volume of each cell (plane strain: area, per metre of depth), from the "
+        "discretization's cell operators (lib/fe: CellOperators::vol)"}},
+      {"contact_facets", {"1", "1", "node indices of each facet of the contact surface"}},
+      {"contact_nodes", {"1", "1", "mesh node of each contact point (nodal contact)"}},
+      {"contact_centre", {"m", "m", "reference position of each contact point (#points, dim)"}},
+      {"contact_area",
+       {"m", "m^2",
+        "weight of each contact point: facet measure, or integral of the node's shape function "
+        "over the contact surface (plane strain: per metre of depth)"}},
+      {"contact_topology",
+       {"1", "1",
+        "the contact facets as indices into the contact points (nodal contact): the topology of "
+        "the contact-surface XDMF grid"}},
+      {"u", {"m", "m", "displacement of the nodes (#nodes, dim)"}},
+      {"E", {"1", "1", "strain E of each cell (the paper's F, (2.7)); [c][i][j] = E_c(i, j)"}},
+      {"lambda",
+       {"Pa", "Pa", "multiplier of I + grad u = E of each cell (a first Piola-Kirchhoff stress)"}},
+      {"P", {"Pa", "Pa", "first Piola-Kirchhoff stress of each cell, P = 2 C1 E - lambda"}},
+      {"sigma", {"Pa", "Pa", "Cauchy stress of each cell, sigma = P E^T / det E"}},
+      {"sigma33",
+       {"Pa", "Pa",
+        "plane strain: out-of-plane Cauchy stress of each cell, from the law with F33 = 1 and "
+        "the pressure (Material::plane_strain_sigma33, (1.5))"}},
+      {"pressure",
+       {"Pa", "Pa", "mean stress of each cell, -trace(sigma) / 3 (with sigma33 in plane strain)"}},
+      {"beta", {"1", "1", "adhesion intensity of each contact point, in [0, 1]"}},
+      {"e", {"m", "m", "contact displacement of each contact point (the paper's h)"}},
+      {"lambda_c",
+       {"Pa", "Pa",
+        "multiplier of u = e at each contact point: a traction per reference area (#points, "
+        "dim)"}},
+      {"contact_pressure",
+       {"Pa", "Pa", "contact pressure of each contact point, -lambda_c . N (> 0: pressed)"}},
+      {"gap", {"m", "m", "gap of each contact point to the obstacle plane, g - e . N"}},
+      {"history",
+       {"1 1 1 s s s s s", "1 1 1 s s s s s",
+        "one row per iteration: n, r_G, r_B (scaled residuals, (3.3)), seconds in the global, "
+        "strain, contact and update phases, wall seconds since the step began"}},
+  };
+  const std::string name = path.substr(path.rfind('/') + 1);
+  const auto it = table.find(name);
+  if (it == table.end()) fail(file, cat("internal: no unit and description for dataset ", path));
+  const Meta& m = it->second;
   const bool xdmf = path.find("/xdmf/") != std::string::npos;
-  const std::string area = dim == 2 ? "m" : "m^2", volume = dim == 2 ? "m^2" : "m^3";
-  const char* const depth = dim == 2 ? " (plane strain: per metre of depth)" : "";
-  std::string unit, text;
-  if (name == "X") unit = "m", text = "reference positions of the nodes (#nodes, dim)";
-  else if (name == "cells")
-    unit = "1", text = "node indices of each cell (#cells, nodes per cell), gmsh order = XDMF order";
-  else if (name == "cell_volume")
-    unit = volume, text = cat("reference volume of each cell", depth,
-                              ", from the discretization's cell operators (lib/fe: cells.vol)");
-  else if (name == "contact_facets")
-    unit = "1", text = "node indices of each facet of the contact surface (#facets, nodes per facet)";
-  else if (name == "contact_nodes")
-    unit = "1", text = "mesh node of each contact point (nodal contact)";
-  else if (name == "contact_centre")
-    unit = "m", text = "reference position of each contact point (#points, dim)";
-  else if (name == "contact_area")
-    unit = area, text = cat("weight of each contact point (facet measure, or integral of the "
-                            "node's shape function over the contact surface)", depth);
-  else if (name == "contact_topology")
-    unit = "1", text = "the contact facets as indices into the contact points (nodal contact): "
-                       "the topology of the contact-surface XDMF grid";
-  else if (name == "u") unit = "m", text = "displacement of the nodes (#nodes, dim)";
-  else if (name == "E")
-    unit = "1", text = "strain E of each cell (the paper's F, (2.7)); [c][i][j] = E_c(i, j)";
-  else if (name == "lambda")
-    unit = "Pa", text = "multiplier of I + grad u = E of each cell (a first Piola-Kirchhoff stress)";
-  else if (name == "P")
-    unit = "Pa", text = "first Piola-Kirchhoff stress of each cell, P = 2 C1 E - lambda";
-  else if (name == "sigma")
-    unit = "Pa", text = "Cauchy stress of each cell, sigma = P E^T / det E";
-  else if (name == "sigma33")
-    unit = "Pa", text = "plane strain: out-of-plane Cauchy stress of each cell from the law with "
-                        "F33 = 1 and the pressure (Material::plane_strain_sigma33, (1.5))";
-  else if (name == "pressure")
-    unit = "Pa", text = "mean stress of each cell, -trace(sigma) / 3 (with sigma33 in plane strain)";
-  else if (name == "beta") unit = "1", text = "adhesion intensity of each contact point, in [0, 1]";
-  else if (name == "e")
-    unit = "m", text = "contact displacement of each contact point (the paper's h), (#points, dim)";
-  else if (name == "lambda_c")
-    unit = "Pa", text = "multiplier of u = e at each contact point: a traction per reference "
-                        "area (#points, dim)";
-  else if (name == "contact_pressure")
-    unit = "Pa", text = "contact pressure of each contact point, -lambda_c . N (> 0: pressed)";
-  else if (name == "gap")
-    unit = "m", text = "gap of each contact point to the obstacle plane, g - e . N (>= 0)";
-  else if (name == "history")
-    unit = "1 1 1 s s s s s",
-    text = "one row per iteration: n, r_G, r_B (scaled residuals, (3.3)), seconds in the global, "
-           "strain, contact and update phases, wall seconds since the step began";
-  else
-    fail(file, cat("internal: no unit and description for dataset ", path));
-  if (xdmf) text = "ParaView copy (3 components, 3x3 tensors): " + text;
-  return {unit, text};
+  return {dim == 2 ? m.unit_2d : m.unit_3d,
+          (xdmf ? "ParaView copy (3 components, 3x3 tensors): " : "") + std::string(m.text)};
 }
 
 /// Writes a dataset with its "unit" and "description" attributes (dataset_meta).
@@ -884,7 +882,8 @@ void ResultsFile::write_step(const std::string& g, const StepData& step, bool co
     write_scalar_attr<int>(group.get(), "converged", rep && rep->converged ? 1 : 0, file, g);
     write_scalar_attr<int>(group.get(), "strain_failures", rep ? rep->strain_failures : 0, file, g);
     // [10.3] The equilibrium measure of the stored iterate (lib/measures.hpp).
-    write_scalar_attr<double>(group.get(), "force_residual", rep ? rep->force_residual : 0, file, g);
+    write_scalar_attr<double>(group.get(), "force_residual", rep ? rep->force_residual : 0, file,
+                              g);
     write_scalar_attr<double>(group.get(), "det_error", rep ? rep->det_error : 0, file, g);
     write_scalar_attr<double>(group.get(), "penetration", rep ? rep->penetration : 0, file, g);
     write_string_attr(group.get(), "units",

@@ -210,8 +210,8 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     const FacetOperators* points = solver.facets();
     return ResultsFile::create(options.output, problem.mesh, info, cb,
                                points ? &points->centre : nullptr, points ? &points->area : nullptr,
-                               points && !points->nodes.empty() ? &points->nodes : nullptr,
-                               false, &solver.cells().vol);
+                               points && !points->nodes.empty() ? &points->nodes : nullptr, false,
+                               &solver.cells().vol);
   };
   // What is written for a step: the state, its report (history, equilibrium measure) and the
   // stresses. Plane strain: the out-of-plane stress sigma33 from the law (F33 = 1) and the

@@ -143,8 +143,8 @@ TEST(Output, PlanarTensionRunWritesTheTrueSigma33UnitsAndMeasures) {
     EXPECT_EQ(s3[9 * c + 8], s33[c]);  // the ParaView tensor has the true sigma33
     EXPECT_EQ(E3[9 * c + 8], 1.0);     // F33 = 1
   }
-  std::printf("  planar tension l = %g: sigma33 closed form %.6f Pa, worst cell error %.3e Pa\n",
-              l, planar_sigma33(l), worst);
+  std::printf("  planar tension l = %g: sigma33 closed form %.6f Pa, worst cell error %.3e Pa\n", l,
+              planar_sigma33(l), worst);
   EXPECT_LT(worst, 1e-5 * planar_sigma33(l));
   // Units, descriptions, version, equilibrium measure, resolved configuration.
   EXPECT_EQ(ResultsFile::read_attribute(out, "config_resolved").find("C2 = 30000.0  # Pa"),
@@ -213,15 +213,15 @@ TEST(Output, ADivergedStepIsSavedApartAsUnconverged) {
 // equilibrium measure and the resolved configuration, and ignores the unconverged group.
 TEST(Output, MeshioReadsEveryFileWithTheContactFields) {
   const fs::path dir = ltl::testing::temp_dir("output_meshio");
-  ltl::testing::write_file(dir / "case.toml", ltl::testing::coarse_fig5_config(
-                                                  ltl::testing::source_path(
-                                                      "experiments/fig5/half_disc.geo")));
+  ltl::testing::write_file(dir / "case.toml",
+                           ltl::testing::coarse_fig5_config(
+                               ltl::testing::source_path("experiments/fig5/half_disc.geo")));
   for (const auto& [name, steps, contact] :
        {std::tuple{"one", 1, "nodal"}, std::tuple{"two", 2, "nodal"},
         std::tuple{"facets", 1, "facet-mean"}}) {
-    const Problem p = load_problem((dir / "case.toml").string(),
-                                   {cat("time.steps=", steps), cat("discretization.contact=\"",
-                                                                   contact, "\"")});
+    const Problem p =
+        load_problem((dir / "case.toml").string(),
+                     {cat("time.steps=", steps), cat("discretization.contact=\"", contact, "\"")});
     RunOptions o;
     o.output = (dir / (std::string(name) + ".h5")).string();
     o.verbosity = 0;
