@@ -7,7 +7,7 @@ JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
 .PHONY: all figures test sanitize bench deps build fig3 fig4 fig5 fig6 compare hertz readings \
-        reference format clean verify verify-fig6 peer-deps peer-reference
+        reference format clean verify verify-fig6 peer-deps peer-reference install
 
 all: figures
 
@@ -17,6 +17,11 @@ deps:
 build: deps
 	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release > /dev/null
 	@cmake --build $(BUILD) -j $(JOBS)
+
+# Installs ltl_run, the Python reader ltl_results.py and its ltl-results command under PREFIX.
+PREFIX ?= /usr/local
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 test: build
 	cd $(BUILD) && OMP_NUM_THREADS=2 ctest --output-on-failure -j $(JOBS)

@@ -44,20 +44,37 @@ def concatenated_history(res):
                 r_B=np.concatenate(rb), starts=starts, iterations=it0, seconds=t0)
 
 
+def split_name(stem):
+    """<problem>-<variant> of a file written by build/experiments/compare: the problem is the
+    first word, or the first two for a sweep ("sweep-fig5-uzawa-R10" -> "sweep-fig5",
+    "uzawa-R10"; "fig3-uzawa-2sweeps" -> "fig3", "uzawa-2sweeps")."""
+    words = stem.split("-")
+    k = 2 if words[0] == "sweep" and len(words) > 2 else 1
+    return "-".join(words[:k]), "-".join(words[k:])
+
+
 def main(directory, output):
     runs = {}
     for path in sorted(glob.glob(os.path.join(directory, "*.h5"))):
-        problem, variant = os.path.basename(path)[:-3].split("-", 1)
+        problem, variant = split_name(os.path.basename(path)[:-3])
         res = ltl_results.load(path)
         runs.setdefault(problem, {})[variant] = (res, concatenated_history(res))
 
-    print(f"{'problem':12s} {'variant':26s} {'steps':>6s} {'iterations':>10s} {'time [s]':>9s}  status")
+    # The table: columns as wide as their longest entry; the status (free text) last.
+    rows = []
     for problem, variants in runs.items():
         for variant, (res, h) in variants.items():
-            it = h["iterations"] if h else 0
-            sec = h["seconds"] if h else 0.0
-            print(f"{problem:12s} {variant:26s} {len(res.steps):6d} {it:10d} {sec:9.3f}  "
-                  f"{res.attrs.get('status', '')}")
+            rows.append((problem, variant, "%d" % len(res.steps),
+                         "%d" % (h["iterations"] if h else 0),
+                         "%.3f" % (h["seconds"] if h else 0.0),
+                         str(res.attrs.get("status", "")).split(";")[0]))
+    header = ("problem", "variant", "steps", "iterations", "time [s]", "status")
+    width = [max([len(header[j])] + [len(r[j]) for r in rows]) for j in range(5)]
+    line = lambda r: "  ".join([r[0].ljust(width[0]), r[1].ljust(width[1])] +
+                               [r[j].rjust(width[j]) for j in (2, 3, 4)] + [r[5]])
+    print(line(header))
+    for r in rows:
+        print(line(r))
 
     with PdfPages(output) as pdf:
         for problem in sorted(p for p in runs if not p.startswith("sweep")):

@@ -1,13 +1,20 @@
-"""Read a results file of the solver (HDF5, layout in lib/results.hpp) into plain numpy arrays.
+"""Read a results file of the solver (HDF5, layout in experiments/README.md) into numpy arrays.
 
     import ltl_results
     r = ltl_results.load("run.h5")
     r.attrs["status"], r.mesh.X, r.steps[-1].p, r.steps[-1].fields["u"], r.steps[-1].history["r_B"]
+    r.steps[-1].equilibrium        # force_residual, det_error, penetration of the step
+    ltl_results.resolved_config(r)  # the configuration in SI with every default (dict)
 
 Arrays keep the file's layout: u (#nodes, dim); E, lambda, P, sigma (#cells, dim, dim) with
-[c, i, j] the (i, j) entry of cell c's tensor; pressure (#cells); e, lambda_c (#facets, dim);
-beta, contact_pressure, gap (#facets). The 2-D "xdmf" subgroup (padded copies for ParaView) is
-not loaded. Nothing here plots; figure scripts print what they plot with print_table().
+[c, i, j] the (i, j) entry of cell c's tensor; sigma33 (#cells, plane strain), pressure
+(#cells); e, lambda_c (#points, dim); beta, contact_pressure, gap (#points). The 2-D "xdmf"
+subgroup (padded copies for ParaView) is not loaded. r.steps holds results only: the last
+iterate of a step that did not converge (/unconverged) is in r.unconverged, apart, for diagnosis.
+Nothing here plots; figure scripts print what they plot with print_table().
+
+As a program it prints a summary of a file (steps, iterations, equilibrium measure):
+    /usr/bin/python3 ltl_results.py run.h5
 
 Use /usr/bin/python3 (it has h5py and numpy).
 """
@@ -45,9 +52,14 @@ class Mesh:
         return self.X.shape[1]
 
 
+EQUILIBRIUM = ("force_residual", "det_error", "penetration")
+
+
 class Step:
     """One stored time step: p, t, iterations, status, fields (name -> array), history
-    (column name -> array over the iterations), attrs (all attributes of the step)."""
+    (column name -> array over the iterations), attrs (all attributes of the step), equilibrium
+    (the equilibrium measure: force_residual, det_error, penetration; empty in files of format
+    version 1), converged (False only for an entry of Results.unconverged)."""
 
     def __init__(self, p, t, iterations, status, fields, history, attrs):
         self.p = p
@@ -57,6 +69,8 @@ class Step:
         self.fields = fields
         self.history = history
         self.attrs = attrs
+        self.equilibrium = {k: float(attrs[k]) for k in EQUILIBRIUM if k in attrs}
+        self.converged = not attrs.get("unconverged", 0)
 
     def __repr__(self):
         return "Step(p=%d, t=%g, iterations=%d, fields=%s)" % (
@@ -64,13 +78,17 @@ class Step:
 
 
 class Results:
-    """A loaded results file: path, attrs (dict of root attributes), mesh, steps (by p)."""
+    """A loaded results file: path, attrs (dict of root attributes), mesh, steps (by p; results
+    only), unconverged (steps that did not converge, their last iterate and history: NOT
+    results), format_version (1 for files written before the attribute existed)."""
 
-    def __init__(self, path, attrs, mesh, steps):
+    def __init__(self, path, attrs, mesh, steps, unconverged=()):
         self.path = path
         self.attrs = attrs
         self.mesh = mesh
         self.steps = steps
+        self.unconverged = list(unconverged)
+        self.format_version = int(attrs.get("format_version", 1))
 
     def step(self, p):
         """The step with number p (KeyError if it is not stored)."""
@@ -123,21 +141,28 @@ def load(path, fields=None):
                     contact_area=get("contact_area"), cell_type=_value(m.attrs.get("cell_type", "")),
                     contact_boundary=_value(m["contact_facets"].attrs.get("boundary", ""))
                     if "contact_facets" in m else "", contact_nodes=get("contact_nodes"))
-        steps = []
-        for name in sorted(k for k in f["steps"] if len(k) == 6 and k.isdigit()):
-            g = f["steps"][name]
-            a = _attrs(g)
-            data = {k: g[k][()] for k in g
-                    if isinstance(g[k], h5py.Dataset) and k != "history"
-                    and (fields is None or k in fields)}
-            h = g["history"][()] if "history" in g else np.zeros((0, len(HISTORY_COLUMNS)))
-            columns = _value(g["history"].attrs.get("columns", "")) if "history" in g else ""
-            names = columns.split() if columns else list(HISTORY_COLUMNS)
-            history = {c: h[:, i] for i, c in enumerate(names)}
-            steps.append(Step(p=int(a["p"]), t=float(a["t"]), iterations=int(a["iterations"]),
-                              status=a.get("status", ""), fields=data, history=history, attrs=a))
-        steps.sort(key=lambda s: s.p)
-        return Results(path, _attrs(f), mesh, steps)
+        steps = _read_steps(f["steps"], fields)
+        unconverged = _read_steps(f["unconverged"], fields) if "unconverged" in f else []
+        return Results(path, _attrs(f), mesh, steps, unconverged)
+
+
+def _read_steps(group, fields):
+    """The step groups (six-digit names) of /steps or /unconverged, in increasing p."""
+    steps = []
+    for name in sorted(k for k in group if len(k) == 6 and k.isdigit()):
+        g = group[name]
+        a = _attrs(g)
+        data = {k: g[k][()] for k in g
+                if isinstance(g[k], h5py.Dataset) and k != "history"
+                and (fields is None or k in fields)}
+        h = g["history"][()] if "history" in g else np.zeros((0, len(HISTORY_COLUMNS)))
+        columns = _value(g["history"].attrs.get("columns", "")) if "history" in g else ""
+        names = columns.split() if columns else list(HISTORY_COLUMNS)
+        history = {c: h[:, i] for i, c in enumerate(names)}
+        steps.append(Step(p=int(a["p"]), t=float(a["t"]), iterations=int(a["iterations"]),
+                          status=a.get("status", ""), fields=data, history=history, attrs=a))
+    steps.sort(key=lambda s: s.p)
+    return steps
 
 
 def deformed(X, u, scale=1.0):
@@ -182,7 +207,45 @@ def quantity(value):
 
 
 def config(results):
-    """The resolved configuration stored in the file (root attribute "config", TOML) as a dict;
-    convert its values with quantity()."""
+    """The configuration as given (root attribute "config", TOML, with --set applied) as a dict;
+    convert its values with quantity(). resolved_config() has them in SI with every default."""
     import tomllib  # Python >= 3.11
     return tomllib.loads(results.attrs["config"])
+
+
+def resolved_config(results):
+    """The resolved configuration (root attribute "config_resolved": every value in SI, every
+    default filled in) as a dict; None for files of format version 1, which do not have it."""
+    import tomllib  # Python >= 3.11
+    text = results.attrs.get("config_resolved")
+    return tomllib.loads(text) if text else None
+
+
+def summary(results, file=None):
+    """Prints a file's status and one row per step: t, iterations, final residuals and the
+    equilibrium measure; then the unconverged steps, marked as such."""
+    out = file if file is not None else sys.stdout
+    print("%s: %s, format version %d, status: %s" % (
+        results.path, results.attrs.get("name", ""), results.format_version,
+        results.attrs.get("status", "")), file=out)
+    for title, steps in (("steps (results)", results.steps),
+                         ("UNCONVERGED steps (not results: last iterate, for diagnosis)",
+                          results.unconverged)):
+        if not steps:
+            continue
+        last = lambda s, k: s.history[k][-1] if len(s.history.get(k, ())) else np.nan
+        print_table(title, {
+            "p": [s.p for s in steps], "t [s]": [s.t for s in steps],
+            "iterations": [s.iterations for s in steps],
+            "r_G": [last(s, "r_G") for s in steps], "r_B": [last(s, "r_B") for s in steps],
+            "force_residual": [s.equilibrium.get("force_residual", np.nan) for s in steps],
+            "max|detE-1|": [s.equilibrium.get("det_error", np.nan) for s in steps],
+            "penetration [m]": [s.equilibrium.get("penetration", np.nan) for s in steps],
+        }, file=out, fmt="%.4g")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit("usage: ltl_results.py RESULTS.h5 ...")
+    for path in sys.argv[1:]:
+        summary(load(path))

@@ -73,4 +73,16 @@ Eigen::Matrix2d Material::dW(const Eigen::Matrix2d& F2) const {
   return dW(embed(F2)).topLeftCorner<2, 2>();
 }
 
+double Material::plane_strain_sigma33(const Eigen::Matrix2d& F2, const Eigen::Matrix2d& P2) const {
+  const Eigen::Matrix3d dW3 = dW(embed(F2));  // of the law itself, not of a split of it
+  const double J = F2.determinant();
+  double p = 0;
+  if (incompressible()) {
+    Eigen::Matrix2d cof2;  // cof F2 = J F2^{-T}
+    cof2 << F2(1, 1), -F2(1, 0), -F2(0, 1), F2(0, 0);
+    p = (dW3.topLeftCorner<2, 2>() - P2).cwiseProduct(cof2).sum() / cof2.squaredNorm();
+  }
+  return (dW3(2, 2) - p * J) / J;
+}
+
 }  // namespace ltl

@@ -43,6 +43,18 @@ struct Material {
   /// Plane strain: W(diag(F2, 1)) and the in-plane block of dW.
   double W(const Eigen::Matrix2d& F2) const;
   Eigen::Matrix2d dW(const Eigen::Matrix2d& F2) const;
+
+  /// [LTL87 (1.5), (1.1)] Plane strain: the out-of-plane Cauchy stress sigma33 of a state with
+  /// in-plane gradient F2 and in-plane first Piola-Kirchhoff stress P2 (e.g. the solver's
+  /// P = 2 C1 E - lambda). With F = diag(F2, 1) and J = det F2, the 3-D stress of the law is
+  ///   P = dW/dF(F) - p cof F          (incompressible, p the pressure of det F = 1; 0 otherwise),
+  /// cof F = diag(cof F2, J). The pressure is read off the in-plane part, in the least-squares
+  /// sense: p = (dW2(F2) - P2) : cof F2 / |cof F2|^2 (exact when P2 is the law's stress), and
+  ///   sigma33 = P33 F33 / J = (dW/dF(F)_33 - p J) / J.
+  /// Mooney-Rivlin: dW/dF_33 = 2 C1 + 2 C2 |F2|^2; compressible: 2 C1 + 2 C3 J^2 - 2 (C1 + C3).
+  /// It is not zero (F33 = 1 is held by this stress); planar tension F2 = diag(l, 1/l) with
+  /// sigma22 = 0 gives sigma33 = 2 C1 (1 - l^-2) + 2 C2 (l^2 - 1).
+  double plane_strain_sigma33(const Eigen::Matrix2d& F2, const Eigen::Matrix2d& P2) const;
 };
 
 }  // namespace ltl

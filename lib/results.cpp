@@ -19,6 +19,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -161,16 +162,6 @@ void write_array(hid_t file_id, const std::string& path, hid_t mem_type, hid_t f
   fault_point();
 }
 
-void write_doubles(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
-                   const std::vector<double>& data, const std::string& file) {
-  write_array(f, path, H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, dims, data.data(), file);
-}
-
-void write_ints(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
-                const std::vector<int>& data, const std::string& file) {
-  write_array(f, path, H5T_NATIVE_INT, H5T_STD_I32LE, dims, data.data(), file);
-}
-
 /// A dense array read from a dataset (row-major) with its shape.
 template <class T>
 struct Array {
@@ -262,6 +253,90 @@ void write_scalar_attr(hid_t obj, const std::string& name, T value, const std::s
   Handle attr = checked(H5Acreate2(obj, name.c_str(), ftype, space.get(), H5P_DEFAULT, H5P_DEFAULT),
                         H5Aclose, file, what);
   ok(H5Awrite(attr.get(), mem, &value), file, what);
+}
+
+/// The unit and description of a dataset of the layout, by its path (/mesh/X, /steps/N/u,
+/// /steps/N/xdmf/u, /unconverged/N/u, ...); every dataset written gets both as string
+/// attributes "unit" and "description". Unknown names are an Error (nothing is written without
+/// them).
+std::pair<std::string, std::string> dataset_meta(const std::string& path, int dim,
+                                                 const std::string& file) {
+  struct Meta {
+    const char *unit_2d, *unit_3d, *text;
+  };
+  static const std::map<std::string, Meta> table = {
+      {"X", {"m", "m", "reference positions of the nodes (#nodes, dim)"}},
+      {"cells", {"1", "1", "node indices of each cell, gmsh order (= XDMF order)"}},
+      {"cell_volume",
+       {"m^2", "m^3",
+        "reference volume of each cell (plane strain: area, per metre of depth), from the "
+        "discretization's cell operators (lib/fe: CellOperators::vol)"}},
+      {"contact_facets", {"1", "1", "node indices of each facet of the contact surface"}},
+      {"contact_nodes", {"1", "1", "mesh node of each contact point (nodal contact)"}},
+      {"contact_centre", {"m", "m", "reference position of each contact point (#points, dim)"}},
+      {"contact_area",
+       {"m", "m^2",
+        "weight of each contact point: facet measure, or integral of the node's shape function "
+        "over the contact surface (plane strain: per metre of depth)"}},
+      {"contact_topology",
+       {"1", "1",
+        "the contact facets as indices into the contact points (nodal contact): the topology of "
+        "the contact-surface XDMF grid"}},
+      {"u", {"m", "m", "displacement of the nodes (#nodes, dim)"}},
+      {"E", {"1", "1", "strain E of each cell (the paper's F, (2.7)); [c][i][j] = E_c(i, j)"}},
+      {"lambda",
+       {"Pa", "Pa", "multiplier of I + grad u = E of each cell (a first Piola-Kirchhoff stress)"}},
+      {"P", {"Pa", "Pa", "first Piola-Kirchhoff stress of each cell, P = 2 C1 E - lambda"}},
+      {"sigma", {"Pa", "Pa", "Cauchy stress of each cell, sigma = P E^T / det E"}},
+      {"sigma33",
+       {"Pa", "Pa",
+        "plane strain: out-of-plane Cauchy stress of each cell, from the law with F33 = 1 and "
+        "the pressure (Material::plane_strain_sigma33, (1.5))"}},
+      {"pressure",
+       {"Pa", "Pa", "mean stress of each cell, -trace(sigma) / 3 (with sigma33 in plane strain)"}},
+      {"beta", {"1", "1", "adhesion intensity of each contact point, in [0, 1]"}},
+      {"e", {"m", "m", "contact displacement of each contact point (the paper's h)"}},
+      {"lambda_c",
+       {"Pa", "Pa",
+        "multiplier of u = e at each contact point: a traction per reference area (#points, "
+        "dim)"}},
+      {"contact_pressure",
+       {"Pa", "Pa", "contact pressure of each contact point, -lambda_c . N (> 0: pressed)"}},
+      {"gap", {"m", "m", "gap of each contact point to the obstacle plane, g - e . N"}},
+      {"history",
+       {"1 1 1 s s s s s", "1 1 1 s s s s s",
+        "one row per iteration: n, r_G, r_B (scaled residuals, (3.3)), seconds in the global, "
+        "strain, contact and update phases, wall seconds since the step began"}},
+  };
+  const std::string name = path.substr(path.rfind('/') + 1);
+  const auto it = table.find(name);
+  if (it == table.end()) fail(file, cat("internal: no unit and description for dataset ", path));
+  const Meta& m = it->second;
+  const bool xdmf = path.find("/xdmf/") != std::string::npos;
+  return {dim == 2 ? m.unit_2d : m.unit_3d,
+          (xdmf ? "ParaView copy (3 components, 3x3 tensors): " : "") + std::string(m.text)};
+}
+
+/// Writes a dataset with its "unit" and "description" attributes (dataset_meta).
+void write_described(hid_t f, const std::string& path, hid_t mem_type, hid_t file_type,
+                     const std::vector<hsize_t>& dims, const void* data, int dim,
+                     const std::string& file) {
+  const auto [unit, text] = dataset_meta(path, dim, file);
+  write_array(f, path, mem_type, file_type, dims, data, file);
+  Handle set = checked(H5Dopen2(f, path.c_str(), H5P_DEFAULT), H5Dclose, file,
+                       cat("cannot open dataset ", path));
+  write_string_attr(set.get(), "unit", unit, file, path);
+  write_string_attr(set.get(), "description", text, file, path);
+}
+
+void write_doubles(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
+                   const std::vector<double>& data, int dim, const std::string& file) {
+  write_described(f, path, H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, dims, data.data(), dim, file);
+}
+
+void write_ints(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
+                const std::vector<int>& data, int dim, const std::string& file) {
+  write_described(f, path, H5T_NATIVE_INT, H5T_STD_I32LE, dims, data.data(), dim, file);
 }
 
 /// Opens attribute `name` of `obj` checking it holds one value; an empty Handle if absent.
@@ -446,49 +521,6 @@ const char* topology(int dim, int nodes_per_cell) {
   return nullptr;
 }
 
-/// Area of a six-node P2 triangle (gmsh order: vertices, then mid-edges 01, 12, 20): the integral
-/// of det J with the three-point rule, exact since det J is quadratic.
-double p2_triangle_area(const Eigen::MatrixXd& X, const int* n) {
-  static const double pts[3][2] = {{1.0 / 6, 1.0 / 6}, {2.0 / 3, 1.0 / 6}, {1.0 / 6, 2.0 / 3}};
-  double area = 0;
-  for (const auto& q : pts) {
-    const double L[3] = {1 - q[0] - q[1], q[0], q[1]};
-    const double dL[3][2] = {{-1, -1}, {1, 0}, {0, 1}};
-    Eigen::Matrix2d J = Eigen::Matrix2d::Zero();  // J(i, k) = d x_i / d xi_k
-    for (int k = 0; k < 2; ++k) {
-      double dN[6];
-      for (int a = 0; a < 3; ++a) dN[a] = (4 * L[a] - 1) * dL[a][k];
-      for (int a = 0; a < 3; ++a) {
-        const int b = (a + 1) % 3;
-        dN[3 + a] = 4 * (dL[a][k] * L[b] + L[a] * dL[b][k]);
-      }
-      for (int a = 0; a < 6; ++a) J.col(k) += dN[a] * X.row(n[a]).transpose().head<2>();
-    }
-    area += J.determinant() / 6;
-  }
-  return std::abs(area);
-}
-
-/// Volume of an eight-node hexahedron (gmsh order): 2x2x2 Gauss rule, exact for trilinear maps.
-double hexahedron_volume(const Eigen::MatrixXd& X, const int* n) {
-  static const int s[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
-                              {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
-  const double g = 1 / std::sqrt(3.0);
-  double vol = 0;
-  for (int q = 0; q < 8; ++q) {
-    const double xi[3] = {s[q][0] * g, s[q][1] * g, s[q][2] * g};
-    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-    for (int a = 0; a < 8; ++a) {
-      const double f[3] = {1 + s[a][0] * xi[0], 1 + s[a][1] * xi[1], 1 + s[a][2] * xi[2]};
-      const Eigen::Vector3d dN(s[a][0] * f[1] * f[2] / 8, f[0] * s[a][1] * f[2] / 8,
-                               f[0] * f[1] * s[a][2] / 8);
-      J += X.row(n[a]).transpose().head<3>() * dN.transpose();
-    }
-    vol += J.determinant();
-  }
-  return std::abs(vol);
-}
-
 std::string xml_escape(const std::string& s) {
   std::string out;
   for (char c : s) {
@@ -526,14 +558,18 @@ std::string work_path_of(const std::string& path) {
   return path + ".partial";
 }
 
-std::string xdmf_path_of(const std::string& path) {
+}  // namespace
+
+std::string xdmf_path_of(const std::string& path, const std::string& suffix) {
   const std::string ext = ".h5";
   if (path.size() > ext.size() && path.compare(path.size() - ext.size(), ext.size(), ext) == 0)
-    return path.substr(0, path.size() - ext.size()) + ".xdmf";
-  return path + ".xdmf";
+    return path.substr(0, path.size() - ext.size()) + suffix + ".xdmf";
+  return path + suffix + ".xdmf";
 }
 
-}  // namespace
+std::string contact_xdmf_path_of(const std::string& path) {
+  return xdmf_path_of(path, "_contact");
+}
 
 // ---------------------------------------------------------------------------------------------
 
@@ -555,13 +591,15 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
                                 const Mesh::Boundary* contact_facets,
                                 const Eigen::MatrixXd* contact_centre,
                                 const Eigen::VectorXd* contact_area,
-                                const std::vector<int>* contact_nodes, bool commit) {
+                                const std::vector<int>* contact_nodes, bool commit,
+                                const Eigen::VectorXd* cell_volume) {
   quiet_hdf5();
   const int dim = mesh.dim, nn = mesh.num_nodes(), nc = mesh.num_cells();
   const int npc = mesh.nodes_per_cell();
   if (!topology(dim, npc))
     fail(path, cat("cannot store a mesh of ", npc, "-node cells in ", dim,
-                   "-D (six-node triangles in 2-D and eight-node hexahedra in 3-D are supported)"));
+                   "-D (six-node triangles in 2-D, eight-node hexahedra and ten-node tetrahedra in "
+                   "3-D are supported)"));
   if (mesh.X.cols() != dim) fail(path, cat("mesh X has ", mesh.X.cols(), " columns, dim is ", dim));
   if (nc > 0 && (mesh.cells.minCoeff() < 0 || mesh.cells.maxCoeff() >= nn))
     fail(path, "mesh cells refer to nodes that do not exist");
@@ -571,6 +609,7 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
                                  : static_cast<int>(contact_facets->facets.rows());
   if (contact_nodes && !contact_facets) fail(path, "contact nodes given without contact facets");
   Eigen::MatrixXd centre;  // #facets x dim
+  if (contact_nodes && !contact_centre) centre.resize(nf, dim);
   if (contact_facets) {
     const auto& F = contact_facets->facets;
     if (F.cols() != mesh.nodes_per_facet())
@@ -613,6 +652,9 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
     write_string_attr(root.get(), "name", info.name, path, "/");
     write_string_attr(root.get(), "config", info.config_text, path, "/");
     write_string_attr(root.get(), "config_path", info.config_path, path, "/");
+    if (!info.config_resolved.empty())
+      write_string_attr(root.get(), "config_resolved", info.config_resolved, path, "/");
+    write_scalar_attr<int>(root.get(), "format_version", kFormatVersion, path, "/");
     write_string_attr(root.get(), "status", "running", path, "/");
   }
   {
@@ -621,27 +663,46 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
     write_string_attr(g.get(), "source", mesh.source, path, "/mesh");
   }
   const auto un = [](int n) { return static_cast<hsize_t>(n); };
-  write_doubles(f, "/mesh/X", {un(nn), un(dim)}, rows_of(mesh.X), path);
-  write_ints(f, "/mesh/cells", {un(nc), un(npc)}, rows_of(mesh.cells), path);
-  std::vector<double> volume(nc);
-  for (int c = 0; c < nc; ++c) {
-    const Eigen::RowVectorXi row = mesh.cells.row(c);
-    volume[c] = dim == 2    ? p2_triangle_area(mesh.X, row.data())
-                : npc == 10 ? cell_measure(mesh, c)
-                            : hexahedron_volume(mesh.X, row.data());
-  }
-  write_doubles(f, "/mesh/cell_volume", {un(nc)}, volume, path);
+  write_doubles(f, "/mesh/X", {un(nn), un(dim)}, rows_of(mesh.X), dim, path);
+  write_ints(f, "/mesh/cells", {un(nc), un(npc)}, rows_of(mesh.cells), dim, path);
+  // Cell volumes from the discretization (one definition of the shape functions, lib/fe).
+  const Eigen::VectorXd volume = cell_volume ? *cell_volume : cell_operators(mesh).vol;
+  if (volume.size() != nc)
+    fail(path, cat("cell volumes have ", volume.size(), " entries, expected ", nc));
+  write_doubles(f, "/mesh/cell_volume", {un(nc)}, vec(volume), dim, path);
   if (contact_facets) {
     const auto& F = contact_facets->facets;
     write_ints(f, "/mesh/contact_facets",
-               {un(static_cast<int>(F.rows())), un(static_cast<int>(F.cols()))}, rows_of(F), path);
-    if (contact_nodes) write_ints(f, "/mesh/contact_nodes", {un(nf)}, *contact_nodes, path);
+               {un(static_cast<int>(F.rows())), un(static_cast<int>(F.cols()))}, rows_of(F), dim,
+               path);
+    if (contact_nodes) {
+      write_ints(f, "/mesh/contact_nodes", {un(nf)}, *contact_nodes, dim, path);
+      // The facets in the numbering of the contact points: the contact grid of the XDMF files.
+      std::vector<int> local(F.size(), -1), index(nn, -1);
+      for (int k = 0; k < nf; ++k) {
+        const int node = (*contact_nodes)[k];
+        if (node < 0 || node >= nn) fail(path, cat("contact node ", node, " does not exist"));
+        index[node] = k;
+      }
+      for (Eigen::Index i = 0; i < F.rows(); ++i)
+        for (Eigen::Index j = 0; j < F.cols(); ++j) {
+          local[i * F.cols() + j] = index[F(i, j)];
+          if (local[i * F.cols() + j] < 0)
+            fail(path, cat("node ", F(i, j), " of contact facet ", i, " is not a contact node"));
+        }
+      write_ints(f, "/mesh/contact_topology",
+                 {un(static_cast<int>(F.rows())), un(static_cast<int>(F.cols()))}, local, dim,
+                 path);
+      if (!contact_centre)  // the contact points' positions: the contact grid's geometry
+        for (int k = 0; k < nf; ++k) centre.row(k) = mesh.X.row((*contact_nodes)[k]);
+    }
     Handle set = checked(H5Dopen2(f, "/mesh/contact_facets", H5P_DEFAULT), H5Dclose, path,
                          "cannot open dataset /mesh/contact_facets");
     write_string_attr(set.get(), "boundary", contact_facets->name, path, "/mesh/contact_facets");
-    if (contact_centre)
-      write_doubles(f, "/mesh/contact_centre", {un(nf), un(dim)}, rows_of(centre), path);
-    if (contact_area) write_doubles(f, "/mesh/contact_area", {un(nf)}, vec(*contact_area), path);
+    if (centre.rows() == nf && nf > 0)
+      write_doubles(f, "/mesh/contact_centre", {un(nf), un(dim)}, rows_of(centre), dim, path);
+    if (contact_area)
+      write_doubles(f, "/mesh/contact_area", {un(nf)}, vec(*contact_area), dim, path);
   }
   create_group(f, "/steps", path);
   if (commit) r.commit();
@@ -705,7 +766,7 @@ void ResultsFile::commit() {
     discard();
     fail(path_, cat("cannot write the file", e ? ": " + errno_text(e) : ""));
   }
-  const std::string xdmf = xdmf_text();
+  const std::string xdmf = xdmf_text(false), contact_xdmf = contact_ ? xdmf_text(true) : "";
   errno = 0;
   const herr_t closed = H5Fclose(file_);
   const int e = errno;
@@ -724,7 +785,8 @@ void ResultsFile::commit() {
   const auto dir = std::filesystem::path(path_).parent_path();
   sync_path(dir.empty() ? "." : dir.string(), true);
   fault_point();
-  write_xdmf(xdmf);
+  write_xdmf(xdmf_path_of(path_), xdmf);
+  if (!contact_xdmf.empty()) write_xdmf(contact_xdmf_path_of(path_), contact_xdmf);
 }
 
 void ResultsFile::discard() noexcept {
@@ -768,14 +830,14 @@ void ResultsFile::close() noexcept {
   discard();  // changes not committed (an error in the middle of a step) are dropped
 }
 
-void ResultsFile::append(const StepData& step, const std::string& status) {
+// Checks the sizes of a step's data (an Error naming the step and the field).
+void ResultsFile::check_step(const StepData& step) const {
   const std::string& file = path_;
   if (path_.empty()) fail(file, "append to a closed results file");
   if (!step.state) fail(file, cat("step ", step.p, ": no state to write"));
   if (step.p < 0 || step.p > 999999) fail(file, cat("step number ", step.p, " out of 0..999999"));
   const State& s = *step.state;
   const int dim = dim_, nn = num_nodes_, nc = num_cells_, nf = num_facets_;
-  const std::string name = step_name(step.p), g = "/steps/" + name;
   auto expect = [&](const char* what, Eigen::Index rows, Eigen::Index cols, Eigen::Index r,
                     Eigen::Index c) {
     if (rows != r || cols != c)
@@ -785,8 +847,7 @@ void ResultsFile::append(const StepData& step, const std::string& status) {
   expect("u", s.u.rows(), s.u.cols(), nn, dim);
   // E and lambda may both be empty for a problem without cell unknowns (the Signorini problem of
   // section 7), beta for a contact problem without adhesion intensity; they are then not written.
-  const bool cells = s.E.size() || s.lambda.size();
-  if (cells) {
+  if (s.E.size() || s.lambda.size()) {
     expect("E", s.E.rows(), s.E.cols(), dim * nc, dim);
     expect("lambda", s.lambda.rows(), s.lambda.cols(), dim * nc, dim);
   }
@@ -797,22 +858,24 @@ void ResultsFile::append(const StepData& step, const std::string& status) {
   }
   if (step.P.size()) expect("P", step.P.rows(), step.P.cols(), dim * nc, dim);
   if (step.sigma.size()) expect("sigma", step.sigma.rows(), step.sigma.cols(), dim * nc, dim);
+  if (step.sigma33.size()) {
+    if (dim != 2) fail(file, cat("step ", step.p, ": sigma33 is for plane strain (2-D) only"));
+    expect("sigma33", step.sigma33.size(), 1, nc, 1);
+  }
   if (step.pressure.size()) expect("pressure", step.pressure.size(), 1, nc, 1);
   if (step.contact_pressure.size())
     expect("contact_pressure", step.contact_pressure.size(), 1, nf, 1);
   if (step.gap.size()) expect("gap", step.gap.size(), 1, nf, 1);
-  begin();
-  if (exists(file_, g, file)) {
-    discard();
-    fail(file, cat("step ", step.p, " is already stored (", g, ")"));
-  }
+}
 
-  // Written under a temporary name and renamed when complete.
-  const std::string tmp = "/steps/incomplete";
-  if (exists(file_, tmp, file))
-    ok(H5Ldelete(file_, tmp.c_str(), H5P_DEFAULT), file, cat("cannot delete ", tmp));
+// Writes the group `g` (absolute) of one step: attributes, fields, history and, in 2-D, the
+// padded copies for ParaView (not for an unconverged iterate, which no XDMF grid shows).
+void ResultsFile::write_step(const std::string& g, const StepData& step, bool converged) {
+  const std::string& file = path_;
+  const State& s = *step.state;
+  const int dim = dim_, nn = num_nodes_, nc = num_cells_;
   {
-    Handle group = create_group(file_, tmp, file);
+    Handle group = create_group(file_, g, file);
     const StepReport* rep = step.report;
     write_scalar_attr<int>(group.get(), "p", step.p, file, g);
     write_scalar_attr<double>(group.get(), "t", step.t, file, g);
@@ -820,12 +883,31 @@ void ResultsFile::append(const StepData& step, const std::string& status) {
     write_string_attr(group.get(), "status", rep ? rep->status : "", file, g);
     write_scalar_attr<int>(group.get(), "converged", rep && rep->converged ? 1 : 0, file, g);
     write_scalar_attr<int>(group.get(), "strain_failures", rep ? rep->strain_failures : 0, file, g);
+    // [10.3] The equilibrium measure of the stored iterate (lib/measures.hpp).
+    write_scalar_attr<double>(group.get(), "force_residual", rep ? rep->force_residual : 0, file,
+                              g);
+    write_scalar_attr<double>(group.get(), "det_error", rep ? rep->det_error : 0, file, g);
+    write_scalar_attr<double>(group.get(), "penetration", rep ? rep->penetration : 0, file, g);
+    write_string_attr(group.get(), "units",
+                      "t: s; force_residual: 1 (max nodal force residual / max nodal load); "
+                      "det_error: 1 (max over cells of |det E - 1|); penetration: m (max over "
+                      "the contact surface's nodes)",
+                      file, g);
+    if (!converged) {
+      write_scalar_attr<int>(group.get(), "unconverged", 1, file, g);
+      write_string_attr(group.get(), "note",
+                        "NOT A RESULT: the last iterate of a time step that did not converge, "
+                        "kept with its iteration history to diagnose why",
+                        file, g);
+    }
   }
   const auto un = [](Eigen::Index n) { return static_cast<hsize_t>(n); };
   const auto put = [&](const std::string& ds, const std::vector<hsize_t>& dims,
                        const std::vector<double>& data) {
-    write_doubles(file_, tmp + "/" + ds, dims, data, file);
+    write_doubles(file_, g + "/" + ds, dims, data, dim, file);
   };
+  const int nf = num_facets_;
+  const bool cells = s.E.size() || s.lambda.size();
   put("u", {un(nn), un(dim)}, rows_of(s.u));
   if (cells) {
     put("E", {un(nc), un(dim), un(dim)}, tensors_of(s.E, dim, dim));
@@ -833,6 +915,7 @@ void ResultsFile::append(const StepData& step, const std::string& status) {
   }
   if (step.P.size()) put("P", {un(nc), un(dim), un(dim)}, tensors_of(step.P, dim, dim));
   if (step.sigma.size()) put("sigma", {un(nc), un(dim), un(dim)}, tensors_of(step.sigma, dim, dim));
+  if (step.sigma33.size()) put("sigma33", {un(nc)}, vec(step.sigma33));
   if (step.pressure.size()) put("pressure", {un(nc)}, vec(step.pressure));
   if (contact_) {
     if (s.beta.size()) put("beta", {un(nf)}, vec(s.beta));
@@ -857,21 +940,83 @@ void ResultsFile::append(const StepData& step, const std::string& status) {
       std::copy(row, row + 8, h.begin() + 8 * i);
     }
     put("history", {un(ni), 8}, h);
-    Handle set = checked(H5Dopen2(file_, (tmp + "/history").c_str(), H5P_DEFAULT), H5Dclose, file,
+    Handle set = checked(H5Dopen2(file_, (g + "/history").c_str(), H5P_DEFAULT), H5Dclose, file,
                          cat("cannot open dataset ", g, "/history"));
     write_string_attr(set.get(), "columns", "n r_G r_B t_global t_strain t_contact t_update wall",
                       file, g + "/history");
   }
-  if (dim == 2) {  // 3-vectors and 3x3 tensors for ParaView
-    create_group(file_, tmp + "/xdmf", file);
+  if (dim == 2 && converged) {
+    // 3-vectors and 3x3 tensors for ParaView. Plane strain: E33 = F33 = 1, sigma33 the true
+    // out-of-plane stress (0 when not given), P33 = det E sigma33 (sigma = P F^T / det F).
+    create_group(file_, g + "/xdmf", file);
     Eigen::MatrixXd u3 = Eigen::MatrixXd::Zero(nn, 3);
     u3.leftCols(2) = s.u;
     put("xdmf/u", {un(nn), 3}, rows_of(u3));
-    if (step.P.size()) put("xdmf/P", {un(nc), 3, 3}, tensors_of(step.P, dim, 3));
-    if (step.sigma.size()) put("xdmf/sigma", {un(nc), 3, 3}, tensors_of(step.sigma, dim, 3));
+    const auto padded = [&](const Eigen::MatrixXd& T, const std::function<double(int)>& t33) {
+      std::vector<double> out = tensors_of(T, dim, 3);
+      for (int c = 0; c < nc; ++c) out[9 * c + 8] = t33(c);
+      return out;
+    };
+    const auto detE = [&](int c) { return s.E.block<2, 2>(2 * c, 0).determinant(); };
+    const auto s33 = [&](int c) { return step.sigma33.size() ? step.sigma33(c) : 0.0; };
+    if (cells) put("xdmf/E", {un(nc), 3, 3}, padded(s.E, [](int) { return 1.0; }));
+    if (step.P.size())
+      put("xdmf/P", {un(nc), 3, 3},
+          padded(step.P, [&](int c) { return cells ? detE(c) * s33(c) : s33(c); }));
+    if (step.sigma.size()) put("xdmf/sigma", {un(nc), 3, 3}, padded(step.sigma, s33));
+    if (contact_) {
+      Eigen::MatrixXd v = Eigen::MatrixXd::Zero(3, nf);
+      v.topRows(2) = s.e;
+      put("xdmf/e", {un(nf), 3}, columns_of(v));
+      v.topRows(2) = s.lambda_c;
+      put("xdmf/lambda_c", {un(nf), 3}, columns_of(v));
+    }
   }
+}
+
+void ResultsFile::append(const StepData& step, const std::string& status) {
+  check_step(step);
+  const std::string& file = path_;
+  const std::string name = step_name(step.p), g = "/steps/" + name;
+  begin();
+  if (exists(file_, g, file)) {
+    discard();
+    fail(file, cat("step ", step.p, " is already stored (", g, ")"));
+  }
+  // Written under a temporary name and renamed when complete.
+  const std::string tmp = "/steps/incomplete";
+  if (exists(file_, tmp, file))
+    ok(H5Ldelete(file_, tmp.c_str(), H5P_DEFAULT), file, cat("cannot delete ", tmp));
+  write_step(tmp, step, true);
   ok(H5Lmove(file_, tmp.c_str(), file_, g.c_str(), H5P_DEFAULT, H5P_DEFAULT), file,
      cat("cannot rename ", tmp, " to ", g));
+  // An unconverged iterate of this step saved by an earlier run is superseded by the result.
+  const std::string stale = "/unconverged/" + name;
+  if (exists(file_, stale, file))
+    ok(H5Ldelete(file_, stale.c_str(), H5P_DEFAULT), file, cat("cannot delete ", stale));
+  if (!status.empty()) {
+    Handle root = open_group(file_, "/", path_);
+    write_string_attr(root.get(), "status", status, path_, "/");
+  }
+  commit();
+}
+
+void ResultsFile::save_unconverged(const StepData& step, const std::string& status) {
+  check_step(step);
+  const std::string& file = path_;
+  const std::string g = "/unconverged/" + step_name(step.p);
+  begin();
+  if (!exists(file_, "/unconverged", file)) {
+    Handle group = create_group(file_, "/unconverged", file);
+    write_string_attr(group.get(), "note",
+                      "NOT RESULTS: the last iterate and iteration history of time steps that "
+                      "did not converge (one group per step, named like /steps), for diagnosis; "
+                      "readers of results use /steps only",
+                      file, "/unconverged");
+  }
+  if (exists(file_, g, file))
+    ok(H5Ldelete(file_, g.c_str(), H5P_DEFAULT), file, cat("cannot replace ", g));
+  write_step(g, step, false);
   if (!status.empty()) {
     Handle root = open_group(file_, "/", path_);
     write_string_attr(root.get(), "status", status, path_, "/");
@@ -889,14 +1034,40 @@ void ResultsFile::set_status(const std::string& status) {
   commit();
 }
 
-// XDMF: one temporal collection with a uniform grid per step, all referring to the datasets of
-// the HDF5 file by its file name (the two files are meant to stay side by side).
-std::string ResultsFile::xdmf_text() const {
+// XDMF: the body (xdmf_path_of) and, with a contact surface, the contact surface
+// (contact_xdmf_path_of), both referring to the datasets of the HDF5 file by its file name (the
+// files are meant to stay side by side). One uniform grid per step in a temporal collection; a
+// file with one step is that step's uniform grid alone (no collection, no Time element), which
+// meshio.read() reads as well as ParaView; a file with no step is the bare mesh.
+std::string ResultsFile::xdmf_text(bool contact) const {
   const std::string& file = path_;
   const std::string h5 = xml_escape(std::filesystem::path(path_).filename().string());
-  const int dim = dim_, nn = num_nodes_, nc = num_cells_;
+  const int dim = dim_, nn = num_nodes_, nc = num_cells_, nf = num_facets_;
   const auto npc = dataset_shape(file_, "/mesh/cells", file).at(1);
-  const char* topo = topology(dim, static_cast<int>(npc));
+  const bool nodal = exists(file_, "/mesh/contact_nodes", file);
+  // The grid: cells of the body, or facets of the contact surface.
+  std::string topo, cells_ds, geometry_ds, centre;
+  hsize_t elements = nc, per = npc, points = nn;
+  if (!contact) {
+    topo = topology(dim, static_cast<int>(npc));
+    cells_ds = "/mesh/cells";
+    geometry_ds = "/mesh/X";
+  } else {
+    const auto F = dataset_shape(file_, "/mesh/contact_facets", file);
+    elements = F.at(0), per = F.at(1);
+    topo = dim == 2 && per == 3   ? "Edge_3"
+           : dim == 2 && per == 2 ? "Polyline"
+           : dim == 3 && per == 4 ? "Quadrilateral"
+           : dim == 3 && per == 6 ? "Triangle_6"
+           : dim == 3 && per == 3 ? "Triangle"
+                                  : "";
+    if (topo.empty()) fail(file, cat("no XDMF topology for ", per, "-node contact facets"));
+    cells_ds = nodal ? "/mesh/contact_topology" : "/mesh/contact_facets";
+    geometry_ds = nodal ? "/mesh/contact_centre" : "/mesh/X";
+    points = nodal ? nf : nn;
+    if (!exists(file_, geometry_ds, file) || !exists(file_, cells_ds, file)) return "";
+  }
+  const char* at = contact && !nodal ? "Cell" : "Node";  // where the contact fields live
 
   std::ostringstream o;
   auto item = [&](const std::string& indent, const std::string& dims, bool integer,
@@ -912,40 +1083,61 @@ std::string ResultsFile::xdmf_text() const {
     item("          ", dims, false, dataset);
     o << "        </Attribute>\n";
   };
+  auto grid = [&](const std::string& name, const std::string* time) {
+    o << "      <Grid Name=\"" << name << "\" GridType=\"Uniform\">\n";
+    if (time) o << "        <Time Value=\"" << *time << "\"/>\n";
+    o << "        <Topology TopologyType=\"" << topo << "\" NumberOfElements=\"" << elements
+      << "\">\n";
+    item("          ", cat(elements, ' ', per), true, cells_ds);
+    o << "        </Topology>\n"
+      << "        <Geometry GeometryType=\"" << (dim == 2 ? "XY" : "XYZ") << "\">\n";
+    item("          ", cat(points, ' ', dim), false, geometry_ds);
+    o << "        </Geometry>\n";
+  };
+  const std::vector<std::string> names = step_names(file_, file);
   o << "<?xml version=\"1.0\"?>\n"
-    << "<!-- Written by ltl::ResultsFile: the time steps of " << h5 << " for ParaView. -->\n"
-    << "<Xdmf Version=\"3.0\">\n  <Domain>\n"
-    << "    <Grid Name=\"steps\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (const std::string& name : step_names(file_, file)) {
+    << "<!-- Written by ltl::ResultsFile: the time steps of " << h5 << " for ParaView"
+    << (contact ? ", on the contact surface" : "") << " (layout: experiments/README.md). -->\n"
+    << "<Xdmf Version=\"3.0\">\n  <Domain>\n";
+  const bool series = names.size() > 1;
+  if (series)
+    o << "    <Grid Name=\"" << (contact ? "contact" : "steps")
+      << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  if (names.empty()) {
+    grid(contact ? "contact_surface" : "mesh", nullptr);
+    o << "      </Grid>\n";
+  }
+  for (const std::string& name : names) {
     const std::string g = "/steps/" + name;
     double t = 0;
     {
       Handle group = open_group(file_, g, file);
       t = read_scalar_attr<double>(group.get(), "t", file, g);
     }
-    o << "      <Grid Name=\"step_" << name << "\" GridType=\"Uniform\">\n"
-      << "        <Time Value=\"" << number(t) << "\"/>\n"
-      << "        <Topology TopologyType=\"" << topo << "\" NumberOfElements=\"" << nc << "\">\n";
-    item("          ", cat(nc, ' ', npc), true, "/mesh/cells");
-    o << "        </Topology>\n"
-      << "        <Geometry GeometryType=\"" << (dim == 2 ? "XY" : "XYZ") << "\">\n";
-    item("          ", cat(nn, ' ', dim), false, "/mesh/X");
-    o << "        </Geometry>\n";
+    const std::string time = number(t);
+    grid("step_" + name, series ? &time : nullptr);
     const std::string v = dim == 2 ? g + "/xdmf" : g;  // 3-vectors and 3x3 tensors
-    attribute("u", "Vector", "Node", cat(nn, " 3"), v + "/u");
-    if (exists(file_, g + "/pressure", file))
-      attribute("pressure", "Scalar", "Cell", cat(nc), g + "/pressure");
-    for (const char* T : {"P", "sigma"})
-      if (exists(file_, v + "/" + T, file))
-        attribute(T, "Tensor", "Cell", cat(nc, " 3 3"), v + "/" + T);
+    const auto has = [&](const std::string& ds) { return exists(file_, ds, file); };
+    if (!contact) {
+      attribute("u", "Vector", "Node", cat(nn, " 3"), v + "/u");
+      for (const char* S : {"pressure", "sigma33"})
+        if (has(g + "/" + S)) attribute(S, "Scalar", "Cell", cat(nc), g + "/" + S);
+      for (const char* T : {"E", "P", "sigma"})
+        if (has(v + "/" + T)) attribute(T, "Tensor", "Cell", cat(nc, " 3 3"), v + "/" + T);
+    } else {
+      for (const char* S : {"beta", "contact_pressure", "gap"})
+        if (has(g + "/" + S)) attribute(S, "Scalar", at, cat(nf), g + "/" + S);
+      for (const char* V : {"e", "lambda_c"})
+        if (has(v + "/" + V)) attribute(V, "Vector", at, cat(nf, " 3"), v + "/" + V);
+    }
     o << "      </Grid>\n";
   }
-  o << "    </Grid>\n  </Domain>\n</Xdmf>\n";
+  if (series) o << "    </Grid>\n";
+  o << "  </Domain>\n</Xdmf>\n";
   return o.str();
 }
 
-void ResultsFile::write_xdmf(const std::string& text) const {
-  const std::string xdmf = xdmf_path_of(path_);
+void ResultsFile::write_xdmf(const std::string& xdmf, const std::string& text) const {
   // Written beside and renamed, so that a reader never sees half a file.
   const std::string tmp = xdmf + ".tmp";
   {
@@ -1024,6 +1216,111 @@ std::map<std::string, std::string> library_versions() {
       {"hdf5", hdf5 ? cat(major, '.', minor, '.', release) : std::string(H5_VERSION)},
       {"gmsh", GMSH_API_VERSION},
   };
+}
+
+}  // namespace ltl
+
+namespace ltl {
+namespace {
+
+/// A TOML float (always with a '.' or an exponent, so that it reads back as a float).
+std::string toml_real(double x) {
+  std::string s = number(x);
+  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+  if (std::isnan(x)) return "nan";
+  if (s.find_first_of(".e") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string toml_string(const std::string& v) {
+  std::string out = "\"";
+  for (char c : v) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string toml_vector(const Eigen::Vector3d& v, int dim) {
+  std::string out = "[";
+  for (int i = 0; i < dim; ++i) out += (i ? ", " : "") + toml_real(v(i));
+  return out + "]";
+}
+
+std::string toml_matrix(const Eigen::Matrix3d& m, int dim) {
+  std::string out = "[";
+  for (int i = 0; i < dim; ++i) out += (i ? ", " : "") + toml_vector(m.row(i).transpose(), dim);
+  return out + "]";
+}
+
+}  // namespace
+
+std::string resolved_configuration(const Problem& p) {
+  const int d = p.mesh.dim;
+  const AlgorithmParams& a = p.algorithm;
+  std::ostringstream o;
+  o << "# The resolved configuration: every value in SI (unit in the comment), every default\n"
+    << "# filled in. A record of what was computed, written by ltl::resolved_configuration; the\n"
+    << "# configuration as given is the attribute \"config\".\n"
+    << "name = " << toml_string(p.name) << "\n\n[mesh]\n"
+    << "geometry = " << toml_string(p.mesh.source) << "\n"
+    << "dim = " << d << "\nnodes = " << p.mesh.num_nodes() << "\ncells = " << p.mesh.num_cells()
+    << "\nnodes_per_cell = " << p.mesh.nodes_per_cell() << "\n\n[material]\n"
+    << "model = " << (p.material.incompressible() ? "\"mooney-rivlin\"" : "\"compressible\"")
+    << "\nC1 = " << toml_real(p.material.C1) << "  # Pa\n";
+  if (p.material.incompressible())
+    o << "C2 = " << toml_real(p.material.C2) << "  # Pa\n";
+  else
+    o << "C3 = " << toml_real(p.material.C3) << "  # Pa\n";
+  for (const DirichletCondition& c : p.dirichlet) {
+    o << "\n[[dirichlet]]  # from " << c.origin << "\ngroup = " << toml_string(c.group)
+      << "\ncomponents = [";
+    for (std::size_t i = 0; i < c.components.size(); ++i) o << (i ? ", " : "") << c.components[i];
+    o << "]  # 0-based\nvalue = " << toml_vector(c.field.value, d) << "  # m\n"
+      << "gradient = " << toml_matrix(c.field.gradient, d) << "  # 1\n";
+  }
+  o << "\n[load]\nbody_force = " << toml_vector(p.body_force, d) << "  # N/m^3\n";
+  for (const Traction& t : p.tractions)
+    o << "\n[[load.traction]]  # from " << t.origin << "\ngroup = " << toml_string(t.group)
+      << "\nvalue = " << toml_vector(t.g.value, d) << "  # Pa\n"
+      << "gradient = " << toml_matrix(t.g.gradient, d) << "  # Pa/m\n";
+  if (p.contact) {
+    const ContactCondition& c = *p.contact;
+    o << "\n[contact]\ngroup = " << toml_string(c.group)
+      << "\nplane_point = " << toml_vector(c.plane_point, d) << "  # m\n"
+      << "plane_normal = " << toml_vector(c.plane_normal, d) << "  # 1, into the obstacle\n"
+      << "beta0 = " << toml_real(c.beta0) << "  # 1\n"
+      << "w = " << toml_real(c.adhesion.w) << "  # J/m^2\n"
+      << "kappa = " << toml_real(c.adhesion.kappa) << "  # Pa/m\n"
+      << "d0 = " << toml_real(c.adhesion.d0) << "  # 1/m\n"
+      << "kernel = " << (c.adhesion.exact_kernel ? "\"exact\"" : "\"centre\"") << "\n";
+  }
+  o << "\n[algorithm]\nupdate = "
+    << (a.update == Update::Uzawa ? "\"uzawa\"" : "\"bermudez-moreno\"") << "\n"
+    << "R = " << toml_real(a.R) << "  # 1\n"
+    << "q = " << toml_real(a.q) << "  # Pa\n"
+    << "q_c = " << toml_real(a.q_c) << "  # Pa/m\n"
+    << "rho = " << toml_real(a.rho) << "  # 1\n"
+    << "sweeps = " << a.sweeps << "\ncontact_sweeps = " << a.contact_sweeps << "\n"
+    << "tol = " << toml_real(a.tol) << "\nmax_iter = " << a.max_iter << "\n"
+    << "blowup = " << toml_real(a.blowup) << "\n"
+    << "max_force_residual = " << toml_real(a.max_force_residual) << "\n"
+    << "acceleration = " << (a.acceleration == Acceleration::None ? "\"none\"" : "\"anderson\"")
+    << "\ndepth = " << a.depth << "\naccelerate = "
+    << (a.accelerate == Accelerated::Multipliers          ? "\"multipliers\""
+        : a.accelerate == Accelerated::StrainsMultipliers ? "\"strains-multipliers\""
+                                                          : "\"all\"")
+    << "\n\n[discretization]\n"
+    << "c2 = " << (p.discretization.c2_pointwise ? "\"pointwise\"" : "\"cell-mean\"") << "\n"
+    << "contact = " << (p.discretization.nodal_contact ? "\"nodal\"" : "\"facet-mean\"") << "\n"
+    << "incompressibility = " << (p.discretization.mean_det ? "\"mean-det\"" : "\"det-mean\"")
+    << "\n\n[time]\ndt = " << toml_real(p.time.dt) << "  # s\nsteps = " << p.time.steps << "\n";
+  if (!p.output_file.empty()) o << "\n[output]\nfile = " << toml_string(p.output_file) << "\n";
+  return o.str();
 }
 
 }  // namespace ltl

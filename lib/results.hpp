@@ -1,26 +1,27 @@
-// Results in HDF5 (one file per run), with an XDMF file beside it for ParaView.
+// Results in HDF5 (one file per run), with XDMF files beside it for ParaView.
 //
-// Layout (all arrays row-major, C order; tensors per cell are (#cells, dim, dim) with [c][i][j]
-// the (i, j) entry of the cell's tensor):
-//   /                    attributes: name, config (the resolved configuration text),
-//                        config_path, code_version, git_version, library versions, status
-//   /mesh/X              (#nodes, dim) reference positions
-//   /mesh/cells          (#cells, nodes_per_cell) int, gmsh node order (= VTK/XDMF order)
-//   /mesh/cell_volume    (#cells)
-//   /mesh/contact_facets (#facets, nodes_per_facet) int  (only with a contact surface)
-//   /mesh/contact_centre (#facets, dim), /mesh/contact_area (#facets)
-//   /steps/NNNNNN        one group per completed time step p (6 digits), attributes p, t,
-//                        iterations, status; datasets u (#nodes, dim), E, lambda, P, sigma
-//                        (#cells, dim, dim), pressure (#cells), and with contact: beta (#facets),
-//                        e, lambda_c (#facets, dim), contact_pressure, gap (#facets);
-//                        history (#iterations, 8): n, r_G, r_B, t_global, t_strain, t_contact,
-//                        t_update, wall (column names in its attribute "columns").
-//                        Further step attributes: converged (int 0/1), strain_failures (int).
-//   /steps/NNNNNN/xdmf   2-D only: copies of u padded to (#nodes, 3) and of P, sigma padded to
-//                        (#cells, 3, 3) with zeros, for ParaView (XDMF wants 3-vectors and 3x3
-//                        tensors). Not solver data; readers of the solver data ignore it.
-//   /mesh attributes:    cell_type ("Triangle_6" or "Hexahedron", the XDMF topology), source;
-//                        /mesh/contact_facets has the string attribute "boundary" (its name).
+// The layout, every group, dataset, attribute and unit, is documented for users in
+// experiments/README.md ("Results files"); in short (format_version 2; arrays row-major, C order;
+// tensors per cell are (#cells, dim, dim) with [c][i][j] the (i, j) entry of the cell's tensor;
+// every dataset carries string attributes "unit" and "description"):
+//   /                    attributes: format_version (int), name, config (the configuration text
+//                        as given, with --set applied), config_resolved (TOML: every value in SI
+//                        with every default filled in, resolved_configuration()), config_path,
+//                        code_version, git_version, library versions, identity hashes, status
+//   /mesh/X, cells, cell_volume (from the discretization, lib/fe), and with a contact surface
+//   /mesh/contact_facets, contact_centre, contact_area, and with nodal contact contact_nodes,
+//   contact_topology (the facets numbered by contact point)
+//   /steps/NNNNNN        one group per completed time step p (6 digits): attributes p, t,
+//                        iterations, status, converged, strain_failures and the equilibrium
+//                        measure force_residual, det_error, penetration; datasets u, E, lambda,
+//                        P, sigma, sigma33 (2-D), pressure, and with contact beta, e, lambda_c,
+//                        contact_pressure, gap; history (#iterations, 8)
+//   /steps/NNNNNN/xdmf   2-D only: u, e, lambda_c padded to 3 components and E, P, sigma to 3x3
+//                        with the true out-of-plane entries (E33 = 1, sigma33, P33 = det E
+//                        sigma33), for ParaView. Not solver data.
+//   /unconverged/NNNNNN  the last iterate and history of a step that did not converge (attribute
+//                        unconverged = 1): NOT a result, for diagnosis; readers of results ignore
+//                        it.
 // Strings are variable-length UTF-8 scalars. A step is written as /steps/incomplete and renamed
 // once complete, so a name of six digits always denotes a complete step.
 //
@@ -33,11 +34,11 @@
 // Cost: one copy of the file per committed change.
 // Environment LTL_FAULT_AT_WRITE=k (tests only) kills the process at the k-th write event.
 //
-// XDMF (path with .h5 replaced by .xdmf, else path + ".xdmf"; rewritten after every append and on
-// close; it refers to the HDF5 file by its bare name, so keep the two side by side): a temporal
-// collection with one grid per step, topology Triangle_6 or Hexahedron on /mesh/cells, geometry
-// XY or XYZ on /mesh/X, attributes u (Vector, nodes), pressure (Scalar, cells), P and sigma
-// (Tensor, cells, 3x3). In 2-D these point at the padded copies in /steps/NNNNNN/xdmf.
+// XDMF (rewritten after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
+// sigma) and, with a contact surface, contact_xdmf_path_of(path) (beta, contact_pressure, gap, e,
+// lambda_c on the contact facets, per contact node or per facet). They refer to the HDF5 file by
+// its bare name, so keep the files side by side. Several steps: a temporal collection of uniform
+// grids; one step: its uniform grid alone (what meshio.read() accepts).
 // The readers open files without HDF5 file locking when another process is writing them, so
 // a running simulation can be inspected; a second writer is refused.
 #pragma once
@@ -48,14 +49,31 @@
 #include <string>
 
 #include "mesh.hpp"
+#include "problem.hpp"
 #include "state.hpp"
 
 namespace ltl {
 
+/// Version of the file layout (root attribute format_version; files without it are version 1:
+/// no units, no sigma33, no equilibrium measure, no contact XDMF, no config_resolved).
+inline constexpr int kFormatVersion = 2;
+
+/// The XDMF file of the body beside a results file: path with .h5 replaced by suffix + ".xdmf"
+/// (else path + suffix + ".xdmf").
+std::string xdmf_path_of(const std::string& path, const std::string& suffix = "");
+/// The XDMF file of the contact surface: <stem>_contact.xdmf.
+std::string contact_xdmf_path_of(const std::string& path);
+
+/// [issue 9] The resolved configuration of a problem as TOML text: every value in SI (units in
+/// comments), every default filled in, in the sections of the configuration file. Written into
+/// results files as the root attribute config_resolved beside the text as given.
+std::string resolved_configuration(const Problem& problem);
+
 /// What is written once per run.
 struct RunInfo {
   std::string name;
-  std::string config_text;
+  std::string config_text;      ///< as given (with --set applied)
+  std::string config_resolved;  ///< resolved_configuration() (may be empty)
   std::string config_path;
   std::map<std::string, std::string> attributes;  ///< extra string attributes (versions, ...)
 };
@@ -67,6 +85,7 @@ struct StepData {
   const State* state = nullptr;
   const StepReport* report = nullptr;
   Eigen::MatrixXd P, sigma;               ///< transposed-block layout like State::E
+  Eigen::VectorXd sigma33;                ///< #cells, plane strain only (Pa)
   Eigen::VectorXd pressure;               ///< #cells
   Eigen::VectorXd contact_pressure, gap;  ///< #facets (empty without contact)
 };
@@ -86,15 +105,17 @@ class ResultsFile {
   /// (each may be null). The contact points are the facets, or with `contact_nodes` (nodal
   /// contact, written as /mesh/contact_nodes) those nodes, in that order. `contact_centre` is dim x
   /// #facets (the layout of FacetOperators::centre); #facets x dim is accepted too when the shape
-  /// is not square. Supported cells: six-node P2 triangles (2-D) and eight-node hexahedra (3-D);
-  /// /mesh/cell_volume is computed here by exact quadrature.
+  /// is not square. Supported cells: six-node P2 triangles (2-D) and eight-node hexahedra (3-D).
+  /// /mesh/cell_volume is `cell_volume` (the solver's CellOperators::vol), or when null
+  /// cell_operators(mesh).vol: the discretization's, never a second copy of shape functions.
   /// With `commit` false, `path` is left as it is (an existing file stays) until the first
   /// append(): the mesh is committed together with the first step.
   static ResultsFile create(const std::string& path, const Mesh& mesh, const RunInfo& info,
                             const Mesh::Boundary* contact_facets = nullptr,
                             const Eigen::MatrixXd* contact_centre = nullptr,
                             const Eigen::VectorXd* contact_area = nullptr,
-                            const std::vector<int>* contact_nodes = nullptr, bool commit = true);
+                            const std::vector<int>* contact_nodes = nullptr, bool commit = true,
+                            const Eigen::VectorXd* cell_volume = nullptr);
   /// Opens an existing file to append further steps (resume).
   static ResultsFile open(const std::string& path);
 
@@ -108,6 +129,10 @@ class ResultsFile {
   /// that is already in the file is an Error.
   /// With a non-empty `status`, the root attribute "status" is set in the same commit.
   void append(const StepData& step, const std::string& status = "");
+  /// Saves the last iterate and the iteration history of step `step.p`, which did not converge,
+  /// as /unconverged/NNNNNN (attribute unconverged = 1; replaced if present), never as a result:
+  /// /steps and the XDMF files are unchanged. Sets the root "status" in the same commit.
+  void save_unconverged(const StepData& step, const std::string& status);
   /// Sets the root attribute "status" (e.g. "running", "complete",
   /// "diverged at step 12: iteration cap reached") and flushes.
   void set_status(const std::string& status);
@@ -122,8 +147,10 @@ class ResultsFile {
 
  private:
   ResultsFile() = default;
-  std::string xdmf_text() const;                   ///< from the open working file
-  void write_xdmf(const std::string& text) const;  ///< beside path, atomically
+  std::string xdmf_text(bool contact) const;  ///< from the open working file ("" if none)
+  void write_xdmf(const std::string& xdmf, const std::string& text) const;  ///< atomically
+  void check_step(const StepData& step) const;
+  void write_step(const std::string& group, const StepData& step, bool converged);
   void begin();             ///< opens the working file (a copy of path) if it is not open
   void commit();            ///< closes, syncs and renames the working file onto path
   void discard() noexcept;  ///< closes and removes an uncommitted working file

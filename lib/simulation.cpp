@@ -44,12 +44,8 @@ void check_output_path(const Problem& problem, const std::string& output) {
     for (const auto& f : files) inputs.push_back({f, "the geometry"});
   }
   const fs::path out(output);
-  std::string xdmf = output;
-  if (xdmf.size() > 3 && xdmf.compare(xdmf.size() - 3, 3, ".h5") == 0)
-    xdmf = xdmf.substr(0, xdmf.size() - 3) + ".xdmf";
-  else
-    xdmf += ".xdmf";
-  for (const std::string& written : {output, xdmf, output + ".partial", output + ".lock"})
+  for (const std::string& written : {output, xdmf_path_of(output), contact_xdmf_path_of(output),
+                                     output + ".partial", output + ".lock"})
     for (const auto& [path, what] : inputs)
       if (!path.empty() && same_file(written, path))
         throw Error(cat(output, ": refusing to write the results over ", what, " (", path,
@@ -202,6 +198,48 @@ RunSummary run(const Problem& problem, const RunOptions& options,
                 solver.facets() ? solver.facets()->size() : 0, solver.global_step().num_factors(),
                 summary.setup_seconds);
 
+  // The results file, created with the first step written (an existing file stays until then).
+  const auto create_file = [&] {
+    RunInfo info{problem.name, problem.config_text, resolved_configuration(problem),
+                 problem.config_path, library_versions()};
+    for (const auto& [key, value] : ids) info.attributes[key] = value;
+    info.attributes["code_version"] = code_version();
+    info.attributes["git_version"] = git_version();
+    const Mesh::Boundary* cb =
+        problem.contact ? &problem.mesh.boundary(problem.contact->group) : nullptr;
+    const FacetOperators* points = solver.facets();
+    return ResultsFile::create(options.output, problem.mesh, info, cb,
+                               points ? &points->centre : nullptr, points ? &points->area : nullptr,
+                               points && !points->nodes.empty() ? &points->nodes : nullptr, false,
+                               &solver.cells().vol);
+  };
+  // What is written for a step: the state, its report (history, equilibrium measure) and the
+  // stresses. Plane strain: the out-of-plane stress sigma33 from the law (F33 = 1) and the
+  // mean stress -(sigma11 + sigma22 + sigma33) / 3.
+  const auto step_data = [&](int p, const StepReport& report) {
+    StepData d;
+    d.p = p;
+    d.t = p * problem.time.dt;
+    d.state = &state;
+    d.report = &report;
+    d.P = solver.piola(state);
+    d.sigma = solver.cauchy(state);
+    d.pressure = solver.pressure(state);
+    const int nc = problem.mesh.num_cells();
+    if (problem.mesh.dim == 2 && state.E.rows() == 2 * nc) {
+      d.sigma33.resize(nc);
+      for (int c = 0; c < nc; ++c) {
+        const Eigen::Matrix2d E = state.E.block<2, 2>(2 * c, 0).transpose();
+        const Eigen::Matrix2d Pc = d.P.block<2, 2>(2 * c, 0).transpose();
+        d.sigma33(c) = problem.material.plane_strain_sigma33(E, Pc);
+        d.pressure(c) = -(d.sigma.block<2, 2>(2 * c, 0).trace() + d.sigma33(c)) / 3;
+      }
+    }
+    d.contact_pressure = solver.contact_pressure(state);
+    d.gap = solver.contact_gap(state);
+    return d;
+  };
+
   const int P = problem.time.steps;
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   int last_done = p0 - 1;
@@ -230,13 +268,28 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     if (!report.converged) {
       const auto& last = report.history.back();
       const bool unbalanced = report.status.rfind("converged by", 0) == 0;
+      // A diverged step (NaN, blow-up, iteration cap) keeps its last iterate and history in the
+      // results file as /unconverged/NNNNNN, never as a result, so that a user can plot why: in
+      // the run's file, or in a new one when this run has none yet (not over another run's file).
+      std::string saved;
+      if (!unbalanced && !options.output.empty() && (file || !fs::exists(options.output))) {
+        if (!file) file = create_file();
+        char group[32];
+        std::snprintf(group, sizeof group, "/unconverged/%06d", p);
+        saved = cat("; its iteration history and last iterate are saved in ", options.output,
+                    ", group ", group, " (not a result)");
+      }
       const std::string msg = cat(unbalanced ? "not in equilibrium at step " : "diverged at step ",
                                   p, " (t = ", p * problem.time.dt, " s): ", report.status,
                                   "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
-                                  ". Nothing was written for this step");
-      if (file) file->set_status(msg);
+                                  ". Nothing was written as a result for this step", saved);
+      if (!saved.empty())
+        file->save_unconverged(step_data(p, report), msg);
+      else if (file)
+        file->set_status(msg);
       throw Error(cat(problem.name, ": ", msg,
-                      file ? cat("; ", options.output, " keeps steps 1..", p - 1) : "", "."));
+                      file && p > 1 ? cat("; ", options.output, " keeps steps 1..", p - 1) : "",
+                      "."));
     }
     if (options.verbosity > 0 && (P > 1 || options.verbosity == 1))
       std::printf(
@@ -253,31 +306,8 @@ RunSummary run(const Problem& problem, const RunOptions& options,
               : "");
     std::fflush(stdout);
     if (!options.output.empty()) {
-      if (!file) {
-        RunInfo info{problem.name, problem.config_text, problem.config_path, library_versions()};
-        for (const auto& [key, value] : ids) info.attributes[key] = value;
-        info.attributes["code_version"] = code_version();
-        info.attributes["git_version"] = git_version();
-        const Mesh::Boundary* cb =
-            problem.contact ? &problem.mesh.boundary(problem.contact->group) : nullptr;
-        file = ResultsFile::create(
-            options.output, problem.mesh, info, cb,
-            solver.facets() ? &solver.facets()->centre : nullptr,
-            solver.facets() ? &solver.facets()->area : nullptr,
-            solver.facets() && !solver.facets()->nodes.empty() ? &solver.facets()->nodes : nullptr,
-            false);  // committed with the first step: an existing file stays until then
-      }
-      StepData d;
-      d.p = p;
-      d.t = p * problem.time.dt;
-      d.state = &state;
-      d.report = &report;
-      d.P = solver.piola(state);
-      d.sigma = solver.cauchy(state);
-      d.pressure = solver.pressure(state);
-      d.contact_pressure = solver.contact_pressure(state);
-      d.gap = solver.contact_gap(state);
-      file->append(d, p == P ? "complete" : "running");
+      if (!file) file = create_file();
+      file->append(step_data(p, report), p == P ? "complete" : "running");
     }
     summary.iterations.push_back(report.iterations);
     last_done = p;
