@@ -87,6 +87,10 @@ class Solver {
   const FacetOperators* facets() const { return facets_ ? facets_.get() : nullptr; }
   const GlobalStep& global_step() const { return *global_; }
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
+  /// The load factor of the current step (LoadRamp, set by the time loop before each step):
+  /// external_load() = factor x the assembled dead loads f, g. K is unchanged.
+  void set_load_factor(double factor);
+  double load_factor() const { return load_factor_; }
   /// Per component, the sorted nodes whose displacement is prescribed (Dirichlet, symmetry).
   const std::vector<std::vector<int>>& fixed_nodes() const { return bc_.fixed; }
   int dim() const { return problem_.mesh.dim; }
@@ -128,10 +132,12 @@ class Solver {
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;
   DirichletData bc_;
-  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, consistent dead loads f, g
-  Eigen::MatrixXd Id_;     ///< identity blocks, (dim*#cells) x dim
-  double norm_I_ = 1;      ///< ||I||_q = sqrt(q |Omega| dim)
-  double area_c_ = 0;      ///< |Gamma_c|
+  Eigen::MatrixXd F_ext_;   ///< #nodes x dim, consistent dead loads f, g, times load_factor_
+  Eigen::MatrixXd F_dead_;  ///< the same at load factor 1
+  double load_factor_ = 1;
+  Eigen::MatrixXd Id_;  ///< identity blocks, (dim*#cells) x dim
+  double norm_I_ = 1;   ///< ||I||_q = sqrt(q |Omega| dim)
+  double area_c_ = 0;   ///< |Gamma_c|
   // Work buffers (allocated once).
   Eigen::MatrixXd rhs_, GU_, T_, ubar_rows_, ubar_, c_rows_, E_prev_, e_prev_, lambda_half_,
       lambda_c_half_;
