@@ -132,12 +132,13 @@ class Solver {
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;
   DirichletData bc_;
-  Eigen::MatrixXd F_ext_;   ///< #nodes x dim, consistent dead loads f, g, times load_factor_
-  Eigen::MatrixXd F_dead_;  ///< the same at load factor 1
+  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, consistent dead loads f, g
+  Eigen::MatrixXd Id_;     ///< identity blocks, (dim*#cells) x dim
+  double norm_I_ = 1;      ///< ||I||_q = sqrt(q |Omega| dim)
+  double area_c_ = 0;      ///< |Gamma_c|
+  // The load ramp: F_ext_ = load_factor_ x F_dead_ (F_dead_ the loads at factor 1).
+  Eigen::MatrixXd F_dead_;
   double load_factor_ = 1;
-  Eigen::MatrixXd Id_;  ///< identity blocks, (dim*#cells) x dim
-  double norm_I_ = 1;   ///< ||I||_q = sqrt(q |Omega| dim)
-  double area_c_ = 0;   ///< |Gamma_c|
   // Work buffers (allocated once).
   Eigen::MatrixXd rhs_, GU_, T_, ubar_rows_, ubar_, c_rows_, E_prev_, e_prev_, lambda_half_,
       lambda_c_half_;
