@@ -128,6 +128,7 @@ Solver::Solver(const Problem& problem) : problem_(problem) {
   F_ext_ = body_load(mesh, problem_.body_force);
   for (const auto& t : problem_.tractions)
     F_ext_ += surface_load(mesh, mesh.boundary(t.group, t.origin), t.g);
+  F_dead_ = F_ext_;
 
   Id_ = Eigen::MatrixXd::Zero(dim * nc, dim);
   vol_rows_.resize(dim * nc);
@@ -571,6 +572,12 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   report.det_error = eq.det_error;
   report.penetration = eq.penetration;
   return report;
+}
+
+void Solver::set_load_factor(double factor) {
+  if (!std::isfinite(factor)) throw Error(cat("load factor ", factor, ": must be finite"));
+  load_factor_ = factor;
+  F_ext_ = factor * F_dead_;  // same size: no allocation
 }
 
 Eigen::MatrixXd Solver::piola(const State& s) const {

@@ -87,6 +87,10 @@ class Solver {
   const FacetOperators* facets() const { return facets_ ? facets_.get() : nullptr; }
   const GlobalStep& global_step() const { return *global_; }
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
+  /// The load factor of the current step (LoadRamp, set by the time loop before each step):
+  /// external_load() = factor x the assembled dead loads f, g. K is unchanged.
+  void set_load_factor(double factor);
+  double load_factor() const { return load_factor_; }
   /// Per component, the sorted nodes whose displacement is prescribed (Dirichlet, symmetry).
   const std::vector<std::vector<int>>& fixed_nodes() const { return bc_.fixed; }
   int dim() const { return problem_.mesh.dim; }
@@ -135,6 +139,9 @@ class Solver {
   Eigen::MatrixXd Id_;     ///< identity blocks, (dim*#cells) x dim
   double norm_I_ = 1;      ///< ||I||_q = sqrt(q |Omega| dim)
   double area_c_ = 0;      ///< |Gamma_c|
+  // The load ramp: F_ext_ = load_factor_ x F_dead_ (F_dead_ the loads at factor 1).
+  Eigen::MatrixXd F_dead_;
+  double load_factor_ = 1;
   // Work buffers (allocated once).
   Eigen::MatrixXd rhs_, GU_, T_, ubar_rows_, ubar_, c_rows_, E_prev_, e_prev_, lambda_half_,
       lambda_c_half_;

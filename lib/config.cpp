@@ -46,15 +46,31 @@ std::string where(const toml::source_region& r) {
 }
 
 // Reads one table, checking that it has no key beyond `allowed`.
+/// The --set arguments by their dotted key ("load.traction[0].value" -> the whole argument).
+using Overrides = std::map<std::string, std::string>;
+
+/// The --set argument that gave `key` or a table/array containing it, or null.
+const std::string* override_of(const Overrides& o, const std::string& key) {
+  for (auto it = o.rbegin(); it != o.rend(); ++it) {
+    const std::string& k = it->first;
+    if (key.compare(0, k.size(), k) == 0 &&
+        (key.size() == k.size() || key[k.size()] == '.' || key[k.size()] == '['))
+      return &it->second;
+  }
+  return nullptr;
+}
+
 class Reader {
  public:
-  Reader(const toml::table& t, std::string prefix, std::string file)
-      : t_(t), prefix_(std::move(prefix)), file_(std::move(file)) {}
+  Reader(const toml::table& t, std::string prefix, std::string file, const Overrides* overrides)
+      : t_(t), prefix_(std::move(prefix)), file_(std::move(file)), overrides_(overrides) {}
 
   std::string key(const std::string& k) const { return prefix_.empty() ? k : prefix_ + "." + k; }
 
   [[noreturn]] void fail(const std::string& k, const std::string& msg,
                          const toml::node* n = nullptr) const {
+    if (const std::string* o = overrides_ ? override_of(*overrides_, key(k)) : nullptr)
+      throw Error(cat(file_, ": --set '", *o, "': key '", key(k), "': ", msg));
     const toml::node* node = n ? n : t_.get(k);
     std::string loc = node ? where(node->source()) : where(t_.source());
     if (loc.empty() || loc[0] == ':') loc = file_ + loc;
@@ -163,7 +179,7 @@ class Reader {
   Reader sub(const std::string& k) const {
     const toml::node* n = t_.get(k);
     if (!n || !n->is_table()) fail(k, "expected a table", n);
-    return Reader(*n->as_table(), key(k), file_);
+    return Reader(*n->as_table(), key(k), file_, overrides_);
   }
   std::vector<Reader> subs(const std::string& k) const {  // array of tables
     std::vector<Reader> out;
@@ -173,7 +189,7 @@ class Reader {
     if (!a || !a->is_array_of_tables())
       fail(k, cat("expected an array of tables: [[", key(k), "]]"), n);
     for (std::size_t i = 0; i < a->size(); ++i)
-      out.emplace_back(*a->get(i)->as_table(), cat(key(k), "[", i, "]"), file_);
+      out.emplace_back(*a->get(i)->as_table(), cat(key(k), "[", i, "]"), file_, overrides_);
     return out;
   }
   const toml::table& table() const { return t_; }
@@ -181,6 +197,7 @@ class Reader {
  private:
   const toml::table& t_;
   std::string prefix_, file_;
+  const Overrides* overrides_;
 };
 
 int component_index(const Reader& r, const std::string& k, int dim) {
@@ -192,28 +209,93 @@ int component_index(const Reader& r, const std::string& k, int dim) {
   r.fail(k, cat("expected one of ", dim == 2 ? "\"x\", \"y\"" : "\"x\", \"y\", \"z\""));
 }
 
-// Inserts `key = value` (value in TOML syntax) into the table at a dotted path.
-void apply_override(toml::table& root, const std::string& assignment, const std::string& file) {
+// Inserts `key = value` (value in TOML syntax) at a dotted path whose parts may index arrays:
+// "algorithm.R", "load.traction[0].value", "load.factor[2]". Tables on the way are created;
+// array entries must exist. Returns the key in the form the Reader names keys.
+std::string apply_override(toml::table& root, const std::string& assignment,
+                           const std::string& file) {
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos)
-    throw Error(cat("override '", assignment, "': expected key=value, e.g. algorithm.R=4"));
-  std::string key = assignment.substr(0, eq), value = assignment.substr(eq + 1);
+  if (eq == std::string::npos || eq == 0)
+    throw Error(cat(file, ": --set '", assignment, "': expected key=value, e.g. algorithm.R=4"));
+  const std::string key = assignment.substr(0, eq), value = assignment.substr(eq + 1);
+  auto bad = [&](const std::string& msg) -> Error {
+    return Error(cat(file, ": --set '", assignment, "': ", msg));
+  };
   toml::table parsed;
   try {
     parsed = toml::parse("v = " + value);
   } catch (const toml::parse_error&) {
-    parsed = toml::parse("v = \"" + value + "\"");  // bare words are strings: update=uzawa
+    try {
+      parsed = toml::parse("v = \"" + value + "\"");  // bare words are strings: update=uzawa
+    } catch (const toml::parse_error& e) {
+      throw bad(cat("the value is not valid TOML: ", e.description()));
+    }
   }
-  toml::table* t = &root;
-  std::size_t start = 0, dot;
-  while ((dot = key.find('.', start)) != std::string::npos) {
-    const std::string part = key.substr(start, dot - start);
-    if (!t->contains(part)) t->insert(part, toml::table{});
-    t = t->get(part)->as_table();
-    if (!t) throw Error(cat(file, ": override '", assignment, "': '", part, "' is not a table"));
-    start = dot + 1;
+  // Split "a.b[0].c" into steps: a name, or an index into the array reached so far.
+  struct Part {
+    std::string name;
+    long index = -1;
+  };
+  std::vector<Part> parts;
+  std::size_t i = 0;
+  while (i < key.size()) {
+    if (key[i] == '[') {
+      const auto close = key.find(']', i);
+      const std::string digits = key.substr(i + 1, close == std::string::npos ? 0 : close - i - 1);
+      if (close == std::string::npos || digits.empty() ||
+          digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9)
+        throw bad(cat("'", key, "': an index is written [N], N = 0, 1, ..."));
+      if (parts.empty()) throw bad(cat("'", key, "': an index needs an array name before it"));
+      parts.push_back({"", std::stol(digits)});
+      i = close + 1;
+      if (i < key.size() && key[i] == '.') ++i;
+    } else {
+      const auto end = key.find_first_of(".[", i);
+      const std::string name =
+          key.substr(i, end == std::string::npos ? std::string::npos : end - i);
+      if (name.empty()) throw bad(cat("'", key, "': empty key part"));
+      parts.push_back({name, -1});
+      i = end == std::string::npos ? key.size() : (key[end] == '.' ? end + 1 : end);
+      if (end != std::string::npos && key[end] == '.' && i == key.size())
+        throw bad(cat("'", key, "': empty key part"));
+    }
   }
-  t->insert_or_assign(key.substr(start), *parsed.get("v"));
+  toml::node* at = &root;  // the container the next part indexes
+  std::string path;        // the key so far, as the Reader names it
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    const Part& part = parts[k];
+    const bool last = k + 1 == parts.size();
+    if (part.index < 0) {
+      toml::table* t = at->as_table();
+      if (!t) throw bad(cat("'", path, "' is not a table"));
+      path += (path.empty() ? "" : ".") + part.name;
+      if (last) {
+        t->insert_or_assign(part.name, *parsed.get("v"));
+        return path;
+      }
+      if (!t->contains(part.name)) {
+        if (parts[k + 1].index >= 0)
+          throw bad(cat("'", path, "' does not exist; give the whole array, e.g. --set '", path,
+                        "=[...]'"));
+        t->insert(part.name, toml::table{});
+      }
+      at = t->get(part.name);
+    } else {
+      toml::array* a = at->as_array();
+      if (!a) throw bad(cat("'", path, "' is not an array"));
+      if (part.index >= static_cast<long>(a->size()))
+        throw bad(cat("'", path, "' has ", a->size(), a->size() == 1 ? " entry" : " entries",
+                      a->empty() ? "" : cat(" (indices 0..", a->size() - 1, ")"), "; [", part.index,
+                      "] does not exist"));
+      path += cat("[", part.index, "]");
+      if (last) {
+        a->replace(a->begin() + part.index, *parsed.get("v"));
+        return path;
+      }
+      at = a->get(static_cast<std::size_t>(part.index));
+    }
+  }
+  return path;
 }
 
 }  // namespace
@@ -248,7 +330,8 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     throw Error(cat(path, ":", e.source().begin.line, ":", e.source().begin.column,
                     ": not valid TOML: ", e.description()));
   }
-  for (const auto& o : overrides) apply_override(root, o, path);
+  Overrides given;
+  for (const auto& o : overrides) given[apply_override(root, o, path)] = o;
 
   Problem p;
   p.config_path = path;
@@ -257,12 +340,15 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     s << root;
     p.config_text = s.str();
     toml::table identity = root;
-    if (toml::table* t = identity["time"].as_table()) t->erase("steps");
+    if (toml::table* t = identity["time"].as_table()) {
+      t->erase("steps");
+      if (t->empty()) identity.erase("time");  // "--set time.steps=N" on a file without [time]
+    }
     std::ostringstream i;
     i << identity;
     p.config_identity = i.str();
   }
-  Reader r(root, "", path);
+  Reader r(root, "", path, &given);
   r.only({"name", "mesh", "material", "fixed", "symmetry", "displacement", "load", "contact",
           "algorithm", "discretization", "time", "output"});
   p.name = r.string("name", fs::path(path).stem().string());
@@ -344,8 +430,36 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   // [load]: dead body force and surface tractions [LTL87 (1.2)].
   if (r.has("load")) {
     const Reader l = r.sub("load");
-    l.only({"body_force", "traction"});
+    l.only({"body_force", "traction", "ramp", "ramp_time", "factor"});
     if (l.has("body_force")) p.body_force = l.vector("body_force", "Pa/m", dim);
+    // The load factor per time step (LoadRamp): "constant" (1), "linear" (t / ramp_time, then
+    // 1) or "table" (factor[p - 1], the last entry holding after the table).
+    const std::string ramp = l.string("ramp", "constant");
+    if (ramp == "constant") {
+      p.ramp.kind = LoadRamp::Kind::Constant;
+    } else if (ramp == "linear") {
+      p.ramp.kind = LoadRamp::Kind::Linear;
+      p.ramp.ramp_time = l.quantity("ramp_time", "s");
+      if (!(p.ramp.ramp_time > 0))
+        l.fail("ramp_time", cat("= ", p.ramp.ramp_time, " s: must be > 0"));
+    } else if (ramp == "table") {
+      p.ramp.kind = LoadRamp::Kind::Table;
+      const toml::node* n = l.node("factor");
+      const toml::array* a = n ? n->as_array() : nullptr;
+      if (!a || a->empty())
+        l.fail("factor", "ramp = \"table\" needs factor = [f1, f2, ...], one per time step", n);
+      for (std::size_t i = 0; i < a->size(); ++i) {
+        auto v = a->get(i)->value<double>();
+        if (!v) l.fail(cat("factor[", i, "]"), "expected a number", a->get(i));
+        p.ramp.table.push_back(l.real(cat("factor[", i, "]"), *v, a->get(i)));
+      }
+    } else {
+      l.fail("ramp", "expected \"constant\" (default), \"linear\" or \"table\"");
+    }
+    if (ramp != "linear" && l.has("ramp_time"))
+      l.fail("ramp_time", "is the end of a linear ramp: it needs ramp = \"linear\"");
+    if (ramp != "table" && l.has("factor"))
+      l.fail("factor", "is a table of load factors: it needs ramp = \"table\"");
     for (const auto& t : l.subs("traction")) {
       t.only({"group", "value", "gradient"});
       Traction tr{t.string("group"), {}, t.key("group")};
@@ -384,6 +498,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   }
 
   // [algorithm] [LTL87 sec. 3-4, 7]
+  bool has_R = false, has_q = false, has_q_c = false;
   if (r.has("algorithm")) {
     const Reader a = r.sub("algorithm");
     a.only({"update", "R", "q", "q_c", "rho", "sweeps", "contact_sweeps", "tol", "max_iter",
@@ -395,6 +510,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
       p.algorithm.update = Update::BermudezMoreno;
     else
       a.fail("update", "expected \"uzawa\" or \"bermudez-moreno\"");
+    has_R = a.has("R"), has_q = a.has("q"), has_q_c = a.has("q_c");
     p.algorithm.R = a.number("R", p.algorithm.R);
     p.algorithm.q = a.quantity("q", "Pa", p.algorithm.q);
     p.algorithm.q_c = a.quantity("q_c", "Pa/m", p.algorithm.q_c);
@@ -427,6 +543,8 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
       a.fail("accelerate", "expected \"multipliers\", \"strains-multipliers\" or \"all\"");
     p.algorithm.max_force_residual = a.number("max_force_residual", p.algorithm.max_force_residual);
   }
+  // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).
+  derive_algorithm_defaults(p, has_R, has_q, has_q_c);
   // [discretization]: the defaults converge under refinement; "cell-mean" and "facet-mean" are
   // the paper's choices (paper_notes/discretization.md).
   if (r.has("discretization")) {
@@ -464,6 +582,8 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     p.validate();
   } catch (const KeyError& e) {
     // Point at the line where the key was given, if it was.
+    if (const std::string* o = override_of(given, e.key()))
+      throw Error(cat(path, ": --set '", *o, "': key '", e.key(), "' ", e.message()));
     const toml::node* n = root.at_path(e.key()).node();
     std::string loc = n ? where(n->source()) : path;
     if (!loc.empty() && loc[0] == ':') loc = path + loc;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <sstream>
 
 #include "error.hpp"
 
@@ -36,7 +37,92 @@ std::set<std::vector<int>> boundary_facet_keys(const Mesh& mesh) {
   return out;
 }
 
+// Mean size of the facets of a boundary part: length (2-D), square root of the area (3-D,
+// quadrilaterals or triangles from their corners).
+double mean_facet_size(const Mesh& mesh, const Mesh::Boundary& b) {
+  double sum = 0;
+  const Eigen::Index nf = b.facets.rows();
+  for (Eigen::Index f = 0; f < nf; ++f) {
+    auto x = [&](int k) { return Eigen::Vector3d(mesh.X.row(b.facets(f, k)).transpose()); };
+    auto x3 = [&](int k) {
+      Eigen::Vector3d v = Eigen::Vector3d::Zero();
+      v.head(mesh.dim) = mesh.X.row(b.facets(f, k)).transpose();
+      return v;
+    };
+    if (mesh.dim == 2) {
+      sum += (mesh.X.row(b.facets(f, 1)) - mesh.X.row(b.facets(f, 0))).norm();
+    } else {
+      const bool quad = b.facets.cols() == 4 || b.facets.cols() >= 8;
+      const double area = quad ? 0.5 * (x(2) - x(0)).cross(x(3) - x(1)).norm()
+                               : 0.5 * (x3(1) - x3(0)).cross(x3(2) - x3(0)).norm();
+      sum += std::sqrt(area);
+    }
+  }
+  return nf > 0 ? sum / static_cast<double>(nf) : 0.0;
+}
+
+// Mean cell size (|bounding box| / #cells)^(1/dim), for a problem without contact.
+double mean_cell_size(const Mesh& mesh) {
+  const Eigen::VectorXd ext = mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff();
+  return std::pow(ext.prod() / std::max(1, mesh.num_cells()), 1.0 / mesh.dim);
+}
+
+std::string direction_name(Eigen::Vector3d t, int dim) {
+  int k = 0;
+  t.cwiseAbs().maxCoeff(&k);
+  if (t(k) < 0) t = -t;  // the sign of a free direction is arbitrary: show its positive form
+  std::ostringstream s;
+  s << "(";
+  for (int i = 0; i < dim; ++i) s << (i ? ", " : "") << (std::abs(t(i)) < 1e-12 ? 0.0 : t(i));
+  s << ")";
+  for (int i = 0; i < dim; ++i)
+    if (std::abs(std::abs(t(i)) - 1) < 1e-9)
+      s << ", the "
+        << "xyz"[i] << " direction";
+  return s.str();
+}
+
 }  // namespace
+
+double LoadRamp::factor(int p, double dt) const {
+  switch (kind) {
+    case Kind::Linear:
+      return std::min(p * dt / ramp_time, 1.0);
+    case Kind::Table:
+      return table.empty() ? 1.0 : table[std::min<std::size_t>(p, table.size()) - 1];
+    default:
+      return 1.0;
+  }
+}
+
+void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c) {
+  AlgorithmParams& a = p.algorithm;
+  const double C = p.material.C1 + (p.material.incompressible() ? p.material.C2 : 0.0);
+  a.q_derived = !has_q;
+  a.R_derived = !has_R;
+  a.q_c_derived = !has_q_c;
+  if (!has_q) a.q = 2 * C;
+  if (!has_R) a.R = (p.mesh.dim == 2 ? 6 : 8) * C / a.q;
+  if (!has_q_c) {
+    a.h = p.contact && p.mesh.has_boundary(p.contact->group)
+              ? mean_facet_size(p.mesh, p.mesh.boundary(p.contact->group))
+              : mean_cell_size(p.mesh);
+    if (!(a.h > 0)) a.h = 1;  // a degenerate mesh: validate() and the mesh checks report it
+    a.q_c = a.q / ((p.mesh.dim == 2 ? 1 : 3) * a.h);
+  }
+}
+
+std::string describe_algorithm(const AlgorithmParams& a) {
+  std::ostringstream s;
+  s << "R = " << a.R
+    << (a.R_derived ? " (derived: R q = 6 (C1 + C2) in 2-D, 8 (C1 + C2) in 3-D)" : "")
+    << ", q = " << a.q << " Pa" << (a.q_derived ? " (derived: 2 (C1 + C2))" : "")
+    << ", q_c = " << a.q_c << " Pa/m";
+  if (a.q_c_derived)
+    s << " (derived: q / h in 2-D, q / (3 h) in 3-D, h = " << a.h
+      << " m the mean contact facet size)";
+  return s.str();
+}
 
 void Problem::validate() const {
   const int dim = mesh.dim;
@@ -89,6 +175,17 @@ void Problem::validate() const {
       std::isfinite(time.dt * time.steps) && time.dt * time.steps < 1e100, "time.dt",
       cat("= ", time.dt, " s: the final time dt * steps = ", time.dt * time.steps, " s overflows"));
   require(body_force.allFinite(), "load.body_force", "must be finite");
+  if (ramp.kind == LoadRamp::Kind::Linear)
+    require(std::isfinite(ramp.ramp_time) && ramp.ramp_time > 0, "load.ramp_time",
+            cat("= ", ramp.ramp_time, " s: must be > 0"));
+  if (ramp.kind == LoadRamp::Kind::Table) {
+    require(!ramp.table.empty(), "load.factor", "ramp = \"table\" needs at least one factor");
+    for (double f : ramp.table) require(std::isfinite(f), "load.factor", "must be finite");
+    require(static_cast<int>(ramp.table.size()) <= time.steps, "load.factor",
+            cat("has ", ramp.table.size(), " entries but time.steps = ", time.steps,
+                ": one factor per step (the last one holds after the table); to stop early use "
+                "--stop-after"));
+  }
   for (const auto& t : tractions)
     require(t.g.value.allFinite() && t.g.gradient.allFinite(), t.origin, "must be finite");
   for (const auto& d : dirichlet)
@@ -147,6 +244,73 @@ void Problem::validate() const {
       if (d.group == cc.group && static_cast<int>(d.components.size()) == dim)
         throw KeyError(d.origin,
                        cat("group '", d.group, "' is both fixed and the contact surface"));
+    check_sliding();
+  }
+}
+
+// A frictionless contact plane blocks only the normal displacement; the global matrix (4.5)
+// stays regular (its contact term R q_c M^T M holds every component of ubar - e), so a sliding
+// motion that no Dirichlet data removes is not caught by the factorization: the iteration then
+// wanders along it. The sliding motions are u = t + theta N x (x - c) with t . N = 0 (and, in
+// 3-D, a rotation about the normal); a Dirichlet component c at node x_i removes those with
+// u_c(x_i) != 0. Refused when the remaining space is not {0}, unless glue holds the surface.
+void Problem::check_sliding() const {
+  if (!contact) return;
+  const ContactCondition& cc = *contact;
+  if (cc.adhesion.kappa > 0 && cc.beta0 > 0) return;  // glued: the glue holds every component
+  const int dim = mesh.dim;
+  const Eigen::Vector3d N = cc.plane_normal;
+  // An orthonormal basis T of the plane (dim - 1 vectors).
+  Eigen::Vector3d t1 = Eigen::Vector3d::Zero(), t2 = Eigen::Vector3d::Zero();
+  if (dim == 2) {
+    t1 << -N(1), N(0), 0;
+  } else {
+    int k = 0;
+    N.cwiseAbs().minCoeff(&k);
+    t1 = N.cross(Eigen::Vector3d::Unit(k)).normalized();
+    t2 = N.cross(t1);
+  }
+  const int np = dim == 2 ? 1 : 3;  // parameters: a1 (2-D); a1, a2, theta (3-D)
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  c.head(dim) = mesh.X.colwise().mean().transpose();
+  const double L =
+      std::max(1e-300, (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).maxCoeff());
+  // A^T A accumulated over the Dirichlet rows (np x np): its null space is the free motion.
+  Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+  for (const auto& d : dirichlet)
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      x.head(dim) = mesh.X.row(node).transpose();
+      const Eigen::Vector3d r = N.cross(x - c) / L;  // rotation about the normal, per theta
+      for (int comp : d.components) {
+        Eigen::Vector3d row = Eigen::Vector3d::Zero();
+        row(0) = t1(comp);
+        if (dim == 3) row(1) = t2(comp), row(2) = r(comp);
+        AtA += row * row.transpose();
+      }
+    }
+  const Eigen::MatrixXd M = AtA.topLeftCorner(np, np);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(M);
+  const double scale = std::max(1.0, M.diagonal().maxCoeff());
+  for (int k = 0; k < np; ++k) {
+    if (es.eigenvalues()(k) > 1e-10 * scale) continue;
+    const Eigen::VectorXd v = es.eigenvectors().col(k);
+    // The free motion: a translation along the plane, or a rotation about its normal.
+    Eigen::Vector3d t = v(0) * t1;
+    if (dim == 3) t += v(1) * t2;
+    std::string what;
+    if (t.norm() > 1e-6)
+      what = cat("slide along the contact plane in the direction ",
+                 direction_name(t.normalized(), dim));
+    else
+      what = cat("turn about the normal of the contact plane");
+    throw KeyError(
+        "contact.group",
+        cat("'", cc.group, "': the body is free to ", what,
+            ": a frictionless contact plane (no glue: kappa = 0 or beta0 = 0) blocks only "
+            "the normal displacement, and no [[fixed]], [[symmetry]] or [[displacement]] "
+            "condition removes this rigid motion; add one (e.g. a [[symmetry]] plane "
+            "with that component) or glue the surface"));
   }
 }
 

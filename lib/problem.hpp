@@ -82,6 +82,10 @@ struct AlgorithmParams {
   /// iterate residuals are small after one iteration far from equilibrium. The figures' steps
   /// are at 1e-7..2e-3; a step stopped by a loose tol = 1e-4 on a coarse mesh at ~2e-2.
   double max_force_residual = 0.1;
+  /// Which of R, q, q_c the configuration left out and were derived by derive_algorithm_defaults
+  /// (the rule is written there), and the mesh length h of the q_c rule (m; 0: q_c was given).
+  bool R_derived = false, q_derived = false, q_c_derived = false;
+  double h = 0;
 };
 
 /// Discrete choices where the paper's own (P2/H8 with everything on cell and facet means) does not
@@ -107,6 +111,18 @@ struct DiscretizationChoice {
   bool mean_det = true;
 };
 
+/// A load factor per time step multiplying the body force and the tractions (not the prescribed
+/// displacements): constant 1 (the paper's dead loads, applied in full at the first step), a
+/// linear ramp factor(t_p) = min(t_p / ramp_time, 1), or a table factor(p) = table[p - 1], the
+/// last entry holding beyond the table. The factor of a step depends on the step only (not on
+/// time.steps), so a run extended to a later horizon repeats the shorter run's steps.
+struct LoadRamp {
+  enum class Kind { Constant, Linear, Table } kind = Kind::Constant;
+  double ramp_time = 0;       ///< Linear: the time (s) at which the factor reaches 1
+  std::vector<double> table;  ///< Table: the factor of steps 1, 2, ...
+  double factor(int p, double dt) const;
+};
+
 struct TimeStepping {
   double dt = 1.0;  ///< t_p - t_{p-1} (s), > 0
   int steps = 1;    ///< P; a single step is a static contact problem
@@ -119,6 +135,7 @@ struct Problem {
   std::vector<DirichletCondition> dirichlet;
   std::vector<Traction> tractions;
   Eigen::Vector3d body_force = Eigen::Vector3d::Zero();  ///< f (N/m^3)
+  LoadRamp ramp;  ///< the load factor of each time step (multiplies f and g)
   std::optional<ContactCondition> contact;
   AlgorithmParams algorithm;
   DiscretizationChoice discretization;
@@ -133,6 +150,24 @@ struct Problem {
   /// Checks ranges and consistency (groups exist, contact group is on the boundary and not
   /// fixed, ...); throws a clear Error naming the key.
   void validate() const;
+  /// Refuses a body free to slide along a frictionless contact plane (or, in 3-D, to turn about
+  /// its normal): a rigid motion the Dirichlet data do not remove; names the free direction.
+  void check_sliding() const;
 };
+
+/// The default ALG2 parameters, derived from the material and the mesh for those of R, q, q_c the
+/// configuration leaves out (experiments/README.md, "Choosing R, q, q_c"):
+///   q   = 2 (C1 + C2)                     (Pa; C2 = 0 for the compressible law)
+///   R q = 6 (C1 + C2) in 2-D, 8 (C1 + C2) in 3-D   (R = 3, 4 with the default q)
+///   q_c = q / h in 2-D, q / (3 h) in 3-D  (Pa/m), h the mean size of the contact facets
+/// (length in 2-D, square root of the area in 3-D; without contact the mesh's cell size).
+/// R q >= 4 C1 in 3-D and >= 2.6 C1 in plane strain keeps the local strain step on the
+/// physical branch (paper_notes/section3-4.md); q_c = q / h makes the contact term of the
+/// global matrix (4.5) as stiff as the elastic term on one cell. Sets the *_derived flags and h.
+void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c);
+
+/// One line: "R = 2 (derived), q = 5e+05 Pa (derived: 2 (C1 + C2)), q_c = ..." for the start of
+/// a run and for messages.
+std::string describe_algorithm(const AlgorithmParams& a);
 
 }  // namespace ltl

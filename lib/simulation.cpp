@@ -126,6 +126,28 @@ std::map<std::string, std::string> identity(const Problem& problem) {
           {"config_hash", fingerprint(problem.config_identity)}};
 }
 
+/// What to change when a step does not converge: the parameters used, the rule of the defaults
+/// (derive_algorithm_defaults) and the usual remedies.
+std::string divergence_hint(const Problem& problem, double factor) {
+  const AlgorithmParams& a = problem.algorithm;
+  const Material& m = problem.material;
+  const double C = m.C1 + (m.incompressible() ? m.C2 : 0.0);
+  const int dim = problem.mesh.dim;
+  return cat(
+      " Parameters used: ", describe_algorithm(a), "; R q = ", a.R * a.q,
+      " Pa = ", a.R * a.q / m.C1, " C1 (load factor ", factor,
+      "). What to change: R q must be at least ",
+      dim == 3 ? "4 C1 in 3-D" : "2.6 C1 in plane strain",
+      " and larger under contact pressures or stresses above 2 C1: raise algorithm.R (x2); ",
+      "leave R, q, q_c out to get the defaults q = 2 (C1 + C2) = ", 2 * C,
+      " Pa, R q = ", dim == 3 ? 8 : 6,
+      " (C1 + C2), q_c = q / h (2-D) or q / (3 h) (3-D), h the contact facet size; a residual "
+      "that ",
+      "decreases slowly needs algorithm.max_iter or acceleration = \"anderson\"; a load too "
+      "large for one step needs a load ramp ([load] ramp = \"linear\", ramp_time, more time.steps)"
+      " (experiments/README.md, \"Choosing R, q, q_c\").");
+}
+
 }  // namespace
 
 RunSummary run(const Problem& problem, const RunOptions& options,
@@ -197,6 +219,9 @@ RunSummary run(const Problem& problem, const RunOptions& options,
                 problem.name.c_str(), problem.mesh.num_cells(), problem.mesh.num_nodes(),
                 solver.facets() ? solver.facets()->size() : 0, solver.global_step().num_factors(),
                 summary.setup_seconds);
+  if (options.verbosity > 0)
+    std::printf("%s: algorithm %s\n", problem.name.c_str(),
+                describe_algorithm(problem.algorithm).c_str());
 
   // The results file, created with the first step written (an existing file stays until then).
   const auto create_file = [&] {
@@ -241,10 +266,11 @@ RunSummary run(const Problem& problem, const RunOptions& options,
   };
 
   const int P = problem.time.steps;
-  const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   int last_done = p0 - 1;
   for (int p = p0; p <= P; ++p) {
     if (options.stop_after > 0 && p - p0 >= options.stop_after) break;
+    solver.set_load_factor(problem.ramp.factor(p, problem.time.dt));  // LoadRamp
+    const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
     const Eigen::VectorXd beta_prev = state.beta;
     auto progress = [&](const IterationRecord& r) {
       // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
@@ -289,7 +315,7 @@ RunSummary run(const Problem& problem, const RunOptions& options,
         file->set_status(msg);
       throw Error(cat(problem.name, ": ", msg,
                       file && p > 1 ? cat("; ", options.output, " keeps steps 1..", p - 1) : "",
-                      "."));
+                      ".", unbalanced ? "" : divergence_hint(problem, solver.load_factor())));
     }
     if (options.verbosity > 0 && (P > 1 || options.verbosity == 1))
       std::printf(

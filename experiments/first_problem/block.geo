@@ -1,0 +1,22 @@
+// A rectangular block [0, W] x [0, H] (plane strain) resting on the plane x2 = 0, with an
+// unstructured triangular mesh of about n edges along the height. Boundary groups: bottom (the
+// contact surface), top (the loaded face), left (the symmetry plane x1 = 0), right (free).
+DefineConstant[ W = {0.1, Name "Parameters/W"} ];  // half width (m)
+DefineConstant[ H = {0.05, Name "Parameters/H"} ]; // height (m)
+DefineConstant[ n = {4, Name "Parameters/n"} ];    // edges along the height
+h = H / n;
+Point(1) = {0, 0, 0, h};
+Point(2) = {W, 0, 0, h};
+Point(3) = {W, H, 0, h};
+Point(4) = {0, H, 0, h};
+Line(1) = {1, 2};
+Line(2) = {2, 3};
+Line(3) = {3, 4};
+Line(4) = {4, 1};
+Curve Loop(1) = {1, 2, 3, 4};
+Plane Surface(1) = {1};
+Physical Curve("bottom") = {1};
+Physical Curve("right") = {2};
+Physical Curve("top") = {3};
+Physical Curve("left") = {4};
+Physical Surface("body") = {1};
