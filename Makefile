@@ -91,18 +91,20 @@ verify: build peer-deps
 	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig5 --levels $(FIG5_LEVELS) --out $(VERIFY)/fig5_peer.json
 	$(PYTHON) figures/verify.py $(VERIFY) $(RESULTS)/verify.png
 
-# Fig 6 likewise. Known limitation: the peer's Newton continuation does not yet get through the
-# gutter's snap-through onto the plane (paper_notes/discretization.md); verify.py draws the
-# pair once both files exist.
+# Fig 6 likewise: the peer (arc-length continuation onto the plane) as Q2/Q1, the reference, and
+# as Q1/P0 mean dilatation, the package's own H8 discrete problem (paper_notes/discretization.md).
+FIG6_PEER_LEVELS ?= 1 2 3
 verify-fig6: build peer-deps
 	@mkdir -p $(VERIFY)
 	$(RUN)/refinement fig6 levels=$(shell echo $(FIG6_LEVELS) | tr ' ' ',') json=$(VERIFY)/fig6_ltl.json
-	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig6 --strategy ramp --levels $(FIG6_LEVELS) --out $(VERIFY)/fig6_peer.json
+	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig6 --levels $(FIG6_PEER_LEVELS) --out $(VERIFY)/fig6_peer.json
+	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig6 --element q1p0 --levels $(FIG6_PEER_LEVELS) --out $(VERIFY)/fig6_peer_q1p0.json
 	$(PYTHON) figures/verify.py $(VERIFY) $(RESULTS)/verify.png
 
-# Freeze the peer's converged values (after `make verify`) as tests/reference/peer.toml.
+# Freeze the peer's converged values (after `make verify`) as tests/reference/peer.toml;
+# PEER_FIGS=fig6 rewrites only that figure's sections.
 peer-reference:
-	$(PYTHON) experiments/peer/make_reference.py $(VERIFY) tests/reference/peer.toml
+	$(PYTHON) experiments/peer/make_reference.py $(VERIFY) tests/reference/peer.toml $(PEER_FIGS)
 
 bench: build
 	$(RUN)/bench
