@@ -85,18 +85,25 @@ def main():
     if len(sys.argv) != 3:
         sys.exit(__doc__)
     d, png = sys.argv[1], sys.argv[2]
+    def peer_file(f):
+        """figN_peer.json, or for Fig 6 without a Q2/Q1 run the Q1/P0 peer alone."""
+        p = os.path.join(d, f + "_peer.json")
+        if not os.path.exists(p) and f in SECOND_PEER:
+            p = os.path.join(d, SECOND_PEER[f][0])
+        return p
+
     figures = [f for f in ("fig5", "fig6")
-               if os.path.exists(os.path.join(d, f + "_ltl.json"))
-               and os.path.exists(os.path.join(d, f + "_peer.json"))]
+               if os.path.exists(os.path.join(d, f + "_ltl.json")) and os.path.exists(peer_file(f))]
     if not figures:
         sys.exit(f"{d}: no pair figN_ltl.json / figN_peer.json (run make verify)")
     fig, axes = plt.subplots(2 * len(figures), 4, figsize=(style.FULL[0], 4.2 * len(figures)),
                              squeeze=False)
     for i, figure in enumerate(figures):
         ltl = load(os.path.join(d, figure + "_ltl.json"))
-        peer = load(os.path.join(d, figure + "_peer.json"))
+        peer = load(peer_file(figure))
         peer2, label2 = None, None
-        if figure in SECOND_PEER and os.path.exists(os.path.join(d, SECOND_PEER[figure][0])):
+        if figure in SECOND_PEER and os.path.exists(os.path.join(d, figure + "_peer.json")) \
+                and os.path.exists(os.path.join(d, SECOND_PEER[figure][0])):
             peer2 = load(os.path.join(d, SECOND_PEER[figure][0]))
             label2 = SECOND_PEER[figure][1]
         print(f"{figure}: this package (ALG2) against the dolfinx Newton peer")
@@ -115,8 +122,9 @@ def main():
                 print(f"    fitted order of |package - peer finest| = {order:.2f}")
             ax = axes[2 * i, j]
             ax.semilogx(hl, vl, "o-", color=style.BODY, label="package (ALG2)")
-            ax.semilogx(hp, vp, "s--", color=style.CONTACT,
-                        label="peer Q2/Q1 (dolfinx Newton)" if second is not None else "peer (dolfinx Newton)")
+            elem = peer["runs"][0].get("element", "taylor-hood") if peer["runs"] else "taylor-hood"
+            name = {"taylor-hood": "Taylor-Hood", "q1p0": "Q1/P0"}.get(elem, elem)
+            ax.semilogx(hp, vp, "s--", color=style.CONTACT, label=f"peer {name} (dolfinx Newton)")
             if second is not None:
                 ax.semilogx(second[0], second[1], "^:", color="0.4", label=label2)
             ax.set_title(f"{figure}: {label}")

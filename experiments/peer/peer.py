@@ -163,7 +163,7 @@ def ramp(solver, const, start, end, step0, name, ref_norm_fn, log, first_guess=N
 
 
 def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e-9, max_it=10,
-              max_steps=400, verbose=False, history_cb=None, grow=4.0, path_rtol=1e-6):
+              max_steps=400, verbose=False, history_cb=None, grow=4.0, path_rtol=1e-6, control=None):
     """Arc-length continuation of the equilibrium path R(w) - lam f = 0 from rest to lam = lam_end
     through limit points of the load (the gutter's snap-through onto the plane): unknowns (w, lam)
     with the cylindrical constraint |u - u_n|^2 = ds^2 on the displacement dofs (Crisfield),
@@ -174,11 +174,15 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
     state is interpolated to lam_end and solved by plain Newton at fixed load. Path points are
     solved to |R| <= path_rtol |f|, the end point to rtol. A corrector that lands behind the
     previous point (du_new . du_prev <= 0: the constraint's second intersection with the path,
-    met near a limit point) is rejected and ds halved. Returns True at lam = lam_end."""
+    met near a limit point) is rejected and ds halved. Returns True at lam = lam_end.
+
+    control = (dof, sign, stop): displacement control instead, the constraint
+    sign (w[dof] - w_n[dof]) = ds (the controlled displacement grows by ds per step, dlam =
+    (-g - sign a[dof]) / (sign b[dof])); returns "stop" as soon as stop() is True after a step
+    (the caller goes on by load stepping)."""
     w = solver.w
     isu = solver.is_u
     f = fvec.array.copy()
-    n = w.x.array.size
 
     def factorize():
         solver.A.zeroEntries()
@@ -201,8 +205,18 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
     solver.total_iterations += 1
     dW, dL = dlam0 * t, dlam0
     dW_prev = dW.copy()
-    ds = math.sqrt(np.dot(dW[isu], dW[isu]))
+    ds = math.sqrt(np.dot(dW[isu], dW[isu])) if control is None else control[1] * dW[control[0]]
     ds_max = grow * ds
+
+    def constraint(dw_full):
+        """(g, dg/dw) of the step constraint."""
+        if control is None:
+            du = np.zeros_like(dw_full)
+            du[isu] = dw_full[isu]
+            return np.dot(du, du) - ds * ds, 2 * du
+        c = np.zeros_like(dw_full)
+        c[control[0]] = control[1]
+        return control[1] * dw_full[control[0]] - ds, c
     for step in range(1, max_steps + 1):
         # predictor
         w.x.array[:] = wn + dW
@@ -215,9 +229,9 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
             if not np.isfinite(r):
                 break
             du = w.x.array[isu] - wn[isu]
-            g = np.dot(du, du) - ds * ds
+            g, cg = constraint(w.x.array - wn)
             if it > 1 and r <= path_rtol * ref_norm and abs(g) <= 1e-6 * ds * ds:
-                ok = step == 1 or np.dot(du, dW_prev[isu]) > 0.0
+                ok = step == 1 or np.dot(du, dW_prev[isu]) > 0.0 or control is not None
                 break
             factorize()
             a = solve(-solver.b.array)
@@ -225,10 +239,10 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
             solver.total_iterations += 1
             if a is None or b is None or not np.all(np.isfinite(a)):
                 break
-            den = np.dot(du, b[isu])
+            den = np.dot(cg, b)
             if den == 0.0:
                 break
-            dl = (-0.5 * g - np.dot(du, a[isu])) / den
+            dl = (-g - np.dot(cg, a)) / den
             w.x.array[:] += a + dl * b
             w.x.scatter_forward()
             lcur += dl
@@ -252,6 +266,8 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
         log.append(entry)
         print("      arc step " + ", ".join(f"{k} {v:.5g}" if isinstance(v, float) else f"{k} {v}"
                                             for k, v in entry.items()), flush=True)
+        if control is not None and lcur < lam_end and control[2]():
+            return "stop"
         if lcur >= lam_end:  # crossed: interpolate to lam_end, Newton at fixed load
             s = (lam_end - ln) / (lcur - ln)
             w.x.array[:] = wn + s * (w.x.array - wn)
@@ -281,7 +297,7 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
 
 def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=0.25, verbose=False,
                      rtol=1e-10, history_cb=None, plane=None, damp=None, smooth=None, strategy="ramp",
-                     fvec=None):
+                     fvec=None, control=None, lam_pre=0.04):
     """Load stepping lam: 0 -> 1 at penalty k_list[0] (adaptive step); optionally (plane =
     (Constant, start, end)) move the obstacle from start to end at full load; then penalty
     continuation through k_list at lam = 1. Returns a log dict."""
@@ -299,6 +315,32 @@ def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=
         log["nested_newton"] = {"ok": ok, "newton": its}
         if not ok:
             raise RuntimeError("Newton from the interpolated state failed")
+        plane = None
+    elif strategy == "control":  # displacement control until the controlled node touches, then load
+        if plane is not None:
+            plane[0].value = plane[2]
+        log["control_steps"] = []
+        res = arclength(solver, lam, fvec, ref_norm, log["control_steps"], rtol=rtol, verbose=verbose,
+                        history_cb=history_cb, control=control)
+        if res is False:
+            raise RuntimeError("displacement control failed")
+        if res == "stop":
+            lam0 = float(lam.value)
+            print(f"    displacement control: the node touches at lam = {lam0:.5g}; load stepping", flush=True)
+            log["load_steps"] = []
+            ramp(solver, lam, lam0, 1.0, 0.1, "load", lambda t: ref_norm, log["load_steps"],
+                 verbose=verbose, rtol=rtol)
+        plane = None
+    elif strategy == "arc-ptc":  # arc-length to lam_pre, then pseudo-transient continuation at full load
+        if plane is not None:
+            plane[0].value = plane[2]
+        log["arc_steps"], log["ptc"] = [], []
+        if arclength(solver, lam, fvec, ref_norm, log["arc_steps"], rtol=rtol, verbose=verbose,
+                     history_cb=history_cb, lam_end=lam_pre) is not True:
+            raise RuntimeError("arc-length continuation failed")
+        lam.value = 1.0
+        if not ptc(solver, damp, ref_norm, log["ptc"], verbose=verbose, rtol=rtol):
+            raise RuntimeError("pseudo-transient continuation failed")
         plane = None
     elif strategy == "arclength":  # full obstacle from the start, arc-length in the load
         if plane is not None:
@@ -716,8 +758,16 @@ def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=
             # x1 = 0, x3 = 0 only up to round-off): enforce them
             fem.set_bc(w.x.array, bcs)
             w.x.scatter_forward()
+    # displacement control: -u2 of the outer bottom node at x1 = 0, (0, -(Ri + t), 0), until its
+    # gap is below 1 mm
+    ib = int(np.argmin(np.linalg.norm(Xv - [0.0, -(P["Ri"] + P["t"]), 0.0], axis=1)))
+    cdof = int(umap[3 * ib + 1])
+
+    def touching():
+        return w.x.array[cdof] + Xv[ib, 1] - P["plane"] < 1e-3
+
     log = run_continuation(solver, lam, kpen, k_list, ref_norm, verbose=verbose, dl0=0.1,
-                           first_guess=first_guess,
+                           first_guess=first_guess, control=(cdof, -1.0, touching),
                            plane=(plane, plane_start, P["plane"]), damp=damp, smooth=(delta, delta0),
                            strategy=strategy, fvec=bl,
                            history_cb=lambda: {
@@ -826,7 +876,7 @@ def main():
                            choices=["taylor-hood", "p2p0", "p2p0-detmean"])
         if fig == "fig6":
             s.add_argument("--element", default="taylor-hood", choices=["taylor-hood", "q1p0"])
-            s.add_argument("--strategy", default="arclength", choices=["arclength", "nested", "ptc", "ramp"],
+            s.add_argument("--strategy", default="arclength", choices=["arclength", "arc-ptc", "control", "nested", "ptc", "ramp"],
                            help="ptc: pseudo-transient continuation at full load from u = 0; ramp: load "
                                 "stepping with the plane just below the gutter, then the plane moved down")
             s.add_argument("--c0", type=float, default=5e4, help="initial pseudo-time damping [N/m^4]")
