@@ -305,12 +305,17 @@ def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=
     kpen.value = k_list[0]
     if plane is not None:
         plane[0].value = plane[1]
-    if strategy == "nested":  # full load from an interpolated converged state (nested iteration)
+    if strategy in ("nested", "nested-ptc"):  # full load from an interpolated converged state
         lam.value = 1.0
         if plane is not None:
             plane[0].value = plane[2]
         first_guess(1.0)
-        ok, its = solver.solve(ref_norm, rtol=rtol, verbose=verbose, max_it=60)
+        if strategy == "nested-ptc":  # damped (pseudo-transient) Newton from there
+            log["ptc"] = []
+            ok = ptc(solver, damp, ref_norm, log["ptc"], verbose=verbose, rtol=rtol)
+            its = sum(e.get("ptc_steps", 0) for e in log["ptc"])
+        else:
+            ok, its = solver.solve(ref_norm, rtol=rtol, verbose=verbose, max_it=60)
         print(f"    nested start at full load: {'ok' if ok else 'FAILED'} in {its} Newton", flush=True)
         log["nested_newton"] = {"ok": ok, "newton": its}
         if not ok:
@@ -743,7 +748,7 @@ def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=
     deg_u = 2 if element == "taylor-hood" else 1
     n_cells = np.array([prm["nt"], prm["na"], prm["nl"]])
     first_guess = None
-    if strategy == "nested":
+    if strategy in ("nested", "nested-ptc"):
         if init is None:
             raise ValueError("strategy 'nested' needs an initial state (--init FILE.npz)")
         src = np.load(init)
@@ -876,7 +881,7 @@ def main():
                            choices=["taylor-hood", "p2p0", "p2p0-detmean"])
         if fig == "fig6":
             s.add_argument("--element", default="taylor-hood", choices=["taylor-hood", "q1p0"])
-            s.add_argument("--strategy", default="arclength", choices=["arclength", "arc-ptc", "control", "nested", "ptc", "ramp"],
+            s.add_argument("--strategy", default="arclength", choices=["arclength", "arc-ptc", "control", "nested", "nested-ptc", "ptc", "ramp"],
                            help="ptc: pseudo-transient continuation at full load from u = 0; ramp: load "
                                 "stepping with the plane just below the gutter, then the plane moved down")
             s.add_argument("--c0", type=float, default=5e4, help="initial pseudo-time damping [N/m^4]")
