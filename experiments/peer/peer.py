@@ -162,8 +162,32 @@ def ramp(solver, const, start, end, step0, name, ref_norm_fn, log, first_guess=N
     const.value = end
 
 
+def negative_eigenvalues(solver):
+    """Number of negative eigenvalues of the Jacobian at the current state (MUMPS LDL^T inertia;
+    the Jacobian of a hyperelastic energy with dead loads and a penalty is symmetric). A stable
+    equilibrium of the mixed u-p problem has exactly as many as there are pressure dofs."""
+    solver.A.zeroEntries()
+    fpetsc.assemble_matrix(solver.A, solver.J, bcs=solver.bcs)
+    solver.A.assemble()
+    solver.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    ksp = PETSc.KSP().create(MPI.COMM_WORLD)
+    ksp.setOperators(solver.A)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("cholesky")
+    pc.setFactorSolverType("mumps")
+    pc.setFactorSetUpSolverType()
+    pc.getFactorMatrix().setMumpsIcntl(13, 1)  # inertia over the whole matrix (no ScaLAPACK root)
+    pc.getFactorMatrix().setMumpsIcntl(24, 1)  # null pivot detection (MatGetInertia requires it)
+    pc.setUp()
+    neg, _, _ = pc.getFactorMatrix().getInertia()
+    ksp.destroy()
+    return int(neg)
+
+
 def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e-9, max_it=10,
-              max_steps=400, verbose=False, history_cb=None, grow=4.0, path_rtol=1e-6, control=None):
+              max_steps=400, verbose=False, history_cb=None, grow=4.0, path_rtol=1e-6, control=None,
+              inertia=False):
     """Arc-length continuation of the equilibrium path R(w) - lam f = 0 from rest to lam = lam_end
     through limit points of the load (the gutter's snap-through onto the plane): unknowns (w, lam)
     with the cylindrical constraint |u - u_n|^2 = ds^2 on the displacement dofs (Crisfield),
@@ -261,6 +285,8 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
                 return False
             continue
         entry = {"step": step, "lam": lcur, "ds": ds, "iterations": it - 1}
+        if inertia:  # negative eigenvalues of the (symmetric) Jacobian at the new point
+            entry["negative_eigenvalues"] = negative_eigenvalues(solver)
         if history_cb is not None:
             entry.update(history_cb())
         log.append(entry)
@@ -297,7 +323,7 @@ def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e
 
 def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=0.25, verbose=False,
                      rtol=1e-10, history_cb=None, plane=None, damp=None, smooth=None, strategy="ramp",
-                     fvec=None, control=None, lam_pre=0.04):
+                     fvec=None, control=None, lam_pre=0.04, inertia=False):
     """Load stepping lam: 0 -> 1 at penalty k_list[0] (adaptive step); optionally (plane =
     (Constant, start, end)) move the obstacle from start to end at full load; then penalty
     continuation through k_list at lam = 1. Returns a log dict."""
@@ -352,7 +378,7 @@ def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=
             plane[0].value = plane[2]
         log["arc_steps"] = []
         if not arclength(solver, lam, fvec, ref_norm, log["arc_steps"], rtol=rtol, verbose=verbose,
-                         history_cb=history_cb):
+                         history_cb=history_cb, inertia=inertia):
             raise RuntimeError("arc-length continuation failed")
         plane = None
     elif strategy == "ptc":  # full load, obstacle in place, pseudo-transient continuation from w
@@ -624,7 +650,8 @@ def grid_sampler(C, vals, n, centred):
 
 
 def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=False, cdeg=3, rule="gll",
-               gap0=0.02, c0=5e4, delta0=1e-3, strategy="arclength", init=None, save=None):
+               gap0=0.02, c0=5e4, delta0=1e-3, strategy="arclength", init=None, save=None,
+               inertia=False):
     """init: an .npz written with `save` by a run on another mesh (either element): its converged
     (u, p), interpolated onto this mesh, starts Newton at full load (nested iteration; strategy
     "nested"), instead of the arc-length path from rest."""
@@ -772,7 +799,7 @@ def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=
         return w.x.array[cdof] + Xv[ib, 1] - P["plane"] < 1e-3
 
     log = run_continuation(solver, lam, kpen, k_list, ref_norm, verbose=verbose, dl0=0.1,
-                           first_guess=first_guess, control=(cdof, -1.0, touching),
+                           first_guess=first_guess, control=(cdof, -1.0, touching), inertia=inertia,
                            plane=(plane, plane_start, P["plane"]), damp=damp, smooth=(delta, delta0),
                            strategy=strategy, fvec=bl,
                            history_cb=lambda: {
@@ -887,6 +914,8 @@ def main():
             s.add_argument("--c0", type=float, default=5e4, help="initial pseudo-time damping [N/m^4]")
             s.add_argument("--init", default=None,
                            help="nested: start from this .npz (written by --save on another mesh)")
+            s.add_argument("--inertia", action="store_true",
+                           help="arclength: count the negative eigenvalues of the Jacobian at every step")
             s.add_argument("--save", default=None,
                            help="write the converged state to SAVE_L<level>.npz (for --init)")
     t = sub.add_parser("table")
@@ -918,7 +947,7 @@ def main():
         else:
             r = solve_fig6(lev, a.geom_order, a.element, k_list, verbose=a.verbose, rule=a.contact_rule,
                            strategy=a.strategy, c0=a.c0, init=a.init and os.path.abspath(a.init),
-                           save=a.save and os.path.abspath(f"{a.save}_L{lev}.npz"))
+                           save=a.save and os.path.abspath(f"{a.save}_L{lev}.npz"), inertia=a.inertia)
         r["command"] = "OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py " + " ".join(
             sys.argv[1:])
         print(json.dumps({kk: r[kk] for kk in ("level", "cells", "dofs", "newton_total", "time_s")}))
