@@ -92,14 +92,17 @@ verify: build peer-deps
 	$(PYTHON) figures/verify.py $(VERIFY) $(RESULTS)/verify.png
 
 # Fig 6 likewise. The peer as Q1/P0 mean dilatation on the package's H8 geometry (the package's
-# own discrete problem): arc-length continuation onto the plane on levels 1 and 2, Newton from the
-# level-2 state interpolated on level 3 (paper_notes/discretization.md, "Fig 6 peer"; its Q2/Q1
-# run does not yet pass a critical point of the path at 5 % of the load).
+# own discrete problem): arc-length continuation onto the plane on levels 1 and 2, then Newton on
+# each finer level from the previous level's state interpolated (paper_notes/discretization.md,
+# "Fig 6 peer"; its Q2/Q1 run does not yet pass a critical point of the path at 5 % of the load).
+FIG6_PEER_NESTED ?= 3 4
 verify-fig6: build peer-deps
 	@mkdir -p $(VERIFY)/state
 	$(RUN)/refinement fig6 levels=$(shell echo $(FIG6_LEVELS) | tr ' ' ',') json=$(VERIFY)/fig6_ltl.json
 	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig6 --element q1p0 --levels 1 2 --save $(VERIFY)/state/q1 --out $(VERIFY)/fig6_peer_q1p0.json
-	OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig6 --element q1p0 --levels 3 --strategy nested --init $(VERIFY)/state/q1_L2.npz --out $(VERIFY)/fig6_peer_q1p0.json
+	for L in $(FIG6_PEER_NESTED); do OMP_NUM_THREADS=1 $(PYTHON) experiments/peer/peer.py fig6 --element q1p0 \
+	  --levels $$L --strategy nested --init $(VERIFY)/state/q1_L$$((L - 1)).npz --save $(VERIFY)/state/q1 \
+	  --out $(VERIFY)/fig6_peer_q1p0.json || exit 1; done
 	$(PYTHON) figures/verify.py $(VERIFY) $(RESULTS)/verify.png
 
 # Freeze the peer's converged values (after `make verify`) as tests/reference/peer.toml;
