@@ -30,9 +30,13 @@ OBSERVABLES = {
              ("penetration (m)", "penetration", "penetration")],
     "fig6": [("sag (m)", "drop", "sag"),
              ("contact force / load", "force_ratio", "force_ratio"),
-             ("peak contact pressure (Pa)", "p_max", "p_max"),
-             ("penetration (m)", "penetration", "penetration")],
+             ("contact area, nodal (m^2)", "contact_area", "contact_area_nodal"),
+             ("peak nodal contact pressure (Pa)", "p_max", "p_max_vertex")],
 }
+# Fig 6 has a second peer: Q1/P0 (mean dilatation) on the package's own H8 geometry, i.e. the
+# same discrete problem as the package's H8 with mean-det incompressibility; the reference
+# (fig6_peer.json) is the Q2/Q1 Taylor-Hood peer.
+SECOND_PEER = {"fig6": ("fig6_peer_q1p0.json", "peer Q1/P0 (same H8 problem)")}
 # mesh size of a level: fig5, the edge length (pi/2) Rc / K; fig6, the arc edge (pi/2) Ri / (9 L)
 H = {"fig5": lambda level: (math.pi / 2) / level, "fig6": lambda level: (math.pi / 2) / (9 * level)}
 
@@ -51,8 +55,9 @@ def fitted_order(h, err):
     return float(np.polyfit(x, y, 1)[0])
 
 
-def series(figure, ltl, peer):
-    """Per observable: (label, h_ltl, v_ltl, h_peer, v_peer, reference, order)."""
+def series(figure, ltl, peer, peer2=None):
+    """Per observable: (label, h_ltl, v_ltl, h_peer, v_peer, reference, order, second) with
+    second = (h, v, order) of the second peer (or None)."""
     out = []
     ours = [r for r in ltl["runs"] if r["converged"]]
     theirs = sorted(peer["runs"], key=lambda r: r["level"])
@@ -65,7 +70,14 @@ def series(figure, ltl, peer):
         order = None
         if ref is not None and "penetration" not in k_ltl:
             order = fitted_order(hl, [abs(v - ref) for v in vl])
-        out.append((label, hl, vl, hp, vp, ref, order))
+        second = None
+        if peer2 is not None:
+            r2 = sorted(peer2["runs"], key=lambda r: r["level"])
+            h2 = [H[figure](r["level"]) for r in r2 if k_peer in r["observables"]]
+            v2 = [r["observables"][k_peer] for r in r2 if k_peer in r["observables"]]
+            o2 = fitted_order(h2, [abs(v - ref) for v in v2]) if ref is not None and v2 else None
+            second = (h2, v2, o2)
+        out.append((label, hl, vl, hp, vp, ref, order, second))
     return out
 
 
@@ -73,28 +85,48 @@ def main():
     if len(sys.argv) != 3:
         sys.exit(__doc__)
     d, png = sys.argv[1], sys.argv[2]
+    def peer_file(f):
+        """figN_peer.json, or for Fig 6 without a Q2/Q1 run the Q1/P0 peer alone."""
+        p = os.path.join(d, f + "_peer.json")
+        if not os.path.exists(p) and f in SECOND_PEER:
+            p = os.path.join(d, SECOND_PEER[f][0])
+        return p
+
     figures = [f for f in ("fig5", "fig6")
-               if os.path.exists(os.path.join(d, f + "_ltl.json"))
-               and os.path.exists(os.path.join(d, f + "_peer.json"))]
+               if os.path.exists(os.path.join(d, f + "_ltl.json")) and os.path.exists(peer_file(f))]
     if not figures:
         sys.exit(f"{d}: no pair figN_ltl.json / figN_peer.json (run make verify)")
     fig, axes = plt.subplots(2 * len(figures), 4, figsize=(style.FULL[0], 4.2 * len(figures)),
                              squeeze=False)
     for i, figure in enumerate(figures):
         ltl = load(os.path.join(d, figure + "_ltl.json"))
-        peer = load(os.path.join(d, figure + "_peer.json"))
+        peer = load(peer_file(figure))
+        peer2, label2 = None, None
+        if figure in SECOND_PEER and os.path.exists(os.path.join(d, figure + "_peer.json")) \
+                and os.path.exists(os.path.join(d, SECOND_PEER[figure][0])):
+            peer2 = load(os.path.join(d, SECOND_PEER[figure][0]))
+            label2 = SECOND_PEER[figure][1]
         print(f"{figure}: this package (ALG2) against the dolfinx Newton peer")
-        for j, (label, hl, vl, hp, vp, ref, order) in enumerate(series(figure, ltl, peer)):
+        for j, (label, hl, vl, hp, vp, ref, order, second) in enumerate(series(figure, ltl, peer, peer2)):
             print(f"  {label}")
             print("    h        " + "  ".join(f"{h:10.4g}" for h in hl) + "   (package)")
             print("    value    " + "  ".join(f"{v:10.6g}" for v in vl))
             print("    h        " + "  ".join(f"{h:10.4g}" for h in hp) + "   (peer)")
             print("    value    " + "  ".join(f"{v:10.6g}" for v in vp))
+            if second is not None:
+                print("    h        " + "  ".join(f"{h:10.4g}" for h in second[0]) + f"   ({label2})")
+                print("    value    " + "  ".join(f"{v:10.6g}" for v in second[1]))
+                if second[2] is not None:
+                    print(f"    fitted order of |{label2} - peer finest| = {second[2]:.2f}")
             if order is not None:
                 print(f"    fitted order of |package - peer finest| = {order:.2f}")
             ax = axes[2 * i, j]
             ax.semilogx(hl, vl, "o-", color=style.BODY, label="package (ALG2)")
-            ax.semilogx(hp, vp, "s--", color=style.CONTACT, label="peer (dolfinx Newton)")
+            elem = peer["runs"][0].get("element", "taylor-hood") if peer["runs"] else "taylor-hood"
+            name = {"taylor-hood": "Taylor-Hood", "q1p0": "Q1/P0"}.get(elem, elem)
+            ax.semilogx(hp, vp, "s--", color=style.CONTACT, label=f"peer {name} (dolfinx Newton)")
+            if second is not None:
+                ax.semilogx(second[0], second[1], "^:", color="0.4", label=label2)
             ax.set_title(f"{figure}: {label}")
             ax.set_xlabel("h (m)")
             ax.invert_xaxis()
@@ -113,6 +145,10 @@ def main():
                 if errp:
                     ax.loglog(hp[:-1], [max(e, 1e-16) for e in errp], "s--", color=style.CONTACT,
                               label="peer")
+                if second is not None and second[1]:
+                    ax.loglog(second[0], [max(abs(v - ref), 1e-16) for v in second[1]], "^:",
+                              color="0.4", label=label2 + (f", order {second[2]:.2f}"
+                                                          if second[2] is not None else ""))
                 ax.set_title(f"{figure}: |v_h - v_peer,finest|")
                 ax.legend()
             ax.set_xlabel("h (m)")

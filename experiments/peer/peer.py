@@ -5,10 +5,17 @@ Incompressible Mooney-Rivlin, mixed displacement/pressure (Taylor-Hood P2/P1 on 
 Q2/Q1 on hexahedra; optionally Q1/P0 in 3-D), full Newton (MUMPS LU, backtracking line search),
 frictionless contact with a rigid plane by a quadratic penalty on the gap at facet quadrature
 points, with load stepping at a moderate penalty and then penalty continuation at full load.
+Fig 6 (the gutter falling onto the plane): arc-length continuation in the load from rest with
+the plane in place (a smoothed penalty), then the penalty continuation; or (--strategy nested)
+Newton at full load from the converged state of another mesh, interpolated (--save / --init).
+Fig 6 elements: Q2/Q1 Taylor-Hood on the quadratic geometry (the reference), or --element q1p0
+(mean dilatation: a DG0 pressure, int_e (det F - 1) q = 0, 2x2x2 Gauss) with nodal contact on
+the trilinear geometry, i.e. the package's H8 discrete problem with mean-det incompressibility.
 
 Usage (from the repository root):
   OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py fig5 --levels 7 14 28 56 --out results/peer/fig5.json
-  OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py fig6 --levels 1 2 3 --out results/peer/fig6.json
+  OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py fig6 --levels 1 --save results/peer/q2 --out results/peer/fig6.json
+  OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py fig6 --levels 2 --strategy nested --init results/peer/q2_L1.npz --out results/peer/fig6.json
   /usr/bin/python3 experiments/peer/peer.py table results/peer/fig5.json
 """
 import argparse
@@ -19,7 +26,8 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from peer_common import (  # noqa: E402
-    ROOT, MPI, PETSc, Timer, FacetSampler, NewtonSolver, assemble, basix, fem, load_geo, np, ufl)
+    ROOT, MPI, PETSc, Timer, FacetSampler, NewtonSolver, assemble, basix, fem, fpetsc, load_geo, np,
+    ufl)
 
 
 def mooney_rivlin_psi(Fm, q, C1, C2):
@@ -154,8 +162,168 @@ def ramp(solver, const, start, end, step0, name, ref_norm_fn, log, first_guess=N
     const.value = end
 
 
+def negative_eigenvalues(solver):
+    """Number of negative eigenvalues of the Jacobian at the current state (MUMPS LDL^T inertia;
+    the Jacobian of a hyperelastic energy with dead loads and a penalty is symmetric). A stable
+    equilibrium of the mixed u-p problem has exactly as many as there are pressure dofs."""
+    solver.A.zeroEntries()
+    fpetsc.assemble_matrix(solver.A, solver.J, bcs=solver.bcs)
+    solver.A.assemble()
+    solver.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    ksp = PETSc.KSP().create(MPI.COMM_WORLD)
+    ksp.setOperators(solver.A)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("cholesky")
+    pc.setFactorSolverType("mumps")
+    pc.setFactorSetUpSolverType()
+    pc.getFactorMatrix().setMumpsIcntl(13, 1)  # inertia over the whole matrix (no ScaLAPACK root)
+    pc.getFactorMatrix().setMumpsIcntl(24, 1)  # null pivot detection (MatGetInertia requires it)
+    pc.setUp()
+    neg, _, _ = pc.getFactorMatrix().getInertia()
+    ksp.destroy()
+    return int(neg)
+
+
+def arclength(solver, lam, fvec, ref_norm, log, dlam0=0.05, lam_end=1.0, rtol=1e-9, max_it=10,
+              max_steps=400, verbose=False, history_cb=None, grow=4.0, path_rtol=1e-6, control=None,
+              inertia=False):
+    """Arc-length continuation of the equilibrium path R(w) - lam f = 0 from rest to lam = lam_end
+    through limit points of the load (the gutter's snap-through onto the plane): unknowns (w, lam)
+    with the cylindrical constraint |u - u_n|^2 = ds^2 on the displacement dofs (Crisfield),
+    linearized consistently, so each corrector is K a = -R, K b = f (one factorization, two
+    solves), dlam = (-(|du|^2 - ds^2)/2 - du.a) / (du.b), dw = a + dlam b. Secant predictor
+    (the previous increment scaled to ds), which follows the path through a limit point; ds
+    grows after easy steps and halves on failure. At the first step that crosses lam_end, the
+    state is interpolated to lam_end and solved by plain Newton at fixed load. Path points are
+    solved to |R| <= path_rtol |f|, the end point to rtol. A corrector that lands behind the
+    previous point (du_new . du_prev <= 0: the constraint's second intersection with the path,
+    met near a limit point) is rejected and ds halved. Returns True at lam = lam_end.
+
+    control = (dof, sign, stop): displacement control instead, the constraint
+    sign (w[dof] - w_n[dof]) = ds (the controlled displacement grows by ds per step, dlam =
+    (-g - sign a[dof]) / (sign b[dof])); returns "stop" as soon as stop() is True after a step
+    (the caller goes on by load stepping)."""
+    w = solver.w
+    isu = solver.is_u
+    f = fvec.array.copy()
+
+    def factorize():
+        solver.A.zeroEntries()
+        fpetsc.assemble_matrix(solver.A, solver.J, bcs=solver.bcs)
+        solver.A.assemble()
+
+    def solve(rhs):
+        b = solver.A.createVecLeft()
+        b.array[:] = rhs
+        x = solver.A.createVecRight()
+        solver.ksp.solve(b, x)
+        if solver.ksp.getConvergedReason() < 0:
+            return None
+        return x.array.copy()
+
+    lam.value = 0.0
+    wn, ln = w.x.array.copy(), 0.0
+    factorize()
+    t = solve(f)
+    solver.total_iterations += 1
+    dW, dL = dlam0 * t, dlam0
+    dW_prev = dW.copy()
+    ds = math.sqrt(np.dot(dW[isu], dW[isu])) if control is None else control[1] * dW[control[0]]
+    ds_max = grow * ds
+
+    def constraint(dw_full):
+        """(g, dg/dw) of the step constraint."""
+        if control is None:
+            du = np.zeros_like(dw_full)
+            du[isu] = dw_full[isu]
+            return np.dot(du, du) - ds * ds, 2 * du
+        c = np.zeros_like(dw_full)
+        c[control[0]] = control[1]
+        return control[1] * dw_full[control[0]] - ds, c
+    for step in range(1, max_steps + 1):
+        # predictor
+        w.x.array[:] = wn + dW
+        w.x.scatter_forward()
+        lcur = ln + dL
+        ok = False
+        for it in range(1, max_it + 1):
+            lam.value = lcur
+            r = solver.residual()
+            if not np.isfinite(r):
+                break
+            du = w.x.array[isu] - wn[isu]
+            g, cg = constraint(w.x.array - wn)
+            if it > 1 and r <= path_rtol * ref_norm and abs(g) <= 1e-6 * ds * ds:
+                ok = step == 1 or np.dot(du, dW_prev[isu]) > 0.0 or control is not None
+                break
+            factorize()
+            a = solve(-solver.b.array)
+            b = solve(f)
+            solver.total_iterations += 1
+            if a is None or b is None or not np.all(np.isfinite(a)):
+                break
+            den = np.dot(cg, b)
+            if den == 0.0:
+                break
+            dl = (-g - np.dot(cg, a)) / den
+            w.x.array[:] += a + dl * b
+            w.x.scatter_forward()
+            lcur += dl
+        if verbose:
+            print(f"      arc step {step}: ds = {ds:.3e}, lam = {lcur:.5f}, "
+                  f"{'ok' if ok else 'FAILED'} in {it} iterations", flush=True)
+        if not ok:
+            w.x.array[:] = wn
+            w.x.scatter_forward()
+            print(f"      arc step {step}: rejected (residual {r:.2e}, lam {lcur:.5g}, ds {ds:.3g})",
+                  flush=True)
+            ds *= 0.5
+            dW, dL = 0.5 * dW, 0.5 * dL
+            if ds < 1e-8 * ds_max:
+                log.append({"step": step, "ok": False, "lam": ln})
+                return False
+            continue
+        entry = {"step": step, "lam": lcur, "ds": ds, "iterations": it - 1}
+        if inertia:  # negative eigenvalues of the (symmetric) Jacobian at the new point
+            entry["negative_eigenvalues"] = negative_eigenvalues(solver)
+        if history_cb is not None:
+            entry.update(history_cb())
+        log.append(entry)
+        print("      arc step " + ", ".join(f"{k} {v:.5g}" if isinstance(v, float) else f"{k} {v}"
+                                            for k, v in entry.items()), flush=True)
+        if control is not None and lcur < lam_end and control[2]():
+            return "stop"
+        if lcur >= lam_end:  # crossed: interpolate to lam_end, Newton at fixed load
+            s = (lam_end - ln) / (lcur - ln)
+            w.x.array[:] = wn + s * (w.x.array - wn)
+            w.x.scatter_forward()
+            lam.value = lam_end
+            okn, its = solver.solve(ref_norm, rtol=rtol, verbose=verbose)
+            print(f"    arc-length: lam = {lam_end} reached after {step} steps, "
+                  f"Newton at fixed load {'ok' if okn else 'FAILED'} in {its}", flush=True)
+            if okn:
+                log.append({"final_newton": its, "ok": True})
+                return True
+            w.x.array[:] = wn  # retry the step shorter
+            w.x.scatter_forward()
+            ds *= 0.5
+            dW, dL = 0.5 * dW, 0.5 * dL
+            continue
+        dW, dL = w.x.array - wn, lcur - ln
+        dW_prev = dW.copy()
+        wn, ln = w.x.array.copy(), lcur
+        fac = 1.5 if it - 1 <= 4 else (0.7 if it - 1 >= 8 else 1.0)
+        fac = min(fac, ds_max / ds)
+        ds *= fac
+        dW, dL = fac * dW, fac * dL
+    log.append({"ok": False, "lam": ln, "max_steps": max_steps})
+    return False
+
+
 def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=0.25, verbose=False,
-                     rtol=1e-10, history_cb=None, plane=None, damp=None, smooth=None, strategy="ramp"):
+                     rtol=1e-10, history_cb=None, plane=None, damp=None, smooth=None, strategy="ramp",
+                     fvec=None, control=None, lam_pre=0.04, inertia=False):
     """Load stepping lam: 0 -> 1 at penalty k_list[0] (adaptive step); optionally (plane =
     (Constant, start, end)) move the obstacle from start to end at full load; then penalty
     continuation through k_list at lam = 1. Returns a log dict."""
@@ -163,7 +331,57 @@ def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=
     kpen.value = k_list[0]
     if plane is not None:
         plane[0].value = plane[1]
-    if strategy == "ptc":  # full load, obstacle in place, pseudo-transient continuation from w
+    if strategy in ("nested", "nested-ptc"):  # full load from an interpolated converged state
+        lam.value = 1.0
+        if plane is not None:
+            plane[0].value = plane[2]
+        first_guess(1.0)
+        if strategy == "nested-ptc":  # damped (pseudo-transient) Newton from there
+            log["ptc"] = []
+            ok = ptc(solver, damp, ref_norm, log["ptc"], verbose=verbose, rtol=rtol)
+            its = sum(e.get("ptc_steps", 0) for e in log["ptc"])
+        else:
+            ok, its = solver.solve(ref_norm, rtol=rtol, verbose=verbose, max_it=60)
+        print(f"    nested start at full load: {'ok' if ok else 'FAILED'} in {its} Newton", flush=True)
+        log["nested_newton"] = {"ok": ok, "newton": its}
+        if not ok:
+            raise RuntimeError("Newton from the interpolated state failed")
+        plane = None
+    elif strategy == "control":  # displacement control until the controlled node touches, then load
+        if plane is not None:
+            plane[0].value = plane[2]
+        log["control_steps"] = []
+        res = arclength(solver, lam, fvec, ref_norm, log["control_steps"], rtol=rtol, verbose=verbose,
+                        history_cb=history_cb, control=control)
+        if res is False:
+            raise RuntimeError("displacement control failed")
+        if res == "stop":
+            lam0 = float(lam.value)
+            print(f"    displacement control: the node touches at lam = {lam0:.5g}; load stepping", flush=True)
+            log["load_steps"] = []
+            ramp(solver, lam, lam0, 1.0, 0.1, "load", lambda t: ref_norm, log["load_steps"],
+                 verbose=verbose, rtol=rtol)
+        plane = None
+    elif strategy == "arc-ptc":  # arc-length to lam_pre, then pseudo-transient continuation at full load
+        if plane is not None:
+            plane[0].value = plane[2]
+        log["arc_steps"], log["ptc"] = [], []
+        if arclength(solver, lam, fvec, ref_norm, log["arc_steps"], rtol=rtol, verbose=verbose,
+                     history_cb=history_cb, lam_end=lam_pre) is not True:
+            raise RuntimeError("arc-length continuation failed")
+        lam.value = 1.0
+        if not ptc(solver, damp, ref_norm, log["ptc"], verbose=verbose, rtol=rtol):
+            raise RuntimeError("pseudo-transient continuation failed")
+        plane = None
+    elif strategy == "arclength":  # full obstacle from the start, arc-length in the load
+        if plane is not None:
+            plane[0].value = plane[2]
+        log["arc_steps"] = []
+        if not arclength(solver, lam, fvec, ref_norm, log["arc_steps"], rtol=rtol, verbose=verbose,
+                         history_cb=history_cb, inertia=inertia):
+            raise RuntimeError("arc-length continuation failed")
+        plane = None
+    elif strategy == "ptc":  # full load, obstacle in place, pseudo-transient continuation from w
         lam.value = 1.0
         if plane is not None:
             plane[0].value = plane[2]
@@ -217,7 +435,8 @@ def run_continuation(solver, lam, kpen, k_list, ref_norm, first_guess=None, dl0=
     if prev:
         log["penalty_error_estimate"] = {
             key: abs(prev[-1][key] - ps[-1][key]) / 9.0 for key in ps[-1]
-            if key not in ("k", "ok", "newton") and isinstance(ps[-1][key], float)}
+            if key not in ("k", "ok", "newton", "smoothing") and isinstance(ps[-1][key], float)
+            and key in prev[-1]}
     return log
 
 
@@ -399,8 +618,43 @@ def solve_fig5(K, geom_order=2, k_list=None, verbose=False, qdeg=4, cdeg=3, rule
 FIG6 = dict(Ri=1.0, t=0.2, L=20.0, nt=2, na=9, nl=15, C1=50e3, C2=0.0, traction=-500.0, plane=-3.0)
 
 
+def gutter_coordinates(X):
+    """Normalized structured coordinates of points of the gutter: (rho, theta, s) in [0, 1]^3 with
+    r = Ri + rho t, theta the angle from the bottom (x2 = -r, x3 = 0) to the rim (x2 = 0), and
+    x1 = s L/2 (the coordinates in which gutter.geo's transfinite mesh is a regular grid)."""
+    P = FIG6
+    r = np.hypot(X[:, 1], X[:, 2])
+    return np.column_stack([(r - P["Ri"]) / P["t"], np.arctan2(X[:, 2], -X[:, 1]) / (math.pi / 2),
+                            X[:, 0] / (P["L"] / 2)])
+
+
+def grid_sampler(C, vals, n, centred):
+    """Trilinear interpolant, in gutter_coordinates, of nodal values `vals` (npts x m) given at
+    points C (npts x 3) of a regular grid with n = (n_rho, n_theta, n_s) intervals: at the grid
+    vertices, or (centred) at the cell centres (a DG0 field). Extrapolates linearly."""
+    from scipy.interpolate import RegularGridInterpolator
+    n = np.asarray(n)
+    if centred:
+        idx = np.clip(np.floor(C * n).astype(int), 0, n - 1)
+        axes = [(np.arange(k) + 0.5) / k for k in n]
+        shape = tuple(n)
+    else:
+        idx = np.clip(np.rint(C * n).astype(int), 0, n)
+        axes = [np.arange(k + 1) / k for k in n]
+        shape = tuple(n + 1)
+    arr = np.full(shape + (vals.shape[1],), np.nan)
+    arr[idx[:, 0], idx[:, 1], idx[:, 2]] = vals
+    if np.isnan(arr).any():
+        raise RuntimeError("grid_sampler: the coarse points do not fill the structured grid")
+    return RegularGridInterpolator(axes, arr, bounds_error=False, fill_value=None)
+
+
 def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=False, cdeg=3, rule="gll",
-               gap0=0.02, c0=5e4, delta0=1e-3, strategy="ptc"):
+               gap0=0.02, c0=5e4, delta0=1e-3, strategy="arclength", init=None, save=None,
+               inertia=False):
+    """init: an .npz written with `save` by a run on another mesh (either element): its converged
+    (u, p), interpolated onto this mesh, starts Newton at full load (nested iteration; strategy
+    "nested"), instead of the arc-length path from rest."""
     T = Timer()
     P = FIG6
     geo = os.path.join(ROOT, "experiments", "fig6", "gutter.geo")
@@ -467,6 +721,10 @@ def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=
     samp_qp = FacetSampler(V, ft, groups["outer"], qpts) if element == "taylor-hood" else None
     M0f = fem.form(pc * dsc)
     Af = fem.form(ufl.conditional(ufl.lt(gap, 0.0), 1.0, 0.0) * dsc_hi)
+    # nodal weights int_{outer} phi_a (the package's contact-point areas), per V node
+    wv = fem.petsc.assemble_vector(fem.form(ufl.TestFunction(V)[1] * ds(groups["outer"])))
+    wv.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    wnode = wv.array.reshape(-1, 3)[:, 1].copy()
 
     def observables():
         uh.x.array[:] = w.x.array[umap]
@@ -489,7 +747,13 @@ def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=
             "outer_nodes": int(len(cdofs)), "outer_vertices": int(len(cvert)),
             "penetration": float(max((-gn).max(), 0.0)),
             "penalty": k,
+            # nodal contact pressure at the H8 vertices of the outer face (nominal, Pa)
+            "p_max_vertex": float(k * max((-gv).max(), 0.0)),
         }
+        # as lib/measures.cpp: the reference area (sum of nodal weights) of the contact nodes
+        # whose pressure exceeds 1e-6 of the largest
+        pn = k * np.maximum(-gn, 0.0)
+        out["contact_area_nodal"] = float(np.sum(wnode[cdofs][pn > 1e-6 * pn.max()])) if pn.max() > 0 else 0.0
         if samp_qp is not None:
             Xq, Uq = samp_qp(uh)
             gq = Xq[:, 1] + Uq[:, 1] - P["plane"]
@@ -499,19 +763,56 @@ def solve_fig6(level, geom_order=2, element="taylor-hood", k_list=None, verbose=
             out["penetration_qp"] = float(max((-gq).max(), 0.0))
         return out
 
-    # Load control alone meets a limit point near 5 % of the load (the gutter collapses onto the
-    # plane), so: load stepping with the plane just below the gutter (x2 = -(Ri+t) - gap0), then
-    # the plane is moved down to x2 = -3 at full load, then penalty continuation.
+    # strategy "arclength" (default): the path from rest with the plane at x2 = -3 (smoothed
+    # penalty k_list[0]), then penalty continuation; "nested": Newton at full load from `init`;
+    # "ramp" / "ptc" (stall on this problem, kept for the record): load stepping with the plane
+    # just below the gutter (x2 = -(Ri+t) - gap0) and then moved down, or pseudo-transient
+    # continuation at full load from rest.
     plane_start = -(P["Ri"] + P["t"]) - gap0
+    Q, pmap = W.sub(1).collapse()
+    pmap = np.asarray(pmap)
+    Xp = Q.tabulate_dof_coordinates()
+    deg_u = 2 if element == "taylor-hood" else 1
+    n_cells = np.array([prm["nt"], prm["na"], prm["nl"]])
+    first_guess = None
+    if strategy in ("nested", "nested-ptc"):
+        if init is None:
+            raise ValueError("strategy 'nested' needs an initial state (--init FILE.npz)")
+        src = np.load(init)
+
+        def first_guess(_):
+            su = grid_sampler(src["Cu"], src["u"], src["n_u"], False)
+            sp = grid_sampler(src["Cp"], src["p"][:, None], src["n_p"], bool(src["p_centred"]))
+            w.x.array[:] = 0.0
+            w.x.array[umap] = su(gutter_coordinates(Xv)).reshape(-1)
+            w.x.array[pmap] = sp(gutter_coordinates(Xp))[:, 0]
+            # the Dirichlet bcs hold exactly (the interpolant is exact on the grid planes x1 = L/2,
+            # x1 = 0, x3 = 0 only up to round-off): enforce them
+            fem.set_bc(w.x.array, bcs)
+            w.x.scatter_forward()
+    # displacement control: -u2 of the outer bottom node at x1 = 0, (0, -(Ri + t), 0), until its
+    # gap is below 1 mm
+    ib = int(np.argmin(np.linalg.norm(Xv - [0.0, -(P["Ri"] + P["t"]), 0.0], axis=1)))
+    cdof = int(umap[3 * ib + 1])
+
+    def touching():
+        return w.x.array[cdof] + Xv[ib, 1] - P["plane"] < 1e-3
+
     log = run_continuation(solver, lam, kpen, k_list, ref_norm, verbose=verbose, dl0=0.1,
+                           first_guess=first_guess, control=(cdof, -1.0, touching), inertia=inertia,
                            plane=(plane, plane_start, P["plane"]), damp=damp, smooth=(delta, delta0),
-                           strategy=strategy,
+                           strategy=strategy, fvec=bl,
                            history_cb=lambda: {
                                kk: vv for kk, vv in observables().items()
                                if kk in ("sag", "force_ratio", "penetration", "contact_area_ref")})
     obs = observables()
+    if save is not None:  # the converged state, for a nested-iteration start on another mesh
+        np.savez(save, Cu=gutter_coordinates(Xv), u=w.x.array[umap].reshape(-1, 3), n_u=deg_u * n_cells,
+                 Cp=gutter_coordinates(Xp), p=w.x.array[pmap], n_p=n_cells,
+                 p_centred=element == "q1p0")
     return {
         "level": level, **{kk: prm[kk] for kk in ("nt", "na", "nl")},
+        "strategy": strategy, "init": os.path.relpath(init, ROOT) if init else None,
         "geom_order": geom_order, "element": element,
         "cells": mesh.topology.index_map(tdim).size_global,
         "dofs": W.dofmap.index_map.size_global * W.dofmap.index_map_bs,
@@ -555,8 +856,8 @@ def observed_order(h, v):
 SCALARS = {
     "fig5": ["drop", "a_moment", "a_edge", "a_edge_dense", "p_max", "p_x1_0", "force_ratio",
              "contact_length_ref", "penetration"],
-    "fig6": ["sag", "contact_force", "force_ratio", "contact_area_ref", "contact_nodes",
-             "contact_vertices", "p_max", "penetration"],
+    "fig6": ["sag", "contact_force", "force_ratio", "contact_area_ref", "contact_area_nodal",
+             "contact_nodes", "contact_vertices", "p_max", "p_max_vertex", "penetration"],
 }
 
 
@@ -592,7 +893,9 @@ def main():
         s.add_argument("--levels", type=int, nargs="+", required=True,
                        help="fig5: K = n = nd; fig6: refinement factor of (nt, na, nl) = (2, 9, 15)")
         s.add_argument("--out", required=True)
-        s.add_argument("--geom-order", type=int, default=2, choices=[1, 2])
+        s.add_argument("--geom-order", type=int, default=None, choices=[1, 2],
+                       help="geometry order of the gmsh mesh (default 2; fig6 --element q1p0: 1, the "
+                            "package's trilinear H8 geometry)")
         s.add_argument("--kmin", type=float, default=1e8 if fig == "fig5" else 1e6,
                        help="penalty during load stepping [Pa/m]")
         s.add_argument("--kmax", type=float, default=1e13 if fig == "fig5" else 1e11,
@@ -605,10 +908,16 @@ def main():
                            choices=["taylor-hood", "p2p0", "p2p0-detmean"])
         if fig == "fig6":
             s.add_argument("--element", default="taylor-hood", choices=["taylor-hood", "q1p0"])
-            s.add_argument("--strategy", default="ptc", choices=["ptc", "ramp"],
+            s.add_argument("--strategy", default="arclength", choices=["arclength", "arc-ptc", "control", "nested", "nested-ptc", "ptc", "ramp"],
                            help="ptc: pseudo-transient continuation at full load from u = 0; ramp: load "
                                 "stepping with the plane just below the gutter, then the plane moved down")
             s.add_argument("--c0", type=float, default=5e4, help="initial pseudo-time damping [N/m^4]")
+            s.add_argument("--init", default=None,
+                           help="nested: start from this .npz (written by --save on another mesh)")
+            s.add_argument("--inertia", action="store_true",
+                           help="arclength: count the negative eigenvalues of the Jacobian at every step")
+            s.add_argument("--save", default=None,
+                           help="write the converged state to SAVE_L<level>.npz (for --init)")
     t = sub.add_parser("table")
     t.add_argument("json")
     a = ap.parse_args()
@@ -616,6 +925,8 @@ def main():
         with open(a.json) as fh:
             print_table(json.load(fh))
         return
+    if a.geom_order is None:
+        a.geom_order = 1 if getattr(a, "element", "") == "q1p0" else 2
     nk = int(round(math.log10(a.kmax / a.kmin)))
     k_list = [a.kmin * 10.0 ** i for i in range(nk + 1)]
     out = os.path.abspath(a.out)
@@ -635,7 +946,10 @@ def main():
                            element=a.element)
         else:
             r = solve_fig6(lev, a.geom_order, a.element, k_list, verbose=a.verbose, rule=a.contact_rule,
-                               strategy=a.strategy, c0=a.c0)
+                           strategy=a.strategy, c0=a.c0, init=a.init and os.path.abspath(a.init),
+                           save=a.save and os.path.abspath(f"{a.save}_L{lev}.npz"), inertia=a.inertia)
+        r["command"] = "OMP_NUM_THREADS=1 /usr/bin/python3 experiments/peer/peer.py " + " ".join(
+            sys.argv[1:])
         print(json.dumps({kk: r[kk] for kk in ("level", "cells", "dofs", "newton_total", "time_s")}))
         print(json.dumps(r["observables"]), flush=True)
         data["runs"] = [x for x in data["runs"] if x["level"] != lev] + [r]
