@@ -105,7 +105,8 @@ class ResultsFile {
   /// (each may be null). The contact points are the facets, or with `contact_nodes` (nodal
   /// contact, written as /mesh/contact_nodes) those nodes, in that order. `contact_centre` is dim x
   /// #facets (the layout of FacetOperators::centre); #facets x dim is accepted too when the shape
-  /// is not square. Supported cells: six-node P2 triangles (2-D) and eight-node hexahedra (3-D).
+  /// is not square. Supported cells: six-node P2 triangles (2-D), eight-node hexahedra and
+  /// ten-node P2 tetrahedra (3-D).
   /// /mesh/cell_volume is `cell_volume` (the solver's CellOperators::vol), or when null
   /// cell_operators(mesh).vol: the discretization's, never a second copy of shape functions.
   /// With `commit` false, `path` is left as it is (an existing file stays) until the first
