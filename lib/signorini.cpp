@@ -41,11 +41,6 @@ void require(bool ok, const std::string& what) {
 
 }  // namespace
 
-// CHOLMOD supernodal Cholesky, with access to the factor for the condition estimate.
-struct SignoriniSolver::Factor : Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower> {
-  double rcond() { return cholmod_rcond(m_cholmodFactor, &this->cholmod()); }
-};
-
 void SignoriniProblem::validate() const {
   const int dim = mesh.dim;
   require(dim == 2 || dim == 3,
@@ -212,28 +207,27 @@ SignoriniSolver::SignoriniSolver(const SignoriniProblem& problem) : problem_(pro
     }
   SpMat Kff(nfree, nfree);
   Kff.setFromTriplets(t.begin(), t.end());
-
-  const auto t0 = clock_type::now();
-  llt_ = std::make_unique<Factor>();
-  llt_->cholmod().print = 1;  // errors only: a non-positive-definite matrix is reported by us
-  llt_->compute(Kff);
-  factorize_seconds_ = seconds_since(t0);
-  if (llt_->info() != Eigen::Success)
-    throw Error(cat(mesh.source, ": the Signorini global matrix A + R q_c M_N^T W M_N (", nfree,
-                    " free dofs) is not positive definite: a rigid motion is left free (add a "
-                    "fixed part or symmetry plane, or check the contact group and normal)"));
+  llt_ = std::make_unique<Cholesky>(
+      Kff, 1,
+      cat(mesh.source, ": the Signorini global matrix A + R q_c M_N^T W M_N (", nfree,
+          " free dofs)"),
+      "A rigid motion is left free: add a fixed part or symmetry plane, or check the contact "
+      "group and normal.");
+  factorize_seconds_ = llt_->analyze_seconds() + llt_->factorize_seconds();
   rcond_ = llt_->rcond();
-  if (!(rcond_ > 1e-14))
-    throw Error(cat(mesh.source,
-                    ": the Signorini global matrix is numerically singular (CHOLMOD "
-                    "reciprocal condition estimate ",
-                    rcond_, "): a rigid motion is left free (add a fixed part or symmetry plane)"));
+  // The factor's order folded into the gather and the scatter of global_solve.
+  dof_.resize(nfree);
+  Eigen::VectorXd shift_perm(nfree);
+  for (int k = 0; k < nfree; ++k) {
+    dof_[k] = free_[llt_->perm()[k]];
+    shift_perm(k) = shift_(llt_->perm()[k]);
+  }
+  shift_ = shift_perm;
 
   const Eigen::MatrixXd Ft = F_ext_.transpose();
   f_flat_ = Eigen::Map<const Eigen::VectorXd>(Ft.data(), Ft.size());
-  b_.resize(nfree);
-  x_.resize(nfree);
   rhs_full_.resize(ndof);
+  U_.resize(ndof);
 }
 
 Eigen::VectorXd SignoriniSolver::normal_mean(const Eigen::MatrixXd& u) const {
@@ -249,11 +243,12 @@ void SignoriniSolver::global_solve(const Eigen::VectorXd& H, const Eigen::Vector
   const int dim = this->dim(), nn = problem_.mesh.num_nodes();
   rhs_full_ = f_flat_;
   rhs_full_.noalias() += MNT_W_ * (alg.R * alg.q_c * H + lambda_c);
-  for (std::size_t k = 0; k < free_.size(); ++k) b_(k) = rhs_full_(free_[k]) - shift_(k);
-  x_ = llt_->solve(b_);
-  Eigen::VectorXd U = u_fixed_;
-  for (std::size_t k = 0; k < free_.size(); ++k) U(free_[k]) = x_(k);
-  u = Eigen::Map<const Eigen::MatrixXd>(U.data(), dim, nn).transpose();
+  double* y = llt_->block();
+  for (std::size_t k = 0; k < dof_.size(); ++k) y[k] = rhs_full_(dof_[k]) - shift_(k);
+  llt_->solve_in_place();
+  U_ = u_fixed_;
+  for (std::size_t k = 0; k < dof_.size(); ++k) U_(dof_[k]) = y[k];
+  u = Eigen::Map<const Eigen::MatrixXd>(U_.data(), dim, nn).transpose();
 }
 
 SignoriniSolution SignoriniSolver::solve(
