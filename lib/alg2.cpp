@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "error.hpp"
+#include "iteration.hpp"
 #include "measures.hpp"
 
 namespace ltl {
@@ -434,34 +435,6 @@ void Solver::residuals(const State& s, IterationRecord& rec) const {
   rec.r_G = std::sqrt(G2) / norm_I_ + (facets_ ? std::sqrt(beta2 / area_c_) : 0.0);
 }
 
-// The stopping policy [LTL87 (4.4)], apart from the iteration: converged when r_G + r_B < tol;
-// a NaN, a residual above blowup x the first one, or the cap end the step unconverged.
-bool StoppingRule::capped(int n, StepReport& report) const {
-  if (n < alg.max_iter) return false;
-  report.status = cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
-  return true;
-}
-
-bool StoppingRule::stop(const IterationRecord& rec, bool finite, StepReport& report) {
-  const double r = rec.r_G + rec.r_B;
-  if (!std::isfinite(r) || !finite) {
-    report.status = "NaN in the iterate";
-    return true;
-  }
-  if (first < 0) first = std::max(r, 1e-300);
-  if (r > alg.blowup * first && rec.n > 1) {
-    report.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg.blowup,
-                        " x the first residual ", first, ")");
-    return true;
-  }
-  if (r < alg.tol) {
-    report.converged = true;
-    report.status = "converged";
-    return true;
-  }
-  return capped(rec.n, report);
-}
-
 namespace {
 // z[k .. k + size) <-> a matrix scaled by a weight per row (cells) or per column (facets).
 using Map = Eigen::Map<Eigen::MatrixXd>;
@@ -522,8 +495,7 @@ void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
-  StoppingRule rule{problem_.algorithm};
-  const auto t_start = clock_type::now();
+  IterationPolicy policy(problem_.algorithm, report, progress);
   // Anderson with a safeguard that can only help: an accelerated iterate is kept when its merit
   // r_G + r_B (measured by the iteration that follows it) does not exceed the merit of the
   // iterate it was extrapolated from; otherwise the plain iterate replaces it and the history
@@ -544,18 +516,15 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       ++(reject ? report.rejected : report.accepted);
     }
     if (!reject) report.strain_failures += failures;
-    rec.wall = seconds_since(t_start);
-    report.history.push_back(rec);
-    report.iterations = n;
-    if (progress) progress(rec);
+    policy.record(rec);
     extrapolated = false;
     if (reject) {
       s = plain_;  // the plain iterate G(x^{n-1})
       anderson_->restart();
-      if (rule.capped(n, report)) break;
+      if (policy.capped(n)) break;
       continue;
     }
-    if (rule.stop(rec, s.u.allFinite(), report)) break;
+    if (policy.stop(rec, s.u.allFinite())) break;
     if (anderson_) {
       pack(s, g_);
       if (anderson_->step(x_, g_) > 0) {

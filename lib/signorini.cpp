@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "error.hpp"
+#include "iteration.hpp"
 
 namespace ltl {
 
@@ -17,8 +18,8 @@ double seconds_since(clock_type::time_point t0) {
 }
 
 // [LTL87 (7.1)] Element stiffness of cell c, (dim npc)^2, interleaved local dofs:
-//   Ke(d a + i, d b + j) = integral lam dNa_i dNb_j + mu (dNa_j dNb_i + delta_ij grad Na . grad
-//   Nb),
+//   Ke(d a + i, d b + j) =
+//       integral lam dNa_i dNb_j + mu (dNa_j dNb_i + delta_ij grad Na . grad Nb),
 // with the quadrature of fe.hpp (for_each_quadrature_point).
 Eigen::MatrixXd element_stiffness(const Mesh& mesh, int c, double lam, double mu) {
   const int d = mesh.dim, npc = mesh.nodes_per_cell();
@@ -274,13 +275,12 @@ SignoriniSolution SignoriniSolver::solve(
   sol.H = H0;
   sol.lambda_c = lambda_c0;
   Eigen::VectorXd H_prev(nf), lambda_half(nf), B(nf);
-  const auto t_start = clock_type::now();
-  double first = -1;
+  IterationPolicy policy(alg, report, progress);
   auto rms = [&](const Eigen::VectorXd& x) {
     return std::sqrt(facets_.area.dot(x.cwiseAbs2()) / area_c_);
   };
 
-  for (int n = 1; n <= alg.max_iter; ++n) {
+  for (int n = 1;; ++n) {
     IterationRecord rec;
     rec.n = n;
     H_prev = sol.H;
@@ -316,31 +316,9 @@ SignoriniSolution SignoriniSolver::solve(
     rec.r_B = rms(B) / U;
     rec.r_G = rms(sol.H - H_prev) / U;
     rec.t_update += seconds_since(t0);
-    rec.wall = seconds_since(t_start);
-    report.history.push_back(rec);
-    report.iterations = n;
-    if (progress) progress(rec);
-
-    const double r = rec.r_G + rec.r_B;
-    if (!std::isfinite(r) || !sol.u.allFinite()) {
-      report.status = "NaN in the iterate";
-      break;
-    }
-    if (first < 0) first = std::max(r, 1e-300);
-    if (r > alg.blowup * first && n > 1) {
-      report.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg.blowup,
-                          " x the first residual ", first, ")");
-      break;
-    }
-    if (r < alg.tol) {
-      report.converged = true;
-      report.status = "converged";
-      break;
-    }
+    policy.record(rec);
+    if (policy.stop(rec, sol.u.allFinite())) break;
   }
-  if (report.status.empty())
-    report.status =
-        cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
   sol.p = -sol.lambda_c;
   sol.gap = g_ - sol.uN;
   return sol;

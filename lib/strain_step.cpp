@@ -618,43 +618,49 @@ bool minimize_comp(const ReducedComp<N>& p, Vec<N>& t) {
 
 StrainStep::StrainStep(const Material& material, double Rq) : material_(material), Rq_(Rq) {}
 
-/// [LTL87 (4.6), (5.2)-(5.8)] plane strain.
-bool StrainStep::solve(const Eigen::Matrix2d& D, Eigen::Matrix2d& E) const {
-  Eigen::Matrix2d Q, R;
-  Eigen::Vector2d d;
+namespace {
+
+/// [LTL87 (5.4)-(5.5)] E = Q diag(t) R^T, with D = Q diag(d) R^T the signed SVD and t = reduced(d)
+/// the minimizer of the reduced problem in the singular values; returns reduced's flag.
+template <int N, class Reduced>
+bool solve_in_frame(const Mat<N>& D, Mat<N>& E, const Reduced& reduced) {
+  Mat<N> Q, R;
+  Vec<N> d, t;
   signed_svd(D, Q, d, R);
-  Eigen::Vector2d t;
-  bool ok;
-  if (material_.incompressible()) {
-    double t1 = 1.0;
-    ok = solve_mr2(0.5 * Rq_ + material_.C2, d[0], d[1], t1);
-    t << t1, 1.0 / t1;
-  } else {
-    const ReducedComp<2> p{Rq_, material_.C3, 2.0 * (material_.C1 + material_.C3), d};
-    ok = minimize_comp<2>(p, t);
-  }
+  const bool ok = reduced(d, t);
   E.noalias() = Q * t.asDiagonal() * R.transpose();
   return ok;
 }
 
+}  // namespace
+
+/// [LTL87 (4.6), (5.2)-(5.8)] plane strain.
+bool StrainStep::solve(const Eigen::Matrix2d& D, Eigen::Matrix2d& E) const {
+  return solve_in_frame<2>(D, E, [&](const Vec<2>& d, Vec<2>& t) {
+    if (material_.incompressible()) {
+      double t1 = 1.0;
+      const bool ok = solve_mr2(0.5 * Rq_ + material_.C2, d[0], d[1], t1);
+      t << t1, 1.0 / t1;
+      return ok;
+    }
+    const ReducedComp<2> p{Rq_, material_.C3, 2.0 * (material_.C1 + material_.C3), d};
+    return minimize_comp<2>(p, t);
+  });
+}
+
 /// [LTL87 (4.6), (5.2)-(5.8)] 3-D.
 bool StrainStep::solve(const Eigen::Matrix3d& D, Eigen::Matrix3d& E) const {
-  Eigen::Matrix3d Q, R;
-  Eigen::Vector3d d;
-  signed_svd(D, Q, d, R);
-  Eigen::Vector3d t;
-  bool ok;
-  if (material_.incompressible()) {
-    const ReducedMR3 p{Rq_, material_.C2, d};
-    double x[3];
-    ok = solve_mr3_dual(p, x) || minimize_mr3(p, x);
-    t << x[0], x[1], x[2];
-  } else {
+  return solve_in_frame<3>(D, E, [&](const Vec<3>& d, Vec<3>& t) {
+    if (material_.incompressible()) {
+      const ReducedMR3 p{Rq_, material_.C2, d};
+      double x[3];
+      const bool ok = solve_mr3_dual(p, x) || minimize_mr3(p, x);
+      t << x[0], x[1], x[2];
+      return ok;
+    }
     const ReducedComp<3> p{Rq_, material_.C3, 2.0 * (material_.C1 + material_.C3), d};
-    ok = minimize_comp<3>(p, t);
-  }
-  E.noalias() = Q * t.asDiagonal() * R.transpose();
-  return ok;
+    return minimize_comp<3>(p, t);
+  });
 }
 
 double StrainStep::objective(const Eigen::Matrix2d& D, const Eigen::Matrix2d& E) const {
