@@ -441,19 +441,11 @@ using Map = Eigen::Map<Eigen::MatrixXd>;
 using ConstMap = Eigen::Map<const Eigen::MatrixXd>;
 }  // namespace
 
-void Solver::pack(const State& s, Eigen::VectorXd& z) const {
+template <class S, class Cells, class Facets, class Beta, class U>
+void Solver::for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const {
   const AlgorithmParams& alg = problem_.algorithm;
   const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
   const bool G = alg.accelerate != Accelerated::Multipliers;
-  double* p = z.data();
-  auto cells = [&](const Eigen::MatrixXd& A, double c) {
-    Map(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_cell_.array()).matrix();
-    p += A.size();
-  };
-  auto facets = [&](const Eigen::MatrixXd& A, double c) {
-    Map(p, A.rows(), A.cols()) = c * (A.array().rowwise() * w_facet_.transpose().array()).matrix();
-    p += A.size();
-  };
   if (G) cells(s.E, 1.0);
   cells(s.lambda, 1 / Rq);
   if (facets_) {
@@ -461,35 +453,43 @@ void Solver::pack(const State& s, Eigen::VectorXd& z) const {
     facets(s.lambda_c, 1 / Rqc);
     if (alg.accelerate == Accelerated::All)
       for (int f = 0; f < facets_->size(); ++f)
-        *p++ = std::sqrt(facets_->area(f) / area_c_) * s.beta(f);
+        beta(s.beta(f), std::sqrt(facets_->area(f) / area_c_));
   }
-  if (mean_det_) Map(p, s.u.rows(), s.u.cols()) = w_u_ * s.u;
+  if (mean_det_) u(s.u);
+}
+
+void Solver::pack(const State& s, Eigen::VectorXd& z) const {
+  double* p = z.data();
+  for_each_packed(
+      s,
+      [&](const Eigen::MatrixXd& A, double c) {
+        Map(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_cell_.array()).matrix();
+        p += A.size();
+      },
+      [&](const Eigen::MatrixXd& A, double c) {
+        Map(p, A.rows(), A.cols()) =
+            c * (A.array().rowwise() * w_facet_.transpose().array()).matrix();
+        p += A.size();
+      },
+      [&](double b, double w) { *p++ = w * b; },
+      [&](const Eigen::MatrixXd& u) { Map(p, u.rows(), u.cols()) = w_u_ * u; });
 }
 
 void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
-  const AlgorithmParams& alg = problem_.algorithm;
-  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
-  const bool G = alg.accelerate != Accelerated::Multipliers;
   const double* p = z.data();
-  auto cells = [&](Eigen::MatrixXd& A, double c) {
-    A = (ConstMap(p, A.rows(), A.cols()).array().colwise() / (c * w_cell_.array())).matrix();
-    p += A.size();
-  };
-  auto facets = [&](Eigen::MatrixXd& A, double c) {
-    A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_facet_.transpose().array()))
-            .matrix();
-    p += A.size();
-  };
-  if (G) cells(s.E, 1.0);
-  cells(s.lambda, 1 / Rq);
-  if (facets_) {
-    if (G) facets(s.e, 1.0);
-    facets(s.lambda_c, 1 / Rqc);
-    if (alg.accelerate == Accelerated::All)
-      for (int f = 0; f < facets_->size(); ++f)
-        s.beta(f) = *p++ / std::sqrt(facets_->area(f) / area_c_);
-  }
-  if (mean_det_) s.u = ConstMap(p, s.u.rows(), s.u.cols()) / w_u_;
+  for_each_packed(
+      s,
+      [&](Eigen::MatrixXd& A, double c) {
+        A = (ConstMap(p, A.rows(), A.cols()).array().colwise() / (c * w_cell_.array())).matrix();
+        p += A.size();
+      },
+      [&](Eigen::MatrixXd& A, double c) {
+        A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_facet_.transpose().array()))
+                .matrix();
+        p += A.size();
+      },
+      [&](double& b, double w) { b = *p++ / w; },
+      [&](Eigen::MatrixXd& u) { u = ConstMap(p, u.rows(), u.cols()) / w_u_; });
 }
 
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,

@@ -112,6 +112,11 @@ class Solver {
   /// the norm of r_G + r_B (weights of (3.3), multipliers divided by R q and R q_c).
   void pack(const State& s, Eigen::VectorXd& z) const;
   void unpack(const Eigen::VectorXd& z, State& s) const;
+  /// The blocks of the packed vector in their order, one definition for pack and unpack:
+  /// cells(A, c) and facets(A, c) for the cell and facet fields with their scale c, beta(b, w)
+  /// for each beta_s with its weight, u(A) for the displacement (mean-det).
+  template <class S, class Cells, class Facets, class Beta, class U>
+  void for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const;
   void residuals(const State& s, IterationRecord& rec) const;  // (4.4)
   void global_solve(State& s);                                 // (4.1)
   int strain_solve(const Eigen::MatrixXd& lambda, State& s);   // (4.6)
