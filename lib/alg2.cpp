@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "error.hpp"
+#include "iteration.hpp"
 #include "measures.hpp"
 
 namespace ltl {
@@ -435,53 +436,17 @@ void Solver::residuals(const State& s, IterationRecord& rec) const {
   rec.r_G = std::sqrt(G2) / norm_I_ + (facets_ ? std::sqrt(beta2 / area_c_) : 0.0);
 }
 
-// The stopping policy [LTL87 (4.4)], apart from the iteration: converged when r_G + r_B < tol;
-// a NaN, a residual above blowup x the first one, or the cap end the step unconverged.
-bool StoppingRule::capped(int n, StepReport& report) const {
-  if (n < alg.max_iter) return false;
-  report.status = cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
-  return true;
-}
-
-bool StoppingRule::stop(const IterationRecord& rec, bool finite, StepReport& report) {
-  const double r = rec.r_G + rec.r_B;
-  if (!std::isfinite(r) || !finite) {
-    report.status = "NaN in the iterate";
-    return true;
-  }
-  if (first < 0) first = std::max(r, 1e-300);
-  if (r > alg.blowup * first && rec.n > 1) {
-    report.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg.blowup,
-                        " x the first residual ", first, ")");
-    return true;
-  }
-  if (r < alg.tol) {
-    report.converged = true;
-    report.status = "converged";
-    return true;
-  }
-  return capped(rec.n, report);
-}
-
 namespace {
 // z[k .. k + size) <-> a matrix scaled by a weight per row (cells) or per column (facets).
 using Map = Eigen::Map<Eigen::MatrixXd>;
 using ConstMap = Eigen::Map<const Eigen::MatrixXd>;
 }  // namespace
 
-void Solver::pack(const State& s, Eigen::VectorXd& z) const {
+template <class S, class Cells, class Facets, class Beta, class U>
+void Solver::for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const {
   const AlgorithmParams& alg = problem_.algorithm;
   const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
   const bool G = alg.accelerate != Accelerated::Multipliers;
-  double* p = z.data();
-  auto cells = [&](const Eigen::MatrixXd& A, double c) {
-    Map(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_cell_.array()).matrix();
-    p += A.size();
-  };
-  auto facets = [&](const Eigen::MatrixXd& A, double c) {
-    Map(p, A.rows(), A.cols()) = c * (A.array().rowwise() * w_facet_.transpose().array()).matrix();
-    p += A.size();
-  };
   if (G) cells(s.E, 1.0);
   cells(s.lambda, 1 / Rq);
   if (facets_) {
@@ -489,42 +454,49 @@ void Solver::pack(const State& s, Eigen::VectorXd& z) const {
     facets(s.lambda_c, 1 / Rqc);
     if (alg.accelerate == Accelerated::All)
       for (int f = 0; f < facets_->size(); ++f)
-        *p++ = std::sqrt(facets_->area(f) / area_c_) * s.beta(f);
+        beta(s.beta(f), std::sqrt(facets_->area(f) / area_c_));
   }
-  if (mean_det_) Map(p, s.u.rows(), s.u.cols()) = w_u_ * s.u;
+  if (mean_det_) u(s.u);
+}
+
+void Solver::pack(const State& s, Eigen::VectorXd& z) const {
+  double* p = z.data();
+  for_each_packed(
+      s,
+      [&](const Eigen::MatrixXd& A, double c) {
+        Map(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_cell_.array()).matrix();
+        p += A.size();
+      },
+      [&](const Eigen::MatrixXd& A, double c) {
+        Map(p, A.rows(), A.cols()) =
+            c * (A.array().rowwise() * w_facet_.transpose().array()).matrix();
+        p += A.size();
+      },
+      [&](double b, double w) { *p++ = w * b; },
+      [&](const Eigen::MatrixXd& u) { Map(p, u.rows(), u.cols()) = w_u_ * u; });
 }
 
 void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
-  const AlgorithmParams& alg = problem_.algorithm;
-  const double Rq = alg.R * alg.q, Rqc = alg.R * alg.q_c;
-  const bool G = alg.accelerate != Accelerated::Multipliers;
   const double* p = z.data();
-  auto cells = [&](Eigen::MatrixXd& A, double c) {
-    A = (ConstMap(p, A.rows(), A.cols()).array().colwise() / (c * w_cell_.array())).matrix();
-    p += A.size();
-  };
-  auto facets = [&](Eigen::MatrixXd& A, double c) {
-    A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_facet_.transpose().array()))
-            .matrix();
-    p += A.size();
-  };
-  if (G) cells(s.E, 1.0);
-  cells(s.lambda, 1 / Rq);
-  if (facets_) {
-    if (G) facets(s.e, 1.0);
-    facets(s.lambda_c, 1 / Rqc);
-    if (alg.accelerate == Accelerated::All)
-      for (int f = 0; f < facets_->size(); ++f)
-        s.beta(f) = *p++ / std::sqrt(facets_->area(f) / area_c_);
-  }
-  if (mean_det_) s.u = ConstMap(p, s.u.rows(), s.u.cols()) / w_u_;
+  for_each_packed(
+      s,
+      [&](Eigen::MatrixXd& A, double c) {
+        A = (ConstMap(p, A.rows(), A.cols()).array().colwise() / (c * w_cell_.array())).matrix();
+        p += A.size();
+      },
+      [&](Eigen::MatrixXd& A, double c) {
+        A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_facet_.transpose().array()))
+                .matrix();
+        p += A.size();
+      },
+      [&](double& b, double w) { b = *p++ / w; },
+      [&](Eigen::MatrixXd& u) { u = ConstMap(p, u.rows(), u.cols()) / w_u_; });
 }
 
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
-  StoppingRule rule{problem_.algorithm};
-  const auto t_start = clock_type::now();
+  IterationPolicy policy(problem_.algorithm, report, progress);
   // Anderson with a safeguard that can only help: an accelerated iterate is kept when its merit
   // r_G + r_B (measured by the iteration that follows it) does not exceed the merit of the
   // iterate it was extrapolated from; otherwise the plain iterate replaces it and the history
@@ -545,18 +517,15 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       ++(reject ? report.rejected : report.accepted);
     }
     if (!reject) report.strain_failures += failures;
-    rec.wall = seconds_since(t_start);
-    report.history.push_back(rec);
-    report.iterations = n;
-    if (progress) progress(rec);
+    policy.record(rec);
     extrapolated = false;
     if (reject) {
       s = plain_;  // the plain iterate G(x^{n-1})
       anderson_->restart();
-      if (rule.capped(n, report)) break;
+      if (policy.capped(n)) break;
       continue;
     }
-    if (rule.stop(rec, s.u.allFinite(), report)) break;
+    if (policy.stop(rec, s.u.allFinite())) break;
     if (anderson_) {
       pack(s, g_);
       if (anderson_->step(x_, g_) > 0) {

@@ -3,10 +3,16 @@
 //
 // Unknowns (our reading, section3-4.md): u (P2 / H8 nodal displacement), E and lambda (P0 per
 // cell), e, beta, lambda_c (P0 per contact facet). One iteration reads as three phases:
-//   (4.1) global step:  K u = f + g + GbarT [ R q (E - I) + lambda - 2 C1 I ] + MT [ R q_c e +
-//   lambda_c ] (4.2) local steps:  E per cell (4.6, sec. 5), {e, beta} per facet (4.7, sec. 6)
-//   (4.3) update:       lambda -= rho R q (I + Gbar u - E),  lambda_c -= rho R q_c (ubar - e)
-// Stopping [LTL87 (4.4)]: r_G + r_B < tol, with both parts scaled by ||I||_q (see residuals()).
+//
+//   (4.1) global step:
+//           K u = f + g + GbarT [ R q (E - I) + lambda - 2 C1 I ] + MT [ R q_c e + lambda_c ]
+//   (4.2) local steps:
+//           E per cell (4.6, sec. 5), {e, beta} per facet (4.7, sec. 6)
+//   (4.3) update:
+//           lambda -= rho R q (I + Gbar u - E),  lambda_c -= rho R q_c (ubar - e)
+//
+// Stopping [LTL87 (4.4)]: r_G + r_B < tol, with both parts scaled by ||I||_q (see residuals());
+// the policy (NaN, blow-up, cap, history) is iteration.hpp's, shared with the Signorini solver.
 #pragma once
 
 #include <Eigen/Dense>
@@ -24,17 +30,6 @@
 #include "strain_step.hpp"
 
 namespace ltl {
-
-/// The stopping policy of a time step [LTL87 (4.4)], kept apart from the iteration: converged
-/// when r_G + r_B < tol; a NaN, a residual above blowup x the first residual, or the iteration
-/// cap end the step unconverged. stop() fills report.converged and report.status.
-struct StoppingRule {
-  const AlgorithmParams& alg;
-  double first = -1;  ///< the first residual r_G + r_B of the step
-  bool stop(const IterationRecord& rec, bool finite, StepReport& report);
-  /// The cap alone (for an iterate the acceleration safeguard rejected).
-  bool capped(int n, StepReport& report) const;
-};
 
 class Solver {
  public:
@@ -121,6 +116,11 @@ class Solver {
   /// the norm of r_G + r_B (weights of (3.3), multipliers divided by R q and R q_c).
   void pack(const State& s, Eigen::VectorXd& z) const;
   void unpack(const Eigen::VectorXd& z, State& s) const;
+  /// The blocks of the packed vector in their order, one definition for pack and unpack:
+  /// cells(A, c) and facets(A, c) for the cell and facet fields with their scale c, beta(b, w)
+  /// for each beta_s with its weight, u(A) for the displacement (mean-det).
+  template <class S, class Cells, class Facets, class Beta, class U>
+  void for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const;
   void residuals(const State& s, IterationRecord& rec) const;  // (4.4)
   void global_solve(State& s);                                 // (4.1)
   int strain_solve(const Eigen::MatrixXd& lambda, State& s);   // (4.6)

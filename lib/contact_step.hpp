@@ -17,51 +17,20 @@
 //   b  = w - sum_{s' != s} k_ss' (beta_s' - beta_prev_s') / dt + k_ss beta_prev_s / dt  (6.5)
 //
 // where k_ss' approximates  integral over G_s' of d(x_s - y) dy  for the kernel
-// d(y) = d0 exp(-d0 |y|) (1.6): the paper's centre-point rule k_ss' = d(x_s - x_s') |G_s'| by
-// default, or (option) the exact Galerkin integral of the kernel over the facets,
-// k_ss' = (1/|G_s|) integral over G_s integral over G_s' d(x - y) dy dx, so that |G_s| k_ss' is
-// symmetric in both rules.
+// d(y) = d0 exp(-d0 |y|) (1.6), by the paper's centre-point rule or the exact Galerkin integral
+// (adhesion_kernel.hpp).
+//
 // Eliminating e gives e = projection of a / (R q_c + kappa gamma^2) onto {e.N <= g}  (6.6)-(6.7)
 // and a scalar problem in gamma over [0,1] (6.8), solved by taking the best of the end points and
 // of every interior stationary point.
-//
-// Exact kernel (Adhesion::exact_kernel = true), see paper_notes/section6.md:
-//   2-D, collinear segments: closed form. 2-D, other segment pairs and 3-D facets (each quad split
-//   into the triangles (v0,v1,v2), (v0,v2,v3)): the inner integral over G_s' is done in polar
-//   coordinates around the point x (exact in the radius, Gauss-Legendre in the angle variable
-//   tau = asinh(t/h)), the outer integral over G_s by adaptive Gauss-Legendre. Relative accuracy
-//   ~1e-12 in 2-D, < 1e-8 in 3-D (measured); 3-D costs ~0.2 s CPU per facet pair when d0 h ~ 36
-//   (OpenMP-parallel over pairs). Facet pairs more than 60/d0 apart get k = 0 (true value
-//   < e^-60 d0 |G|).
 #pragma once
 
 #include <Eigen/Dense>
-#include <vector>
+
+#include "adhesion.hpp"
+#include "contact_surface.hpp"
 
 namespace ltl {
-
-/// Geometry of the contact surface Gamma_c as seen by the local step.
-struct ContactSurface {
-  int dim = 2;             ///< 2 (facets are segments) or 3 (facets are planar-ish quads)
-  Eigen::VectorXd area;    ///< #facets, |G_s| (length in 2-D, area in 3-D)
-  Eigen::MatrixXd centre;  ///< dim x #facets, reference centre x_s of each facet
-  Eigen::VectorXd gap;     ///< #facets, initial gap g_s >= 0 to the plane along N
-  Eigen::VectorXd N;       ///< dim, unit normal of the obstacle plane, pointing into it
-  /// Facet vertices for the exact kernel integral: 2-D: 2 x #facets end points stored as
-  /// vertices[k] (dim x #facets) for k = 0,1; 3-D: the 4 corners, k = 0..3, in cyclic order
-  /// (3 corners are accepted for triangular facets). Only read when exact_kernel and d0 > 0.
-  std::vector<Eigen::MatrixXd> vertices;
-  int size() const { return static_cast<int>(area.size()); }
-};
-
-/// Glue and dissipation data [LTL87 (1.2), (1.3), (1.6), (2.2)].
-struct Adhesion {
-  double w = 0.0;      ///< Dupre energy, J/m^2 (>= 0)
-  double kappa = 0.0;  ///< 1/eps, Pa/m (>= 0); 0 means no glue
-  double d0 = 0.0;     ///< kernel parameter of d(y) = d0 exp(-d0|y|), 1/m (>= 0); 0: no dissipation
-  double dt = 1.0;     ///< time step t_p - t_{p-1}, s (> 0)
-  bool exact_kernel = false;  ///< false: centre-point rule (the paper's); true: exact integral
-};
 
 /// Result of one facet problem (6.1).
 struct FacetSolution {

@@ -9,20 +9,17 @@
 // components that share a Dirichlet set solved in one call (multi-column right-hand side).
 // Components with different Dirichlet sets (symmetry planes) get one factor per distinct set.
 //
-// Performance (paper_notes/performance.md): CHOLMOD factorizes (supernodal, the best of the
-// AMD, METIS and nested-dissection orderings, computed once and induced on the other Dirichlet
-// sets); the solves do not go through CHOLMOD. A solve gathers the right-hand side straight
-// into a persistent block in the factor's order (the permutation folded into the gather and the
-// scatter: nothing is allocated), then sweeps CHOLMOD's supernodal factor with our own loops,
-// which read each stored entry of L once per sweep for all the columns of the block (see
-// global_step.cpp for why not cholmod_solve / cholmod_super_lsolve). Several factors (3-D with
-// symmetry planes) are solved concurrently on the OpenMP threads when they are large.
+// The factorization and the sweeps are the Cholesky wrapper's (cholesky.hpp): the best of the
+// AMD, METIS and nested-dissection orderings is computed once and induced on the other Dirichlet
+// sets. Several factors (3-D with symmetry planes) are solved concurrently on the OpenMP threads
+// when they are large (paper_notes/performance.md).
 #pragma once
 
 #include <Eigen/Sparse>
 #include <memory>
 #include <vector>
 
+#include "cholesky.hpp"
 #include "fe.hpp"
 
 namespace ltl {
@@ -41,17 +38,10 @@ SpMat global_matrix(const CellOperators& cells, const FacetOperators* facets, do
 
 class GlobalStep {
  public:
-  /// How the factors are stored and swept. The factorization is always CHOLMOD's supernodal
-  /// one. Supernodal: our own sweeps over CHOLMOD's supernodal factor (the default, Auto);
-  /// CholmodSupernodal: cholmod_super_lsolve/ltsolve (BLAS per supernode); Simplicial: the
-  /// factor converted to simplicial LL' and cholmod_solve2. The last two are kept for the
-  /// benchmark's comparison (experiments/bench).
-  enum class Storage { Auto, Supernodal, CholmodSupernodal, Simplicial };
-
   /// Groups the components by Dirichlet set, and analyzes and factorizes K restricted to each
   /// set's free nodes once. Throws a clear Error if a restricted matrix is not positive
   /// definite (a rigid motion not removed by fixed parts, symmetry planes or contact).
-  GlobalStep(const SpMat& K, const DirichletData& bc, Storage storage = Storage::Auto);
+  GlobalStep(const SpMat& K, const DirichletData& bc);
   ~GlobalStep();
   GlobalStep(const GlobalStep&) = delete;
   GlobalStep& operator=(const GlobalStep&) = delete;
@@ -66,23 +56,19 @@ class GlobalStep {
   double factorize_seconds() const { return factorize_seconds_; }
   double factor_nonzeros() const { return factor_nnz_; }  ///< sum over the factors of nnz(L)
   double min_rcond() const { return min_rcond_; }         ///< smallest CHOLMOD condition estimate
-  /// Factor k: number of rows (free nodes), of right-hand-side columns, nnz(L), and storage.
+  /// Factor k: number of rows (free nodes), of right-hand-side columns, and the factor itself.
   int factor_rows(int k) const;
   int factor_columns(int k) const;
-  double factor_nonzeros(int k) const;
-  double factor_entries(int k) const;  ///< values stored (supernodal: with the padding)
-  Storage storage(int k) const;
+  const Cholesky& factor(int k) const;
   /// Wall time spent in solve() since construction, and the number of calls (benchmarks).
   double solve_seconds() const { return solve_seconds_; }
   long solve_calls() const { return solve_calls_; }
 
-  /// Factors whose reciprocal condition estimate is below this are refused as singular.
-  static constexpr double kMinRcond = 1e-14;
   /// Several factors are solved concurrently (OpenMP) when their total nnz(L) is above this.
   static constexpr double kParallelMinNnz = 200000;
 
  private:
-  struct Group;  // one distinct Dirichlet set: its factor and workspaces (CHOLMOD types)
+  struct Group;  // one distinct Dirichlet set: its factor and its rows
   std::vector<std::unique_ptr<Group>> groups_;
   const DirichletData bc_;
   double analyze_seconds_ = 0, factorize_seconds_ = 0, factor_nnz_ = 0, min_rcond_ = 1;

@@ -1,8 +1,10 @@
 // Stored energy functions W(F) of the paper, with their first derivatives.
 //
-// [LTL87 (1.5)] incompressible Mooney-Rivlin:  W(F) = C1 (|F|^2 - 3) + C2 (|adj F|^2 - 3),  det F
-// = 1. [LTL87 sec. 8, Fig 3] compressible law:     W(F) = C1 (|F|^2 - 3) + C3 (det F)^2 - C3
-//                                                     - 2 (C1 + C3) ln det F.
+//   [LTL87 (1.5)] incompressible Mooney-Rivlin:
+//       W(F) = C1 (|F|^2 - 3) + C2 (|adj F|^2 - 3),  det F = 1;
+//   [LTL87 sec. 8, Fig 3] compressible law:
+//       W(F) = C1 (|F|^2 - 3) + C3 (det F)^2 - C3 - 2 (C1 + C3) ln det F.
+//
 // Plane strain embeds a 2x2 in-plane gradient as F = diag(F2, 1).
 #pragma once
 

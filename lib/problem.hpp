@@ -1,6 +1,7 @@
 // A problem as the user states it: mesh, material, boundary conditions, loads, contact/adhesion,
 // algorithm parameters and time stepping. Built from a configuration file (config.hpp) or in
-// code (tests). Nothing here is discretized yet; see Discretization (discretization.hpp).
+// code (tests). Nothing here is discretized or solved yet: the solver (alg2.hpp) builds the
+// discrete operators from it.
 #pragma once
 
 #include <Eigen/Dense>
@@ -8,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "contact_step.hpp"
+#include "adhesion.hpp"
 #include "fe.hpp"
 #include "material.hpp"
 #include "mesh.hpp"
@@ -48,7 +49,6 @@ enum class Update {
   BermudezMoreno,  ///< section 7, (7.7)-(7.10): half-step update before the local step
 };
 
-/// Parameters of ALG2 [LTL87 sec. 3-4, 7].
 /// Acceleration of the ALG2 fixed-point map (4.1)-(4.3) (paper_notes/performance.md).
 enum class Acceleration {
   None,      ///< the paper's plain iteration
@@ -62,6 +62,7 @@ enum class Accelerated {
   All,                 ///< E, e, beta, lambda, lambda_c
 };
 
+/// Parameters of ALG2 [LTL87 sec. 3-4, 7].
 struct AlgorithmParams {
   double R = 1.0;    ///< augmentation parameter (dimensionless), R > 0
   double q = 1.0;    ///< weight of the strain constraint (Pa), q > 0   (3.3)

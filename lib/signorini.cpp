@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "error.hpp"
+#include "iteration.hpp"
 
 namespace ltl {
 
@@ -17,8 +18,8 @@ double seconds_since(clock_type::time_point t0) {
 }
 
 // [LTL87 (7.1)] Element stiffness of cell c, (dim npc)^2, interleaved local dofs:
-//   Ke(d a + i, d b + j) = integral lam dNa_i dNb_j + mu (dNa_j dNb_i + delta_ij grad Na . grad
-//   Nb),
+//   Ke(d a + i, d b + j) =
+//       integral lam dNa_i dNb_j + mu (dNa_j dNb_i + delta_ij grad Na . grad Nb),
 // with the quadrature of fe.hpp (for_each_quadrature_point).
 Eigen::MatrixXd element_stiffness(const Mesh& mesh, int c, double lam, double mu) {
   const int d = mesh.dim, npc = mesh.nodes_per_cell();
@@ -40,11 +41,6 @@ void require(bool ok, const std::string& what) {
 }
 
 }  // namespace
-
-// CHOLMOD supernodal Cholesky, with access to the factor for the condition estimate.
-struct SignoriniSolver::Factor : Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower> {
-  double rcond() { return cholmod_rcond(m_cholmodFactor, &this->cholmod()); }
-};
 
 void SignoriniProblem::validate() const {
   const int dim = mesh.dim;
@@ -212,28 +208,27 @@ SignoriniSolver::SignoriniSolver(const SignoriniProblem& problem) : problem_(pro
     }
   SpMat Kff(nfree, nfree);
   Kff.setFromTriplets(t.begin(), t.end());
-
-  const auto t0 = clock_type::now();
-  llt_ = std::make_unique<Factor>();
-  llt_->cholmod().print = 1;  // errors only: a non-positive-definite matrix is reported by us
-  llt_->compute(Kff);
-  factorize_seconds_ = seconds_since(t0);
-  if (llt_->info() != Eigen::Success)
-    throw Error(cat(mesh.source, ": the Signorini global matrix A + R q_c M_N^T W M_N (", nfree,
-                    " free dofs) is not positive definite: a rigid motion is left free (add a "
-                    "fixed part or symmetry plane, or check the contact group and normal)"));
+  llt_ = std::make_unique<Cholesky>(
+      Kff, 1,
+      cat(mesh.source, ": the Signorini global matrix A + R q_c M_N^T W M_N (", nfree,
+          " free dofs)"),
+      "A rigid motion is left free: add a fixed part or symmetry plane, or check the contact "
+      "group and normal.");
+  factorize_seconds_ = llt_->analyze_seconds() + llt_->factorize_seconds();
   rcond_ = llt_->rcond();
-  if (!(rcond_ > 1e-14))
-    throw Error(cat(mesh.source,
-                    ": the Signorini global matrix is numerically singular (CHOLMOD "
-                    "reciprocal condition estimate ",
-                    rcond_, "): a rigid motion is left free (add a fixed part or symmetry plane)"));
+  // The factor's order folded into the gather and the scatter of global_solve.
+  dof_.resize(nfree);
+  Eigen::VectorXd shift_perm(nfree);
+  for (int k = 0; k < nfree; ++k) {
+    dof_[k] = free_[llt_->perm()[k]];
+    shift_perm(k) = shift_(llt_->perm()[k]);
+  }
+  shift_ = shift_perm;
 
   const Eigen::MatrixXd Ft = F_ext_.transpose();
   f_flat_ = Eigen::Map<const Eigen::VectorXd>(Ft.data(), Ft.size());
-  b_.resize(nfree);
-  x_.resize(nfree);
   rhs_full_.resize(ndof);
+  U_.resize(ndof);
 }
 
 Eigen::VectorXd SignoriniSolver::normal_mean(const Eigen::MatrixXd& u) const {
@@ -249,11 +244,12 @@ void SignoriniSolver::global_solve(const Eigen::VectorXd& H, const Eigen::Vector
   const int dim = this->dim(), nn = problem_.mesh.num_nodes();
   rhs_full_ = f_flat_;
   rhs_full_.noalias() += MNT_W_ * (alg.R * alg.q_c * H + lambda_c);
-  for (std::size_t k = 0; k < free_.size(); ++k) b_(k) = rhs_full_(free_[k]) - shift_(k);
-  x_ = llt_->solve(b_);
-  Eigen::VectorXd U = u_fixed_;
-  for (std::size_t k = 0; k < free_.size(); ++k) U(free_[k]) = x_(k);
-  u = Eigen::Map<const Eigen::MatrixXd>(U.data(), dim, nn).transpose();
+  double* y = llt_->block();
+  for (std::size_t k = 0; k < dof_.size(); ++k) y[k] = rhs_full_(dof_[k]) - shift_(k);
+  llt_->solve_in_place();
+  U_ = u_fixed_;
+  for (std::size_t k = 0; k < dof_.size(); ++k) U_(dof_[k]) = y[k];
+  u = Eigen::Map<const Eigen::MatrixXd>(U_.data(), dim, nn).transpose();
 }
 
 SignoriniSolution SignoriniSolver::solve(
@@ -279,13 +275,12 @@ SignoriniSolution SignoriniSolver::solve(
   sol.H = H0;
   sol.lambda_c = lambda_c0;
   Eigen::VectorXd H_prev(nf), lambda_half(nf), B(nf);
-  const auto t_start = clock_type::now();
-  double first = -1;
+  IterationPolicy policy(alg, report, progress);
   auto rms = [&](const Eigen::VectorXd& x) {
     return std::sqrt(facets_.area.dot(x.cwiseAbs2()) / area_c_);
   };
 
-  for (int n = 1; n <= alg.max_iter; ++n) {
+  for (int n = 1;; ++n) {
     IterationRecord rec;
     rec.n = n;
     H_prev = sol.H;
@@ -321,31 +316,9 @@ SignoriniSolution SignoriniSolver::solve(
     rec.r_B = rms(B) / U;
     rec.r_G = rms(sol.H - H_prev) / U;
     rec.t_update += seconds_since(t0);
-    rec.wall = seconds_since(t_start);
-    report.history.push_back(rec);
-    report.iterations = n;
-    if (progress) progress(rec);
-
-    const double r = rec.r_G + rec.r_B;
-    if (!std::isfinite(r) || !sol.u.allFinite()) {
-      report.status = "NaN in the iterate";
-      break;
-    }
-    if (first < 0) first = std::max(r, 1e-300);
-    if (r > alg.blowup * first && n > 1) {
-      report.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg.blowup,
-                          " x the first residual ", first, ")");
-      break;
-    }
-    if (r < alg.tol) {
-      report.converged = true;
-      report.status = "converged";
-      break;
-    }
+    policy.record(rec);
+    if (policy.stop(rec, sol.u.allFinite())) break;
   }
-  if (report.status.empty())
-    report.status =
-        cat("iteration cap reached (", alg.max_iter, " iterations) without convergence");
   sol.p = -sol.lambda_c;
   sol.gap = g_ - sol.uN;
   return sol;

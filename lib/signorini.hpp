@@ -34,7 +34,6 @@
 // so that tol is a relative accuracy of the contact displacement on every problem.
 #pragma once
 
-#include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <functional>
@@ -42,6 +41,7 @@
 #include <string>
 #include <vector>
 
+#include "cholesky.hpp"
 #include "fe.hpp"
 #include "mesh.hpp"
 #include "problem.hpp"
@@ -127,7 +127,6 @@ class SignoriniSolver {
   double rcond() const { return rcond_; }  ///< CHOLMOD reciprocal condition estimate
 
  private:
-  struct Factor;
   void global_solve(const Eigen::VectorXd& H, const Eigen::VectorXd& lambda_c,
                     Eigen::MatrixXd& u);  // (4.1) / (7.7)
 
@@ -139,12 +138,13 @@ class SignoriniSolver {
   Eigen::VectorXd N_, g_;
   Eigen::MatrixXd F_ext_;
   std::vector<int> free_;    ///< free dofs
+  std::vector<int> dof_;     ///< #free, the dof of each row of the factor's permuted system
   Eigen::VectorXd u_fixed_;  ///< dim * #nodes, prescribed values (zero on free dofs)
-  Eigen::VectorXd shift_;    ///< #free, K_fd u_d
-  std::unique_ptr<Factor> llt_;
+  Eigen::VectorXd shift_;    ///< #free, K_fd u_d in the factor's order
+  std::unique_ptr<Cholesky> llt_;
   double area_c_ = 0, factorize_seconds_ = 0, rcond_ = 1;
-  Eigen::VectorXd f_flat_;            ///< dim * #nodes, f + g interleaved
-  Eigen::VectorXd b_, x_, rhs_full_;  // work buffers
+  Eigen::VectorXd f_flat_;        ///< dim * #nodes, f + g interleaved
+  Eigen::VectorXd rhs_full_, U_;  // work buffers
 };
 
 /// The contact zone of a symmetric half model measured from the P0 pressure and gap along a

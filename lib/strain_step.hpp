@@ -18,6 +18,7 @@
 #include <Eigen/Dense>
 
 #include "material.hpp"
+#include "signed_svd.hpp"
 
 namespace ltl {
 
@@ -43,12 +44,5 @@ class StrainStep {
   Material material_;
   double Rq_;
 };
-
-/// Signed SVD [LTL87 (5.4)]: A = Q diag(d) R^T with det Q = det R = +1, |d| sorted decreasing,
-/// and a negative sign (when det A < 0) on the smallest value only.
-void signed_svd(const Eigen::Matrix2d& A, Eigen::Matrix2d& Q, Eigen::Vector2d& d,
-                Eigen::Matrix2d& R);
-void signed_svd(const Eigen::Matrix3d& A, Eigen::Matrix3d& Q, Eigen::Vector3d& d,
-                Eigen::Matrix3d& R);
 
 }  // namespace ltl

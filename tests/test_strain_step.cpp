@@ -1,6 +1,7 @@
 // Tests of the local strain step [LTL87 (4.6)] solved by the reduction of section 5,
-// (5.2)-(5.8): signed SVD (5.4), admissibility (5.1), optimality (KKT), frame indifference, and
-// agreement with an independent brute-force minimization over all admissible matrices.
+// (5.2)-(5.8) (the signed SVD (5.4) in test_signed_svd.cpp): admissibility (5.1), optimality (KKT),
+// frame indifference, and agreement with an independent brute-force minimization over all
+// admissible matrices.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -116,56 +117,6 @@ double kkt_residual(const StrainStep& st, const Mat<n>& D, const Mat<n>& E) {
     G -= ((G.array() * c.array()).sum() / c.squaredNorm()) * c;
   }
   return G.norm() / (D.norm() + st.Rq() * E.norm() + dW.norm() + 2.0 * m.C1 * E.norm());
-}
-
-// --- signed SVD (5.4) -----------------------------------------------------------------------
-
-template <int n>
-void check_signed_svd(const Mat<n>& A) {
-  Mat<n> Q, R;
-  Eigen::Matrix<double, n, 1> d;
-  ltl::signed_svd(A, Q, d, R);
-  const double scale = std::max(A.norm(), 1e-300);
-  EXPECT_LT((Q * d.asDiagonal() * R.transpose() - A).norm(), 8e-16 * n * scale) << A;
-  EXPECT_LT((Q.transpose() * Q - Mat<n>::Identity()).norm(), 1e-15 * n);
-  EXPECT_LT((R.transpose() * R - Mat<n>::Identity()).norm(), 1e-15 * n);
-  EXPECT_NEAR(Q.determinant(), 1.0, 1e-15 * n);  // rotations, not reflections
-  EXPECT_NEAR(R.determinant(), 1.0, 1e-15 * n);
-  for (int i = 0; i + 1 < n; ++i) {  // |d| decreasing, only the last one may be negative
-    EXPECT_GE(d[i], 0.0);
-    EXPECT_GE(d[i], std::abs(d[i + 1]) - 1e-15 * scale);
-  }
-  const double det = A.determinant();
-  if (std::abs(det) > 1e-10 * std::pow(scale, n)) {
-    EXPECT_EQ(d[n - 1] < 0.0, det < 0.0) << A;
-  }
-}
-
-TEST(SignedSvd, Eq5_4_ReconstructsWithRotationsAndSignOnSmallest2D) {
-  std::mt19937_64 g(10);
-  for (const Mat<2>& A : loadings<2>(1.0, g, 200)) check_signed_svd<2>(A);
-  // exact values: diag(1, -3) has signed singular values (3, -1)
-  Mat<2> Q, R;
-  Eigen::Vector2d d;
-  ltl::signed_svd(Mat<2>(Eigen::Vector2d(1.0, -3.0).asDiagonal()), Q, d, R);
-  EXPECT_NEAR(d[0], 3.0, 1e-15);
-  EXPECT_NEAR(d[1], -1.0, 1e-15);
-}
-
-TEST(SignedSvd, Eq5_4_ReconstructsWithRotationsAndSignOnSmallest3D) {
-  std::mt19937_64 g(11);
-  for (const Mat<3>& A : loadings<3>(1.0, g, 200)) check_signed_svd<3>(A);
-  for (double s : {1e-12, 1e12}) {  // strongly graded singular values
-    const Mat<3> A = random_rotation<3>(g) * Eigen::Vector3d(1.0, s, 1.0 / s).asDiagonal() *
-                     random_rotation<3>(g);
-    check_signed_svd<3>(A);
-  }
-  Mat<3> Q, R;
-  Eigen::Vector3d d;
-  ltl::signed_svd(Mat<3>(Eigen::Vector3d(-2.0, 5.0, 1.0).asDiagonal()), Q, d, R);
-  EXPECT_NEAR(d[0], 5.0, 1e-14);
-  EXPECT_NEAR(d[1], 2.0, 1e-14);
-  EXPECT_NEAR(d[2], -1.0, 1e-14);
 }
 
 // --- solve: admissible, optimal, frame indifferent --------------------------------------

@@ -27,6 +27,7 @@
 //           state. Single-threaded kernels timed outside the loop (bandwidth, strain step alone,
 //           Table 5) use the thread's CPU time, which preemption does not inflate.
 
+#include <cholmod.h>
 #include <dlfcn.h>
 #include <omp.h>
 #include <sys/wait.h>
@@ -41,6 +42,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -230,44 +232,92 @@ double strain_standalone(const ltl::Solver& solver, const ltl::State& s, int& fa
   return best / nc * 1e9;
 }
 
-/// The triangular solves alone (1 thread, thread CPU time, best of reps) for the three ways of
-/// storing/sweeping the factor (GlobalStep::Storage), on the matrix and Dirichlet sets of the
-/// case. Writes ms into out under keys sv_<name>.
-void solve_variants(const ltl::Solver& solver, std::map<std::string, double>& out) {
-  const ltl::Problem& p = solver.problem();
-  const ltl::Mesh& mesh = p.mesh;
-  const int dim = mesh.dim, nn = mesh.num_nodes();
-  ltl::DirichletData bc;
-  bc.fixed.assign(dim, {});
-  bc.value = Eigen::MatrixXd::Zero(nn, dim);
-  for (const auto& d : p.dirichlet)
-    for (int node : mesh.boundary_nodes(d.group))
-      for (int comp : d.components) bc.fixed[comp].push_back(node);
-  for (auto& f : bc.fixed) {
-    std::sort(f.begin(), f.end());
-    f.erase(std::unique(f.begin(), f.end()), f.end());
+/// CHOLMOD's own solves on one of our factors, for Table 5 (only the benchmark needs them):
+/// its supernodal sweeps (cholmod_super_lsolve / ltsolve, BLAS per supernode) on the factor as
+/// it is, and cholmod_solve2 on a copy converted to simplicial LL' (same numbers, column
+/// storage). The right-hand sides are in the factor's permuted order, as in our sweeps.
+class CholmodSolves {
+ public:
+  CholmodSolves(const ltl::Cholesky& ours) {
+    cholmod_start(&cm_);
+    L_ = const_cast<cholmod_factor*>(ours.factor());  // read-only for the solves below
+    const int n = ours.rows(), nc = ours.columns();
+    Y_ = cholmod_allocate_dense(n, nc, n, CHOLMOD_REAL, &cm_);
+    E_ = cholmod_allocate_dense(nc, L_->maxesize, nc, CHOLMOD_REAL, &cm_);
+    Ls_ = cholmod_copy_factor(L_, &cm_);
+    cholmod_change_factor(CHOLMOD_REAL, 1, 0, 1, 1, Ls_, &cm_);
+    rhs_.resize(static_cast<std::size_t>(n) * nc);
+    for (std::size_t k = 0; k < rhs_.size(); ++k) rhs_[k] = std::sin(0.37 * k);
   }
-  const double Rq = p.algorithm.R * p.algorithm.q, Rqc = p.algorithm.R * p.algorithm.q_c;
-  const ltl::SpMat K =
-      ltl::global_matrix(solver.cells(), solver.facets(), solver.split().C1, Rq, Rqc);
-  const Eigen::MatrixXd b = Eigen::MatrixXd::Random(nn, dim);
-  Eigen::MatrixXd u;
-  using S = ltl::GlobalStep::Storage;
-  for (auto [name, storage] : {std::pair{"ours", S::Supernodal},
-                               {"cholsup", S::CholmodSupernodal},
-                               {"simplicial", S::Simplicial}}) {
-    ltl::GlobalStep gs(K, bc, storage);
-    gs.solve(b, u);
+  /// The same right-hand sides before every solve (a solve in place would drift).
+  void refill(double* y) const { std::copy(rhs_.begin(), rhs_.end(), y); }
+  void refill() { refill(static_cast<double*>(Y_->x)); }
+  ~CholmodSolves() {
+    cholmod_free_dense(&W2_, &cm_);
+    cholmod_free_dense(&W_, &cm_);
+    cholmod_free_dense(&X_, &cm_);
+    cholmod_free_dense(&E_, &cm_);
+    cholmod_free_dense(&Y_, &cm_);
+    cholmod_free_factor(&Ls_, &cm_);
+    cholmod_finish(&cm_);
+  }
+  void supernodal() {
+    cholmod_super_lsolve(L_, Y_, E_, &cm_);
+    cholmod_super_ltsolve(L_, Y_, E_, &cm_);
+  }
+  void simplicial() {  // CHOLMOD_LDLt on an LL' factor is L L' x = b, without L->Perm
+    cholmod_solve2(CHOLMOD_LDLt, Ls_, Y_, nullptr, &X_, nullptr, &W_, &W2_, &cm_);
+  }
+
+ private:
+  cholmod_common cm_;
+  cholmod_factor *L_ = nullptr, *Ls_ = nullptr;
+  cholmod_dense *Y_ = nullptr, *E_ = nullptr, *X_ = nullptr, *W_ = nullptr, *W2_ = nullptr;
+  std::vector<double> rhs_;
+};
+
+/// The triangular solves alone (1 thread, thread CPU time, best of reps) on the factors of the
+/// case's global step (all factors, all columns): our sweeps (ltl::Cholesky), CHOLMOD's
+/// supernodal sweeps and CHOLMOD's simplicial solve. Writes ms into out under keys sv_<name>.
+void solve_variants(const ltl::Solver& solver, std::map<std::string, double>& out) {
+  const ltl::GlobalStep& gs = solver.global_step();
+  std::vector<std::unique_ptr<CholmodSolves>> theirs;
+  std::vector<ltl::Cholesky*> ours;
+  double entries = 0;
+  for (int k = 0; k < gs.num_factors(); ++k) {
+    ours.push_back(const_cast<ltl::Cholesky*>(&gs.factor(k)));
+    theirs.push_back(std::make_unique<CholmodSolves>(gs.factor(k)));
+    entries += gs.factor(k).entries();
+  }
+  out["sv_entries"] = entries;
+  const std::pair<const char*, std::function<void()>> variants[] = {
+      {"ours",
+       [&] {
+         for (std::size_t k = 0; k < ours.size(); ++k) {
+           theirs[k]->refill(ours[k]->block());
+           ours[k]->solve_in_place();
+         }
+       }},
+      {"cholsup",
+       [&] {
+         for (auto& t : theirs) {
+           t->refill();
+           t->supernodal();
+         }
+       }},
+      {"simplicial", [&] {
+         for (auto& t : theirs) {
+           t->refill();
+           t->simplicial();
+         }
+       }}};
+  for (const auto& [name, run] : variants) {
+    run();
     double once = thread_cpu();
-    gs.solve(b, u);
+    run();
     once = thread_cpu() - once;
     const int reps = static_cast<int>(std::clamp(0.5 / std::max(once, 1e-7), 3.0, 2000.0));
-    out[std::string("sv_") + name] = 1e3 * best_of(reps, 1, [&] { gs.solve(b, u); });
-    if (storage == S::Supernodal) {
-      double entries = 0;
-      for (int k = 0; k < gs.num_factors(); ++k) entries += gs.factor_entries(k);
-      out["sv_entries"] = entries;
-    }
+    out[std::string("sv_") + name] = 1e3 * best_of(reps, 1, run);
   }
 }
 
@@ -542,7 +592,7 @@ int main(int argc, char** argv) {
 
   std::printf(
       "\nTable 5. Triangular solves alone, one call (all factors, all columns), 1 thread, "
-      "CPU time, best of many: ours (GlobalStep::Storage::Supernodal, the default) vs "
+      "CPU time, best of many: ours (ltl::Cholesky's sweeps, the default) vs "
       "CHOLMOD's supernodal sweeps (BLAS per supernode) vs CHOLMOD simplicial; floor as in "
       "Table 2 (%.1f GB/s); stored = values stored by the supernodal factor\n",
       bw1.read);

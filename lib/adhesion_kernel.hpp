@@ -1,0 +1,49 @@
+// The dissipation kernel of the adhesion law on the discrete contact surface [LTL87 (1.3), (1.6),
+// (6.4)-(6.5)]: k_ss' approximates the integral over G_s' of d(x_s - y) dy for
+// d(y) = d0 exp(-d0 |y|), either by the paper's centre-point rule
+//
+//     k_ss' = d(x_s - x_s') |G_s'|
+//
+// or by the exact Galerkin integral k_ss' = (1/|G_s|) int_{G_s} int_{G_s'} d(x - y) dy dx; in both
+// rules |G_s| k_ss' is symmetric.
+//
+// Exact rule (paper_notes/section6.md): 2-D collinear segments in closed form; other segment pairs
+// and 3-D facets (each quad split into the triangles (v0,v1,v2), (v0,v2,v3)) with the inner
+// integral in polar coordinates around x (exact in the radius, Gauss-Legendre in
+// tau = asinh(t/h)) and the outer one by adaptive Gauss-Legendre. Relative accuracy ~1e-12 in
+// 2-D, < 1e-8 per facet pair in 3-D, 6e-8 on a row sum (measured, tests/test_adhesion_kernel.cpp);
+// 3-D costs ~0.2 s CPU per facet pair when d0 h ~ 36 (OpenMP-parallel over pairs). Facet pairs more
+// than 60/d0 apart get k = 0 (true value < e^-60 d0 |G|).
+#pragma once
+
+#include <Eigen/Dense>
+
+#include "contact_surface.hpp"
+
+namespace ltl {
+
+/// [LTL87 (1.3), (1.6), (6.4)-(6.5)] The kernel matrix k (#facets x #facets) of the surface for
+/// d(y) = d0 exp(-d0 |y|), d0 > 0: the centre-point rule, or the exact Galerkin integral when
+/// `exact` (then surface.vertices is required and checked against surface.area). Throws
+/// std::invalid_argument naming the facet on inconsistent vertices.
+Eigen::MatrixXd adhesion_kernel(const ContactSurface& surface, double d0, bool exact);
+
+/// The integrals behind the exact rule, each of d0 exp(-d0 |x - y|) [LTL87 (1.6)].
+namespace kernel {
+
+/// Over x in [p, q], y in [r, s] on one line (p < q, r < s), in closed form.
+double collinear(double p, double q, double r, double s, double d0);
+/// Over y on the segment [q0, q1], for a point x of the plane.
+double point_segment(const Eigen::Vector2d& x, const Eigen::Vector2d& q0, const Eigen::Vector2d& q1,
+                     double d0);
+/// Over x on [p0, p1] and y on [q0, q1] (any two segments of the plane).
+double segment_pair(const Eigen::Vector2d& p0, const Eigen::Vector2d& p1, const Eigen::Vector2d& q0,
+                    const Eigen::Vector2d& q1, double d0);
+/// Over y on the planar polygon v[0..nv-1] (3 or 4 vertices in cyclic order), any point x.
+double point_polygon(const Eigen::Vector3d& x, const Eigen::Vector3d* v, int nv, double d0);
+/// Over x on facet P and y on facet Q (3 or 4 vertices each, in cyclic order).
+double facet_pair(const Eigen::Vector3d* P, int np, const Eigen::Vector3d* Q, int nq, double d0);
+
+}  // namespace kernel
+
+}  // namespace ltl

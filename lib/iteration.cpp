@@ -1,0 +1,49 @@
+// The iteration policy [LTL87 (4.4)] (iteration.hpp).
+#include "iteration.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "error.hpp"
+
+namespace ltl {
+
+IterationPolicy::IterationPolicy(const AlgorithmParams& alg, StepReport& report,
+                                 const Progress& progress)
+    : alg_(alg), report_(report), progress_(progress), start_(std::chrono::steady_clock::now()) {}
+
+void IterationPolicy::record(IterationRecord& rec) {
+  rec.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  report_.history.push_back(rec);
+  report_.iterations = rec.n;
+  if (progress_) progress_(rec);
+}
+
+bool IterationPolicy::capped(int n) {
+  if (n < alg_.max_iter) return false;
+  report_.status =
+      cat("iteration cap reached (", alg_.max_iter, " iterations) without convergence");
+  return true;
+}
+
+bool IterationPolicy::stop(const IterationRecord& rec, bool finite) {
+  const double r = rec.r_G + rec.r_B;
+  if (!std::isfinite(r) || !finite) {
+    report_.status = "NaN in the iterate";
+    return true;
+  }
+  if (first_ < 0) first_ = std::max(r, 1e-300);
+  if (r > alg_.blowup * first_ && rec.n > 1) {
+    report_.status = cat("residual blow-up (r_G + r_B = ", r, " > ", alg_.blowup,
+                         " x the first residual ", first_, ")");
+    return true;
+  }
+  if (r < alg_.tol) {
+    report_.converged = true;
+    report_.status = "converged";
+    return true;
+  }
+  return capped(rec.n);
+}
+
+}  // namespace ltl

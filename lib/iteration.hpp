@@ -1,0 +1,40 @@
+// The iteration policy of ALG2 [LTL87 (4.4)], shared by the finite-elasticity solver (alg2.cpp)
+// and the Signorini solver (signorini.cpp): every iteration's record goes into the step's
+// history and to the progress callback; the step is converged when r_G + r_B < tol; a NaN, a
+// residual above blowup x the first residual, or the iteration cap end it unconverged, with
+// report.status saying which.
+#pragma once
+
+#include <chrono>
+#include <functional>
+
+#include "problem.hpp"
+#include "state.hpp"
+
+namespace ltl {
+
+class IterationPolicy {
+ public:
+  using Progress = std::function<void(const IterationRecord&)>;
+
+  /// alg: tol, blowup and max_iter are read. report and progress (may be empty) must outlive
+  /// the policy; the wall clock of the records starts here.
+  IterationPolicy(const AlgorithmParams& alg, StepReport& report, const Progress& progress);
+
+  /// Records iteration rec.n: its wall time since the start, the history, the count, progress.
+  void record(IterationRecord& rec);
+  /// After record(): true when the step ends here (report.converged and report.status set):
+  /// NaN in r_G + r_B or in the iterate (finite = false), blow-up, r_G + r_B < tol, or the cap.
+  bool stop(const IterationRecord& rec, bool finite);
+  /// The cap alone (for an iterate the acceleration safeguard rejected): true when n reached it.
+  bool capped(int n);
+
+ private:
+  const AlgorithmParams& alg_;
+  StepReport& report_;
+  const Progress& progress_;
+  std::chrono::steady_clock::time_point start_;
+  double first_ = -1;  ///< the first residual r_G + r_B of the step
+};
+
+}  // namespace ltl
