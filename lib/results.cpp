@@ -111,6 +111,46 @@ void ok(herr_t status, const std::string& file, const std::string& what) {
   if (status < 0) fail(file, what);
 }
 
+/// File access in memory (HDF5's core driver, no backing store): the working copy of the results
+/// file is an image in memory, which commit() writes with checked write(2) calls. HDF5 1.10 writing
+/// to disk itself reports a full disk late or not at all (a dataset's sieve buffer flushed in
+/// H5Dclose), and a failed H5Fclose leaves a freed file behind that crashes the program at exit
+/// (H5F__close_cb in H5_term_library); in memory neither can happen.
+Handle memory_access(const std::string& file) {
+  Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "cannot create an access list");
+  ok(H5Pset_fapl_core(fapl.get(), 1 << 20, false), file, "cannot select HDF5's core driver");
+  return fapl;
+}
+
+/// Writes `image` to `work` (created or truncated) and forces it to the disk; a failure (ENOSPC)
+/// removes `work` and names `file`. The fault point in the middle is the kill test's "inside the
+/// flush".
+void write_image(const std::string& work, const std::vector<char>& image, const std::string& file) {
+  const int fd = ::open(work.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) fail(file, cat("cannot create the working file ", work, ": ", errno_text(errno)));
+  const auto failed = [&](const char* what) {
+    const int e = errno;
+    ::close(fd);
+    ::unlink(work.c_str());
+    fail(file, cat(what, work, ": ", errno_text(e)));
+  };
+  const std::size_t half = image.size() / 2;
+  for (std::size_t done = 0; done < image.size();) {
+    const std::size_t end = done < half ? half : image.size();
+    const ssize_t n = ::write(fd, image.data() + done, end - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) failed("cannot write the file: ");
+    done += static_cast<std::size_t>(n);
+    if (done == half) fault_point();
+  }
+  if (::fsync(fd) != 0) failed("cannot sync to disk: ");
+  if (::close(fd) != 0) {
+    const int e = errno;
+    ::unlink(work.c_str());
+    fail(file, cat("cannot close ", work, ": ", errno_text(e)));
+  }
+}
+
 /// Whether the object at absolute `path` ("/a/b/c") exists (every component is checked, as
 /// H5Lexists requires).
 bool exists(hid_t file_id, const std::string& path, const std::string& file) {
@@ -638,7 +678,7 @@ ResultsFile ResultsFile::create(const std::string& path, const Mesh& mesh, const
   r.num_cells_ = nc;
   r.num_facets_ = nf;
   r.contact_ = contact_facets != nullptr;
-  r.file_ = H5Fcreate(r.work_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  r.file_ = H5Fcreate(r.work_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, memory_access(path).get());
   if (r.file_ < 0)
     fail(path,
          "cannot create the file (does its directory exist, is it writable, is the file "
@@ -747,8 +787,9 @@ void ResultsFile::begin() {
   quiet_hdf5();
   std::error_code ec;
   std::filesystem::copy_file(path_, work_, std::filesystem::copy_options::overwrite_existing, ec);
-  if (ec) fail(work_, cat("cannot copy ", path_, " to this working file: ", ec.message()));
-  file_ = H5Fopen(work_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (ec)
+    fail(work_, cat("cannot copy ", path_, " to this working file: ", errno_text(ec.value())));
+  file_ = H5Fopen(work_.c_str(), H5F_ACC_RDWR, memory_access(path_).get());
   if (file_ < 0) fail(work_, "cannot open the working copy of the results file for writing");
   if (exists(file_, "/steps/incomplete", path_))
     ok(H5Ldelete(file_, "/steps/incomplete", H5P_DEFAULT), path_,
@@ -760,23 +801,21 @@ void ResultsFile::begin() {
 void ResultsFile::commit() {
   if (file_ < 0) fail(path_, "commit without changes");
   fault_point();
-  errno = 0;
-  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) {
-    const int e = errno;
+  if (H5Fflush(file_, H5F_SCOPE_LOCAL) < 0) {
     discard();
-    fail(path_, cat("cannot write the file", e ? ": " + errno_text(e) : ""));
+    fail(path_, "cannot flush the file to its image in memory");
+  }
+  const ssize_t size = H5Fget_file_image(file_, nullptr, 0);
+  std::vector<char> image(size > 0 ? static_cast<std::size_t>(size) : 0);
+  if (size <= 0 || H5Fget_file_image(file_, image.data(), image.size()) != size) {
+    discard();
+    fail(path_, "cannot get the image of the file in memory");
   }
   const std::string xdmf = xdmf_text(false), contact_xdmf = contact_ ? xdmf_text(true) : "";
-  errno = 0;
-  const herr_t closed = H5Fclose(file_);
-  const int e = errno;
+  const herr_t closed = H5Fclose(file_);  // in memory: writes nothing
   file_ = -1;
-  if (closed < 0) {
-    std::error_code ec;
-    std::filesystem::remove(work_, ec);
-    fail(path_, cat("cannot close the working file ", work_, e ? ": " + errno_text(e) : ""));
-  }
-  sync_path(work_, false);
+  if (closed < 0) fail(path_, "cannot close the file in memory");
+  write_image(work_, image, path_);
   fault_point();
   if (std::rename(work_.c_str(), path_.c_str()) != 0) {
     const int e = errno;

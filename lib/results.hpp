@@ -26,8 +26,9 @@
 // once complete, so a name of six digits always denotes a complete step.
 //
 // Crash consistency: the file at `path` is only ever replaced whole. Every change (the mesh with
-// the first step, each further step, a status) is made in a working file `path + ".partial"`
-// (a copy of `path` when it exists), which is closed, fsync'ed and renamed onto `path`
+// the first step, each further step, a status) is made in memory (HDF5's core driver, loaded from
+// a copy of `path` when it exists); its image is written to `path + ".partial"` with checked
+// write(2) calls (a full disk is an Error naming ENOSPC), fsync'ed and renamed onto `path`
 // (rename(2) is atomic), and the directory is fsync'ed. A process killed at any instant leaves
 // either the previous complete file or the new one (and perhaps a stale .partial, overwritten by
 // the next writer); a run killed in the middle keeps every step it completed, and can be resumed.

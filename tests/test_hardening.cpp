@@ -278,6 +278,56 @@ TEST(Hardening, OutOfMemoryIsAMessage) {
 #endif
 }
 
+// A full disk: a small tmpfs mounted at disk/ in a private mount namespace (needs root and
+// unshare(1); skipped otherwise). The run stops with one line naming ENOSPC and exit 1 (it used to
+// print the error and then crash with SIGSEGV at exit: a failed H5Fclose in HDF5 1.10), leaves no
+// working or lock file on the full disk, and an earlier complete file there is kept bitwise.
+TEST(Hardening, DiskFullIsAMessageAndKeepsThePreviousFile) {
+  Folder f("disk_full");
+  ASSERT_EQ(f.run("case.toml -q -o prev.h5").status, 0);
+  fs::create_directory(f.dir / "disk");
+  const auto before = snapshot(f.dir);
+  const fs::path out = f.dir.parent_path() / (f.dir.filename().string() + ".out");
+  // 16 KiB: the first step does not fit. 64 KiB: the previous file (~40 KiB) fits, not a second.
+  const fs::path script = f.dir.parent_path() / (f.dir.filename().string() + ".sh");
+  for (const bool previous : {false, true}) {
+    // Mount, run, then report what the run printed and what is left on the full disk.
+    ltl::testing::write_file(
+        script, "cd '" + f.dir.string() + "' || exit 1\nmount -t tmpfs -o size=" +
+                    (previous ? "64k" : "16k") + " tmpfs disk || { echo nomount; exit 0; }\n" +
+                    (previous ? "cp prev.h5 disk/out.h5\n" : "") +
+                    ltl::testing::binary_path("experiments/ltl_run") +
+                    " case.toml -q -o disk/out.h5 2> ../err.$$\necho \"status $?\"\n"
+                    "cat ../err.$$; rm ../err.$$\nls -A disk\n" +
+                    (previous ? "cmp -s prev.h5 disk/out.h5 && echo intact\n" : ""));
+    const std::string cmd = "unshare -m --propagation private sh '" + script.string() + "' > '" +
+                            out.string() + "' 2> /dev/null";
+    const int rc = std::system(cmd.c_str());
+    const std::string report = read_bytes(out);
+    fs::remove(out);
+    if (rc != 0 || report.rfind("nomount", 0) == 0) {
+      fs::remove(script);
+      GTEST_SKIP() << "cannot mount a tmpfs in a private mount namespace (not root?)";
+    }
+    std::istringstream lines(report);
+    std::string status, message, listing, rest;
+    std::getline(lines, status);
+    std::getline(lines, message);
+    EXPECT_EQ(status, "status 1") << report;
+    EXPECT_NE(message.find("disk/out.h5: cannot write the file"), std::string::npos) << report;
+    EXPECT_NE(message.find("ENOSPC"), std::string::npos) << report;
+    std::getline(lines, listing);  // what is left on the full disk: the previous file, or nothing
+    EXPECT_EQ(listing, previous ? "out.h5" : "") << report;
+    if (previous) {
+      std::getline(lines, rest);
+      EXPECT_EQ(rest, "intact") << report;
+    }
+    EXPECT_FALSE(std::getline(lines, rest)) << report;
+  }
+  fs::remove(script);
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+}
+
 TEST(Hardening, FailedFreshRunKeepsThePreviousFile) {
   Folder f("keep");
   ASSERT_EQ(f.run("case.toml -q -o out.h5").status, 0);
