@@ -127,7 +127,7 @@ reference: build
 	$(BUILD)/tests/make_reference tests/reference/regression.toml
 
 format:
-	clang-format -i lib/*.cpp lib/*.hpp tests/*.cpp experiments/*.cpp experiments/*/*.cpp
+	clang-format -i lib/*.cpp lib/*.hpp tests/*.cpp tests/*.hpp experiments/*.cpp experiments/*/*.cpp
 
 clean:
 	rm -rf $(BUILD) build-sanitize $(RESULTS)

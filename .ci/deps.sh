@@ -5,7 +5,7 @@
 #   bash .ci/deps.sh peer   also the independent dolfinx solver of `make verify` (never CI's)
 set -euo pipefail
 packages=(cmake make g++ pkg-config libeigen3-dev libsuitesparse-dev libopenblas-dev
-          gmsh libgmsh-dev libhdf5-dev libtomlplusplus-dev libgtest-dev
+          gmsh libgmsh-dev libhdf5-dev libtomlplusplus-dev libgtest-dev clang-format
           python3-matplotlib python3-h5py python3-numpy python3-meshio)
 if [[ ${1:-} == peer ]]; then packages+=(python3-dolfinx python3-gmsh); fi
 missing=()
