@@ -159,6 +159,22 @@ class Reader {
   std::string string(const std::string& k, const std::string& fallback) const {
     return has(k) ? string(k) : fallback;
   }
+  /// One of the named options (the default when absent); otherwise an error listing them:
+  /// expected "a", "b" or "c".
+  template <class T>
+  T choice(const std::string& k, const std::vector<std::pair<std::string, T>>& options,
+           const std::string& fallback) const {
+    const std::string v = string(k, fallback);
+    std::string expected = "expected ";
+    for (size_t i = 0; i < options.size(); ++i) {
+      if (options[i].first == v) return options[i].second;
+      expected += cat(i == 0                    ? ""
+                      : i + 1 == options.size() ? " or "
+                                                : ", ",
+                      "\"", options[i].first, "\"");
+    }
+    fail(k, expected);
+  }
   /// An integer in [lo, hi] (checked before narrowing: 2^32 + 1 is not 1).
   int integer(const std::string& k, int fallback, int lo, int hi) const {
     const toml::node* n = t_.get(k);
@@ -503,13 +519,8 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     const Reader a = r.sub("algorithm");
     a.only({"update", "R", "q", "q_c", "rho", "sweeps", "contact_sweeps", "tol", "max_iter",
             "blowup", "acceleration", "depth", "accelerate", "max_force_residual"});
-    const std::string update = a.string("update", "uzawa");
-    if (update == "uzawa")
-      p.algorithm.update = Update::Uzawa;
-    else if (update == "bermudez-moreno")
-      p.algorithm.update = Update::BermudezMoreno;
-    else
-      a.fail("update", "expected \"uzawa\" or \"bermudez-moreno\"");
+    p.algorithm.update = a.choice<Update>(
+        "update", {{"uzawa", Update::Uzawa}, {"bermudez-moreno", Update::BermudezMoreno}}, "uzawa");
     has_R = a.has("R"), has_q = a.has("q"), has_q_c = a.has("q_c");
     p.algorithm.R = a.number("R", p.algorithm.R);
     p.algorithm.q = a.quantity("q", "Pa", p.algorithm.q);
@@ -524,23 +535,16 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     p.algorithm.max_iter = a.integer("max_iter", p.algorithm.max_iter, 1, 1000000000);
     p.algorithm.blowup = a.number("blowup", p.algorithm.blowup);
     // Safeguarded Anderson acceleration of the fixed-point map (paper_notes/performance.md).
-    const std::string acceleration = a.string("acceleration", "none");
-    if (acceleration == "none")
-      p.algorithm.acceleration = Acceleration::None;
-    else if (acceleration == "anderson")
-      p.algorithm.acceleration = Acceleration::Anderson;
-    else
-      a.fail("acceleration", "expected \"none\" or \"anderson\"");
+    p.algorithm.acceleration = a.choice<Acceleration>(
+        "acceleration", {{"none", Acceleration::None}, {"anderson", Acceleration::Anderson}},
+        "none");
     p.algorithm.depth = a.integer("depth", p.algorithm.depth, 1, 16);
-    const std::string accelerate = a.string("accelerate", "all");
-    if (accelerate == "multipliers")
-      p.algorithm.accelerate = Accelerated::Multipliers;
-    else if (accelerate == "strains-multipliers")
-      p.algorithm.accelerate = Accelerated::StrainsMultipliers;
-    else if (accelerate == "all")
-      p.algorithm.accelerate = Accelerated::All;
-    else
-      a.fail("accelerate", "expected \"multipliers\", \"strains-multipliers\" or \"all\"");
+    p.algorithm.accelerate =
+        a.choice<Accelerated>("accelerate",
+                              {{"multipliers", Accelerated::Multipliers},
+                               {"strains-multipliers", Accelerated::StrainsMultipliers},
+                               {"all", Accelerated::All}},
+                              "all");
     p.algorithm.max_force_residual = a.number("max_force_residual", p.algorithm.max_force_residual);
   }
   // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).

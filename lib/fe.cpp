@@ -145,6 +145,21 @@ void for_each_point(const Mesh& mesh, int c, Visit visit) {
         [](const QPoint& p, auto& N, auto& dN) { h8(p.xi, p.eta, p.zeta, N, dN); }, visit);
 }
 
+// A curved face of a 3-D cell: visit(N, x, weight * |dx/dxi x dx/deta|) at every point of rule.
+template <int NPF, class Rule, class Shape, class Visit>
+void surface_points(const Eigen::MatrixXd& Xf, const Rule& rule, Shape shape, Eigen::VectorXd& Nd,
+                    Visit visit) {
+  Eigen::Matrix<double, NPF, 1> N;
+  Eigen::Matrix<double, NPF, 2> dN;
+  for (const auto& p : rule) {
+    shape(p.xi, p.eta, N, dN);
+    const Eigen::Matrix<double, 3, 2> J = Xf.transpose() * dN;
+    const Vector3d x = Xf.transpose() * N;
+    Nd = N;
+    visit(Nd, x, p.w * J.col(0).cross(J.col(1)).norm());
+  }
+}
+
 // Calls visit(N (dynamic), x (3-vector), weight * |dx/dxi|) at every quadrature point of facet f.
 template <class Visit>
 void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f, Visit visit) {
@@ -163,25 +178,9 @@ void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f
       visit(Nd, x, p.w * t.norm());
     }
   } else if (npf == 6) {  // P2 triangle face of a P2 tetrahedron, degree-4 rule
-    Eigen::Matrix<double, 6, 1> N;
-    Eigen::Matrix<double, 6, 2> dN;
-    for (const auto& p : kTriangleRule) {
-      p2_triangle(p.xi, p.eta, N, dN);
-      const Eigen::Matrix<double, 3, 2> J = Xf.transpose() * dN;
-      const Vector3d x = Xf.transpose() * N;
-      Nd = N;
-      visit(Nd, x, p.w * J.col(0).cross(J.col(1)).norm());
-    }
+    surface_points<6>(Xf, kTriangleRule, p2_triangle, Nd, visit);
   } else {
-    Eigen::Matrix<double, 4, 1> N;
-    Eigen::Matrix<double, 4, 2> dN;
-    for (const auto& p : kQuadRule) {
-      q4(p.xi, p.eta, N, dN);
-      const Eigen::Matrix<double, 3, 2> J = Xf.transpose() * dN;
-      const Vector3d x = Xf.transpose() * N;
-      Nd = N;
-      visit(Nd, x, p.w * J.col(0).cross(J.col(1)).norm());
-    }
+    surface_points<4>(Xf, kQuadRule, q4, Nd, visit);
   }
 }
 
