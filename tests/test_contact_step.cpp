@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "contact_step.hpp"
+#include "testing.hpp"
 
 using Eigen::MatrixXd;
 using Eigen::Vector2d;
@@ -657,40 +658,7 @@ Adhesion fig3_adhesion(bool exact) {
   return A;
 }
 
-// Gauss-Legendre nodes/weights on [-1,1] (Newton on P_n), for the reference quadratures.
-void gauss_legendre(int n, std::vector<double>& x, std::vector<double>& w) {
-  x.resize(n);
-  w.resize(n);
-  for (int i = 0; i < n; ++i) {
-    double z = std::cos(kPi * (i + 0.75) / (n + 0.5)), dp = 0;
-    for (int it = 0; it < 100; ++it) {
-      double p0 = 1, p1 = z;
-      for (int k = 2; k <= n; ++k) {
-        const double p2 = ((2 * k - 1) * z * p1 - (k - 1) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-      }
-      dp = n * (z * p1 - p0) / (z * z - 1);
-      const double dz = p1 / dp;
-      z -= dz;
-      if (std::abs(dz) < 1e-16) break;
-    }
-    x[i] = z;
-    w[i] = 2.0 / ((1 - z * z) * dp * dp);
-  }
-}
-
-// Composite Gauss (20 points) of f on [a,b] with m pieces.
-double quad(const std::function<double(double)>& f, double a, double b, int m) {
-  static std::vector<double> X, W;
-  if (X.empty()) gauss_legendre(20, X, W);
-  double sum = 0.0;
-  const double L = (b - a) / m;
-  for (int k = 0; k < m; ++k)
-    for (size_t i = 0; i < X.size(); ++i)
-      sum += 0.5 * L * W[i] * f(a + (k + 0.5) * L + 0.5 * L * X[i]);
-  return sum;
-}
+using ltl::testing::quad;
 
 TEST(ContactKernel, Eq6_4_6_5_CentrePointRule) {
   const ContactSurface S = line_surface({0.0, 0.01, 0.03, 0.035, 0.06});

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "signed_svd.hpp"
+#include "testing.hpp"
 
 namespace {
 
@@ -18,18 +19,7 @@ using Mat = Eigen::Matrix<double, n, n>;
 template <int n>
 using Vec = Eigen::Matrix<double, n, 1>;
 
-template <int n>
-Mat<n> random_rotation(std::mt19937_64& g) {
-  std::normal_distribution<double> N(0.0, 1.0);
-  if constexpr (n == 2) {
-    const double a = 3.14159 * N(g);
-    Mat<2> Q;
-    Q << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
-    return Q;
-  } else {
-    return Eigen::Quaterniond(N(g), N(g), N(g), N(g)).normalized().toRotationMatrix();
-  }
-}
+using ltl::testing::random_rotation;
 
 /// Q1 diag(s) Q2 with random rotations: a matrix whose signed singular values are known.
 template <int n>

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "strain_step.hpp"
+#include "testing.hpp"
 
 namespace {
 
@@ -37,18 +38,7 @@ std::vector<Case> cases() {
 template <int n>
 using Mat = Eigen::Matrix<double, n, n>;
 
-template <int n>
-Mat<n> random_rotation(std::mt19937_64& g) {
-  std::normal_distribution<double> N(0.0, 1.0);
-  if constexpr (n == 2) {
-    const double a = 3.14159 * N(g);
-    Mat<2> Q;
-    Q << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
-    return Q;
-  } else {
-    return Eigen::Quaterniond(N(g), N(g), N(g), N(g)).normalized().toRotationMatrix();
-  }
-}
+using ltl::testing::random_rotation;
 
 /// The loadings D of the tests, scaled by Rq: generic Rq (I + 0.3 noise), det D < 0, D = 0,
 /// D = c I (c small to beyond the non-convex threshold), repeated singular values, rank

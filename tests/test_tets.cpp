@@ -264,7 +264,7 @@ TEST(TetElement, NodalContactWeightsOfT6Faces) {
 
 TEST(PatchTestTets, IncompressibleMooneyRivlin_detE_is_1_5_7) {
   // [LTL87 (2.7), (5.1), (5.4), (5.7)] u = (F - I) x on the whole boundary of the unstructured
-  // block: every cell has E = F, every node u = (F - I) x.
+  // block: every cell has E = F, every node u = (F - I) x (testing.hpp: expect_patch_3d).
   const Mesh mesh = tet_box(4);
   Eigen::Matrix3d U;
   U << 1.3, 0.2, 0.0, 0.2, 0.9, 0.1, 0.0, 0.1, 1.0;
@@ -276,94 +276,16 @@ TEST(PatchTestTets, IncompressibleMooneyRivlin_detE_is_1_5_7) {
   const int interior = mesh.num_nodes() - static_cast<int>(fixed.size());
   ASSERT_GT(interior, 50);
   std::printf("  %d of %d nodes interior\n", interior, mesh.num_nodes());
-  for (const Material& material :
-       {Material::mooney_rivlin(100e3, 30e3), Material::compressible(187.5e3, 187.5e3)}) {
-    const Eigen::Matrix3d Fm =
-        material.incompressible()
-            ? F
-            : (Eigen::Matrix3d() << 1.2, 0.3, -0.1, 0.0, 0.9, 0.2, 0.1, -0.2, 1.1).finished();
-    Problem p;
-    p.mesh = mesh;
-    p.material = material;
-    DirichletCondition bc{"boundary", {0, 1, 2}, {}, "test"};
-    bc.field.gradient = Fm - Eigen::Matrix3d::Identity();
-    p.dirichlet = {bc};
-    p.algorithm = ltl::testing::tight(2 * material.C1 * 4);
-    const Solved r = solve_one_step(p);
-    double worst_E = 0, worst_det = 0;
-    for (int c = 0; c < mesh.num_cells(); ++c) {
-      const Eigen::Matrix3d Ec = cell_tensor(r.s.E, c);
-      worst_E = std::max(worst_E, (Ec - Fm).norm());
-      worst_det = std::max(worst_det, std::abs(Ec.determinant() - Fm.determinant()));
-    }
-    const Eigen::MatrixXd u_exact = mesh.X * (Fm - Eigen::Matrix3d::Identity()).transpose();
-    const double worst_u = (r.s.u - u_exact).cwiseAbs().maxCoeff();
-    EXPECT_LT(worst_E, 1e-9) << material.name();
-    EXPECT_LT(worst_det, material.incompressible() ? 1e-12 : 1e-9) << material.name();
-    EXPECT_LT(worst_u, 1e-10) << material.name();
-    EXPECT_GT(u_exact.cwiseAbs().maxCoeff(), 0.1);
-    std::printf(
-        "  %d P2 tetrahedra, %s, det F = %.4f: %d iterations, max |E - F| = %.1e, "
-        "max |det E - det F| = %.1e, max |u - (F - I) x| = %.1e m\n",
-        mesh.num_cells(), material.name().c_str(), Fm.determinant(), r.report.iterations, worst_E,
-        worst_det, worst_u);
-  }
+  ltl::testing::expect_patch_3d(mesh, Material::mooney_rivlin(100e3, 30e3), F);
+  Eigen::Matrix3d G;  // a genuine volume change for the compressible law
+  G << 1.2, 0.3, -0.1, 0.0, 0.9, 0.2, 0.1, -0.2, 1.1;
+  ltl::testing::expect_patch_3d(mesh, Material::compressible(187.5e3, 187.5e3), G);
 }
 
 TEST(UniaxialTensionTets, IncompressibleMooneyRivlinDeadLoad_1_5) {
-  // [LTL87 (1.5)] As UniaxialTension3D (test_3d.cpp) on the tetrahedral block: symmetry on x0,
-  // y0, z0, dead nominal traction P e1 on x1; F = diag(l, l^-1/2, l^-1/2),
-  // P = 2 (l - l^-2)(C1 + C2 / l).
-  const double C1 = 100e3, C2 = 30e3;
-  const Mesh mesh = tet_box(3);
-  for (const double l : {1.5, 2.0}) {
-    const double P = 2 * (l - 1 / (l * l)) * (C1 + C2 / l);
-    const double lt = 1 / std::sqrt(l);
-    Problem p;
-    p.mesh = mesh;
-    p.material = Material::mooney_rivlin(C1, C2);
-    p.dirichlet = {{"x0", {0}, {}, "test"}, {"y0", {1}, {}, "test"}, {"z0", {2}, {}, "test"}};
-    Traction t{"x1", {}, "test"};
-    t.g.value(0) = P;
-    p.tractions = {t};
-    p.algorithm = ltl::testing::tight(8 * (C1 + C2), 1.0);
-    p.algorithm.tol = 1e-11;
-    // A perturbed, non-homogeneous start (E_e = (I + A_e) / det^(1/3), |A_e| ~ 0.05).
-    Solver solver(p);
-    State s = solver.initial_state();
-    std::mt19937 rng(3);
-    std::uniform_real_distribution<double> U(-0.05, 0.05);
-    for (int c = 0; c < mesh.num_cells(); ++c) {
-      Eigen::Matrix3d A;
-      for (int i = 0; i < 9; ++i) A(i) = U(rng);
-      A += Eigen::Matrix3d::Identity();
-      s.E.block<3, 3>(3 * c, 0) = (A / std::cbrt(A.determinant())).transpose();
-    }
-    const StepReport report = solver.solve_step(s, s.beta);
-    EXPECT_TRUE(report.converged) << report.status;
-    EXPECT_EQ(report.strain_failures, 0);
-    double worst = 0;
-    for (int i = 0; i < mesh.num_nodes(); ++i) {
-      worst = std::max(worst, std::abs(s.u(i, 0) - (l - 1) * mesh.X(i, 0)) / l);
-      worst = std::max(worst, std::abs(s.u(i, 1) - (lt - 1) * mesh.X(i, 1)) / l);
-      worst = std::max(worst, std::abs(s.u(i, 2) - (lt - 1) * mesh.X(i, 2)) / l);
-    }
-    EXPECT_LT(worst, 1e-6) << "stretch " << l << " after " << report.iterations << " iterations";
-    const Eigen::MatrixXd Pc = solver.piola(s);
-    double worst_P = 0, worst_det = 0;
-    for (int c = 0; c < mesh.num_cells(); ++c) {
-      Eigen::Matrix3d expected = Eigen::Matrix3d::Zero();
-      expected(0, 0) = P;
-      worst_P = std::max(worst_P, (cell_tensor(Pc, c) - expected).norm() / P);
-      worst_det = std::max(worst_det, std::abs(cell_tensor(s.E, c).determinant() - 1));
-    }
-    EXPECT_LT(worst_P, 1e-5) << "stretch " << l;
-    EXPECT_LT(worst_det, 1e-12) << "stretch " << l;
-    std::printf(
-        "  l = %.1f: P = %.6g Pa, %d iterations, max |u - u_exact| / l = %.2e, "
-        "max |P_e - P| / P = %.2e, max |det E - 1| = %.1e\n",
-        l, P, report.iterations, worst, worst_P, worst_det);
-  }
+  // [LTL87 (1.5)] As UniaxialTension3D (test_3d.cpp) on the tetrahedral block
+  // (testing.hpp: expect_uniaxial_tension_3d).
+  ltl::testing::expect_uniaxial_tension_3d(tet_box(3));
 }
 
 namespace {
