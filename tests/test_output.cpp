@@ -69,17 +69,7 @@ double planar_sigma33(double l) {
 }
 
 Problem planar_tension(double l) {
-  Problem p;
-  p.name = "planar";
-  p.mesh = load_mesh(test_path("geometry/square.geo"));
-  p.material = Material::mooney_rivlin(kC1, kC2);
-  p.dirichlet = {{"left", {0}, {}, "test"}, {"bottom", {1}, {}, "test"}};
-  Traction t{"right", {}, "test"};
-  t.g.value(0) = 2 * (l - std::pow(l, -3)) * (kC1 + kC2);
-  p.tractions = {t};
-  p.algorithm = ltl::testing::tight(2 * (kC1 + kC2), 1.0);
-  p.algorithm.tol = 1e-11;
-  return p;
+  return ltl::testing::planar_tension(l, kC1, kC2);
 }
 
 }  // namespace

@@ -67,13 +67,7 @@ TEST(PlanarTension, MooneyRivlinClosedForm_AndersonAcceleration_4_1_4_3) {
   // The closed form of the test below, reached by the accelerated iteration (depth 5) at R = 8,
   // where the plain iteration is slow; both agree with the closed form to the same accuracy.
   const double C1 = 100e3, C2 = 30e3, l = 2.0;
-  Problem p;
-  p.mesh = load_mesh(test_path("geometry/square.geo"));
-  p.material = Material::mooney_rivlin(C1, C2);
-  p.dirichlet = {{"left", {0}, {}, "test"}, {"bottom", {1}, {}, "test"}};
-  Traction t{"right", {}, "test"};
-  t.g.value(0) = 2 * (l - std::pow(l, -3)) * (C1 + C2);
-  p.tractions = {t};
+  Problem p = ltl::testing::planar_tension(l, C1, C2);
   p.algorithm = ltl::testing::tight(8 * 2 * (C1 + C2), 8.0);
   p.algorithm.tol = 1e-11;
   int iterations[2];
@@ -83,11 +77,7 @@ TEST(PlanarTension, MooneyRivlinClosedForm_AndersonAcceleration_4_1_4_3) {
     State s = solver.initial_state();
     const StepReport r = solve(solver, s);
     iterations[k] = r.iterations;
-    double worst = 0;
-    for (int i = 0; i < p.mesh.num_nodes(); ++i) {
-      worst = std::max(worst, std::abs(s.u(i, 0) - (l - 1) * p.mesh.X(i, 0)) / l);
-      worst = std::max(worst, std::abs(s.u(i, 1) - (1 / l - 1) * p.mesh.X(i, 1)) / l);
-    }
+    const double worst = ltl::testing::planar_tension_error(p.mesh, s.u, l);
     EXPECT_LT(worst, 1e-6) << (k ? "Anderson" : "plain") << " after " << r.iterations;
   }
   std::printf("  R = 8: plain %d iterations, Anderson %d\n", iterations[0], iterations[1]);
@@ -100,30 +90,19 @@ TEST(PlanarTension, MooneyRivlinClosedForm) {
   // F = diag(l, 1/l, 1) and P = 2 (l - l^-3)(C1 + C2).
   const double C1 = 100e3, C2 = 30e3;
   for (const double l : {1.5, 2.0}) {
-    Problem p;
-    p.mesh = load_mesh(test_path("geometry/square.geo"));
-    p.material = Material::mooney_rivlin(C1, C2);
-    p.dirichlet = {{"left", {0}, {}, "test"}, {"bottom", {1}, {}, "test"}};
-    Traction t{"right", {}, "test"};
-    t.g.value(0) = 2 * (l - std::pow(l, -3)) * (C1 + C2);
-    p.tractions = {t};
-    p.algorithm = ltl::testing::tight(2 * (C1 + C2), 1.0);
-    p.algorithm.tol = 1e-11;
+    const Problem p = ltl::testing::planar_tension(l, C1, C2);
+    const double load = p.tractions[0].g.value(0);
     Solver solver(p);
     State s = solver.initial_state();
     const StepReport r = solve(solver, s);
-    double worst = 0;
-    for (int i = 0; i < p.mesh.num_nodes(); ++i) {
-      worst = std::max(worst, std::abs(s.u(i, 0) - (l - 1) * p.mesh.X(i, 0)) / l);
-      worst = std::max(worst, std::abs(s.u(i, 1) - (1 / l - 1) * p.mesh.X(i, 1)) / l);
-    }
+    const double worst = ltl::testing::planar_tension_error(p.mesh, s.u, l);
     EXPECT_LT(worst, 1e-6) << "stretch " << l << " after " << r.iterations << " iterations";
     // The stress is the applied one: P11 = P, P22 = 0 in every cell.
     const Eigen::MatrixXd P = solver.piola(s);
     for (int c = 0; c < p.mesh.num_cells(); ++c) {
       const Eigen::MatrixXd Pc = cell_tensor(P, c);
-      ASSERT_NEAR(Pc(0, 0), t.g.value(0), 1e-5 * t.g.value(0)) << "cell " << c;
-      ASSERT_NEAR(Pc(1, 1), 0.0, 1e-5 * t.g.value(0)) << "cell " << c;
+      ASSERT_NEAR(Pc(0, 0), load, 1e-5 * load) << "cell " << c;
+      ASSERT_NEAR(Pc(1, 1), 0.0, 1e-5 * load) << "cell " << c;
     }
   }
 }

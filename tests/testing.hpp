@@ -128,6 +128,34 @@ inline Solved solve_one_step(const Problem& p) {
   return r;
 }
 
+/// [LTL87 (1.5)] Plane-strain planar tension of the unit square (tests/geometry/square.geo):
+/// incompressible Mooney-Rivlin, u1 = 0 on x1 = 0, u2 = 0 on x2 = 0, the dead nominal traction
+/// P = 2 (l - l^-3)(C1 + C2) on x1 = 1, x2 = 1 free; closed form F = diag(l, 1/l, 1).
+/// R q = 2 (C1 + C2), tol 1e-11.
+inline Problem planar_tension(double l, double C1 = 100e3, double C2 = 30e3) {
+  Problem p;
+  p.name = "planar";
+  p.mesh = load_mesh(test_path("geometry/square.geo"));
+  p.material = Material::mooney_rivlin(C1, C2);
+  p.dirichlet = {{"left", {0}, {}, "test"}, {"bottom", {1}, {}, "test"}};
+  Traction t{"right", {}, "test"};
+  t.g.value(0) = 2 * (l - std::pow(l, -3)) * (C1 + C2);
+  p.tractions = {t};
+  p.algorithm = tight(2 * (C1 + C2), 1.0);
+  p.algorithm.tol = 1e-11;
+  return p;
+}
+
+/// Largest nodal error of u against planar tension's F = diag(l, 1/l), relative to l.
+inline double planar_tension_error(const Mesh& mesh, const Eigen::MatrixXd& u, double l) {
+  double worst = 0;
+  for (int i = 0; i < mesh.num_nodes(); ++i) {
+    worst = std::max(worst, std::abs(u(i, 0) - (l - 1) * mesh.X(i, 0)) / l);
+    worst = std::max(worst, std::abs(u(i, 1) - (1 / l - 1) * mesh.X(i, 1)) / l);
+  }
+  return worst;
+}
+
 /// A random rotation (2x2 or 3x3) drawn from g.
 template <int n>
 Eigen::Matrix<double, n, n> random_rotation(std::mt19937_64& g) {
