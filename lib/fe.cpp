@@ -186,12 +186,6 @@ void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f
 
 }  // namespace
 
-double cell_measure(const Mesh& mesh, int c) {
-  double measure = 0;
-  for_each_point(mesh, c, [&](const auto&, const auto&, double w) { measure += w; });
-  return measure;
-}
-
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit) {
   Eigen::MatrixXd grad;

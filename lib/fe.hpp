@@ -50,9 +50,6 @@ struct FacetOperators {
 
 CellOperators cell_operators(const Mesh& mesh);
 
-/// |O_e|, the area (volume) of cell c by the quadrature of cell_operators.
-double cell_measure(const Mesh& mesh, int c);
-
 /// Calls visit(grad, w) at every quadrature point of cell c, with grad the physical gradients of
 /// the shape functions (#nodes_per_cell x dim) and w the weight times |det J| (the rules used by
 /// cell_operators): P2 triangle 6 points, degree 4; P2 tetrahedron 6 points, degree 3 (det of a

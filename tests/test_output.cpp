@@ -68,10 +68,6 @@ double planar_sigma33(double l) {
   return 2 * kC1 * (1 - 1 / (l * l)) + 2 * kC2 * (l * l - 1);
 }
 
-Problem planar_tension(double l) {
-  return ltl::testing::planar_tension(l, kC1, kC2);
-}
-
 }  // namespace
 
 TEST(Sigma33, Eq1_5_PlanarTensionClosedForm) {
@@ -114,7 +110,7 @@ TEST(Output, PlanarTensionRunWritesTheTrueSigma33UnitsAndMeasures) {
   const fs::path dir = ltl::testing::temp_dir("output_planar");
   const std::string out = (dir / "planar.h5").string();
   const double l = 1.5;
-  const Problem p = planar_tension(l);
+  const Problem p = ltl::testing::planar_tension(l, kC1, kC2);
   RunOptions o;
   o.output = out;
   o.verbosity = 0;
@@ -165,7 +161,7 @@ TEST(Output, PlanarTensionRunWritesTheTrueSigma33UnitsAndMeasures) {
 TEST(Output, ADivergedStepIsSavedApartAsUnconverged) {
   const fs::path dir = ltl::testing::temp_dir("output_unconverged");
   const std::string out = (dir / "cap.h5").string();
-  Problem p = planar_tension(1.5);
+  Problem p = ltl::testing::planar_tension(1.5, kC1, kC2);
   p.algorithm.max_iter = 7;  // the iteration cap: a failed step
   RunOptions o;
   o.output = out;

@@ -204,7 +204,7 @@ TEST(TetElement, DegreeThreeRuleIntegratesCubicsExactly) {
       }
   EXPECT_EQ(points, 6);
   EXPECT_LT(worst, 1e-14);
-  EXPECT_NEAR(cell_measure(m, 0), vol, 1e-15);
+  EXPECT_NEAR(cell_operators(m).vol(0), vol, 1e-15);
   std::printf("  %d points, max relative error over the 20 monomials of degree <= 3: %.1e\n",
               points, worst);
 }
