@@ -23,6 +23,7 @@
 
 #include "anderson.hpp"
 #include "contact_step.hpp"
+#include "discretization.hpp"
 #include "fe.hpp"
 #include "global_step.hpp"
 #include "problem.hpp"
@@ -33,8 +34,11 @@ namespace ltl {
 
 class Solver {
  public:
-  /// Discretizes the problem, assembles K and factorizes it once [LTL87 (4.5)].
+  /// Discretizes the problem (discretization.hpp), then the precompute: assembles K with R q and
+  /// factorizes it once [LTL87 (4.5)].
   explicit Solver(const Problem& problem);
+  /// The same from a discretization built beforehand.
+  explicit Solver(Discretization discretization);
 
   /// E = I, lambda = 2 C1 I (zero first Piola-Kirchhoff stress P = 2 C1 E - lambda), u = the
   /// prescribed values, e = 0, beta = beta_0, lambda_c = 0.
@@ -46,23 +50,29 @@ class Solver {
   StepReport solve_step(State& state, const Eigen::VectorXd& beta_prev,
                         const std::function<void(const IterationRecord&)>& progress = {});
 
-  // Outputs at a converged state, per cell (transposed-block layout like E) or per facet.
-  /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
-  Eigen::MatrixXd piola(const State& s) const;
-  /// Cauchy stress sigma = P E^T / det E (in-plane block in plane strain).
-  Eigen::MatrixXd cauchy(const State& s) const;
-  /// Pressure per cell, -tr(sigma)/dim (in plane strain the mean in-plane stress).
-  Eigen::VectorXd pressure(const State& s) const;
-  /// Contact pressure per facet, p_c = -lambda_c . N >= 0 where the body presses the plane.
-  Eigen::VectorXd contact_pressure(const State& s) const;
-  /// Gap to the plane after deformation per facet: g_s - e_s . N (>= 0 when admissible).
-  Eigen::VectorXd contact_gap(const State& s) const;
-
-  /// Gradient (#nodes x dim, zero on fixed components) of the reduced discrete energy
-  ///   Pi(u) = sum_e |O_e| W(I + Gbar_e u) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2)
-  ///           - f.u - g.u
-  /// for the compressible law without contact: zero at the discrete equilibrium.
-  Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u) const;
+  /// The discrete problem: operators, contact points, Dirichlet data, loads, outputs.
+  const Discretization& discretization() const { return disc_; }
+  const Problem& problem() const { return disc_.problem(); }
+  int dim() const { return disc_.dim(); }
+  // Shorthands for discretization().X (see discretization.hpp).
+  const Material& split() const { return disc_.split(); }
+  const CellOperators& cells() const { return disc_.cells(); }
+  const FacetOperators* facets() const { return disc_.facets(); }
+  bool mean_det() const { return disc_.mean_det(); }
+  const std::vector<std::vector<int>>& fixed_nodes() const { return disc_.dirichlet().fixed; }
+  Eigen::MatrixXd piola(const State& s) const { return disc_.piola(s); }
+  Eigen::MatrixXd cauchy(const State& s) const { return disc_.cauchy(s); }
+  Eigen::VectorXd pressure(const State& s) const { return disc_.pressure(s); }
+  Eigen::VectorXd contact_pressure(const State& s) const { return disc_.contact_pressure(s); }
+  Eigen::VectorXd contact_gap(const State& s) const { return disc_.contact_gap(s); }
+  Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const {
+    return disc_.fluctuation_det(u);
+  }
+  Eigen::MatrixXd fluctuation_force(const State& s) const { return disc_.fluctuation_force(s); }
+  /// Discretization::energy_gradient at the current load.
+  Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u) const {
+    return disc_.energy_gradient(u, F_ext_);
+  }
 
   /// [LTL87 (2.2)] The discrete functional J_p at a state, with beta_prev = beta_{p-1}:
   ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - f.u - g.u
@@ -70,48 +80,54 @@ class Solver {
   /// (At a converged state E = I + Gbar u and e = ubar up to the tolerance.)
   double energy(const State& s, const Eigen::VectorXd& beta_prev) const;
 
-  const Problem& problem() const { return problem_; }
-  /// The material as split between the global and the local steps: problem().material, except
-  /// that in plane strain with DiscretizationChoice::c2_pointwise the incompressible C2 term is
-  /// moved into C1 (C1 + C2, C2 = 0), an identity on det F = 1. P = 2 split().C1 E - lambda.
-  const Material& split() const { return split_; }
-  const CellOperators& cells() const { return cells_; }
-  /// The contact points: facets (discretization.contact = "facet-mean") or the nodes of the
-  /// contact surface ("nodal"), with their weights (area), positions (centre) and the map from
-  /// nodal values (mean).
-  const FacetOperators* facets() const { return facets_ ? facets_.get() : nullptr; }
   const GlobalStep& global_step() const { return *global_; }
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
   /// external_load() = factor x the assembled dead loads f, g. K is unchanged.
   void set_load_factor(double factor);
   double load_factor() const { return load_factor_; }
-  /// Per component, the sorted nodes whose displacement is prescribed (Dirichlet, symmetry).
-  const std::vector<std::vector<int>>& fixed_nodes() const { return bc_.fixed; }
-  int dim() const { return problem_.mesh.dim; }
-
-  /// True when incompressibility is imposed on the cell mean of det F
-  /// (DiscretizationChoice::mean_det: incompressible with no C2 term left in the local step,
-  /// i.e. plane strain with the pointwise C2 split, or C2 = 0 in 3-D).
-  bool mean_det() const { return mean_det_; }
-  /// [(2.7), discretization.md] Mean-det incompressibility: with delta = grad u - Gbar_e u the
-  /// intra-cell fluctuation, (1/|O_e|) integral det F = det(Fbar_e) + c_e(u) with
-  ///   c_e = (1/|O_e|) integral det F - det(Fbar_e)   (= the mean of det(delta) in 2-D),
-  /// and the pressure p_e of the constraint does the extra work
-  /// p_e integral (cof F - cof Fbar) : grad v (= p_e integral cof(delta) : grad v in 2-D).
-  /// Returns c_e per cell (zero vector when !mean_det()).
-  Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const;
-  /// The force sum_e p_e integral_e (cof F - cof Fbar) : grad v (#nodes x dim) with p_e read
-  /// from the multiplier, p_e = lambda_e : E_e / (d det E_e) (lambda = p cof E at a fixed point,
-  /// cof E : E = d det E); zero
-  /// when !mean_det(). ALG2 adds it, lagged, to the right-hand side of (4.1).
-  Eigen::MatrixXd fluctuation_force(const State& s) const;
+  /// The augmentation parameter R in use (the configuration's, or the last one chosen by the
+  /// adaptive rule, AlgorithmParams::adaptive_R), and how many times K was factorized.
+  double R() const { return R_; }
+  int factorizations() const { return factorizations_; }
 
  private:
-  /// [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One iteration: global step, local steps, multiplier
-  /// update; returns r_G and r_B of the iteration (timings filled, n and wall not).
+  /// [LTL87 (4.5)] The precompute, the only place where R meets the operators: K with R q and
+  /// R q_c, factorized; the local steps with R q and R q_c.
+  void precompute(double R);
+
+  /// What the global step (4.1) hands to the local steps (4.2) and the update (4.3): the cell
+  /// mean gradients Gbar u, the means ubar of u at the contact points, and the mean-det targets
+  /// det E_e = J_e = 1 - c_e(u). Allocated once.
+  struct GlobalOutput {
+    Eigen::MatrixXd GU, ubar, ubar_rows;
+    Eigen::VectorXd J;
+  };
+  /// The multipliers the local steps see: lambda^{n-1} (Uzawa) or the half step (7.8).
+  struct Multipliers {
+    Eigen::MatrixXd lambda, lambda_c;
+  };
+
+  /// [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One iteration: s = (u, E, e, beta, lambda, lambda_c)
+  /// -> its successor. Returns r_G and r_B of the iteration (timings filled, n and wall not).
   IterationRecord iterate(State& s, const Eigen::VectorXd& beta_prev, int& strain_failures);
-  void update_multipliers(State& s);  // (4.3) / (7.10)
+  /// Phase 1, (4.1): u from the right-hand side built on s; fills g.
+  void global_phase(State& s, GlobalOutput& g);
+  /// Phase 2, (4.2) = (4.6) + (4.7): E per cell and {e, beta} per contact point, given the
+  /// multipliers lambda, lambda_c; returns the number of local strain problems that failed.
+  int local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
+                  const Eigen::MatrixXd& lambda_c, const Eigen::VectorXd& beta_prev, State& s,
+                  IterationRecord& rec);
+  /// Phase 3, (4.3) / (7.10): the multiplier update from the constraint residual
+  /// B = (I + Gbar u - E, ubar - e); Bermudez-Moreno starts from the half step m.
+  void update_phase(const GlobalOutput& g, const Multipliers* half, State& s) const;
+  /// [LTL87 (7.8)] Bermudez-Moreno's half step: lambda - R q B(u^n, G^{n-1}).
+  void half_step(const GlobalOutput& g, const State& s, Multipliers& m) const;
+  /// [LTL87 (4.4)] r_G (change of the local variables since `prev`) and r_B (the constraint
+  /// residual), both with the weights of (3.3) and divided by ||I||_q.
+  void residuals(const GlobalOutput& g, const State& s, const State& prev,
+                 IterationRecord& rec) const;
+
   /// The accelerated part of the iterate as one vector, scaled so that its Euclidean norm is
   /// the norm of r_G + r_B (weights of (3.3), multipliers divided by R q and R q_c).
   void pack(const State& s, Eigen::VectorXd& z) const;
@@ -121,42 +137,24 @@ class Solver {
   /// for each beta_s with its weight, u(A) for the displacement (mean-det).
   template <class S, class Cells, class Facets, class Beta, class U>
   void for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const;
-  void residuals(const State& s, IterationRecord& rec) const;  // (4.4)
-  void global_solve(State& s);                                 // (4.1)
-  int strain_solve(const Eigen::MatrixXd& lambda, State& s);   // (4.6)
-  void contact_solve(const Eigen::MatrixXd& lambda_c, const Eigen::VectorXd& beta_prev,
-                     State& s);  // (4.7)
+  const AlgorithmParams& alg() const { return disc_.problem().algorithm; }
 
-  Problem problem_;
-  Material split_;  ///< see split()
-  CellOperators cells_;
-  std::unique_ptr<FacetOperators> facets_;
+  Discretization disc_;
+  double R_ = 1;  ///< R in use (see R())
+  int factorizations_ = 0;
   std::unique_ptr<GlobalStep> global_;
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;
-  DirichletData bc_;
-  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, consistent dead loads f, g
-  Eigen::MatrixXd Id_;     ///< identity blocks, (dim*#cells) x dim
-  double norm_I_ = 1;      ///< ||I||_q = sqrt(q |Omega| dim)
-  double area_c_ = 0;      ///< |Gamma_c|
-  // The load ramp: F_ext_ = load_factor_ x F_dead_ (F_dead_ the loads at factor 1).
-  Eigen::MatrixXd F_dead_;
+  double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q
+  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;
-  // Work buffers (allocated once).
-  Eigen::MatrixXd rhs_, GU_, T_, ubar_rows_, ubar_, c_rows_, E_prev_, e_prev_, lambda_half_,
-      lambda_c_half_;
-  Eigen::VectorXd vol_rows_, beta_prev_iter_;
-  // Mean-det incompressibility (mean_det()): point gradients at the cell quadrature points
-  // (rows dim*(nq*e + k) + j, like Gbar), their weighted transpose, and work buffers.
-  bool mean_det_ = false;
-  int nq_ = 0;
-  SpMatR Gq_, GqT_w_;
-  Eigen::VectorXd wq_, Jtarget_;
-  mutable Eigen::MatrixXd GQ_, Sq_;
-  double gamma_ = 0;             ///< proximal stiffness on the fluctuations, 2 R q
-  SpMat fluctuation_laplacian_;  ///< L - GbarT_vol Gbar (#nodes x #nodes)
-  void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                   const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) const;
+  double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
+  // Work buffers (allocated once): the global step's right-hand side and output, the multipliers
+  // of the local steps (Bermudez-Moreno), the previous iterate of the residual r_G.
+  Eigen::MatrixXd rhs_, T_, c_rows_;
+  GlobalOutput global_out_;
+  Multipliers half_;
+  State prev_;
   // Anderson acceleration (allocated once): history, packed iterates, weights, the plain iterate.
   std::unique_ptr<Anderson> anderson_;
   Eigen::VectorXd x_, g_, w_cell_, w_facet_;

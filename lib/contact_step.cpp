@@ -227,6 +227,11 @@ FacetSolution ContactStep::solve_facet(const Vector3d& a_in, double aa, double b
 // The surface
 // ---------------------------------------------------------------------------------------------
 
+void ContactStep::set_Rqc(double Rqc) {
+  if (!(Rqc > 0.0) || !std::isfinite(Rqc)) fail("Rqc = R q_c must be > 0");
+  Rqc_ = Rqc;
+}
+
 ContactStep::ContactStep(const ContactSurface& surface, const Adhesion& adhesion, double Rqc)
     : surface_(surface), adhesion_(adhesion), Rqc_(Rqc) {
   const int dim = surface_.dim;

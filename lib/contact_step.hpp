@@ -94,6 +94,9 @@ class ContactStep {
                          const Eigen::VectorXd& beta_prev, const Eigen::MatrixXd& e,
                          const Eigen::VectorXd& beta) const;
 
+  /// A new augmentation R q_c > 0 (adaptive R); the kernel does not depend on it.
+  void set_Rqc(double Rqc);
+
   const Eigen::MatrixXd& kernel() const { return k_; }  ///< k_ss'
   const ContactSurface& surface() const { return surface_; }
   const Adhesion& adhesion() const { return adhesion_; }

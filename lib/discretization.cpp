@@ -1,0 +1,271 @@
+#include "discretization.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "error.hpp"
+
+namespace ltl {
+
+Discretization::Discretization(const Problem& problem) : problem_(problem) {
+  problem_.validate();
+  const Mesh& mesh = problem_.mesh;
+  const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+
+  // The split (2.5)-(2.6) of W: C1 |F|^2 in the global quadratic, the rest local. In plane strain
+  // the incompressible Mooney-Rivlin C2 term is C2 (|F|^2 + 1) on det F = 1, so by default it
+  // joins the global quadratic on the full gradient (DiscretizationChoice::c2_pointwise).
+  split_ = problem_.material;
+  if (problem_.discretization.c2_pointwise && dim == 2 && split_.incompressible()) {
+    split_.C1 += split_.C2;
+    split_.C2 = 0;
+  }
+
+  cells_ = cell_operators(mesh);
+  volume_ = cells_.vol.sum();
+  Id_ = Eigen::MatrixXd::Zero(dim * nc, dim);
+  vol_rows_.resize(dim * nc);
+  for (int c = 0; c < nc; ++c) {
+    Id_.block(dim * c, 0, dim, dim).setIdentity();
+    vol_rows_.segment(dim * c, dim).setConstant(cells_.vol(c));
+  }
+
+  // Mean-det incompressibility (DiscretizationChoice::mean_det): the point gradients at the
+  // cell quadrature points (triangles: degree 4, exact for det(delta), quadratic on affine P2
+  // triangles; hexahedra: the 2x2x2 Gauss rule of mean dilatation).
+  mean_det_ = problem_.discretization.mean_det && split_.incompressible() && split_.C2 == 0;
+  if (mean_det_) {
+    std::vector<Eigen::Triplet<double>> g, gt;
+    std::vector<double> w;
+    for (int c = 0; c < nc; ++c) {
+      int k = 0;
+      for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double wt) {
+        const int q = static_cast<int>(w.size());
+        for (int a = 0; a < grad.rows(); ++a)
+          for (int j = 0; j < dim; ++j) {
+            g.emplace_back(dim * q + j, mesh.cells(c, a), grad(a, j));
+            gt.emplace_back(mesh.cells(c, a), dim * q + j, wt * grad(a, j));
+          }
+        w.push_back(wt);
+        ++k;
+      });
+      if (c == 0) nq_ = k;
+      if (k != nq_) throw Error(cat(mesh.source, ": cell ", c, " has ", k, " quadrature points"));
+    }
+    const int nq = static_cast<int>(w.size());
+    Gq_.resize(dim * nq, nn);
+    Gq_.setFromTriplets(g.begin(), g.end());
+    GqT_w_.resize(nn, dim * nq);
+    GqT_w_.setFromTriplets(gt.begin(), gt.end());
+    wq_ = Eigen::Map<const Eigen::VectorXd>(w.data(), nq);
+    GQ_.resize(dim * nq, dim);
+    Sq_.resize(dim * nq, dim);
+    fluctuation_laplacian_ = cells_.laplacian - SpMat(cells_.GbarT_vol * cells_.Gbar);
+    fluctuation_laplacian_.prune(0.0);
+  }
+
+  // The contact points and the surface the local step (4.7) sees.
+  if (problem_.contact) {
+    const ContactCondition& cc = *problem_.contact;
+    const Mesh::Boundary& boundary = mesh.boundary(cc.group, "contact.group");
+    facets_ = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
+    surface_.dim = dim;
+    surface_.area = facets_->area;
+    surface_.centre = facets_->centre;
+    surface_.N = cc.plane_normal.head(dim);
+    // Initial gap g_s = (p0 - x_s) . N at each facet centre or node (paper_notes/section6.md).
+    surface_.gap.resize(facets_->size());
+    for (int f = 0; f < facets_->size(); ++f)
+      surface_.gap(f) = (cc.plane_point.head(dim) - facets_->centre.col(f)).dot(surface_.N);
+    surface_.vertices = facets_->vertices;
+    const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
+    for (int f = 0; f < facets_->size(); ++f)
+      if (surface_.gap(f) < -1e-10 * scale)
+        throw Error(cat(mesh.source, ": contact ",
+                        problem_.discretization.nodal_contact ? "node " : "facet ", f, " of '",
+                        cc.group, "' starts inside the obstacle (gap ", surface_.gap(f),
+                        " m at its centre): check contact.plane_point and contact.plane_normal "
+                        "(the normal points into the obstacle)"));
+    contact_area_ = facets_->area.sum();
+  }
+
+  // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
+  bc_.fixed.assign(dim, {});
+  bc_.value = Eigen::MatrixXd::Zero(nn, dim);
+  for (const auto& d : problem_.dirichlet) {
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      x.head(dim) = mesh.X.row(node).transpose();
+      const Eigen::Vector3d value = d.field(x);
+      for (int c : d.components) {
+        bc_.fixed[c].push_back(node);
+        bc_.value(node, c) = value(c);
+      }
+    }
+  }
+  for (auto& f : bc_.fixed) {
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+  }
+
+  // [LTL87 (1.2)] The consistent dead loads f and g at load factor 1.
+  F_dead_ = body_load(mesh, problem_.body_force);
+  for (const auto& t : problem_.tractions)
+    F_dead_ += surface_load(mesh, mesh.boundary(t.group, t.origin), t.g);
+}
+
+// [(2.7), discretization.md] Per cell, with F_k = I + (point gradient at quadrature point k)
+// and Fbar = I + (their cell mean):
+//   c_e = (1/|O_e|) sum_k w_k det F_k - det Fbar,   force block p_e (cof F_k - cof Fbar),
+// p_e = lambda_e : E_e / (d det E_e). In 2-D cof is linear, so c_e is the mean of det(delta_k)
+// and the force block p_e cof(delta_k), delta_k = F_k - Fbar. The blocks are transposed tensors;
+// det and cof commute with the transpose.
+namespace {
+template <int d>
+Eigen::Matrix<double, d, d> cofactor(const Eigen::Matrix<double, d, d>& A) {
+  Eigen::Matrix<double, d, d> C;
+  if constexpr (d == 2) {
+    C << A(1, 1), -A(1, 0), -A(0, 1), A(0, 0);
+  } else {
+    C.row(0) = A.row(1).cross(A.row(2));
+    C.row(1) = A.row(2).cross(A.row(0));
+    C.row(2) = A.row(0).cross(A.row(1));
+  }
+  return C;
+}
+
+template <int d>
+void fluctuation_loop(const Eigen::MatrixXd& GQ, const Eigen::VectorXd& wq,
+                      const Eigen::VectorXd& vol, int nq, const Eigen::MatrixXd* lambda,
+                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) {
+  using Mat = Eigen::Matrix<double, d, d>;
+  const int nc = static_cast<int>(vol.size());
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < nc; ++e) {
+    Mat Fbar = Mat::Zero();
+    for (int k = 0; k < nq; ++k) {
+      const int q = nq * e + k;
+      Fbar += wq(q) * GQ.block<d, d>(d * q, 0);
+    }
+    Fbar /= vol(e);
+    Fbar.diagonal().array() += 1.0;
+    double p = 0;
+    if (lambda) {
+      const Mat Ee = E->block<d, d>(d * e, 0);
+      p = (lambda->block<d, d>(d * e, 0).cwiseProduct(Ee)).sum() / (d * Ee.determinant());
+    }
+    const Mat cof_bar = (d == 3 && force) ? cofactor<d>(Fbar) : Mat::Zero();
+    double mean_det = 0;
+    for (int k = 0; k < nq; ++k) {
+      const int q = nq * e + k;
+      Mat F = GQ.block<d, d>(d * q, 0);
+      F.diagonal().array() += 1.0;
+      if constexpr (d == 2) {  // the linear term cancels exactly: det and cof of delta directly
+        mean_det += wq(q) * (F - Fbar).determinant();
+        if (force) force->block<d, d>(d * q, 0) = p * cofactor<d>(F - Fbar);
+      } else {
+        mean_det += wq(q) * F.determinant();
+        if (force) force->block<d, d>(d * q, 0) = p * (cofactor<d>(F) - cof_bar);
+      }
+    }
+    if (c) (*c)(e) = d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
+  }
+}
+}  // namespace
+
+void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
+                                 const Eigen::MatrixXd* E, Eigen::VectorXd* c,
+                                 Eigen::MatrixXd* force) const {
+  GQ_.noalias() = Gq_ * u;
+  Eigen::MatrixXd* S = force ? &Sq_ : nullptr;
+  if (dim() == 2)
+    fluctuation_loop<2>(GQ_, wq_, cells_.vol, nq_, lambda, E, c, S);
+  else
+    fluctuation_loop<3>(GQ_, wq_, cells_.vol, nq_, lambda, E, c, S);
+  if (force) force->noalias() += GqT_w_ * Sq_;
+}
+
+Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(num_cells());
+  if (mean_det_) fluctuation(u, nullptr, nullptr, &c, nullptr);
+  return c;
+}
+
+Eigen::MatrixXd Discretization::fluctuation_force(const State& s) const {
+  Eigen::MatrixXd force = Eigen::MatrixXd::Zero(num_nodes(), dim());
+  if (mean_det_) fluctuation(s.u, &s.lambda, &s.E, nullptr, &force);
+  return force;
+}
+
+Eigen::MatrixXd Discretization::piola(const State& s) const {
+  return 2 * split_.C1 * s.E - s.lambda;
+}
+
+Eigen::MatrixXd Discretization::cauchy(const State& s) const {
+  const int d = dim(), nc = num_cells();
+  const Eigen::MatrixXd P = piola(s);
+  Eigen::MatrixXd sigma(d * nc, d);
+  for (int c = 0; c < nc; ++c) {
+    const Eigen::MatrixXd Eb = s.E.block(d * c, 0, d, d), Pb = P.block(d * c, 0, d, d);
+    sigma.block(d * c, 0, d, d) = Eb.transpose() * Pb / Eb.determinant();  // (P E^T)^T / det E
+  }
+  return sigma;
+}
+
+Eigen::VectorXd Discretization::pressure(const State& s) const {
+  const int d = dim(), nc = num_cells();
+  const Eigen::MatrixXd sigma = cauchy(s);
+  Eigen::VectorXd p(nc);
+  for (int c = 0; c < nc; ++c) p(c) = -sigma.block(d * c, 0, d, d).trace() / d;
+  return p;
+}
+
+Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
+  if (!problem_.contact) return {};
+  return -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim()));
+}
+
+Eigen::VectorXd Discretization::contact_gap(const State& s) const {
+  if (!facets_) return {};
+  return surface_.gap - s.e.transpose() * surface_.N;
+}
+
+double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) const {
+  const int d = dim(), nc = num_cells();
+  const Material& m = split_;
+  double J = 0;
+  for (int c = 0; c < nc; ++c) {
+    if (d == 2)
+      J += cells_.vol(c) * m.W(Eigen::Matrix2d(s.E.block<2, 2>(2 * c, 0).transpose()));
+    else
+      J += cells_.vol(c) * m.W(Eigen::Matrix3d(s.E.block<3, 3>(3 * c, 0).transpose()));
+  }
+  const Eigen::MatrixXd GU = cells_.Gbar * s.u;
+  const double grad2 = (s.u.transpose() * (cells_.laplacian * s.u)).trace();
+  const double mean2 = (GU.array().square().colwise() * vol_rows_.array()).sum();
+  return J + m.C1 * (grad2 - mean2) - (F.array() * s.u.array()).sum();
+}
+
+Eigen::MatrixXd Discretization::energy_gradient(const Eigen::MatrixXd& u,
+                                                const Eigen::MatrixXd& F) const {
+  const int d = dim(), nc = num_cells();
+  const Material& m = split_;
+  const Eigen::MatrixXd GU = cells_.Gbar * u;
+  Eigen::MatrixXd P(d * nc, d);
+  for (int c = 0; c < nc; ++c) {
+    if (d == 2) {
+      const Eigen::Matrix2d Fc = Eigen::Matrix2d::Identity() + GU.block<2, 2>(2 * c, 0).transpose();
+      P.block<2, 2>(2 * c, 0) = m.dW(Fc).transpose();
+    } else {
+      const Eigen::Matrix3d Fc = Eigen::Matrix3d::Identity() + GU.block<3, 3>(3 * c, 0).transpose();
+      P.block<3, 3>(3 * c, 0) = m.dW(Fc).transpose();
+    }
+  }
+  Eigen::MatrixXd g =
+      cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU) - F;
+  for (int c = 0; c < d; ++c)
+    for (int i : bc_.fixed[c]) g(i, c) = 0;
+  return g;
+}
+
+}  // namespace ltl

@@ -1,0 +1,124 @@
+// The discrete problem, built once from a Problem and independent of how it is solved: the
+// cell operators (mean gradients Gbar, volumes, Laplacian), the contact points and the contact
+// surface with its initial gaps, the Dirichlet data, the consistent dead loads f and g, the split
+// (2.5)-(2.6) of the energy between the global quadratic and the local steps, and, for mean-det
+// incompressibility (2.7), the point gradients at the cell quadrature points.
+//
+// Nothing here depends on the augmentation R, q, q_c of ALG2: the solver (alg2.hpp) meets these
+// operators with R q once, in its precompute.
+#pragma once
+
+#include <Eigen/Dense>
+#include <optional>
+#include <vector>
+
+#include "contact_surface.hpp"
+#include "fe.hpp"
+#include "global_step.hpp"
+#include "material.hpp"
+#include "problem.hpp"
+#include "state.hpp"
+
+namespace ltl {
+
+class Discretization {
+ public:
+  /// Validates the problem and builds every discrete operator; throws a clear Error naming the
+  /// group, facet or node on inconsistent data (e.g. a contact point starting inside the plane).
+  explicit Discretization(const Problem& problem);
+
+  const Problem& problem() const { return problem_; }
+  int dim() const { return problem_.mesh.dim; }
+  int num_cells() const { return problem_.mesh.num_cells(); }
+  int num_nodes() const { return problem_.mesh.num_nodes(); }
+
+  /// The material as split between the global and the local steps (2.5)-(2.6):
+  /// problem().material, except that in plane strain with DiscretizationChoice::c2_pointwise the
+  /// incompressible C2 term is moved into C1 (C1 + C2, C2 = 0), an identity on det F = 1.
+  /// P = 2 split().C1 E - lambda.
+  const Material& split() const { return split_; }
+  const CellOperators& cells() const { return cells_; }
+  /// The contact points: facets (discretization.contact = "facet-mean") or the nodes of the
+  /// contact surface ("nodal"), with their weights, positions and the map from nodal values
+  /// (mean); null without contact.
+  const FacetOperators* facets() const { return facets_ ? &*facets_ : nullptr; }
+  /// The contact surface as the local contact step (4.7) sees it, with the initial gap
+  /// g_s = (p0 - x_s) . N >= 0 of every contact point (section 6); empty without contact.
+  const ContactSurface& surface() const { return surface_; }
+  /// Per component, the sorted nodes whose displacement is prescribed, and their values.
+  const DirichletData& dirichlet() const { return bc_; }
+  /// The consistent dead loads f (body force) and g (tractions) at load factor 1, #nodes x dim
+  /// [LTL87 (1.2)].
+  const Eigen::MatrixXd& dead_load() const { return F_dead_; }
+  /// Identity blocks, (dim * #cells) x dim, the transposed-block layout of E and lambda.
+  const Eigen::MatrixXd& identity() const { return Id_; }
+  /// |O_e| repeated on the dim rows of cell e.
+  const Eigen::VectorXd& volume_rows() const { return vol_rows_; }
+  double volume() const { return volume_; }              ///< |Omega|
+  double contact_area() const { return contact_area_; }  ///< |Gamma_c| (0 without contact)
+
+  /// True when incompressibility is imposed on the cell mean of det F
+  /// (DiscretizationChoice::mean_det: incompressible with no C2 term left in the local step,
+  /// i.e. plane strain with the pointwise C2 split, or C2 = 0 in 3-D).
+  bool mean_det() const { return mean_det_; }
+  /// L - GbarT_vol Gbar (#nodes x #nodes): the energy of the intra-cell fluctuation of grad u;
+  /// mean-det only.
+  const SpMat& fluctuation_laplacian() const { return fluctuation_laplacian_; }
+  /// [(2.7), discretization.md] Mean-det incompressibility: with delta = grad u - Gbar_e u the
+  /// intra-cell fluctuation, (1/|O_e|) integral det F = det(Fbar_e) + c_e(u) with
+  ///   c_e = (1/|O_e|) integral det F - det(Fbar_e)   (= the mean of det(delta) in 2-D),
+  /// and the pressure p_e of the constraint does the extra work
+  /// p_e integral (cof F - cof Fbar) : grad v (= p_e integral cof(delta) : grad v in 2-D).
+  /// Returns c_e per cell (zero vector when !mean_det()).
+  Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const;
+  /// The force sum_e p_e integral_e (cof F - cof Fbar) : grad v (#nodes x dim) with p_e read
+  /// from the multiplier, p_e = lambda_e : E_e / (d det E_e) (lambda = p cof E at a fixed point,
+  /// cof E : E = d det E); zero when !mean_det(). ALG2 adds it, lagged, to the right-hand side
+  /// of (4.1).
+  Eigen::MatrixXd fluctuation_force(const State& s) const;
+  /// The allocation-free kernel of the two above: c (#cells) and/or force (#nodes x dim, added
+  /// to, not overwritten) at u, with p_e from lambda and E when force is wanted.
+  void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
+                   const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) const;
+
+  // Outputs at a state, per cell (transposed-block layout like E) or per contact point.
+  /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
+  Eigen::MatrixXd piola(const State& s) const;
+  /// Cauchy stress sigma = P E^T / det E (in-plane block in plane strain).
+  Eigen::MatrixXd cauchy(const State& s) const;
+  /// Pressure per cell, -tr(sigma)/dim (in plane strain the mean in-plane stress).
+  Eigen::VectorXd pressure(const State& s) const;
+  /// Contact pressure per contact point, p_c = -lambda_c . N >= 0 where the body presses.
+  Eigen::VectorXd contact_pressure(const State& s) const;
+  /// Gap to the plane after deformation per contact point: g_s - e_s . N (>= 0 when admissible).
+  Eigen::VectorXd contact_gap(const State& s) const;
+  /// Gradient (#nodes x dim, zero on fixed components) of the reduced discrete energy
+  ///   Pi(u) = sum_e |O_e| W(I + Gbar_e u) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2)
+  ///           - F . u
+  /// for the compressible law without contact, F the load: zero at the discrete equilibrium.
+  Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u, const Eigen::MatrixXd& F) const;
+  /// The elastic and load part of the discrete functional J_p (2.2) at a state, load F:
+  ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - F.u
+  double elastic_energy(const State& s, const Eigen::MatrixXd& F) const;
+
+ private:
+  Problem problem_;
+  Material split_;
+  CellOperators cells_;
+  std::optional<FacetOperators> facets_;
+  ContactSurface surface_;
+  DirichletData bc_;
+  Eigen::MatrixXd F_dead_, Id_;
+  Eigen::VectorXd vol_rows_;
+  double volume_ = 0, contact_area_ = 0;
+  // Mean-det: point gradients at the cell quadrature points (rows dim*(nq*e + k) + j, like Gbar),
+  // their weighted transpose, the weights, and work buffers.
+  bool mean_det_ = false;
+  int nq_ = 0;
+  SpMatR Gq_, GqT_w_;
+  Eigen::VectorXd wq_;
+  SpMat fluctuation_laplacian_;
+  mutable Eigen::MatrixXd GQ_, Sq_;
+};
+
+}  // namespace ltl
