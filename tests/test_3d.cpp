@@ -28,7 +28,7 @@ Eigen::Matrix3d rotation(double angle, const Eigen::Vector3d& axis) {
 
 }  // namespace
 
-TEST(PatchTest3D, DistortedHexahedra_IncompressibleMooneyRivlin_detE_is_1_5_7) {
+TEST(PatchTest3D, Eq1_5_Eq5_7_DistortedHexahedraIncompressibleMooneyRivlinDetEIs1) {
   const Mesh mesh = distorted_box(3);
   // An isochoric F: a rotation times a symmetric stretch scaled to det = 1.
   Eigen::Matrix3d U;
@@ -39,7 +39,7 @@ TEST(PatchTest3D, DistortedHexahedra_IncompressibleMooneyRivlin_detE_is_1_5_7) {
   expect_patch_3d(mesh, Material::mooney_rivlin(100e3, 30e3), F);
 }
 
-TEST(PatchTest3D, DistortedHexahedra_CompressibleLaw_Sec8) {
+TEST(PatchTest3D, Sec8_DistortedHexahedraCompressibleLaw) {
   const Mesh mesh = distorted_box(3);
   Eigen::Matrix3d F;
   F << 1.2, 0.3, -0.1, 0.0, 0.9, 0.2, 0.1, -0.2, 1.1;
@@ -47,7 +47,7 @@ TEST(PatchTest3D, DistortedHexahedra_CompressibleLaw_Sec8) {
   expect_patch_3d(mesh, Material::compressible(187.5e3, 187.5e3), F);
 }
 
-TEST(UniaxialTension3D, IncompressibleMooneyRivlinDeadLoad_1_5) {
+TEST(UniaxialTension3D, Eq1_5_IncompressibleMooneyRivlinDeadLoad) {
   // [LTL87 (1.5)] Block [0,1]^3 (distorted interior), symmetry u1 = 0 on x0, u2 = 0 on y0,
   // u3 = 0 on z0, dead nominal traction P e1 on x1, the other faces free. Closed form:
   //   F = diag(l, l^-1/2, l^-1/2),  W = C1 (l^2 + 2/l - 3) + C2 (l^-2 + 2 l - 3),

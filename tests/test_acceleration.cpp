@@ -69,7 +69,7 @@ Problem fig5(const std::vector<std::string>& extra = {}) {
 }
 }  // namespace
 
-TEST(AndersonSafeguard, Fig5_NeverKeepsAnIterateThatIncreasesTheMerit_4_1_4_3) {
+TEST(AndersonSafeguard, Eq4_1to4_3_Fig5_NeverKeepsAnIterateThatIncreasesTheMerit) {
   // Depth 3 and R = 20 (a slower plain iteration, K = 7): both verdicts occur.
   for (const int depth : {3, 10}) {
     const Problem p = fig5({"algorithm.acceleration=anderson", "algorithm.R=20",
@@ -103,7 +103,7 @@ TEST(AndersonSafeguard, Fig5_NeverKeepsAnIterateThatIncreasesTheMerit_4_1_4_3) {
   }
 }
 
-TEST(AndersonSafeguard, NoneReproducesThePlainIteration_4_1_4_3) {
+TEST(AndersonSafeguard, Eq4_1to4_3_NoneReproducesThePlainIteration) {
   // "none" is the paper's iteration: no accelerated iterate, the same history as the default.
   Solver a(fig5()), b(fig5({"algorithm.acceleration=none", "algorithm.depth=7"}));
   State sa = a.initial_state(), sb = b.initial_state();

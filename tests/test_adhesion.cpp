@@ -20,7 +20,7 @@ Problem fig3(int steps, std::vector<std::string> extra = {}) {
 }
 }  // namespace
 
-TEST(Adhesion, EnergyDecreasesWithinEachTimeStep_2_2) {
+TEST(Adhesion, Eq2_2_EnergyDecreasesWithinEachTimeStep) {
   // (1.4) in discrete form: the converged state of step p is no worse for J_p (2.2) than the
   // state of step p-1 (where the dissipation term vanishes).
   const Problem p = fig3(6);

@@ -153,7 +153,7 @@ ltl::ContactSurface line(int n, double h) {
   return S;
 }
 
-TEST(AdhesionKernel, Eq6_4_6_5_RowSumsAgainstClosedForms2D) {
+TEST(AdhesionKernel, Eq6_4_Eq6_5_RowSumsAgainstClosedForms2D) {
   const int n = 40;
   const double h = 0.025, L = n * h;
   for (double d0 : {2.0, 40.0, 1000.0}) {
@@ -176,7 +176,7 @@ TEST(AdhesionKernel, Eq6_4_6_5_RowSumsAgainstClosedForms2D) {
   }
 }
 
-TEST(AdhesionKernel, Eq6_4_6_5_AreaWeightedKernelIsSymmetric) {
+TEST(AdhesionKernel, Eq6_4_Eq6_5_AreaWeightedKernelIsSymmetric) {
   // Segments of different lengths on an arc (no two collinear): |G_s| k_ss' = |G_s'| k_s's.
   const int n = 12;
   ltl::ContactSurface S;
@@ -212,7 +212,7 @@ TEST(AdhesionKernel, Eq6_4_6_5_AreaWeightedKernelIsSymmetric) {
     }
 }
 
-TEST(AdhesionKernel, Eq6_4_6_5_RowSumOfAPlaneGridIs2PiOverD0In3D) {
+TEST(AdhesionKernel, Eq6_4_Eq6_5_RowSumOfAPlaneGridIs2PiOverD0In3D) {
   // Unit squares on the plane z = 0, [-m, m+1]^2: for the centre facet, at more than 10 / d0
   // from the border, |G_s| sum_s' k_ss' = int_{G_s} int_plane d = |G_s| 2 pi / d0 up to
   // (1 + d0 R) e^{-d0 R} ~ 3e-12 of the plane's mass (R = 10). Measured: 6.1e-8 relative, the

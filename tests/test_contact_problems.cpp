@@ -161,7 +161,7 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
 // A block pressed onto a plane: the homogeneous closed form.
 // ---------------------------------------------------------------------------------------------
 
-TEST(BlockOnPlane, PlaneStrainMooneyRivlin_1_5_ContactPressureEqualsLoad) {
+TEST(BlockOnPlane, Eq1_5_PlaneStrainMooneyRivlinContactPressureEqualsLoad) {
   // l = 0.9. At l = 0.8 (p = 299.8 kPa) ALG2 converges, for every R q tried (2 to 16 (C1 + C2)),
   // to another equilibrium of the same discrete problem: F = -diag(0.68, 1.47) (the block
   // turned by 180 degrees, hanging from its contact face through the obstacle and stretched by
@@ -176,7 +176,7 @@ TEST(BlockOnPlane, PlaneStrainMooneyRivlin_1_5_ContactPressureEqualsLoad) {
                         Material::mooney_rivlin(C1, C2), exact, alg);
 }
 
-TEST(BlockOnPlane, PlaneStrainMooneyRivlin_1_5_AndersonAcceleration_4_1_4_3) {
+TEST(BlockOnPlane, Eq1_5_Eq4_1to4_3_PlaneStrainMooneyRivlinAndersonAcceleration) {
   // The closed form above reached by the accelerated iteration (depth 5), R = 8.
   const double C1 = 100e3, C2 = 30e3;
   const Compression exact = mooney_rivlin_compression(2, C1, C2, 0.9);
@@ -187,7 +187,7 @@ TEST(BlockOnPlane, PlaneStrainMooneyRivlin_1_5_AndersonAcceleration_4_1_4_3) {
                         Material::mooney_rivlin(C1, C2), exact, alg);
 }
 
-TEST(BlockOnPlane, PlaneStrainCompressibleLaw_Sec8) {
+TEST(BlockOnPlane, Sec8_PlaneStrainCompressibleLaw) {
   const double C1 = 187.5e3, C3 = 187.5e3;
   const Compression exact = compressible_compression(2, C1, C3, 0.85);
   ASSERT_GT(exact.stretch(0), 1.0);                                    // lateral expansion
@@ -198,7 +198,7 @@ TEST(BlockOnPlane, PlaneStrainCompressibleLaw_Sec8) {
                         exact, alg);
 }
 
-TEST(BlockOnPlane, ThreeDMooneyRivlin_1_5_DistortedHexahedra) {
+TEST(BlockOnPlane, Eq1_5_ThreeDMooneyRivlinDistortedHexahedra) {
   const double C1 = 100e3, C2 = 30e3;
   const Compression exact = mooney_rivlin_compression(3, C1, C2, 0.8);  // p = 209687 Pa
   // R q = 8 (C1 + C2), as in test_3d.cpp: below about 4 C1 the 3-D iteration is unstable.
@@ -207,7 +207,7 @@ TEST(BlockOnPlane, ThreeDMooneyRivlin_1_5_DistortedHexahedra) {
   expect_block_on_plane(distorted_box(3), Material::mooney_rivlin(C1, C2), exact, alg);
 }
 
-TEST(BlockOnPlane, ThreeDCompressibleLaw_Sec8_DistortedHexahedra) {
+TEST(BlockOnPlane, Sec8_ThreeDCompressibleLawDistortedHexahedra) {
   const double C1 = 187.5e3, C3 = 187.5e3;
   const Compression exact = compressible_compression(3, C1, C3, 0.85);
   // R q = 8 C1: with R q = 2 C1 or 4 C1 the iteration does not converge (3000 iterations,
@@ -317,7 +317,7 @@ TEST(Fig5, CylinderOnPlane_SignoriniConditionsAndContactForceEqualsWeight) {
       weight, force, force / weight - 1, worst / scale);
 }
 
-TEST(Fig5, AndersonAndPlainReachTheSameFixedPoint_4_1_4_3) {
+TEST(Fig5, Eq4_1to4_3_AndersonAndPlainReachTheSameFixedPoint) {
   // The Fig 5 problem at tol 1e-9, plain and accelerated (depth 10, strains and multipliers):
   // the same displacements, contact pressures and contact force to the accuracy the plain
   // iteration itself has at that tolerance, the Signorini conditions, fewer iterations.

@@ -309,7 +309,7 @@ TEST(ContactFacet, Eq6_8_ObjectiveMatchesPaperForm) {
   }
 }
 
-TEST(ContactFacet, Eq6_1_Order1_RegimesIn2D) {
+TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
   Facet F;
   F.Rqc = 1.0;
   F.kappa = 4.0;
@@ -373,7 +373,7 @@ TEST(ContactFacet, Eq6_1_Order1_RegimesIn2D) {
   }
 }
 
-TEST(ContactFacet, Eq6_1_Order1_RegimesIn3D) {
+TEST(ContactFacet, Eq6_1_Order1RegimesIn3D) {
   Facet F;
   F.Rqc = 2.0;
   F.kappa = 6.0;
@@ -660,7 +660,7 @@ Adhesion fig3_adhesion(bool exact) {
 
 using ltl::testing::quad;
 
-TEST(ContactKernel, Eq6_4_6_5_CentrePointRule) {
+TEST(ContactKernel, Eq6_4_Eq6_5_CentrePointRule) {
   const ContactSurface S = line_surface({0.0, 0.01, 0.03, 0.035, 0.06});
   Adhesion A = fig3_adhesion(false);
   A.d0 = 50.0;

@@ -87,19 +87,19 @@ void expect_affine_has_no_fluctuation(const ltl::Problem& problem, const Eigen::
 // (2.7) mean-det: the force of the constraint's pressure on the intra-cell fluctuations is the
 // derivative of sum_e p_e |O_e| c_e(u), checked by central differences; in 2-D (P2 triangles,
 // c_e the mean of det(delta)) and in 3-D (H8, c_e = mean det F - det Fbar, cubic in delta).
-TEST(MeanDet, FluctuationForceIsTheDerivativeOfTheFluctuationDeterminant_2_7) {
+TEST(MeanDet, Eq2_7_FluctuationForceIsTheDerivativeOfTheFluctuationDeterminant) {
   expect_force_is_derivative(fig5(7), 0.05);
 }
-TEST(MeanDet, FluctuationForceIsTheDerivativeOfTheFluctuationDeterminant3D_2_7) {
+TEST(MeanDet, Eq2_7_FluctuationForceIsTheDerivativeOfTheFluctuationDeterminant3D) {
   expect_force_is_derivative(gutter(), 0.05);
 }
 
-TEST(MeanDet, AffineDisplacementHasNoFluctuation_2_7) {
+TEST(MeanDet, Eq2_7_AffineDisplacementHasNoFluctuation) {
   Eigen::Matrix2d A;
   A << 0.1, -0.3, 0.2, 0.05;
   expect_affine_has_no_fluctuation(fig5(7), A);
 }
-TEST(MeanDet, AffineDisplacementHasNoFluctuation3D_2_7) {
+TEST(MeanDet, Eq2_7_AffineDisplacementHasNoFluctuation3D) {
   Eigen::Matrix3d A;
   A << 0.1, -0.3, 0.2, 0.05, 0.02, -0.1, 0.3, 0.15, -0.2;
   expect_affine_has_no_fluctuation(gutter(), A);
@@ -109,7 +109,7 @@ TEST(MeanDet, AffineDisplacementHasNoFluctuation3D_2_7) {
 // (the body is incompressible) with mean-det, to the stopping tolerance; with det-mean it is
 // short by more than 3e-4 m^2 on the same mesh (the defect that does not vanish under
 // refinement: 7e-4, 4.4e-4, 1.2e-3 m^2 at K = 7, 14, 28).
-TEST(MeanDet, ConvergedFig5KeepsItsAreaWhereDetMeanLosesIt_2_7) {
+TEST(MeanDet, Eq2_7_ConvergedFig5KeepsItsAreaWhereDetMeanLosesIt) {
   for (const bool mean_det : {true, false}) {
     const ltl::Problem problem = fig5(7, {std::string("discretization.incompressibility=") +
                                           (mean_det ? "mean-det" : "det-mean")});
@@ -130,7 +130,7 @@ TEST(MeanDet, ConvergedFig5KeepsItsAreaWhereDetMeanLosesIt_2_7) {
 
 // (2.7) in 3-D: the converged coarse gutter keeps its volume with mean-det (H8, 2x2x2 Gauss), to
 // the stopping tolerance; det-mean, the paper's choice, changes it by far more.
-TEST(MeanDet, ConvergedGutterKeepsItsVolumeWhereDetMeanDoesNot_2_7) {
+TEST(MeanDet, Eq2_7_ConvergedGutterKeepsItsVolumeWhereDetMeanDoesNot) {
   double change_det_mean = 0;
   for (const bool mean_det : {true, false}) {
     const ltl::Problem problem = gutter(

@@ -127,7 +127,7 @@ std::string box_config(double p) {
 // Defaults from the material (derive_algorithm_defaults).
 // ---------------------------------------------------------------------------------------------
 
-TEST(AlgorithmDefaults, PlaneStrainBlockWithoutAlgorithmKeysMatchesClosedForm_1_5) {
+TEST(AlgorithmDefaults, Eq1_5_PlaneStrainBlockWithoutAlgorithmKeysMatchesClosedForm) {
   const Problem p = load_problem(kBlock);
   const double C1 = 200e3, C2 = 50e3, H = 0.05, pressure = 100e3;
   // The rule: q = 2 (C1 + C2), R q = 6 (C1 + C2) in 2-D, q_c = q / h (h = mean facet length of
@@ -153,7 +153,7 @@ TEST(AlgorithmDefaults, PlaneStrainBlockWithoutAlgorithmKeysMatchesClosedForm_1_
   EXPECT_LT(r.report.iterations, 500);
 }
 
-TEST(AlgorithmDefaults, ThreeDBlockWithoutAlgorithmKeysMatchesClosedForm_1_5) {
+TEST(AlgorithmDefaults, Eq1_5_ThreeDBlockWithoutAlgorithmKeysMatchesClosedForm) {
   const double C1 = 100e3, C2 = 30e3, pressure = 100e3;
   const fs::path dir = ltl::testing::temp_dir("inputs_box");
   write_file(dir / "box.toml", box_config(pressure));
@@ -351,7 +351,7 @@ TEST(LoadRamp, FactorOfEachStep) {
 }
 
 // Each step of a linear ramp (and of a table) is the closed form for that step's pressure.
-TEST(LoadRamp, EveryStepOfALinearRampIsTheClosedFormOfItsLoad_1_5) {
+TEST(LoadRamp, Eq1_5_EveryStepOfALinearRampIsTheClosedFormOfItsLoad) {
   const double C1 = 200e3, C2 = 50e3, H = 0.05, pressure = 100e3;
   for (const std::vector<std::string>& ramp :
        {std::vector<std::string>{"load.ramp=linear", "load.ramp_time=\"4 s\"", "time.steps=5"},

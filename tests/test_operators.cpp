@@ -79,7 +79,7 @@ TEST(Operators, LaplacianAnnihilatesConstantsAndIsSymmetric) {
   }
 }
 
-TEST(GlobalMatrix, IsSymmetricPositiveDefinite_4_5) {
+TEST(GlobalMatrix, Eq4_5_IsSymmetricPositiveDefinite) {
   // [LTL87 (4.5)] K = 2 C1 L + R q Gbar^T |O| Gbar + R q_c M^T |G| M is SPD on the free nodes,
   // and definite with NO fixed node when a contact surface has q_c > 0.
   const Mesh bar = load_mesh(source_path("experiments/fig3/bar.geo"), {{"nx", 6}, {"ny", 2}});

@@ -59,7 +59,7 @@ std::vector<std::string> fig5_mesh(int K) {
 // drop 0.26570 / 0.26560 against 0.26553, a_moment 0.5979 / 0.5952 against 0.5945). The peak
 // nodal pressure converges slowly in both codes (the pressure is singular at the contact edge):
 // within 1.5 % (measured 0.7 %).
-TEST(Peer, Fig5ConvergesToTheNewtonPeer_2_7_4_1to4_4) {
+TEST(Peer, Eq2_7_Eq4_1to4_4_Fig5ConvergesToTheNewtonPeer) {
   const Answer a14 = solve("fig5", fig5_mesh(14)), a28 = solve("fig5", fig5_mesh(28));
   ASSERT_TRUE(a14.converged && a28.converged);
   const Reference drop = reference("fig5", "drop"), am = reference("fig5", "a_moment"),
@@ -102,7 +102,7 @@ double q1p0_value(const std::string& key, int level) {
 // relative (measured: 2.711468 against 2.711470). Against the peer's converged value (level 3)
 // the paper's mesh is within 0.5 % plus the peer's own tolerance (measured 0.27 %); the paper's
 // det-mean H8, which locks in bending, is more than 2 % short (measured 2.5 %).
-TEST(Peer, Fig6MeanDetIsThePeersQ1P0AndApproachesItsConvergedSag_2_7_4_1to4_4) {
+TEST(Peer, Eq2_7_Eq4_1to4_4_Fig6MeanDetIsThePeersQ1P0AndApproachesItsConvergedSag) {
   const std::vector<std::string> accel = {"algorithm.acceleration=anderson"};
   const Answer a = solve("fig6", accel);
   ASSERT_TRUE(a.converged);

@@ -123,7 +123,7 @@ ContactZone zone(const SignoriniSolver& solver, const SignoriniSolution& sol) {
 
 // [LTL87 (7.9)] The local step is the projection onto {H <= g} of uN - lambda_c / (R q_c): it
 // lands on the set, is idempotent, and beats every other admissible H on its objective.
-TEST(SignoriniProjection, LocalStep79IsTheMinimizerOnTheConstraintSet) {
+TEST(SignoriniProjection, Eq7_9_LocalStepIsTheMinimizerOnTheConstraintSet) {
   std::mt19937 gen(7);
   std::normal_distribution<double> z;
   const int n = 200;
@@ -153,7 +153,7 @@ TEST(SignoriniProjection, LocalStep79IsTheMinimizerOnTheConstraintSet) {
 
 // [LTL87 (7.1)] A is symmetric, rigid motions cost nothing, and the energy of an affine field
 // is |Omega| (lambda_L tr(eps)^2 / 2 + mu eps : eps) (plane strain), on a curved P2 mesh and H8.
-TEST(SignoriniStiffness, ElasticityMatrix71RigidMotionsAndAffineEnergy) {
+TEST(SignoriniStiffness, Eq7_1_ElasticityMatrixRigidMotionsAndAffineEnergy) {
   for (const Mesh* mesh : {&square_mesh(), &box_mesh(), &hertz_mesh(0)}) {
     const int dim = mesh->dim, nn = mesh->num_nodes();
     const double E = 2e7, nu = 0.3;
@@ -221,19 +221,19 @@ void check_block(bool lateral_free, Update update) {
   EXPECT_LT(sol.gap.cwiseAbs().maxCoeff(), 1e-11 * scale);
 }
 
-TEST(SignoriniBlock, PlaneStrainLateralFreedomUzawa43) {
+TEST(SignoriniBlock, Eq4_3_PlaneStrainLateralFreedomUzawa) {
   check_block(true, Update::Uzawa);
 }
-TEST(SignoriniBlock, PlaneStrainLateralFreedomBermudezMoreno710) {
+TEST(SignoriniBlock, Eq7_10_PlaneStrainLateralFreedomBermudezMoreno) {
   check_block(true, Update::BermudezMoreno);
 }
-TEST(SignoriniBlock, UniaxialStrainUzawa43) {
+TEST(SignoriniBlock, Eq4_3_UniaxialStrainUzawa) {
   check_block(false, Update::Uzawa);
 }
 
 // 3-D, H8: the box [0,1]^3 on the plane x3 = 0, symmetry u1 = 0 on x0, u2 = 0 on y0, pressure p
 // on z1: uniaxial stress, u3 = -p x3 / E, u1 = nu p x1 / E, u2 = nu p x2 / E.
-TEST(SignoriniBlock, UniaxialStress3DH8BermudezMoreno710) {
+TEST(SignoriniBlock, Eq7_10_UniaxialStress3DH8BermudezMoreno) {
   const double E = 2e7, nu = 0.25, p = 1e5;
   SignoriniProblem pb;
   pb.mesh = box_mesh();
@@ -286,7 +286,7 @@ TEST(SignoriniBlock, BermudezMorenoRho1CyclesOnAFloatingBody) {
 
 // A lift-off case: the same square, unloaded, with a prescribed upward displacement of its top
 // face that pulls it off the plane: no facet is active, p = 0, gap > 0 [LTL87 (7.3)].
-TEST(SignoriniBlock, NoContactWhenPulledOff73) {
+TEST(SignoriniBlock, Eq7_3_NoContactWhenPulledOff) {
   SignoriniProblem pb;
   pb.mesh = square_mesh();
   pb.E = 2e7;
@@ -309,7 +309,7 @@ TEST(SignoriniBlock, NoContactWhenPulledOff73) {
 // ----------------------------------------------------------------------------------------------
 // (ii) and (iii) Hertz: a quarter disc pressed on the plane.
 
-TEST(SignoriniHertz, NoPenetrationComplementarityAndForceBalance73) {
+TEST(SignoriniHertz, Eq7_3_NoPenetrationComplementarityAndForceBalance) {
   const Hertz h;
   SignoriniSolver solver(hertz_problem(1, params(hertz_Rqc(1), Update::Uzawa, 1e-11)));
   const SignoriniSolution sol = solver.solve();
@@ -419,7 +419,7 @@ TEST(SignoriniFixedPoint, WarmStartAtTheSolutionStopsAtOnce) {
 //   B-M:         lambda_half = lambda_c^0 - R q_c (uN - H^0)                  (7.8)
 //                H = min(g, uN - lambda_half / R q_c)                          (7.9)
 //                lambda_c = lambda_half - (2 rho - 1) R q_c (uN - H)          (7.10)
-TEST(SignoriniIteration, OneIterationIsGlobalStep77HalfStep78Projection79Update710) {
+TEST(SignoriniIteration, Eq7_7to7_10_OneIterationIsGlobalStepHalfStepProjectionUpdate) {
   for (const auto& [update, rho] :
        {std::pair{Update::Uzawa, 1.3}, std::pair{Update::BermudezMoreno, 0.75}}) {
     const double Rqc = hertz_Rqc(0);

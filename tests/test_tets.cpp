@@ -209,7 +209,7 @@ TEST(TetElement, DegreeThreeRuleIntegratesCubicsExactly) {
               points, worst);
 }
 
-TEST(TetElement, OperatorsReproduceAffineFields_2_7) {
+TEST(TetElement, Eq2_7_OperatorsReproduceAffineFields) {
   // Gbar_e of an affine field is its gradient in every cell; the Laplacian annihilates the
   // constants and gives, on affine fields, the boundary flux of their gradient (sum over all
   // nodes of L x = 0 for a linear x on a closed box).
@@ -262,7 +262,7 @@ TEST(TetElement, NodalContactWeightsOfT6Faces) {
 // ALG2 on the tetrahedral block
 // ---------------------------------------------------------------------------------------------
 
-TEST(PatchTestTets, IncompressibleMooneyRivlin_detE_is_1_5_7) {
+TEST(PatchTestTets, Eq1_5_Eq5_7_IncompressibleMooneyRivlinDetEIs1) {
   // [LTL87 (2.7), (5.1), (5.4), (5.7)] u = (F - I) x on the whole boundary of the unstructured
   // block: every cell has E = F, every node u = (F - I) x (testing.hpp: expect_patch_3d).
   const Mesh mesh = tet_box(4);
@@ -282,7 +282,7 @@ TEST(PatchTestTets, IncompressibleMooneyRivlin_detE_is_1_5_7) {
   ltl::testing::expect_patch_3d(mesh, Material::compressible(187.5e3, 187.5e3), G);
 }
 
-TEST(UniaxialTensionTets, IncompressibleMooneyRivlinDeadLoad_1_5) {
+TEST(UniaxialTensionTets, Eq1_5_IncompressibleMooneyRivlinDeadLoad) {
   // [LTL87 (1.5)] As UniaxialTension3D (test_3d.cpp) on the tetrahedral block
   // (testing.hpp: expect_uniaxial_tension_3d).
   ltl::testing::expect_uniaxial_tension_3d(tet_box(3));
@@ -292,7 +292,8 @@ namespace {
 
 // [LTL87 (1.5)] The block pressed on the plane z = 0 (normal -e3 into the obstacle) by a dead
 // pressure p on z1, symmetry u1 = 0 on x0, u2 = 0 on y0: F = diag(l^-1/2, l^-1/2, l) with
-// p = -2 (l - l^-2)(C1 + C2 / l), as BlockOnPlane.ThreeDMooneyRivlin (test_contact_problems).
+// p = -2 (l - l^-2)(C1 + C2 / l), as BlockOnPlane.Eq1_5_ThreeDMooneyRivlinDistortedHexahedra
+// (test_contact_problems).
 void expect_pressed_block(bool nodal) {
   const double C1 = 100e3, C2 = 30e3, l = 0.9;
   // l = 0.9 (p = 89218 Pa). At l = 0.8 on this mesh ALG2 converges to the other equilibrium
@@ -375,10 +376,10 @@ void expect_pressed_block(bool nodal) {
 
 }  // namespace
 
-TEST(BlockOnPlaneTets, MooneyRivlin_1_5_NodalContact) {
+TEST(BlockOnPlaneTets, Eq1_5_MooneyRivlinNodalContact) {
   expect_pressed_block(true);
 }
 
-TEST(BlockOnPlaneTets, MooneyRivlin_1_5_FacetMeanContact) {
+TEST(BlockOnPlaneTets, Eq1_5_MooneyRivlinFacetMeanContact) {
   expect_pressed_block(false);
 }

@@ -38,7 +38,7 @@ void expect_same(const State& a, const State& b, double rel, const std::string& 
 
 }  // namespace
 
-TEST(Updates, UzawaAndBermudezMorenoAgreeOnEveryFigure_7_10) {
+TEST(Updates, Eq7_10_UzawaAndBermudezMorenoAgreeOnEveryFigure) {
   const std::vector<std::pair<std::string, std::vector<std::string>>> problems = {
       {"fig3", {"time.steps=3"}},
       {"fig4", {"time.steps=3"}},
@@ -52,7 +52,7 @@ TEST(Updates, UzawaAndBermudezMorenoAgreeOnEveryFigure_7_10) {
   }
 }
 
-TEST(Updates, FixedPointDoesNotDependOnRqQcRho_3_2) {
+TEST(Updates, Eq3_2_FixedPointDoesNotDependOnRqQcRho) {
   // Planar tension with a known answer (see test_verification.cpp): the same closed-form stretch
   // for four parameter sets and both updates.
   const double C1 = 100e3, C2 = 30e3, l = 1.6;

@@ -63,7 +63,7 @@ TEST(PatchTest, IncompressibleMooneyRivlin2D_detE_is_1) {
   patch_test(p, F);
 }
 
-TEST(PlanarTension, MooneyRivlinClosedForm_AndersonAcceleration_4_1_4_3) {
+TEST(PlanarTension, Eq4_1to4_3_MooneyRivlinClosedFormAndersonAcceleration) {
   // The closed form of the test below, reached by the accelerated iteration (depth 5) at R = 8,
   // where the plain iteration is slow; both agree with the closed form to the same accuracy.
   const double C1 = 100e3, C2 = 30e3, l = 2.0;
@@ -138,7 +138,7 @@ TEST(DiscreteEquilibrium, CompressibleLawIsAStationaryPointOfTheDiscreteEnergy) 
   EXPECT_GT(solver.energy_gradient(solver.initial_state().u).norm() / load, 0.5);
 }
 
-TEST(DiscreteEquilibrium, AndersonAndPlainReachTheSameFixedPoint_4_1_4_3) {
+TEST(DiscreteEquilibrium, Eq4_1to4_3_AndersonAndPlainReachTheSameFixedPoint) {
   // R = 16: the plain iteration takes ~10^4 iterations on this cantilever (issue 10's table).
   Problem p = compressible_cantilever(16);
   p.algorithm.max_iter = 40000;
@@ -159,7 +159,7 @@ TEST(DiscreteEquilibrium, AndersonAndPlainReachTheSameFixedPoint_4_1_4_3) {
   EXPECT_LT(ra.iterations, rp.iterations / 2);
 }
 
-TEST(DiscreteEquilibrium, SolutionDoesNotDependOnRAndQ_3_2) {
+TEST(DiscreteEquilibrium, Eq3_2_SolutionDoesNotDependOnRAndQ) {
   // [LTL87 sec. 3] "R, q, q_c ... have no effect on the values of the solution".
   Problem a = compressible_cantilever(2), b = compressible_cantilever(4);
   b.algorithm.q *= 2;
