@@ -47,7 +47,7 @@ char g_program[256] = "ltl";
   std::_Exit(1);
 }
 
-void usage(const Command& c) {
+void usage(const std::string& program, const std::string& default_config) {
   std::fprintf(stderr,
                "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume] [--stop-after N]"
                " [-v | -q]\n"
@@ -56,27 +56,24 @@ void usage(const Command& c) {
                "  --resume        continue from the last step stored in the results file\n"
                "  --stop-after N  compute N more steps and stop (the file can be resumed)\n"
                "  -v / -q         print every iteration / print nothing\n",
-               c.program.c_str(), c.default_config.empty() ? "CONFIG.toml" : "[CONFIG.toml]");
+               program.c_str(), default_config.empty() ? "CONFIG.toml" : "[CONFIG.toml]");
 }
-}  // namespace
 
-int cli_main(int argc, char** argv, const Command& command) {
-  std::snprintf(g_program, sizeof g_program, "%s", command.program.c_str());
-  std::set_terminate(on_terminate);
-  std::string config, output;
-  std::vector<std::string> overrides;
-  RunOptions options;
+/// Fills `cmd` from argv; returns -1 to go on, else the exit status (0 after -h, 2 on misuse).
+int parse(int argc, char** argv, const std::string& default_config, CommandLine& cmd) {
+  const char* program = cmd.program.c_str();
+  RunOptions& options = cmd.options;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
     if ((a == "-o" || a == "--set" || a == "--stop-after") && !has_value) {
-      std::fprintf(stderr, "%s: %s needs a value\n", command.program.c_str(), a.c_str());
+      std::fprintf(stderr, "%s: %s needs a value\n", program, a.c_str());
       return 2;
     }
     if (a == "-o") {
-      output = argv[++i];
+      cmd.output = argv[++i];
     } else if (a == "--set") {
-      overrides.push_back(argv[++i]);
+      cmd.overrides.push_back(argv[++i]);
     } else if (a == "--resume") {
       options.resume = true;
     } else if (a == "--stop-after") {
@@ -86,8 +83,7 @@ int cli_main(int argc, char** argv, const Command& command) {
       errno = 0;
       const long n = std::strtol(text, &end, 10);
       if (end == text || *end != '\0' || errno == ERANGE || n < 1 || n > INT_MAX) {
-        std::fprintf(stderr, "%s: --stop-after '%s': needs a whole number >= 1\n",
-                     command.program.c_str(), text);
+        std::fprintf(stderr, "%s: --stop-after '%s': needs a whole number >= 1\n", program, text);
         return 2;
       }
       options.stop_after = static_cast<int>(n);
@@ -96,81 +92,104 @@ int cli_main(int argc, char** argv, const Command& command) {
     } else if (a == "-q") {
       options.verbosity = 0;
     } else if (a == "-h" || a == "--help") {
-      usage(command);
+      usage(cmd.program, default_config);
       return 0;
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "%s: unknown option '%s'\n", command.program.c_str(), a.c_str());
-      usage(command);
+      std::fprintf(stderr, "%s: unknown option '%s'\n", program, a.c_str());
+      usage(cmd.program, default_config);
       return 2;
-    } else if (config.empty()) {
-      config = a;
+    } else if (cmd.config.empty()) {
+      cmd.config = a;
     } else {
-      usage(command);
+      usage(cmd.program, default_config);
       return 2;
     }
   }
-  if (config.empty()) config = command.default_config;
-  if (config.empty()) {
-    usage(command);
+  if (cmd.config.empty()) cmd.config = default_config;
+  if (cmd.config.empty()) {
+    usage(cmd.program, default_config);
     return 2;
   }
+  return -1;
+}
+
+}  // namespace
+
+int guarded_main(int argc, char** argv, const std::string& program,
+                 const std::string& default_config,
+                 const std::function<void(const CommandLine&)>& body) {
+  std::snprintf(g_program, sizeof g_program, "%s", program.c_str());
+  std::set_terminate(on_terminate);
+  CommandLine cmd;
+  cmd.program = program;
+  if (const int status = parse(argc, argv, default_config, cmd); status >= 0) return status;
   // The one error boundary: whatever is thrown (our errors, the standard library's, gmsh's
   // strings, memory exhaustion) is one line on stderr and exit status 1. The results file is
   // written atomically (results.hpp), so an error leaves the previous file or none.
-  const std::string& prog = command.program;
+  const char* prog = program.c_str();
   try {
-    const Problem problem = load_problem(config, overrides);
-    options.output = !output.empty()                ? output
-                     : !problem.output_file.empty() ? problem.output_file
-                                                    : "results/" + problem.name + ".h5";
-    const auto dir = std::filesystem::path(options.output).parent_path();
-    for (auto d = dir; !d.empty(); d = d.parent_path()) {  // a path below a regular file
-      std::error_code ec;
-      const auto st = std::filesystem::status(d, ec);
-      if (std::filesystem::exists(st) && !std::filesystem::is_directory(st))
-        throw Error(cat(options.output, ": cannot write the results file: '", d.string(),
-                        "' is not a directory"));
-      if (d == d.parent_path()) break;
-    }
-    if (!dir.empty()) std::filesystem::create_directories(dir);
-    const RunSummary s = run(problem, options);
-    if (options.verbosity > 0 && s.last_step < s.first_step)  // a finished run resumed
-      std::printf(
-          "%s: nothing to do: %s already holds steps 1..%d (time.steps = %d; raise it to "
-          "extend the run)\n",
-          problem.name.c_str(), options.output.c_str(), s.last_step, problem.time.steps);
-    else if (options.verbosity > 0)
-      std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
-                  s.first_step, s.last_step, s.setup_seconds, s.solver_seconds,
-                  options.output.c_str());
-    if (command.report) command.report(problem, s);
+    body(cmd);
   } catch (const Error& e) {
-    std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), e.what());
+    std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
     return 1;
   } catch (const std::filesystem::filesystem_error& e) {
-    std::fprintf(stderr, "%s: error: file system: %s\n", prog.c_str(), e.what());
+    std::fprintf(stderr, "%s: error: file system: %s\n", prog, e.what());
     return 1;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr,
                  "%s: error: out of memory (the mesh or the problem is too large for this "
                  "machine; use a coarser mesh)\n",
-                 prog.c_str());
+                 prog);
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), e.what());
+    std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
     return 1;
   } catch (const std::string& e) {  // gmsh 4.8 throws strings
-    std::fprintf(stderr, "%s: error: gmsh: %s\n", prog.c_str(), e.c_str());
+    std::fprintf(stderr, "%s: error: gmsh: %s\n", prog, e.c_str());
     return 1;
   } catch (const char* e) {
-    std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), e);
+    std::fprintf(stderr, "%s: error: %s\n", prog, e);
     return 1;
   } catch (...) {
     std::fprintf(stderr, "%s: error: unknown exception (a library threw something unexpected)\n",
-                 prog.c_str());
+                 prog);
     return 1;
   }
   return 0;
+}
+
+Problem load_problem(const CommandLine& cmd) {
+  return load_problem(cmd.config, cmd.overrides);
+}
+
+RunOptions run_options(const CommandLine& cmd, const Problem& problem) {
+  RunOptions options = cmd.options;
+  options.output = !cmd.output.empty()            ? cmd.output
+                   : !problem.output_file.empty() ? problem.output_file
+                                                  : "results/" + problem.name + ".h5";
+  const auto dir = std::filesystem::path(options.output).parent_path();
+  for (auto d = dir; !d.empty(); d = d.parent_path()) {  // a path below a regular file
+    std::error_code ec;
+    const auto st = std::filesystem::status(d, ec);
+    if (std::filesystem::exists(st) && !std::filesystem::is_directory(st))
+      throw Error(cat(options.output, ": cannot write the results file: '", d.string(),
+                      "' is not a directory"));
+    if (d == d.parent_path()) break;
+  }
+  if (!dir.empty()) std::filesystem::create_directories(dir);
+  return options;
+}
+
+void print_summary(const Problem& problem, const RunOptions& options, const RunSummary& s) {
+  if (options.verbosity > 0 && s.last_step < s.first_step)  // a finished run resumed
+    std::printf(
+        "%s: nothing to do: %s already holds steps 1..%d (time.steps = %d; raise it to "
+        "extend the run)\n",
+        problem.name.c_str(), options.output.c_str(), s.last_step, problem.time.steps);
+  else if (options.verbosity > 0)
+    std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
+                s.first_step, s.last_step, s.setup_seconds, s.solver_seconds,
+                options.output.c_str());
 }
 
 }  // namespace ltl

@@ -5,22 +5,49 @@
 //
 // Exit status: 0 when every time step converged, 1 on any error (bad input, failed
 // factorization, divergence), 2 on bad command-line usage.
+//
+// A driver's main() is guarded_main around its recipe (experiments/fig5/fig5.cpp):
+//   load_problem(cmd) -> run_options(cmd, problem) -> Solver -> ResultsWriter -> time steps
+//   (lib/simulation.hpp) -> print_summary -> the figure's report.
 #pragma once
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "simulation.hpp"
 
 namespace ltl {
 
-struct Command {
-  std::string program;         ///< name in messages
-  std::string default_config;  ///< used when no CONFIG is given (empty: CONFIG is required)
-  /// Called once after a successful run (e.g. to print the numbers of a figure).
-  std::function<void(const Problem&, const RunSummary&)> report;
+/// The parsed command line.
+struct CommandLine {
+  std::string program;                 ///< name in messages
+  std::string config;                  ///< CONFIG.toml (or the driver's default)
+  std::vector<std::string> overrides;  ///< --set key=value, in order
+  std::string output;                  ///< -o (empty: the configuration's output.file, else
+                                       ///< results/<name>.h5)
+  RunOptions options;  ///< --resume, --stop-after, -v / -q (options.output: see run_options)
 };
 
-int cli_main(int argc, char** argv, const Command& command);
+/// Parses the command line (usage errors: a message and exit status 2; -h: usage, 0), then
+/// calls `body` inside the one error boundary: whatever it throws (our errors, the standard
+/// library's, gmsh's strings, memory exhaustion, even through std::terminate) is one line
+/// "PROGRAM: error: ..." on stderr and exit status 1. Returns 0 when `body` returns.
+/// `default_config` is used when no CONFIG is given (empty: CONFIG is required).
+int guarded_main(int argc, char** argv, const std::string& program,
+                 const std::string& default_config,
+                 const std::function<void(const CommandLine&)>& body);
+
+/// The configuration of the command line with its --set overrides, validated (lib/config.hpp).
+Problem load_problem(const CommandLine& cmd);
+
+/// The run options of the command line with the results file resolved: -o, else the
+/// configuration's output.file, else results/<name>.h5; its directory is created (a path below
+/// a regular file is an Error).
+RunOptions run_options(const CommandLine& cmd, const Problem& problem);
+
+/// The closing line of a run (verbosity > 0): steps computed, setup and solver seconds, the
+/// file written; or "nothing to do" for a finished run resumed.
+void print_summary(const Problem& problem, const RunOptions& options, const RunSummary& summary);
 
 }  // namespace ltl

@@ -6,7 +6,6 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -148,26 +147,99 @@ std::string divergence_hint(const Problem& problem, double factor) {
       " (experiments/README.md, \"Choosing R, q, q_c\").");
 }
 
+/// What is written for a step: the state, its report (history, equilibrium measure) and the
+/// stresses. Plane strain: the out-of-plane stress sigma33 from the law (F33 = 1) and the
+/// mean stress -(sigma11 + sigma22 + sigma33) / 3.
+StepData step_data(const Solver& solver, const TimeStep& step) {
+  const Problem& problem = solver.problem();
+  const State& state = *step.state;
+  StepData d;
+  d.p = step.p;
+  d.t = step.p * problem.time.dt;
+  d.state = &state;
+  d.report = &step.report;
+  d.P = solver.piola(state);
+  d.sigma = solver.cauchy(state);
+  d.pressure = solver.pressure(state);
+  const int nc = problem.mesh.num_cells();
+  if (problem.mesh.dim == 2 && state.E.rows() == 2 * nc) {
+    d.sigma33.resize(nc);
+    for (int c = 0; c < nc; ++c) {
+      const Eigen::Matrix2d E = state.E.block<2, 2>(2 * c, 0).transpose();
+      const Eigen::Matrix2d Pc = d.P.block<2, 2>(2 * c, 0).transpose();
+      d.sigma33(c) = problem.material.plane_strain_sigma33(E, Pc);
+      d.pressure(c) = -(d.sigma.block<2, 2>(2 * c, 0).trace() + d.sigma33(c)) / 3;
+    }
+  }
+  d.contact_pressure = solver.contact_pressure(state);
+  d.gap = solver.contact_gap(state);
+  return d;
+}
+
 }  // namespace
 
-RunSummary run(const Problem& problem, const RunOptions& options,
-               const std::function<void(const Solver&, int, const State&)>& on_step) {
-  using clock = std::chrono::steady_clock;
-  RunSummary summary;
-  const auto t0 = clock::now();
-  Solver solver(problem);  // bad input and failed factorizations throw here: no file is written
-  summary.setup_seconds = std::chrono::duration<double>(clock::now() - t0).count();
+TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
+  const Problem& problem = solver.problem();
+  const int P = problem.time.steps;
+  solver.set_load_factor(problem.ramp.factor(p, problem.time.dt));  // LoadRamp
+  const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
+  const Eigen::VectorXd beta_prev = state.beta;
+  auto progress = [&](const IterationRecord& r) {
+    // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
+    // time step of an evolution.
+    if (verbosity >= 2 || (verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0))
+      std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
+          std::fflush(stdout);
+  };
+  TimeStep step{p, solver.solve_step(state, beta_prev, progress), &state};
+  StepReport& report = step.report;
+  // The stopping test looks at changes of the iterate; with a huge R they are small after one
+  // iteration far from equilibrium. A step is converged only if it is also in equilibrium
+  // (skipped for a problem without loads, where the measure is not relative).
+  const double bound = problem.algorithm.max_force_residual;
+  if (report.converged && !(report.force_residual <= bound) && load_scale > 0) {
+    report.converged = false;
+    report.status =
+        cat("converged by the iterate residuals but the force residual ", report.force_residual,
+            " exceeds ", bound, " (algorithm.max_force_residual); lower algorithm.tol or R");
+  }
+  if (!report.converged) return step;
+  if (verbosity > 0 && (P > 1 || verbosity == 1))
+    std::printf(
+        "step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  force residual %.1e  "
+        "%.3f s%s%s\n",
+        p, P, p * problem.time.dt, report.iterations, report.history.back().r_G,
+        report.history.back().r_B, report.force_residual, report.history.back().wall,
+        report.strain_failures
+            ? cat("  (", report.strain_failures, " local strain solves not at round-off)").c_str()
+            : "",
+        report.accepted + report.rejected
+            ? cat("  Anderson ", report.accepted, " kept / ", report.rejected, " rejected").c_str()
+            : "");
+  std::fflush(stdout);
+  return step;
+}
 
-  State state = solver.initial_state();
-  int p0 = 1;
-  std::optional<ResultsFile> file;
-  std::optional<OutputLock> lock;
-  const auto ids = identity(problem);
+struct ResultsWriter::File {
+  std::optional<ResultsFile> results;  ///< open once resumed or once the first step is written
+  std::optional<OutputLock> lock;      ///< held while the writer lives
+};
+
+ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options, double setup_seconds)
+    : solver_(solver),
+      problem_(solver.problem()),
+      options_(options),
+      ids_(identity(solver.problem())),
+      file_(std::make_unique<File>()),
+      start_(solver.initial_state()) {
+  const Problem& problem = problem_;
+  summary_.setup_seconds = setup_seconds;
   if (options.resume && options.output.empty()) throw Error("--resume needs a results file");
   if (!options.output.empty()) {
     check_output_path(problem, options.output);
-    lock.emplace(options.output);
+    file_->lock.emplace(options.output);
   }
+  int p0 = 1;
   if (options.resume) {
     const std::string& out = options.output;
     // The file must have been written by this problem: same configuration (time.steps may grow),
@@ -175,7 +247,7 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     // configuration text.
     const bool has_ids = !ResultsFile::read_attribute(out, "config_hash").empty();
     if (has_ids) {
-      for (const auto& [key, value] : ids) {
+      for (const auto& [key, value] : ids_) {
         const std::string stored = ResultsFile::read_attribute(out, key);
         if (stored != value)
           throw Error(cat(
@@ -194,6 +266,7 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     }
     if (auto last = ResultsFile::read_last_step(out)) {
       const State& s = last->state;
+      const State& state = start_;
       const auto same = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
         return a.rows() == b.rows() && a.cols() == b.cols();
       };
@@ -207,143 +280,107 @@ RunSummary run(const Problem& problem, const RunOptions& options,
       if (last->p > problem.time.steps)
         throw Error(cat(out, ": cannot resume: the file already holds step ", last->p,
                         ", beyond time.steps = ", problem.time.steps));
-      state = s;
+      start_ = s;
       p0 = last->p + 1;
     }
-    file = ResultsFile::open(out);
-    file->set_status("running");
+    file_->results = ResultsFile::open(out);
+    file_->results->set_status("running");
   }
-  summary.first_step = p0;
+  first_ = p0;
+  const int P = problem.time.steps;
+  last_ = options.stop_after > 0 && options.stop_after <= P - p0 ? p0 + options.stop_after - 1 : P;
+  summary_.first_step = p0;
+  summary_.last_step = p0 - 1;
   if (options.verbosity > 0)
     std::printf("%s: %d cells, %d nodes, %d contact points, %d factor(s), setup %.3f s\n",
                 problem.name.c_str(), problem.mesh.num_cells(), problem.mesh.num_nodes(),
                 solver.facets() ? solver.facets()->size() : 0, solver.global_step().num_factors(),
-                summary.setup_seconds);
+                setup_seconds);
   if (options.verbosity > 0)
     std::printf("%s: algorithm %s\n", problem.name.c_str(),
                 describe_algorithm(problem.algorithm).c_str());
+}
 
+ResultsWriter::~ResultsWriter() = default;
+
+void ResultsWriter::append(const TimeStep& step) {
+  const Problem& problem = problem_;
+  const Solver& solver = solver_;
+  const std::string& output = options_.output;
+  std::optional<ResultsFile>& file = file_->results;
+  const int p = step.p, P = problem.time.steps;
+  const StepReport& report = step.report;
   // The results file, created with the first step written (an existing file stays until then).
   const auto create_file = [&] {
     RunInfo info{problem.name, problem.config_text, resolved_configuration(problem),
                  problem.config_path, library_versions()};
-    for (const auto& [key, value] : ids) info.attributes[key] = value;
+    for (const auto& [key, value] : ids_) info.attributes[key] = value;
     info.attributes["code_version"] = code_version();
     info.attributes["git_version"] = git_version();
     const Mesh::Boundary* cb =
         problem.contact ? &problem.mesh.boundary(problem.contact->group) : nullptr;
     const FacetOperators* points = solver.facets();
-    return ResultsFile::create(options.output, problem.mesh, info, cb,
-                               points ? &points->centre : nullptr, points ? &points->area : nullptr,
+    return ResultsFile::create(output, problem.mesh, info, cb, points ? &points->centre : nullptr,
+                               points ? &points->area : nullptr,
                                points && !points->nodes.empty() ? &points->nodes : nullptr, false,
                                &solver.cells().vol);
   };
-  // What is written for a step: the state, its report (history, equilibrium measure) and the
-  // stresses. Plane strain: the out-of-plane stress sigma33 from the law (F33 = 1) and the
-  // mean stress -(sigma11 + sigma22 + sigma33) / 3.
-  const auto step_data = [&](int p, const StepReport& report) {
-    StepData d;
-    d.p = p;
-    d.t = p * problem.time.dt;
-    d.state = &state;
-    d.report = &report;
-    d.P = solver.piola(state);
-    d.sigma = solver.cauchy(state);
-    d.pressure = solver.pressure(state);
-    const int nc = problem.mesh.num_cells();
-    if (problem.mesh.dim == 2 && state.E.rows() == 2 * nc) {
-      d.sigma33.resize(nc);
-      for (int c = 0; c < nc; ++c) {
-        const Eigen::Matrix2d E = state.E.block<2, 2>(2 * c, 0).transpose();
-        const Eigen::Matrix2d Pc = d.P.block<2, 2>(2 * c, 0).transpose();
-        d.sigma33(c) = problem.material.plane_strain_sigma33(E, Pc);
-        d.pressure(c) = -(d.sigma.block<2, 2>(2 * c, 0).trace() + d.sigma33(c)) / 3;
-      }
-    }
-    d.contact_pressure = solver.contact_pressure(state);
-    d.gap = solver.contact_gap(state);
-    return d;
-  };
-
-  const int P = problem.time.steps;
-  int last_done = p0 - 1;
-  for (int p = p0; p <= P; ++p) {
-    if (options.stop_after > 0 && p - p0 >= options.stop_after) break;
-    solver.set_load_factor(problem.ramp.factor(p, problem.time.dt));  // LoadRamp
-    const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
-    const Eigen::VectorXd beta_prev = state.beta;
-    auto progress = [&](const IterationRecord& r) {
-      // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
-      // time step of an evolution.
-      if (options.verbosity >= 2 || (options.verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0))
-        std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
-            std::fflush(stdout);
-    };
-    StepReport report = solver.solve_step(state, beta_prev, progress);
-    summary.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
-    // The stopping test looks at changes of the iterate; with a huge R they are small after one
-    // iteration far from equilibrium. A step is converged only if it is also in equilibrium
-    // (skipped for a problem without loads, where the measure is not relative).
-    const double bound = problem.algorithm.max_force_residual;
-    if (report.converged && !(report.force_residual <= bound) && load_scale > 0) {
-      report.converged = false;
-      report.status =
-          cat("converged by the iterate residuals but the force residual ", report.force_residual,
-              " exceeds ", bound, " (algorithm.max_force_residual); lower algorithm.tol or R");
-    }
-    if (!report.converged) {
-      const auto& last = report.history.back();
-      const bool unbalanced = report.status.rfind("converged by", 0) == 0;
-      // A diverged step (NaN, blow-up, iteration cap) keeps its last iterate and history in the
-      // results file as /unconverged/NNNNNN, never as a result, so that a user can plot why: in
-      // the run's file, or in a new one when this run has none yet (not over another run's file).
-      std::string saved;
-      if (!unbalanced && !options.output.empty() && (file || !fs::exists(options.output))) {
-        if (!file) file = create_file();
-        char group[32];
-        std::snprintf(group, sizeof group, "/unconverged/%06d", p);
-        saved = cat("; its iteration history and last iterate are saved in ", options.output,
-                    ", group ", group, " (not a result)");
-      }
-      const std::string msg = cat(unbalanced ? "not in equilibrium at step " : "diverged at step ",
-                                  p, " (t = ", p * problem.time.dt, " s): ", report.status,
-                                  "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
-                                  ". Nothing was written as a result for this step", saved);
-      if (!saved.empty())
-        file->save_unconverged(step_data(p, report), msg);
-      else if (file)
-        file->set_status(msg);
-      throw Error(cat(problem.name, ": ", msg,
-                      file && p > 1 ? cat("; ", options.output, " keeps steps 1..", p - 1) : "",
-                      ".", unbalanced ? "" : divergence_hint(problem, solver.load_factor())));
-    }
-    if (options.verbosity > 0 && (P > 1 || options.verbosity == 1))
-      std::printf(
-          "step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  force residual %.1e  "
-          "%.3f s%s%s\n",
-          p, P, p * problem.time.dt, report.iterations, report.history.back().r_G,
-          report.history.back().r_B, report.force_residual, report.history.back().wall,
-          report.strain_failures
-              ? cat("  (", report.strain_failures, " local strain solves not at round-off)").c_str()
-              : "",
-          report.accepted + report.rejected
-              ? cat("  Anderson ", report.accepted, " kept / ", report.rejected, " rejected")
-                    .c_str()
-              : "");
-    std::fflush(stdout);
-    if (!options.output.empty()) {
+  summary_.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
+  if (!report.converged) {
+    const auto& last = report.history.back();
+    const bool unbalanced = report.status.rfind("converged by", 0) == 0;
+    // A diverged step (NaN, blow-up, iteration cap) keeps its last iterate and history in the
+    // results file as /unconverged/NNNNNN, never as a result, so that a user can plot why: in
+    // the run's file, or in a new one when this run has none yet (not over another run's file).
+    std::string saved;
+    if (!unbalanced && !output.empty() && (file || !fs::exists(output))) {
       if (!file) file = create_file();
-      file->append(step_data(p, report), p == P ? "complete" : "running");
+      char group[32];
+      std::snprintf(group, sizeof group, "/unconverged/%06d", p);
+      saved = cat("; its iteration history and last iterate are saved in ", output, ", group ",
+                  group, " (not a result)");
     }
-    summary.iterations.push_back(report.iterations);
-    last_done = p;
+    const std::string msg = cat(unbalanced ? "not in equilibrium at step " : "diverged at step ", p,
+                                " (t = ", p * problem.time.dt, " s): ", report.status,
+                                "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
+                                ". Nothing was written as a result for this step", saved);
+    if (!saved.empty())
+      file->save_unconverged(step_data(solver, step), msg);
+    else if (file)
+      file->set_status(msg);
+    throw Error(cat(problem.name, ": ", msg,
+                    file && p > 1 ? cat("; ", output, " keeps steps 1..", p - 1) : "", ".",
+                    unbalanced ? "" : divergence_hint(problem, solver.load_factor())));
+  }
+  if (!output.empty()) {
+    if (!file) file = create_file();
+    file->append(step_data(solver, step), p == P ? "complete" : "running");
+  }
+  summary_.iterations.push_back(report.iterations);
+  summary_.last_step = p;
+}
+
+RunSummary ResultsWriter::finish(const State& last) {
+  std::optional<ResultsFile>& file = file_->results;
+  const int P = problem_.time.steps, last_done = summary_.last_step;
+  if (file && last_done != P) file->set_status(cat("stopped after step ", last_done));
+  if (file && options_.resume && last_done == first_ - 1 && last_done == P)
+    file->set_status("complete");
+  summary_.state = last;
+  return summary_;
+}
+
+RunSummary run(const Problem& problem, const RunOptions& options,
+               const std::function<void(const Solver&, int, const State&)>& on_step) {
+  const Stopwatch setup;
+  Solver solver(problem);  // bad input and failed factorizations throw here: no file is written
+  ResultsWriter results(solver, options, setup.seconds());
+  State state = results.start_state();
+  for (int p = results.next_step(); p <= results.last_step(); ++p) {  // (2.1)
+    results.append(solve_time_step(solver, p, state, options.verbosity));
     if (on_step) on_step(solver, p, state);
   }
-  summary.last_step = last_done;
-  if (file && last_done != P) file->set_status(cat("stopped after step ", last_done));
-  if (file && options.resume && last_done == p0 - 1 && last_done == P) file->set_status("complete");
-  summary.state = state;
-  return summary;
+  return results.finish(state);
 }
 
 }  // namespace ltl

@@ -1,8 +1,21 @@
 // The time loop (2.1): one ALG2 solve per time step, each converged step appended to the
-// results file as soon as it is done.
+// results file as soon as it is done. Its pieces, in the order a driver uses them:
+//
+//   Stopwatch setup;                             // times the discretization
+//   Solver solver(problem);                      // discretize; K factorized once (4.5)
+//   ResultsWriter results(solver, options, setup.seconds());  // lock, --resume, --stop-after
+//   State s = results.start_state();             // initial state, or the file's last step
+//   for (int p = results.next_step(); p <= results.last_step(); ++p)   // (2.1)
+//     results.append(solve_time_step(solver, p, s, options.verbosity)); // (4.1)-(4.4)
+//   RunSummary summary = results.finish(s);
+//
+// run() is exactly this loop.
 #pragma once
 
+#include <chrono>
 #include <functional>
+#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -27,11 +40,87 @@ struct RunSummary {
   State state;                        ///< the last converged state
 };
 
+/// Wall-clock seconds since construction (the setup time printed and stored in RunSummary).
+class Stopwatch {
+ public:
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+/// One time step p as computed by solve_time_step: ALG2's report and the state it left.
+struct TimeStep {
+  int p = 0;
+  StepReport report;
+  const State* state = nullptr;  ///< the caller's state, updated in place
+};
+
+/// [LTL87 (2.1)-(2.2)] Time step p, backward Euler in beta: sets the load factor of step p
+/// (LoadRamp), keeps beta_{p-1} for the dissipation and iterates ALG2 (4.1)-(4.4) from `state`
+/// (step p-1's {E, e, beta, lambda, lambda_c}) to convergence. A step converged by the iterate
+/// residuals but not in equilibrium (force residual above algorithm.max_force_residual, a
+/// loaded problem) is marked not converged. Prints progress (verbosity 2: every iteration; 1:
+/// every 50 iterations of a static problem, every 2000 of an evolution, and one line per
+/// converged step). Never throws on divergence: ResultsWriter::append reports it.
+TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity = 1);
+
+/// The results file of a run (lib/results.hpp layout) and its bookkeeping:
+///  - the output path is checked (never over an input of the run, a directory or a file that is
+///    not a results file) and `<output>.lock` is held for the whole run (a second writer is
+///    refused);
+///  - --resume: the file must have been written by this problem (configuration, geometry, mesh
+///    fingerprints); the run continues after its last step;
+///  - --stop-after N: last_step() is N steps after next_step() (the file says "stopped after
+///    step p" and can be resumed);
+///  - the file is created with the first step written (an existing file stays until then) and
+///    each converged step is appended at once, so an interrupted run keeps its completed steps.
+/// With an empty output nothing is written; the summary is kept all the same.
+class ResultsWriter {
+ public:
+  /// Checks the output path, takes the lock, on --resume checks and reads the file's last step;
+  /// then prints the problem's size and algorithm (verbosity > 0). Throws Error.
+  ResultsWriter(const Solver& solver, const RunOptions& options, double setup_seconds);
+  ResultsWriter(const ResultsWriter&) = delete;
+  ResultsWriter& operator=(const ResultsWriter&) = delete;
+  ~ResultsWriter();
+
+  /// The solver's initial state, or the last step stored in the file on --resume.
+  State start_state() const { return start_; }
+  /// The first step to compute: 1, or one after the file's last step on --resume.
+  int next_step() const { return first_; }
+  /// The last step to compute: time.steps, or earlier with --stop-after.
+  int last_step() const { return last_; }
+
+  /// A converged step is written (status "complete" at the last of time.steps, else
+  /// "running"). A step that did not converge ends the run with an Error that says why and what
+  /// to change; its last iterate and history are kept in the file as /unconverged/NNNNNN (never
+  /// as a result) and the file keeps steps 1..p-1.
+  void append(const TimeStep& step);
+
+  /// Marks a stopped run "stopped after step p" (or a resumed finished run "complete") and
+  /// returns the summary, with `last` the last converged state.
+  RunSummary finish(const State& last);
+
+ private:
+  struct File;
+  const Solver& solver_;
+  const Problem& problem_;
+  RunOptions options_;
+  std::map<std::string, std::string> ids_;  ///< fingerprints a resumed file must match
+  std::unique_ptr<File> file_;              ///< the lock, and the file once opened or created
+  State start_;
+  int first_ = 1, last_ = 0;
+  RunSummary summary_;
+};
+
 /// [LTL87 (2.1)-(2.2)] Backward Euler in beta: for p = 1..P, start from step p-1's
 /// {E, e, beta, lambda, lambda_c}, keep beta_{p-1} for the dissipation, iterate to
 /// convergence. A step that does not converge ends the run with an Error (nothing is written
 /// for that step; an existing results file is marked "diverged at step p").
-/// `on_step` (optional) sees every converged step.
+/// `on_step` (optional) sees every converged step. The composition of the pieces above.
 RunSummary run(const Problem& problem, const RunOptions& options,
                const std::function<void(const Solver&, int, const State&)>& on_step = {});
 

@@ -77,6 +77,23 @@ void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
 
 }  // namespace
 
+// The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize -> solve the time steps,
+// each written as soon as it converges -> measure.
+static void solve_and_report(const ltl::CommandLine& cmd) {
+  const ltl::Problem problem = ltl::load_problem(cmd);             // the configuration, validated
+  const ltl::RunOptions options = ltl::run_options(cmd, problem);  // -o or results/fig4.h5
+  const ltl::Stopwatch setup;
+  ltl::Solver solver(problem);  // discretize, assemble; K factorized once (4.5)
+  ltl::ResultsWriter results(solver, options, setup.seconds());  // locked; --resume, --stop-after
+  ltl::State s = results.start_state();  // the initial state, or the file's last step
+  for (int p = results.next_step(); p <= results.last_step(); ++p)          // (2.1) time steps
+    results.append(ltl::solve_time_step(solver, p, s, options.verbosity));  // ALG2 (4.1)-(4.4)
+  const ltl::RunSummary run = results.finish(s);
+  ltl::print_summary(problem, options, run);
+  report(problem, run);  // the figure's numbers
+}
+
+// Errors: one line on stderr, exit status 1; bad usage: 2.
 int main(int argc, char** argv) {
-  return ltl::cli_main(argc, argv, {"fig4", "experiments/fig4/fig4.toml", report});
+  return ltl::guarded_main(argc, argv, "fig4", "experiments/fig4/fig4.toml", solve_and_report);
 }
