@@ -14,6 +14,7 @@
 
 #include "error.hpp"
 #include "hash.hpp"
+#include "measures.hpp"
 #include "results.hpp"
 #include "version.hpp"
 
@@ -262,6 +263,10 @@ RunSummary run(const Problem& problem, const RunOptions& options,
     }
     d.contact_pressure = solver.contact_pressure(state);
     d.gap = solver.contact_gap(state);
+    // Every measure of the step (lib/measures.hpp), one definition each.
+    const StepMeasures m = step_measures(solver, state);
+    d.measures = stored_measures(m, problem.mesh.dim);
+    d.in_contact = m.in_contact;
     return d;
   };
 
