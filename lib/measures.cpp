@@ -87,7 +87,7 @@ StepMeasures step_measures(const Problem& pb, const FacetOperators* points, cons
   if (!pb.contact || !points) return m;
   m.contact = contact_measures(pb, *points, s, axis);
   m.in_contact = contact_set(contact_pressure(pb, s));
-  if (s.beta.size() == points->size() && points->size() > 0)
+  if (pb.contact->adhesion.kappa > 0 && s.beta.size() == points->size() && points->size() > 0)
     m.peel = peel_measures(pb, *points, s, axis);
   return m;
 }

@@ -96,8 +96,9 @@ struct PeelMeasures {
 PeelMeasures peel_measures(const Problem& problem, const FacetOperators& points, const State& s,
                            int axis = 0);
 
-/// Every measure of a step: contact and peel measures when the problem has a contact surface
-/// (peel measures when the state carries beta), and the largest nodal displacement.
+/// Every measure of a step: contact measures when the problem has a contact surface, peel
+/// measures when it is glued (kappa = 1/eps > 0, the state carrying beta per point), and the
+/// largest nodal displacement.
 struct StepMeasures {
   std::optional<ContactMeasures> contact;
   std::optional<PeelMeasures> peel;
