@@ -31,7 +31,7 @@ def main(h5, png):
     N = contact_normal(r)
     m = r.mesh
     xc = m.contact_centre[:, 0]
-    front, opening = front_and_opening(r, N)
+    front, opening = front_and_opening(r)
     last = r.steps[-1]
     k_pre = pre_runaway(r, opening)
     if k_pre is None:

@@ -40,7 +40,7 @@ def main(h5, png):
     p = s.fields["contact_pressure"]         # = -lambda_c . N, per facet (nominal)
     gap = s.fields["gap"]
     area = m.contact_area
-    touching = p > 1e-6 * max(p.max(), 0.0) if p.max() > 0 else np.zeros(len(p), bool)
+    ms = s.measures                          # the solver's measures (lib/measures.hpp)
     nodal = m.contact_nodes is not None
     if nodal:   # one point per contact node: its deformed x1 is both "ends"
         ends = np.stack([m.contact_nodes, m.contact_nodes], axis=1)
@@ -50,18 +50,20 @@ def main(h5, png):
     x_centre = m.contact_centre[:, 0] + s.fields["e"][:, 0]   # deformed points (nodes or means)
     what = "nodes" if nodal else "facets"
 
-    # The numbers of the figure.
-    half_width = x_end[touching].max() if touching.any() else 0.0
-    force = (p * area)[touching].sum()
+    # The numbers of the figure: the stored measures (a_edge: the deformed x1 of the outermost
+    # node carrying a point in contact), only the weight and the drop of the top are this
+    # figure's own.
+    half_width = ms["a_edge"]
+    force = ms["contact_force"]
     weight = np.linalg.norm(f) * m.cell_volume.sum()
     top = np.argmin(np.linalg.norm(m.X - [0.0, 1.0], axis=1))
     cnodes = np.unique(m.contact_facets)
     cnodes = cnodes[np.argsort(np.arctan2(m.X[cnodes, 1], m.X[cnodes, 0]))]  # along the arc
-    penetration = ((x[cnodes] - p0) @ N).max()
-    print("contact %s in contact: %d of %d" % (what, touching.sum(), len(p)))
+    penetration = ms["contact_penetration"]
+    print("contact %s in contact: %d of %d" % (what, ms["in_contact_count"], ms["contact_points"]))
     print("contact half-width a = %.4f m (deformed x1 of the outermost contact %s carrying "
           "pressure)" % (half_width, "node" if nodal else "facet's outer end"))
-    print("peak contact pressure: %.4g Pa" % p.max())
+    print("peak contact pressure: %.4g Pa" % ms["p_max"])
     print("total contact force (half cylinder): %.5g N/m; weight |f| |Omega| = %.4g N/m^3 x "
           "%.5f m^2 = %.5g N/m; ratio %.4f"
           % (force, np.linalg.norm(f), m.cell_volume.sum(), weight, force / weight))

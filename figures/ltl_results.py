@@ -4,12 +4,18 @@
     r = ltl_results.load("run.h5")
     r.attrs["status"], r.mesh.X, r.steps[-1].p, r.steps[-1].fields["u"], r.steps[-1].history["r_B"]
     r.steps[-1].equilibrium        # force_residual, det_error, penetration of the step
+    r.steps[-1].measures["front"]  # the step's measures (lib/measures.hpp), e.g. the front
+    r.steps[-1].in_contact         # the contact set per contact point (bool), or None
     ltl_results.resolved_config(r)  # the configuration in SI with every default (dict)
 
 Arrays keep the file's layout: u (#nodes, dim); E, lambda, P, sigma (#cells, dim, dim) with
 [c, i, j] the (i, j) entry of cell c's tensor; sigma33 (#cells, plane strain), pressure
 (#cells); e, lambda_c (#points, dim); beta, contact_pressure, gap (#points). The 2-D "xdmf"
-subgroup (padded copies for ParaView) is not loaded. r.steps holds results only: the last
+subgroup (padded copies for ParaView) is not loaded. The "measures" subgroup (every reported
+number, computed once by lib/measures.hpp: contact force, half-width, debonding front, opening,
+...) is Step.measures (name -> float), Step.measure_units and Step.measure_descriptions (name ->
+str), and Step.in_contact (bool per contact point); figure scripts read these and never
+recompute a definition or threshold. r.steps holds results only: the last
 iterate of a step that did not converge (/unconverged) is in r.unconverged, apart, for diagnosis.
 Nothing here plots; figure scripts print what they plot with print_table().
 
@@ -59,9 +65,12 @@ class Step:
     """One stored time step: p, t, iterations, status, fields (name -> array), history
     (column name -> array over the iterations), attrs (all attributes of the step), equilibrium
     (the equilibrium measure: force_residual, det_error, penetration; empty in files of format
-    version 1), converged (False only for an entry of Results.unconverged)."""
+    version 1), converged (False only for an entry of Results.unconverged), measures (name ->
+    float, /steps/N/measures; empty in older files), measure_units, measure_descriptions (name ->
+    str), in_contact (bool per contact point, None without contact or in older files)."""
 
-    def __init__(self, p, t, iterations, status, fields, history, attrs):
+    def __init__(self, p, t, iterations, status, fields, history, attrs, measures=None,
+                 measure_units=None, measure_descriptions=None, in_contact=None):
         self.p = p
         self.t = t
         self.iterations = iterations
@@ -71,6 +80,10 @@ class Step:
         self.attrs = attrs
         self.equilibrium = {k: float(attrs[k]) for k in EQUILIBRIUM if k in attrs}
         self.converged = not attrs.get("unconverged", 0)
+        self.measures = measures or {}
+        self.measure_units = measure_units or {}
+        self.measure_descriptions = measure_descriptions or {}
+        self.in_contact = in_contact
 
     def __repr__(self):
         return "Step(p=%d, t=%g, iterations=%d, fields=%s)" % (
@@ -159,8 +172,19 @@ def _read_steps(group, fields):
         columns = _value(g["history"].attrs.get("columns", "")) if "history" in g else ""
         names = columns.split() if columns else list(HISTORY_COLUMNS)
         history = {c: h[:, i] for i, c in enumerate(names)}
+        measures, units, texts, in_contact = {}, {}, {}, None
+        if "measures" in g:
+            for k, d in g["measures"].items():
+                if k == "in_contact":
+                    in_contact = d[()].astype(bool)
+                    continue
+                measures[k] = float(d[()])
+                units[k] = _value(d.attrs.get("unit", ""))
+                texts[k] = _value(d.attrs.get("description", ""))
         steps.append(Step(p=int(a["p"]), t=float(a["t"]), iterations=int(a["iterations"]),
-                          status=a.get("status", ""), fields=data, history=history, attrs=a))
+                          status=a.get("status", ""), fields=data, history=history, attrs=a,
+                          measures=measures, measure_units=units, measure_descriptions=texts,
+                          in_contact=in_contact))
     steps.sort(key=lambda s: s.p)
     return steps
 
@@ -242,6 +266,13 @@ def summary(results, file=None):
             "max|detE-1|": [s.equilibrium.get("det_error", np.nan) for s in steps],
             "penetration [m]": [s.equilibrium.get("penetration", np.nan) for s in steps],
         }, file=out, fmt="%.4g")
+        names = sorted({k for s in steps for k in s.measures})
+        if names:
+            print_table(title + ": measures (lib/measures.hpp)", dict(
+                [("p", [s.p for s in steps])] +
+                [("%s [%s]" % (k, steps[-1].measure_units.get(k, "")),
+                  [s.measures.get(k, np.nan) for s in steps]) for k in names]),
+                file=out, fmt="%.4g")
 
 
 if __name__ == "__main__":

@@ -9,8 +9,9 @@ driver); no number is typed in. Per run:
   outcome   "stable to T s" (status complete), or "runaway at t_k" when the iteration cap was
             reached at step k (the file keeps steps 1..k-1; status "diverged at step k (t = ...)")
   beta1     beta on the facet nearest x1 = 0 (the free end under the largest load, g2 = 10 kPa)
-  front     the largest facet-centre x1 with beta < 0.5 ("-" when no facet has debonded)
-  umax      max|u|, the largest nodal displacement (m)
+  front     the debonding front (the stored measure "front" of lib/measures.hpp: the largest
+            facet-centre x1 whose glue is broken; "-" when no facet has debonded)
+  umax      max|u|, the largest nodal displacement (m; the stored measure "max_displacement")
   at t = 30, 100, 800 s; "." when the step is not stored (the run ran away before)
   iterations  the sum over the stored steps ("+cap" when the next step reached the cap)
   x RAPPORT   max|u| at the last stored step times the caption's magnification (20 for Fig 3,
@@ -55,7 +56,7 @@ class Run:
         self.t, self.beta1, self.front, self.umax, self.iters = [], [], [], [], []
         self.H = self.facets = None
         if has_steps:
-            r = lr.load(path, fields=["u", "beta"])
+            r = lr.load(path, fields=["beta"])
             cfg = lr.config(r)
             # The labels of the driver must be what the solver ran.
             kernel = cfg.get("contact", {}).get("kernel", "centre")
@@ -71,12 +72,13 @@ class Run:
             self.facets = len(xc)
             first = int(np.argmin(xc))
             for s in r.steps:
-                b = s.fields["beta"]
-                broken = xc[b < 0.5]
+                if "front" not in s.measures:
+                    raise ValueError("%s: step %d has no stored measures (/steps/N/measures); "
+                                     "re-run the study" % (path, s.p))
                 self.t.append(s.t)
-                self.beta1.append(b[first])
-                self.front.append(broken.max() if broken.size else np.nan)
-                self.umax.append(np.linalg.norm(s.fields["u"], axis=1).max())
+                self.beta1.append(s.fields["beta"][first])
+                self.front.append(s.measures["front"])
+                self.umax.append(s.measures["max_displacement"])
                 self.iters.append(s.iterations)
         self.t = np.array(self.t)
         m = DIVERGED.search(self.status)
@@ -165,11 +167,11 @@ def plot(runs, pdf):
                  "bar_reading_kernel_qc[_variant]. R1 fixed x1=1 pulled up (literal); R2 fixed "
                  "x1=0 pulled up;\nR3 fixed x1=1 pressed down; R5 both ends fixed pulled up; R7 "
                  "fixed x1=1, glued face pulled up. '.' = not reached (runaway before), '-' = "
-                 "no facet with beta < 0.5.", fontsize=9, loc="left")
+                 "no debonded facet (beta < kDebondedBeta, lib/measures.hpp).", fontsize=9, loc="left")
     for j, bar in enumerate(("fig3", "fig4")):
         for i, (attr, label) in enumerate((("beta1", "beta at the first facet (x1 near 0)"),
-                                           ("front", "debonding front: largest x1 with "
-                                                     "beta < 0.5 [m]"))):
+                                           ("front", "debonding front: largest x1 of a "
+                                                     "debonded facet [m]"))):
             a = fig.add_subplot(gs[1 + i, j])
             for r in main:
                 if r.bar != bar or not len(r.t):

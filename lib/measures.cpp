@@ -7,6 +7,18 @@
 
 namespace ltl {
 
+Eigen::VectorXd contact_pressure(const Problem& pb, const State& s) {
+  if (!pb.contact) return Eigen::VectorXd(0);
+  return -(s.lambda_c.transpose() * pb.contact->plane_normal.head(pb.mesh.dim));
+}
+
+Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
+  const double p_max = p.size() ? p.maxCoeff() : 0.0;
+  Eigen::VectorXi in(p.size());
+  for (int i = 0; i < p.size(); ++i) in(i) = p(i) > kContactThreshold * p_max ? 1 : 0;
+  return in;
+}
+
 ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points, const State& s,
                                  int axis) {
   ContactMeasures m;
@@ -15,15 +27,16 @@ ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points
   const int dim = pb.mesh.dim;
   const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
   const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
-  const Eigen::MatrixXd x = pb.mesh.X + s.u;                // deformed nodes
-  const Eigen::MatrixXd xp = pts->mean * x;                 // deformed contact points
-  const Eigen::VectorXd p = -(s.lambda_c.transpose() * N);  // nominal contact pressure
+  const Eigen::MatrixXd x = pb.mesh.X + s.u;          // deformed nodes
+  const Eigen::MatrixXd xp = pts->mean * x;           // deformed contact points
+  const Eigen::VectorXd p = contact_pressure(pb, s);  // nominal contact pressure
+  const Eigen::VectorXi in = contact_set(p);
   m.points = pts->size();
   m.p_max = p.size() ? p.maxCoeff() : 0.0;
   double M0 = 0, M2 = 0;
   for (int i = 0; i < pts->size(); ++i) {
     m.force += pts->area(i) * p(i);
-    if (!(p(i) > kContactThreshold * m.p_max)) continue;
+    if (!in(i)) continue;
     ++m.in_contact;
     m.area += pts->area(i);
     for (SpMatR::InnerIterator it(pts->mean, i); it; ++it)
@@ -36,6 +49,94 @@ ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points
   for (int n : pb.mesh.boundary_nodes(pb.contact->group))
     m.penetration = std::max(m.penetration, (x.row(n).transpose() - p0).dot(N));
   return m;
+}
+
+Eigen::VectorXd opening(const Problem& pb, const State& s) {
+  if (!pb.contact) return Eigen::VectorXd(0);
+  const Eigen::VectorXd N = pb.contact->plane_normal.head(pb.mesh.dim).normalized();
+  return -(s.e.transpose() * N);
+}
+
+PeelMeasures peel_measures(const Problem& pb, const FacetOperators& points, const State& s,
+                           int axis) {
+  PeelMeasures m;
+  m.points = points.size();
+  if (!pb.contact || s.beta.size() != points.size() || m.points == 0) return m;
+  for (int i = 0; i < m.points; ++i) {
+    const double x = points.centre(axis, i);
+    if (s.beta(i) < kDebondedBeta) {
+      ++m.broken;
+      m.front = std::isnan(m.front) ? x : std::max(m.front, x);
+    }
+    if (s.beta(i) < kDamagedBeta)
+      m.damage_front = std::isnan(m.damage_front) ? x : std::max(m.damage_front, x);
+  }
+  m.beta_min = s.beta.minCoeff();
+  m.beta_max = s.beta.maxCoeff();
+  m.beta_l2 = std::sqrt(points.area.dot(s.beta.cwiseAbs2()) / points.area.sum());
+  const Eigen::VectorXd o = opening(pb, s);
+  m.max_opening = o.maxCoeff(&m.max_opening_at);
+  m.max_opening_x = points.centre(axis, m.max_opening_at);
+  return m;
+}
+
+StepMeasures step_measures(const Problem& pb, const FacetOperators* points, const State& s,
+                           int axis) {
+  StepMeasures m;
+  m.max_displacement = s.u.size() ? s.u.rowwise().norm().maxCoeff() : 0.0;
+  if (!pb.contact || !points) return m;
+  m.contact = contact_measures(pb, *points, s, axis);
+  m.in_contact = contact_set(contact_pressure(pb, s));
+  if (pb.contact->adhesion.kappa > 0 && s.beta.size() == points->size() && points->size() > 0)
+    m.peel = peel_measures(pb, *points, s, axis);
+  return m;
+}
+
+std::vector<StoredMeasure> stored_measures(const StepMeasures& m, int dim) {
+  const bool plane = dim == 2;
+  const std::string force = plane ? "N/m" : "N", area = plane ? "m" : "m^2";
+  std::vector<StoredMeasure> out = {
+      {"max_displacement", m.max_displacement, "m", "max over nodes of |u|"}};
+  if (const auto& c = m.contact) {
+    const std::string set = cat(
+        "the contact set (p > kContactThreshold * p_max, kContactThreshold = ", kContactThreshold,
+        "; p = -lambda_c . N per contact point)");
+    out.insert(out.end(),
+               {{"contact_points", double(c->points), "1", "number of contact points"},
+                {"in_contact_count", double(c->in_contact), "1", "points in " + set},
+                {"p_max", c->p_max, "Pa", "peak nominal contact pressure max p"},
+                {"contact_force", c->force, force,
+                 "sum over the contact points of w p (plane strain: per metre of depth)"},
+                {"contact_area", c->area, area, "sum of the weights w of the points in " + set},
+                {"a_edge", c->a_edge, "m",
+                 "contact half-width: largest deformed x1 of a node carrying a point in " + set},
+                {"a_moment", c->a_moment, "m",
+                 "contact half-width 2 sqrt(M2 / M0), M0 = sum w p, M2 = sum w p x1^2 over " + set},
+                {"contact_penetration", c->penetration, "m",
+                 "max over the contact surface's nodes of (x - p0) . N (> 0: inside the "
+                 "obstacle)"}});
+  }
+  if (const auto& p = m.peel) {
+    out.insert(
+        out.end(),
+        {{"broken", double(p->broken), "1",
+          cat("contact points with beta < kDebondedBeta = ", kDebondedBeta, " (glue broken)")},
+         {"front", p->front, "m",
+          cat("debonding front: largest reference x1 of a contact point with beta < kDebondedBeta "
+              "= ",
+              kDebondedBeta, "; NaN if none")},
+         {"damage_front", p->damage_front, "m",
+          cat("damage front: largest reference x1 of a contact point with beta < kDamagedBeta = ",
+              kDamagedBeta, "; NaN if none")},
+         {"beta_min", p->beta_min, "1", "min of beta over the contact points"},
+         {"beta_max", p->beta_max, "1", "max of beta over the contact points"},
+         {"beta_l2", p->beta_l2, "1", "sqrt(sum w beta^2 / sum w) over the contact points"},
+         {"max_opening", p->max_opening, "m",
+          "largest opening max e . (-N) over the contact points ((4.11); > 0: lifted off)"},
+         {"max_opening_x", p->max_opening_x, "m",
+          "reference x1 of the contact point of the largest opening"}});
+  }
+  return out;
 }
 
 int node_at(const Mesh& mesh, const Eigen::VectorXd& X) {

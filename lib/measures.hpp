@@ -5,6 +5,16 @@
 // nominal contact pressure (per reference length/area) at point i with weight w_i; a point is in
 // contact where p_i > kContactThreshold * max_i p_i.
 //
+// Peel measures are taken over the same contact points where the glue is modelled (the adhesion
+// intensity beta per point, [LTL87 (1.2)-(1.3)]): the opening of a point is -e . N (the contact
+// displacement away from the support, > 0 once the bar has lifted off, (4.11)); a point is
+// debonded where beta < kDebondedBeta and damaged where beta < kDamagedBeta; the debonding front
+// is the largest reference coordinate (along `axis`) of a debonded point.
+//
+// Every measure of a step is written to the results file (stored_measures(), /steps/N/measures,
+// experiments/README.md): the drivers print them, the regression compares them, the figure
+// scripts plot them; none of them recomputes a definition or a threshold.
+//
 // The equilibrium measure is the residual of the discrete equilibrium of the reduced energy with
 // the contact forces, the (4.5) equation at a fixed point of (4.1)-(4.3) written with the stress
 // P = 2 C1 E - lambda: "converged" means the same thing for plain and accelerated iterations and
@@ -12,13 +22,32 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "alg2.hpp"
+#include "results.hpp"
 
 namespace ltl {
 
 /// A contact point is in contact where its pressure exceeds this fraction of the peak pressure.
 inline constexpr double kContactThreshold = 1e-6;
+
+/// A contact point's glue is broken ("debonded") where beta < kDebondedBeta: fewer than half of
+/// its adhesive links survive. Defines the debonding front and the broken count (Figs 3-4).
+inline constexpr double kDebondedBeta = 0.5;
+/// A contact point's glue is damaged where beta < kDamagedBeta: it has lost more than a tenth of
+/// its links. The front of the damage runs ahead of the debonding front and moves before any
+/// link breaks; the regression compares it (key front_beta_below_0.9) on runs that stop before
+/// the peel runs away, where nothing is debonded yet.
+inline constexpr double kDamagedBeta = 0.9;
+
+/// The nominal contact pressure p_i = -lambda_c_i . N of each contact point (Pa; > 0: pressed).
+Eigen::VectorXd contact_pressure(const Problem& problem, const State& s);
+/// The contact set: 1 at the points with p_i > kContactThreshold * max_i p_i, else 0.
+Eigen::VectorXi contact_set(const Eigen::VectorXd& p);
 
 struct ContactMeasures {
   int points = 0;          ///< contact points (facets or nodes)
@@ -42,6 +71,50 @@ inline ContactMeasures contact_measures(const Solver& solver, const State& s, in
   return solver.facets() ? contact_measures(solver.problem(), *solver.facets(), s, axis)
                          : ContactMeasures{};
 }
+
+/// [LTL87 (4.11)] The opening of each contact point, -e_i . N (m): the contact displacement
+/// away from the support (e . N <= 0 is the non-penetration of (1.1); > 0: lifted off).
+Eigen::VectorXd opening(const Problem& problem, const State& s);
+
+struct PeelMeasures {
+  int points = 0;  ///< contact points (facets or nodes)
+  int broken = 0;  ///< points with beta < kDebondedBeta
+  /// Debonding front: the largest reference coordinate along `axis` (facet centre or node) of a
+  /// point with beta < kDebondedBeta; NaN when no point is debonded.
+  double front = std::numeric_limits<double>::quiet_NaN();
+  /// Damage front: the same with beta < kDamagedBeta; NaN when no point is damaged.
+  double damage_front = std::numeric_limits<double>::quiet_NaN();
+  double beta_min = 0, beta_max = 0;
+  double beta_l2 = 0;        ///< sqrt(sum_i w_i beta_i^2 / sum_i w_i), the mean-square beta
+  double max_opening = 0;    ///< max_i opening_i (m), opening() (may be < 0 when pressed)
+  int max_opening_at = -1;   ///< the point where it is reached (the first one on ties)
+  double max_opening_x = 0;  ///< its reference coordinate along `axis` (m)
+};
+
+/// [LTL87 (1.2)-(1.3), (4.11)] The peel measures at a state over the contact points `points`
+/// (which carry s.beta); `axis` is the coordinate along which the front is measured (x1).
+PeelMeasures peel_measures(const Problem& problem, const FacetOperators& points, const State& s,
+                           int axis = 0);
+
+/// Every measure of a step: contact measures when the problem has a contact surface, peel
+/// measures when it is glued (kappa = 1/eps > 0, the state carrying beta per point), and the
+/// largest nodal displacement.
+struct StepMeasures {
+  std::optional<ContactMeasures> contact;
+  std::optional<PeelMeasures> peel;
+  Eigen::VectorXi in_contact;   ///< contact_set() per contact point (empty without contact)
+  double max_displacement = 0;  ///< max over nodes of |u| (m)
+};
+StepMeasures step_measures(const Problem& problem, const FacetOperators* points, const State& s,
+                           int axis = 0);
+inline StepMeasures step_measures(const Solver& solver, const State& s, int axis = 0) {
+  return step_measures(solver.problem(), solver.facets(), s, axis);
+}
+
+/// The measures as written to results files (/steps/N/measures): name, value, unit,
+/// description; one list, so that the file and this header cannot disagree. `dim` selects the
+/// units of forces and areas (plane strain: per metre of depth).
+std::vector<StoredMeasure> stored_measures(const StepMeasures& m, int dim);
 
 /// The node at reference position X (within 1e-9 m): its index; a clear error if there is none.
 /// (Fig 5's "drop of the top" is -u2 at the node (0, 1).)

@@ -343,6 +343,10 @@ std::pair<std::string, std::string> dataset_meta(const std::string& path, int di
       {"contact_pressure",
        {"Pa", "Pa", "contact pressure of each contact point, -lambda_c . N (> 0: pressed)"}},
       {"gap", {"m", "m", "gap of each contact point to the obstacle plane, g - e . N"}},
+      {"in_contact",
+       {"1", "1",
+        "1 at the contact points in the contact set, p > kContactThreshold * max p "
+        "(lib/measures.hpp), else 0"}},
       {"history",
        {"1 1 1 s s s s s", "1 1 1 s s s s s",
         "one row per iteration: n, r_G, r_B (scaled residuals, (3.3)), seconds in the global, "
@@ -963,6 +967,29 @@ void ResultsFile::write_step(const std::string& g, const StepData& step, bool co
   }
   if (step.contact_pressure.size()) put("contact_pressure", {un(nf)}, vec(step.contact_pressure));
   if (step.gap.size()) put("gap", {un(nf)}, vec(step.gap));
+  if (!step.measures.empty() || step.in_contact.size()) {
+    // The step's measures (lib/measures.hpp): scalar datasets with the unit and description
+    // given by the measures module, and the contact set per contact point.
+    const std::string mg = g + "/measures";
+    create_group(file_, mg, file);
+    for (const StoredMeasure& m : step.measures) {
+      const std::string path = mg + "/" + m.name;
+      Handle space = checked(H5Screate(H5S_SCALAR), H5Sclose, file,
+                             cat("cannot create the dataspace of dataset ", path));
+      Handle set = checked(H5Dcreate2(file_, path.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT,
+                                      H5P_DEFAULT, H5P_DEFAULT),
+                           H5Dclose, file, cat("cannot create dataset ", path));
+      ok(H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, &m.value), file,
+         cat("cannot write dataset ", path));
+      write_string_attr(set.get(), "unit", m.unit, file, path);
+      write_string_attr(set.get(), "description", m.description, file, path);
+    }
+    if (step.in_contact.size()) {
+      const std::vector<int> mask(step.in_contact.data(),
+                                  step.in_contact.data() + step.in_contact.size());
+      write_ints(file_, mg + "/in_contact", {un(nf)}, mask, dim, file);
+    }
+  }
   {
     const std::size_t ni = step.report ? step.report->history.size() : 0;
     std::vector<double> h(8 * ni);
@@ -1221,6 +1248,20 @@ std::optional<StoredStep> ResultsFile::read_last_step(const std::string& path) {
     expect_shape(a, dims, full, path);
     return a.data;
   };
+  if (exists(f, g + "/measures", path)) {
+    Handle mg = open_group(f, g + "/measures", path);
+    H5G_info_t info;
+    ok(H5Gget_info(mg.get(), &info), path, cat("cannot read group ", g, "/measures"));
+    for (hsize_t i = 0; i < info.nlinks; ++i) {
+      char name[256];
+      if (H5Lget_name_by_idx(mg.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, name, sizeof name,
+                             H5P_DEFAULT) < 0)
+        fail(path, cat("cannot list group ", g, "/measures"));
+      const std::string full = g + "/measures/" + name;
+      const Array<double> a = read_array<double>(f, full, path);
+      if (a.dims.empty() && a.data.size() == 1) out.measures[name] = a.data[0];
+    }
+  }
   State& s = out.state;
   s.u = from_rows(get("u", {X[0], d}), nn, dim);
   s.E = tensors_from(get("E", {cells[0], d, d}), nc, dim);

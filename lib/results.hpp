@@ -16,6 +16,9 @@
 //                        measure force_residual, det_error, penetration; datasets u, E, lambda,
 //                        P, sigma, sigma33 (2-D), pressure, and with contact beta, e, lambda_c,
 //                        contact_pressure, gap; history (#iterations, 8)
+//   /steps/NNNNNN/measures  the step's measures (lib/measures.hpp, stored_measures): one scalar
+//                        dataset per measure (contact force, half-width, debonding front,
+//                        opening, ...) and with contact in_contact (#points, 0/1)
 //   /steps/NNNNNN/xdmf   2-D only: u, e, lambda_c padded to 3 components and E, P, sigma to 3x3
 //                        with the true out-of-plane entries (E33 = 1, sigma33, P33 = det E
 //                        sigma33), for ParaView. Not solver data.
@@ -48,6 +51,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "mesh.hpp"
 #include "problem.hpp"
@@ -79,6 +83,14 @@ struct RunInfo {
   std::map<std::string, std::string> attributes;  ///< extra string attributes (versions, ...)
 };
 
+/// One scalar measure of a step (lib/measures.hpp: stored_measures), written as the scalar
+/// dataset /steps/N/measures/<name> with its "unit" and "description" attributes.
+struct StoredMeasure {
+  std::string name;
+  double value = 0;
+  std::string unit, description;
+};
+
 /// Everything written for one completed time step.
 struct StepData {
   int p = 0;
@@ -89,6 +101,8 @@ struct StepData {
   Eigen::VectorXd sigma33;                ///< #cells, plane strain only (Pa)
   Eigen::VectorXd pressure;               ///< #cells
   Eigen::VectorXd contact_pressure, gap;  ///< #facets (empty without contact)
+  std::vector<StoredMeasure> measures;    ///< /steps/N/measures (none: no group)
+  Eigen::VectorXi in_contact;             ///< #facets, 1 in the contact set (may be empty)
 };
 
 /// A step read back from a file (for resuming, and for tests).
@@ -97,6 +111,7 @@ struct StoredStep {
   double t = 0;
   State state;  ///< u, E, lambda, e, beta, lambda_c in the solver's layouts
   int iterations = 0;
+  std::map<std::string, double> measures;  ///< /steps/N/measures (empty in older files)
 };
 
 class ResultsFile {

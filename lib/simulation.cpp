@@ -13,6 +13,7 @@
 
 #include "error.hpp"
 #include "hash.hpp"
+#include "measures.hpp"
 #include "results.hpp"
 #include "version.hpp"
 
@@ -173,6 +174,10 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   }
   d.contact_pressure = solver.contact_pressure(state);
   d.gap = solver.contact_gap(state);
+  // Every measure of the step (lib/measures.hpp), one definition each.
+  const StepMeasures m = step_measures(solver, state);
+  d.measures = stored_measures(m, problem.mesh.dim);
+  d.in_contact = m.in_contact;
   return d;
 }
 

@@ -89,22 +89,19 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
     last.clear();
     if (!p.contact) return;
     const Eigen::VectorXd gap = solver.contact_gap(s);
-    const FacetOperators& f = *solver.facets();
-    const Eigen::VectorXd N = p.contact->plane_normal.head(p.mesh.dim);
-    const double L = f.area.sum();
     if (p.contact->adhesion.kappa > 0) {
-      // Adhesion: beta profile and the opening of the contact surface.
-      double front = 0, opening = 0;
-      for (int i = 0; i < f.size(); ++i) {
-        if (s.beta(i) < 0.9) front = std::max(front, f.centre(0, i));
-        opening = std::max(opening, -s.e.col(i).dot(N));
-      }
-      last.push_back(quantity("beta_min", s.beta.minCoeff(), 1.0));
-      last.push_back(quantity("beta_l2", std::sqrt(f.area.dot(s.beta.cwiseAbs2()) / L), 1.0));
+      // Adhesion: the peel measures of lib/measures.hpp (beta profile, the damage front at
+      // beta < kDamagedBeta, the opening of the contact surface); the stored keys floor the
+      // front (none: 0) and the opening at 0.
+      const PeelMeasures pm = peel_measures(p, *solver.facets(), s);
+      const double front = std::isnan(pm.damage_front) ? 0.0 : std::max(0.0, pm.damage_front);
+      const double opening = std::max(0.0, pm.max_opening);
+      last.push_back(quantity("beta_min", pm.beta_min, 1.0));
+      last.push_back(quantity("beta_l2", pm.beta_l2, 1.0));
       last.push_back(quantity("front_beta_below_0.9", front, 1.0));
       last.push_back(quantity("max_opening", opening, std::max(opening, 1e-6)));  // tol >= 0.1 nm
       // The readings criterion: the largest displacement (mm under R3, metres under R1).
-      const double umax = s.u.rowwise().norm().maxCoeff();
+      const double umax = step_measures(solver, s).max_displacement;
       last.push_back(quantity("max_displacement_norm", umax, umax));
     } else {
       // Pure contact: the measures of lib/measures.hpp (contact set, peak pressure, force),

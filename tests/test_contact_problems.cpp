@@ -146,6 +146,14 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   // area of the bottom).
   const double force = solver.facets()->area.dot(pc);
   EXPECT_NEAR(force, exact.p * solver.facets()->area.sum(), 1e-6 * force);
+  // The same through the measures (lib/measures.hpp): every point in the contact set, the
+  // contact force equal to the applied load along N, the peak pressure p.
+  const ContactMeasures cm = contact_measures(solver, s);
+  EXPECT_EQ(cm.in_contact, cm.points);
+  EXPECT_NEAR(cm.force, load_along_normal(solver), 1e-6 * cm.force);
+  EXPECT_NEAR(cm.force, exact.p * solver.facets()->area.sum(), 1e-6 * cm.force);
+  EXPECT_NEAR(cm.p_max, exact.p, 1e-6 * exact.p);
+  EXPECT_NEAR(cm.area, solver.facets()->area.sum(), 1e-12);
   std::printf(
       "  %dD %s: p = %.6g Pa, stretches (%.4f, %.4f, %.4f), %d iterations; max |u - u_exact| = "
       "%.1e m, max |P - P_exact|/p = %.1e, max |p_s - p|/p = %.1e, max |lambda_t|/p = %.1e, "

@@ -3,6 +3,8 @@
 // descriptions on every dataset, the format version, the equilibrium measure per step, the
 // resolved configuration, cell volumes from the discretization, the unconverged iterate of a
 // failed step kept apart from the results, and every XDMF file read by Debian's meshio.
+// The measures (lib/measures.hpp): the peel measures of a constructed state, and the measures
+// stored per step equal to the in-memory ones.
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
@@ -12,6 +14,8 @@
 
 #include "config.hpp"
 #include "error.hpp"
+#include "fe.hpp"
+#include "measures.hpp"
 #include "results.hpp"
 #include "simulation.hpp"
 #include "testing.hpp"
@@ -264,6 +268,12 @@ for s in r.steps:
     eq = s.equilibrium
     assert set(eq) == {"force_residual", "det_error", "penetration"}, eq
     assert 0 <= eq["force_residual"] < 0.1, eq
+    # The measures of lib/measures.hpp, with units; the contact set per contact point.
+    ms = s.measures
+    assert ms["contact_force"] > 0 and ms["a_edge"] > 0, ms
+    assert s.measure_units["contact_force"] == "N/m", s.measure_units
+    assert s.in_contact is not None and s.in_contact.sum() == ms["in_contact_count"]
+    assert len(s.in_contact) == ms["contact_points"] == len(r.mesh.contact_area)
 cfg = ltl_results.resolved_config(r)
 assert cfg["material"]["C1"] == 435e3 and cfg["algorithm"]["q"] == 1e6, cfg["material"]
 assert cfg["time"]["steps"] == 2 and cfg["discretization"]["contact"] == "nodal"
@@ -277,5 +287,107 @@ print("MESHIO-OK")
   std::printf("%s", text.c_str());
   EXPECT_EQ(rc, 0) << text;
   EXPECT_NE(text.find("MESHIO-OK"), std::string::npos) << text;
+  fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The measures (lib/measures.hpp): closed forms and what the results file stores.
+
+namespace {
+
+// The bottom of tests/geometry/square.geo (n = 4 equal segments on [0, 1]) as the glued contact
+// surface on the plane x2 = 0 (N = -e2, into the support): contact points = the 4 facets, with
+// centres x1 = 0.125, 0.375, 0.625, 0.875 and weights h = 0.25.
+Problem glued_square() {
+  Problem p;
+  p.mesh = load_mesh(test_path("geometry/square.geo"));
+  ContactCondition cc;
+  cc.group = "bottom";
+  cc.plane_point.setZero();
+  cc.plane_normal = Eigen::Vector3d(0, -1, 0);
+  cc.adhesion.kappa = 1e9;
+  cc.origin = "test";
+  p.contact = cc;
+  return p;
+}
+
+}  // namespace
+
+// [LTL87 (1.2)-(1.3), (4.11)] A constructed state with beta(x1) = x1 + 0.3 and opening
+// -e . N = e2 = 0.01 (1 - x1)^2 on the 4 facets: the glue is broken (beta < kDebondedBeta) where
+// x1 < 0.2, damaged (beta < kDamagedBeta) where x1 < 0.6, so the front is the centre 0.125 and the
+// damage front the centre 0.375; the largest opening is 0.01 (0.875)^2 at x1 = 0.125; and the
+// weighted mean square of beta is the midpoint rule of int_0^1 (x + 0.3)^2 dx, exact minus h^2/12
+// (f'' = 2).
+TEST(Measures, Eq4_11_PeelFrontAndOpeningOfAConstructedState) {
+  const Problem p = glued_square();
+  const FacetOperators points = facet_operators(p.mesh, p.mesh.boundary("bottom"));
+  ASSERT_EQ(points.size(), 4);
+  State s;
+  s.u = Eigen::MatrixXd::Zero(p.mesh.num_nodes(), 2);
+  s.beta.resize(4);
+  s.e.resize(2, 4);
+  s.lambda_c = Eigen::MatrixXd::Zero(2, 4);
+  for (int i = 0; i < 4; ++i) {
+    const double x = points.centre(0, i);
+    s.beta(i) = x + 0.3;
+    s.e.col(i) = Eigen::Vector2d(0.1, 0.01 * (1 - x) * (1 - x));
+  }
+  const PeelMeasures m = peel_measures(p, points, s);
+  EXPECT_EQ(m.points, 4);
+  EXPECT_EQ(m.broken, 1);
+  EXPECT_NEAR(m.front, 0.125, 1e-12);
+  EXPECT_NEAR(m.damage_front, 0.375, 1e-12);
+  EXPECT_NEAR(m.beta_min, 0.425, 1e-12);
+  EXPECT_NEAR(m.beta_max, 1.175, 1e-12);
+  const double h = 0.25, exact = (std::pow(1.3, 3) - std::pow(0.3, 3)) / 3;
+  EXPECT_NEAR(m.beta_l2, std::sqrt(exact - h * h / 12), 1e-12);
+  EXPECT_NEAR(m.max_opening, 0.01 * 0.875 * 0.875, 1e-13);  // centres from gmsh, to ~1e-13 m
+  EXPECT_NEAR(m.max_opening_x, 0.125, 1e-12);
+  // Intact glue: no front (NaN), nothing broken.
+  s.beta.setOnes();
+  const PeelMeasures intact = peel_measures(p, points, s);
+  EXPECT_EQ(intact.broken, 0);
+  EXPECT_TRUE(std::isnan(intact.front));
+  EXPECT_TRUE(std::isnan(intact.damage_front));
+}
+
+// The measures stored per step (/steps/N/measures) are the in-memory ones, bit for bit: a short
+// run of Fig 3's literal reading (peel and contact measures) and of a coarse Fig 5 (contact).
+TEST(Output, StoredMeasuresEqualTheInMemoryOnes) {
+  const fs::path dir = ltl::testing::temp_dir("output_measures");
+  ltl::testing::write_file(dir / "fig5.toml",
+                           ltl::testing::coarse_fig5_config(
+                               ltl::testing::source_path("experiments/fig5/half_disc.geo")));
+  for (const auto& [config, overrides] :
+       {std::pair{ltl::testing::source_path("experiments/fig3/fig3_literal.toml"),
+                  std::vector<std::string>{"time.steps=2"}},
+        std::pair{(dir / "fig5.toml").string(), std::vector<std::string>{}}}) {
+    const Problem p = load_problem(config, overrides);
+    RunOptions o;
+    o.output = (dir / "out.h5").string();
+    o.verbosity = 0;
+    StepMeasures last;
+    run(p, o, [&](const Solver& solver, int, const State& s) { last = step_measures(solver, s); });
+    ASSERT_TRUE(last.contact) << config;
+    EXPECT_EQ(last.peel.has_value(), p.contact->adhesion.kappa > 0) << config;
+    const auto stored = ResultsFile::read_last_step(o.output);
+    ASSERT_TRUE(stored);
+    const std::vector<StoredMeasure> expected = stored_measures(last, p.mesh.dim);
+    EXPECT_EQ(stored->measures.size(), expected.size());
+    for (const StoredMeasure& m : expected) {
+      ASSERT_TRUE(stored->measures.count(m.name)) << m.name;
+      const double v = stored->measures.at(m.name);
+      if (std::isnan(m.value))
+        EXPECT_TRUE(std::isnan(v)) << m.name;
+      else
+        EXPECT_EQ(v, m.value) << m.name;
+    }
+    const std::vector<double> mask = read_doubles(o.output, "/steps/000001/measures/in_contact");
+    EXPECT_EQ(static_cast<int>(mask.size()), last.contact->points);
+    std::printf("  %s: %zu measures stored, contact force %.6g, %d of %d points in contact\n",
+                p.name.c_str(), expected.size(), last.contact->force, last.contact->in_contact,
+                last.contact->points);
+  }
   fs::remove_all(dir);
 }

@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "error.hpp"
+#include "measures.hpp"
 #include "signorini.hpp"
 #include "testing.hpp"
 
@@ -323,7 +324,7 @@ TEST(SignoriniHertz, Eq7_3_NoPenetrationComplementarityAndForceBalance) {
   for (int s = 0; s < sol.p.size(); ++s)
     EXPECT_LT(std::abs(sol.p(s)) * std::abs(sol.gap(s)), 1e-8 * h.p0() * U) << "facet " << s;
   // Both sets are non-trivial: the zone is a strict part of Gamma_c.
-  const int active = (sol.p.array() > 1e-6 * h.p0()).count();
+  const int active = (sol.p.array() > ltl::kContactThreshold * h.p0()).count();
   EXPECT_GT(active, 5);
   EXPECT_LT(active, sol.p.size() - 5);
   // Vertical equilibrium of the half model: sum |G_s| p_s = P / 2.
