@@ -7,7 +7,7 @@ JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
 .PHONY: all figures test sanitize bench deps build fig3 fig4 fig5 fig6 compare hertz readings \
-        reference format clean verify verify-fig6 peer-deps peer-reference install
+        reference format clean verify verify-fig6 peer-deps peer-reference bench-peer install
 
 all: figures
 
@@ -117,6 +117,16 @@ verify-fig6: build peer-deps
 # PEER_FIGS=fig6 rewrites only that figure's sections.
 peer-reference:
 	$(PYTHON) experiments/peer/make_reference.py $(VERIFY) tests/reference/peer.toml $(PEER_FIGS)
+
+# Time to the same accuracy against the dolfinx Newton peer (issue 10, item 4): Fig 5 (K = 7,
+# 28, 56) and Fig 6 (L = 1, 2), the package plain and Anderson at tolerances 1e-3, 1e-4, ... and
+# the peer's Newton, whole-process CPU and wall, 1 and 2 threads; the time to 1e-3 and 1e-6 in
+# the observable and the equilibrium measure, and the ratio (paper_notes/performance.md,
+# "Against a Newton solver"). BENCH_PEER_ARGS=--quick: Fig 5 K = 7, 28 and Fig 6 L = 1 only.
+BENCH_PEER_ARGS ?=
+bench-peer: build peer-deps
+	@mkdir -p $(RESULTS)
+	$(PYTHON) experiments/peer/bench_peer.py --json $(RESULTS)/bench_peer.json $(BENCH_PEER_ARGS)
 
 bench: build
 	$(RUN)/bench
