@@ -2,7 +2,7 @@
 """Time to the same accuracy: the package (ALG2, plain and Anderson) against the dolfinx Newton
 peer (experiments/peer/peer.py) on the meshes and observables of Figs 5 and 6 (issue 10, item 4).
 
-    /usr/bin/python3 experiments/peer/bench_peer.py [--quick] [--threads 1 2] [--json FILE]
+    /usr/bin/python3 experiments/peer/bench_peer.py [--quick | --full] [--threads 1 2] [--json FILE]
 
 Cases (the same discrete problem in both codes):
   fig5 K  half_disc.geo with n = nd = K (K = 7: the paper's 122 P2), P2 with mean-det
