@@ -7,7 +7,7 @@ JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
 .PHONY: all figures test sanitize bench deps build fig3 fig4 fig5 fig6 compare hertz readings \
-        reference format clean verify verify-fig6 peer-deps peer-reference install
+        reference format clean verify verify-fig6 peer-deps peer-reference bench-peer install
 
 all: figures
 
@@ -117,6 +117,17 @@ verify-fig6: build peer-deps
 # PEER_FIGS=fig6 rewrites only that figure's sections.
 peer-reference:
 	$(PYTHON) experiments/peer/make_reference.py $(VERIFY) tests/reference/peer.toml $(PEER_FIGS)
+
+# Time to the same accuracy against the dolfinx Newton peer (issue 10, item 4): Fig 5 K = 7, 28
+# and Fig 6 L = 1 with the package plain and Anderson on 1 and 2 threads, Fig 5 K = 56 and Fig 6
+# L = 2 with Anderson on 1 thread (BENCH_PEER_ARGS=--full: everything everywhere, ~45 min;
+# --quick: the small cases only); the package at tol = 1e-3, 1e-4, ... against one Newton run;
+# whole-process CPU and wall to 1e-3 and 1e-6 in the observable and the equilibrium measure,
+# and the ratio (paper_notes/performance.md, "Against a Newton solver").
+BENCH_PEER_ARGS ?=
+bench-peer: build peer-deps
+	@mkdir -p $(RESULTS)
+	$(PYTHON) experiments/peer/bench_peer.py --json $(RESULTS)/bench_peer.json $(BENCH_PEER_ARGS)
 
 bench: build
 	$(RUN)/bench
