@@ -329,7 +329,8 @@ void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
-  IterationPolicy policy(alg(), report, progress);
+  const AlgorithmParams& a = alg();
+  IterationPolicy policy(a, report, progress);
   // Anderson with a safeguard that can only help: an accelerated iterate is kept when its merit
   // r_G + r_B (measured by the iteration that follows it) does not exceed the merit of the
   // iterate it was extrapolated from; otherwise the plain iterate replaces it and the history
@@ -359,6 +360,17 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       continue;
     }
     if (policy.stop(rec, s.u.allFinite())) break;
+    // Adaptive R: a new R re-factorizes K and restarts the acceleration's history (its packed
+    // multipliers are scaled by 1 / R q).
+    if (a.adaptive_R && n % a.adapt_every == 0 && factorizations_ <= a.max_refactorizations) {
+      const double R = balanced_R(rec);
+      if (R != R_) {
+        precompute(R);
+        ++report.R_changes;
+        if (anderson_) anderson_->restart();
+        continue;
+      }
+    }
     if (anderson_) {
       pack(s, g_);
       if (anderson_->step(x_, g_) > 0) {
@@ -373,7 +385,21 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;
   report.penetration = eq.penetration;
+  report.R = R_;
   return report;
+}
+
+// Residual balancing [Boyd et al. 2011, sec. 3.4.1, for ADMM]: r_B is the primal residual and
+// R r_G the dual one (the change of the local variables priced at R q, in the units of r_B).
+// R grows when the constraint lags, and shrinks when the local variables still move, by a factor
+// 2 when the two are more than 10 apart; never below R_min (the local step's physical branch).
+double Solver::balanced_R(const IterationRecord& rec) const {
+  constexpr double mu = 10, tau = 2;
+  const AlgorithmParams& a = alg();
+  const double R_min = a.R_min > 0 ? a.R_min : a.R;
+  if (rec.r_B > mu * R_ * rec.r_G) return tau * R_;
+  if (R_ * rec.r_G > mu * rec.r_B) return std::max(R_ / tau, R_min);
+  return R_;
 }
 
 void Solver::set_load_factor(double factor) {

@@ -137,6 +137,10 @@ class Solver {
   /// for each beta_s with its weight, u(A) for the displacement (mean-det).
   template <class S, class Cells, class Facets, class Beta, class U>
   void for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const;
+  /// [residual balancing] The R that balances r_G and r_B after iteration rec
+  /// (AlgorithmParams::adaptive_R), or R itself.
+  double balanced_R(const IterationRecord& rec) const;
+
   const AlgorithmParams& alg() const { return disc_.problem().algorithm; }
 
   Discretization disc_;

@@ -192,6 +192,13 @@ class Reader {
     return real(k, *v, n);
   }
 
+  bool boolean(const std::string& k, bool fallback) const {
+    const toml::node* n = t_.get(k);
+    if (!n) return fallback;
+    if (!n->is_boolean()) fail(k, "expected true or false", n);
+    return *n->value<bool>();
+  }
+
   Reader sub(const std::string& k) const {
     const toml::node* n = t_.get(k);
     if (!n || !n->is_table()) fail(k, "expected a table", n);
@@ -518,7 +525,8 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   if (r.has("algorithm")) {
     const Reader a = r.sub("algorithm");
     a.only({"update", "R", "q", "q_c", "rho", "sweeps", "contact_sweeps", "tol", "max_iter",
-            "blowup", "acceleration", "depth", "accelerate", "max_force_residual"});
+            "blowup", "acceleration", "depth", "accelerate", "max_force_residual", "adaptive_R",
+            "adapt_every", "max_refactorizations", "R_min"});
     p.algorithm.update = a.choice<Update>(
         "update", {{"uzawa", Update::Uzawa}, {"bermudez-moreno", Update::BermudezMoreno}}, "uzawa");
     has_R = a.has("R"), has_q = a.has("q"), has_q_c = a.has("q_c");
@@ -546,6 +554,12 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
                                {"all", Accelerated::All}},
                               "all");
     p.algorithm.max_force_residual = a.number("max_force_residual", p.algorithm.max_force_residual);
+    // Adaptive R by residual balancing (paper_notes/performance.md).
+    p.algorithm.adaptive_R = a.boolean("adaptive_R", p.algorithm.adaptive_R);
+    p.algorithm.adapt_every = a.integer("adapt_every", p.algorithm.adapt_every, 1, 1000000);
+    p.algorithm.max_refactorizations =
+        a.integer("max_refactorizations", p.algorithm.max_refactorizations, 0, 100);
+    p.algorithm.R_min = a.number("R_min", p.algorithm.R_min);
   }
   // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).
   derive_algorithm_defaults(p, has_R, has_q, has_q_c);

@@ -103,6 +103,7 @@ void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c)
   a.q_c_derived = !has_q_c;
   if (!has_q) a.q = 2 * C;
   if (!has_R) a.R = (p.mesh.dim == 2 ? 6 : 8) * C / a.q;
+  if (!(a.R_min > 0)) a.R_min = std::min(a.R, (p.mesh.dim == 2 ? 6 : 8) * C / a.q);
   if (!has_q_c) {
     a.h = p.contact && p.mesh.has_boundary(p.contact->group)
               ? mean_facet_size(p.mesh, p.mesh.boundary(p.contact->group))

@@ -78,6 +78,17 @@ struct AlgorithmParams {
   Acceleration acceleration = Acceleration::None;
   int depth = 5;  ///< Anderson history (number of differences kept), 1 ... 16
   Accelerated accelerate = Accelerated::All;
+  /// Adaptive R by residual balancing (paper_notes/performance.md, "Adaptive R"): every
+  /// `adapt_every` iterations, R is doubled when r_B > 10 R r_G and halved when R r_G > 10 r_B,
+  /// never below R_min, K re-factorized at most `max_refactorizations` times per run. Off by
+  /// default: the paper's ALG2 keeps its R.
+  bool adaptive_R = false;
+  int adapt_every = 20;
+  int max_refactorizations = 4;
+  /// The floor of adaptive R: R_min q = 6 (C1 + C2) in 2-D, 8 (C1 + C2) in 3-D, the default
+  /// rule's R q (below about 4 C1 the local strain step jumps to a rotated branch,
+  /// paper_notes/section3-4.md), unless the configuration gives it; 0 until derived.
+  double R_min = 0;
   /// A step whose equilibrium measure (StepReport::force_residual: max nodal force residual /
   /// max nodal load) exceeds this is not converged, whatever r_G and r_B say: with a huge R the
   /// iterate residuals are small after one iteration far from equilibrium. The figures' steps

@@ -212,7 +212,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
   if (verbosity > 0 && (P > 1 || verbosity == 1))
     std::printf(
         "step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  force residual %.1e  "
-        "%.3f s%s%s\n",
+        "%.3f s%s%s%s\n",
         p, P, p * problem.time.dt, report.iterations, report.history.back().r_G,
         report.history.back().r_B, report.force_residual, report.history.back().wall,
         report.strain_failures
@@ -220,6 +220,9 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
             : "",
         report.accepted + report.rejected
             ? cat("  Anderson ", report.accepted, " kept / ", report.rejected, " rejected").c_str()
+            : "",
+        problem.algorithm.adaptive_R
+            ? cat("  R = ", report.R, " (", report.R_changes, " changes)").c_str()
             : "");
   std::fflush(stdout);
   return step;

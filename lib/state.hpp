@@ -49,6 +49,8 @@ struct StepReport {
   /// The equilibrium measure at the last iterate (lib/measures.hpp): max nodal force residual /
   /// max nodal load, max |det E - 1|, max penetration of a contact-surface node (m).
   double force_residual = 0, det_error = 0, penetration = 0;
+  double R = 0;       ///< the augmentation parameter at the end of the step
+  int R_changes = 0;  ///< how many times adaptive R changed R (and re-factorized K) in the step
 };
 
 }  // namespace ltl

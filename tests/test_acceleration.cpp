@@ -6,6 +6,7 @@
 // block, Fig 5).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "alg2.hpp"
@@ -111,4 +112,48 @@ TEST(AndersonSafeguard, Eq4_1to4_3_NoneReproducesThePlainIteration) {
   EXPECT_EQ(ra.iterations, rb.iterations);
   EXPECT_EQ(rb.accepted + rb.rejected, 0);
   EXPECT_EQ((sa.u - sb.u).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// Adaptive R (AlgorithmParams::adaptive_R, residual balancing, paper_notes/performance.md): R
+// changes the path of ALG2, not its fixed point [LTL87 sec. 3], so a run that re-factorizes K with
+// a new R along the way reaches the answer of the plain run at the configuration's R.
+TEST(AdaptiveR, Eq4_1to4_3_Fig5_FromR20ItLowersRToItsFloorAndReachesTheSameFixedPoint) {
+  auto solve = [](const Problem& p) {
+    Solver solver(p);
+    State s = solver.initial_state();
+    const StepReport r = solver.solve_step(s, s.beta);
+    EXPECT_TRUE(r.converged) << r.status;
+    EXPECT_EQ(solver.factorizations(), 1 + r.R_changes);
+    return std::make_pair(r, s);
+  };
+  const auto [plain, s_plain] = solve(fig5({"algorithm.R=20"}));
+  const Problem p = fig5({"algorithm.R=20", "algorithm.adaptive_R=true"});
+  // The floor: the default rule's R q = 6 (C1 + C2) in plane strain, R_min = 3 with q = 1000 kPa.
+  EXPECT_NEAR(p.algorithm.R_min, 6 * (435e3 + 65e3) / 1000e3, 1e-12);
+  const auto [adapted, s_adapted] = solve(p);
+  std::printf("  R = 20: %d iterations; adaptive: %d iterations, R = %g after %d changes\n",
+              plain.iterations, adapted.iterations, adapted.R, adapted.R_changes);
+  EXPECT_GE(adapted.R_changes, 1);
+  EXPECT_LE(adapted.R_changes, p.algorithm.max_refactorizations);
+  EXPECT_LT(adapted.R, 20);
+  EXPECT_GE(adapted.R, p.algorithm.R_min);
+  EXPECT_LT(adapted.iterations, plain.iterations);
+  // The same fixed point: u to the stopping tolerance's scale (tol 1e-9 on a 1 m cylinder).
+  EXPECT_LT((s_adapted.u - s_plain.u).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_LT(adapted.force_residual, 1e-5);
+}
+
+TEST(AdaptiveR, NeverBelowItsFloorNorMoreRefactorizationsThanAllowed) {
+  const Problem p = fig5({"algorithm.R=20", "algorithm.adaptive_R=true", "algorithm.R_min=12",
+                          "algorithm.adapt_every=5", "algorithm.max_refactorizations=1"});
+  Solver solver(p);
+  State s = solver.initial_state();
+  std::vector<double> Rs;
+  const StepReport r =
+      solver.solve_step(s, s.beta, [&](const IterationRecord&) { Rs.push_back(solver.R()); });
+  EXPECT_TRUE(r.converged) << r.status;
+  EXPECT_EQ(r.R_changes, 1);
+  EXPECT_EQ(solver.factorizations(), 2);
+  EXPECT_GE(*std::min_element(Rs.begin(), Rs.end()), 12.0);
+  EXPECT_EQ(r.R, 12.0);
 }
