@@ -6,6 +6,8 @@
 //                             [--stop-after N] [-v | -q]
 //
 // Every configuration key is described in experiments/README.md.
+#include <utility>
+
 #include "cli.hpp"
 
 // The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize -> solve the time steps,
@@ -14,7 +16,8 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);             // the configuration, validated
   const ltl::RunOptions options = ltl::run_options(cmd, problem);  // -o or results/<name>.h5
   const ltl::Stopwatch setup;
-  ltl::Solver solver(problem);  // discretize, assemble; K factorized once (4.5)
+  ltl::Discretization discrete(problem);    // cells, contact points, Dirichlet data, loads
+  ltl::Solver solver(std::move(discrete));  // ALG2's precompute: K with R q factorized once (4.5)
   ltl::ResultsWriter results(solver, options, setup.seconds());  // locked; --resume, --stop-after
   ltl::State s = results.start_state();  // the initial state, or the file's last step
   for (int p = results.next_step(); p <= results.last_step(); ++p)          // (2.1) time steps
