@@ -118,9 +118,13 @@ verify-fig6: build peer-deps
 peer-reference:
 	$(PYTHON) experiments/peer/make_reference.py $(VERIFY) tests/reference/peer.toml $(PEER_FIGS)
 
+# The cost of one iteration (bench), then iterations to tolerance against mesh size, plain and
+# Anderson, with the fitted growth exponents (bench_accel: Fig 5 K = 7 ... 112, the gutter at
+# levels 1-3; ~20 min on a shared 2-core machine). BENCH_QUICK=--quick skips the largest sizes.
+BENCH_QUICK ?=
 bench: build
-	$(RUN)/bench
-	OMP_NUM_THREADS=1 $(RUN)/bench_accel --quick
+	$(RUN)/bench $(BENCH_QUICK)
+	OMP_NUM_THREADS=1 $(RUN)/bench_accel $(BENCH_QUICK)
 
 # Regenerate the stored reference data of the regression tests (review the diff).
 reference: build
