@@ -120,7 +120,8 @@ peer-reference:
 
 # The cost of one iteration (bench), then iterations to tolerance against mesh size, plain and
 # Anderson, with the fitted growth exponents (bench_accel: Fig 5 K = 7 ... 112, the gutter at
-# levels 1-3; ~20 min on a shared 2-core machine). BENCH_QUICK=--quick skips the largest sizes.
+# levels 1-3; 32 min on the shared 2-core machine at load 4-11). BENCH_QUICK=--quick skips the
+# largest sizes.
 BENCH_QUICK ?=
 bench: build
 	$(RUN)/bench $(BENCH_QUICK)
