@@ -129,9 +129,14 @@ bench-peer: build peer-deps
 	@mkdir -p $(RESULTS)
 	$(PYTHON) experiments/peer/bench_peer.py --json $(RESULTS)/bench_peer.json $(BENCH_PEER_ARGS)
 
+# The cost of one iteration (bench), then iterations to tolerance against mesh size, plain and
+# Anderson, with the fitted growth exponents (bench_accel: Fig 5 K = 7 ... 112, the gutter at
+# levels 1-3; 32 min on the shared 2-core machine at load 4-11). BENCH_QUICK=--quick skips the
+# largest sizes.
+BENCH_QUICK ?=
 bench: build
-	$(RUN)/bench
-	OMP_NUM_THREADS=1 $(RUN)/bench_accel --quick
+	$(RUN)/bench $(BENCH_QUICK)
+	OMP_NUM_THREADS=1 $(RUN)/bench_accel $(BENCH_QUICK)
 
 # Regenerate the stored reference data of the regression tests (review the diff).
 reference: build

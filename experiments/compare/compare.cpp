@@ -3,6 +3,8 @@
 //   Paper: section 7 ("this BERMUDEZ-MORENO algorithm appears, within a small variant, as a
 //          particular case of algorithm (4.1)-(4.4)") and section 8 ("The use of the
 //          BERMUDEZ-MORENO variant of section 7 did not bring any speed-up of the algorithm").
+//   Anderson: every figure also runs with algorithm.acceleration = "anderson" (variants
+//          "...-anderson"): the accelerated iteration next to the paper's plain one.
 //   Make:  make compare
 //   Run:   build/experiments/compare [OUTDIR]        (default results/compare)
 //
@@ -40,17 +42,24 @@ struct Run {
 //    the peel runs away: the hard case; paper_notes/readings.md), as measured in section8.md.
 std::vector<Run> runs() {
   const std::string uzawa = "algorithm.update=uzawa", bm = "algorithm.update=bermudez-moreno";
+  // Each figure also with safeguarded Anderson acceleration (default depth and accelerated
+  // variables; paper_notes/performance.md, "Anderson acceleration"), the iteration the paper's
+  // plain one is compared with (issue 10).
+  const std::string anderson = "algorithm.acceleration=anderson";
   std::vector<Run> r;
   for (const std::string fig : {"fig3", "fig4"}) {
     const std::string cfg = "experiments/" + fig + "/" + fig + "_literal.toml";
     r.push_back({fig, "uzawa-2sweeps", cfg, {uzawa, "algorithm.sweeps=2"}});
     r.push_back({fig, "uzawa", cfg, {uzawa, "algorithm.sweeps=1"}});
     r.push_back({fig, "bermudez-moreno", cfg, {bm, "algorithm.sweeps=1"}});
+    r.push_back({fig, "uzawa-2sweeps-anderson", cfg, {uzawa, "algorithm.sweeps=2", anderson}});
   }
   for (const std::string fig : {"fig5", "fig6"}) {
     const std::string cfg = "experiments/" + fig + "/" + fig + ".toml";
     r.push_back({fig, "uzawa", cfg, {uzawa}});
     r.push_back({fig, "bermudez-moreno", cfg, {bm}});
+    r.push_back({fig, "uzawa-anderson", cfg, {uzawa, anderson}});
+    r.push_back({fig, "bermudez-moreno-anderson", cfg, {bm, anderson}});
   }
   // 2. Sweeps of R (both updates) and rho (Bermudez-Moreno) on Fig 5 and on the first six
   //    steps of Fig 3.
