@@ -336,6 +336,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   // iterate it was extrapolated from; otherwise the plain iterate replaces it and the history
   // restarts.
   if (anderson_) anderson_->restart();
+  lowered_ = false;
   bool extrapolated = false;  // is s an accelerated iterate?
   double merit_before = 0;    // merit of the iterate s was extrapolated from
   for (int n = 1;; ++n) {
@@ -362,14 +363,10 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     if (policy.stop(rec, s.u.allFinite())) break;
     // Adaptive R: a new R re-factorizes K and restarts the acceleration's history (its packed
     // multipliers are scaled by 1 / R q).
-    if (a.adaptive_R && n % a.adapt_every == 0 && factorizations_ <= a.max_refactorizations) {
-      const double R = balanced_R(rec);
-      if (R != R_) {
-        precompute(R);
-        ++report.R_changes;
-        if (anderson_) anderson_->restart();
-        continue;
-      }
+    if (a.adaptive_R && n % a.adapt_every == 0 && adapt_R(rec, s)) {
+      ++report.R_changes;
+      if (anderson_) anderson_->restart();
+      continue;
     }
     if (anderson_) {
       pack(s, g_);
@@ -396,10 +393,47 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
 double Solver::balanced_R(const IterationRecord& rec) const {
   constexpr double mu = 10, tau = 2;
   const AlgorithmParams& a = alg();
-  const double R_min = a.R_min > 0 ? a.R_min : a.R;
+  const double R_min = std::max(a.R_min > 0 ? a.R_min : a.R, R_floor_);
   if (rec.r_B > mu * R_ * rec.r_G) return tau * R_;
-  if (R_ * rec.r_G > mu * rec.r_B) return std::max(R_ / tau, R_min);
+  if (R_ * rec.r_G > mu * rec.r_B) return std::max(R_ / tau, std::min(R_min, R_));
   return R_;
+}
+
+// The safeguard of a lowered R: a smaller R q can put the local strain step on a rotated branch
+// under high stresses (paper_notes/section3-4.md), where the iteration stalls and then drifts
+// away. Since the last lowering the best iterate (by merit, at the checks) is kept; when no check
+// has improved on it for 10 checks, that iterate is restored, R goes back to its value before the
+// lowering and stays at or above it for the rest of the run.
+bool Solver::adapt_R(const IterationRecord& rec, State& s) {
+  const AlgorithmParams& a = alg();
+  const int n = rec.n;
+  const double merit = rec.r_G + rec.r_B;
+  const bool may_factorize = factorizations_ <= a.max_refactorizations;
+  if (lowered_) {
+    if (merit < best_merit_) {
+      best_merit_ = merit, best_n_ = n;
+      best_ = s;
+    } else if (n - best_n_ >= 10 * a.adapt_every && may_factorize) {
+      s = best_;
+      R_floor_ = R_before_lowering_;
+      lowered_ = false;
+      precompute(R_before_lowering_);
+      return true;
+    }
+  }
+  if (!may_factorize) return false;
+  const double R = balanced_R(rec);
+  if (R == R_) return false;
+  if (R < R_) {
+    lowered_ = true;
+    R_before_lowering_ = R_;
+    best_merit_ = merit, best_n_ = n;
+    best_ = s;
+  } else {
+    lowered_ = false;
+  }
+  precompute(R);
+  return true;
 }
 
 void Solver::set_load_factor(double factor) {

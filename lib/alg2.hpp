@@ -141,11 +141,22 @@ class Solver {
   /// (AlgorithmParams::adaptive_R), or R itself.
   double balanced_R(const IterationRecord& rec) const;
 
+  /// Adaptive R at the check after iteration rec (every adapt_every iterations): lowers or raises
+  /// R by balanced_R, or undoes a lowering that stalled (restoring the best iterate since, s);
+  /// true when R changed (K re-factorized).
+  bool adapt_R(const IterationRecord& rec, State& s);
+
   const AlgorithmParams& alg() const { return disc_.problem().algorithm; }
 
   Discretization disc_;
   double R_ = 1;  ///< R in use (see R())
   int factorizations_ = 0;
+  // Adaptive R's safeguard (adapt_R): whether R was last lowered, the R before, the best merit
+  // since, its iteration and iterate; the floor left by an undone lowering.
+  bool lowered_ = false;
+  double R_before_lowering_ = 0, best_merit_ = 0, R_floor_ = 0;
+  int best_n_ = 0;
+  State best_;
   std::unique_ptr<GlobalStep> global_;
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;

@@ -560,6 +560,8 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     p.algorithm.max_refactorizations =
         a.integer("max_refactorizations", p.algorithm.max_refactorizations, 0, 100);
     p.algorithm.R_min = a.number("R_min", p.algorithm.R_min);
+    if (a.has("R_min") && !(p.algorithm.R_min > 0))
+      a.fail("R_min", cat("= ", p.algorithm.R_min, ": must be > 0"));
   }
   // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).
   derive_algorithm_defaults(p, has_R, has_q, has_q_c);

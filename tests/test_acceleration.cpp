@@ -12,6 +12,7 @@
 #include "alg2.hpp"
 #include "anderson.hpp"
 #include "config.hpp"
+#include "error.hpp"
 #include "testing.hpp"
 
 using namespace ltl;
@@ -156,4 +157,17 @@ TEST(AdaptiveR, NeverBelowItsFloorNorMoreRefactorizationsThanAllowed) {
   EXPECT_EQ(solver.factorizations(), 2);
   EXPECT_GE(*std::min_element(Rs.begin(), Rs.end()), 12.0);
   EXPECT_EQ(r.R, 12.0);
+}
+
+TEST(AdaptiveR, BadKeysAreClearErrors) {
+  for (const std::string bad : {"algorithm.R_min=0", "algorithm.adapt_every=0",
+                                "algorithm.max_refactorizations=-1", "algorithm.adaptive_R=1"}) {
+    try {
+      fig5({bad});
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const Error& e) {
+      const std::string key = bad.substr(10, bad.find('=') - 10);
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
 }
