@@ -62,10 +62,11 @@ struct SignoriniProblem {
   std::string contact_group;                               ///< Gamma_c, a boundary group
   Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();   ///< a point of the rigid plane (m)
   Eigen::Vector3d plane_normal = Eigen::Vector3d::Zero();  ///< unit, pointing into the obstacle
-  /// R, q_c (Pa/m), rho, update, tol, max_iter, blowup are read; q, sweeps, contact_sweeps are
-  /// not (there is no strain variable and one block relaxation per iteration). Only R q_c enters;
-  /// about 1.5 E* / sqrt(h L) (E* = E / (1 - nu^2), h: contact facet size, L: body size) was
-  /// the fastest on the Hertz problem (paper_notes/section7.md); the answer does not depend on it.
+  /// R, q_c (Pa/m), rho, update, tol, max_iter, blowup, acceleration and depth (Anderson, with
+  /// ALG2's safeguard) are read; q, sweeps, contact_sweeps are not (there is no strain variable and
+  /// one block relaxation per iteration). Only R q_c enters; about 1.5 E* / sqrt(h L) (E* = E / (1
+  /// - nu^2), h: contact facet size, L: body size) was the fastest on the Hertz problem
+  /// (paper_notes/section7.md); the answer does not depend on it.
   AlgorithmParams algorithm;
 
   /// Checks ranges and that every named group exists; throws a clear Error naming the field.

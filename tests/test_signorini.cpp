@@ -544,5 +544,36 @@ TEST(SignoriniInput, MissingGroupsAndBadGeometry) {
   expect_error(pb, "rigid motion");
 }
 
+// Anderson acceleration of the Signorini iteration (the map (H, lambda_c) -> (H, lambda_c) of
+// (7.7)-(7.10)), with ALG2's safeguard: the same fixed point as the plain iteration, and no kept
+// extrapolated iterate whose merit exceeds the one it came from (a test that counts).
+TEST(SignoriniFixedPoint, Eq4_1to4_3_AndersonReachesThePlainFixedPointAndItsSafeguardHolds) {
+  const double Rqc = hertz_Rqc(0), tol = 1e-11;
+  for (const Update update : {Update::Uzawa, Update::BermudezMoreno}) {
+    AlgorithmParams alg = params(Rqc, update, tol, 1.0, update == Update::Uzawa ? 1.0 : 0.75);
+    SignoriniSolver plain_solver(hertz_problem(0, alg));
+    const SignoriniSolution plain = plain_solver.solve();
+    alg.acceleration = Acceleration::Anderson;
+    alg.depth = 5;
+    SignoriniSolver solver(hertz_problem(0, alg));
+    const SignoriniSolution acc = solver.solve();
+    ASSERT_TRUE(plain.report.converged) << plain.report.status;
+    ASSERT_TRUE(acc.report.converged) << acc.report.status;
+    std::printf("  %s: plain %d iterations, Anderson %d (%d kept, %d rejected)\n",
+                update == Update::Uzawa ? "Uzawa" : "Bermudez-Moreno", plain.report.iterations,
+                acc.report.iterations, acc.report.accepted, acc.report.rejected);
+    const double U = plain.u.cwiseAbs().maxCoeff(), pmax = plain.p.maxCoeff();
+    EXPECT_LT((acc.u - plain.u).cwiseAbs().maxCoeff(), 1e-8 * U);
+    EXPECT_LT((acc.p - plain.p).cwiseAbs().maxCoeff(), 1e-6 * pmax);
+    EXPECT_GT(acc.report.accepted, 0);
+    EXPECT_LT(acc.report.iterations, plain.report.iterations);
+    const auto& h = acc.report.history;
+    for (std::size_t k = 1; k < h.size(); ++k) {
+      const double merit = h[k].r_G + h[k].r_B, before = h[k - 1].r_G + h[k - 1].r_B;
+      EXPECT_TRUE(h[k].accelerated != 1 || merit <= before) << "kept at iteration " << k + 1;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ltl
