@@ -20,6 +20,7 @@ double seconds_since(clock_type::time_point t0) {
 Solver::Solver(const Problem& problem) : Solver(Discretization(problem)) {}
 
 Solver::Solver(Discretization discretization) : disc_(std::move(discretization)) {
+  const auto t0 = clock_type::now();
   const int dim = disc_.dim(), nc = disc_.num_cells(), nn = disc_.num_nodes();
   const FacetOperators* facets = disc_.facets();
   const int nf = facets ? facets->size() : 0;
@@ -42,7 +43,7 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
       const double h = std::pow(disc_.volume() / nc, 1.0 / dim);
       w_u_ = std::sqrt(a.q * disc_.volume() / nn) / (h * norm_I_);
     }
-    anderson_ = std::make_unique<Anderson>(n, a.depth);
+    anderson_ = std::make_unique<SafeguardedAnderson>(n, a.depth);
     x_.resize(n);
     g_.resize(n);
   }
@@ -56,6 +57,7 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
     global_out_.ubar.resize(dim, nf);
     c_rows_.resize(nf, dim);
   }
+  setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
 }
 
 // [LTL87 (4.5)] K assembled with R q and R q_c and factorized; the local steps built with them.
@@ -331,32 +333,21 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   StepReport report;
   const AlgorithmParams& a = alg();
   IterationPolicy policy(a, report, progress);
-  // Anderson with a safeguard that can only help: an accelerated iterate is kept when its merit
-  // r_G + r_B (measured by the iteration that follows it) does not exceed the merit of the
-  // iterate it was extrapolated from; otherwise the plain iterate replaces it and the history
-  // restarts.
+  // Anderson with the safeguard that can only help (anderson.hpp, SafeguardedAnderson).
   if (anderson_) anderson_->restart();
   lowered_ = false;
-  bool extrapolated = false;  // is s an accelerated iterate?
-  double merit_before = 0;    // merit of the iterate s was extrapolated from
   for (int n = 1;; ++n) {
     if (anderson_) pack(s, x_);
     int failures = 0;
     IterationRecord rec = iterate(s, beta_prev, failures);
     rec.n = n;
     const double merit = rec.r_G + rec.r_B;
-    bool reject = false;
-    if (extrapolated) {
-      reject = !(merit <= merit_before) || failures > 0 || !s.u.allFinite();
-      rec.accelerated = reject ? -1 : 1;
-      ++(reject ? report.rejected : report.accepted);
-    }
+    const bool reject =
+        anderson_ && anderson_->reject(merit, failures == 0 && s.u.allFinite(), rec, report);
     if (!reject) report.strain_failures += failures;
     policy.record(rec);
-    extrapolated = false;
     if (reject) {
       s = plain_;  // the plain iterate G(x^{n-1})
-      anderson_->restart();
       if (policy.capped(n)) break;
       continue;
     }
@@ -370,11 +361,9 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     }
     if (anderson_) {
       pack(s, g_);
-      if (anderson_->step(x_, g_) > 0) {
+      if (anderson_->extrapolate(x_, g_, merit)) {
         plain_ = s;
         unpack(g_, s);
-        extrapolated = true;
-        merit_before = merit;
       }
     }
   }

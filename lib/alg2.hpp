@@ -89,6 +89,9 @@ class Solver {
   /// The augmentation parameter R in use (the configuration's, or the last one chosen by the
   /// adaptive rule, AlgorithmParams::adaptive_R), and how many times K was factorized.
   double R() const { return R_; }
+  /// Wall-clock seconds of the setup: the discretization, then the precompute (assembly and
+  /// factorization of K) and the rest of the constructor.
+  double setup_seconds() const { return setup_seconds_; }
   int factorizations() const { return factorizations_; }
 
  private:
@@ -151,6 +154,7 @@ class Solver {
   Discretization disc_;
   double R_ = 1;  ///< R in use (see R())
   int factorizations_ = 0;
+  double setup_seconds_ = 0;
   // Adaptive R's safeguard (adapt_R): whether R was last lowered, the R before, the best merit
   // since, its iteration and iterate; the floor left by an undone lowering.
   bool lowered_ = false;
@@ -171,7 +175,7 @@ class Solver {
   Multipliers half_;
   State prev_;
   // Anderson acceleration (allocated once): history, packed iterates, weights, the plain iterate.
-  std::unique_ptr<Anderson> anderson_;
+  std::unique_ptr<SafeguardedAnderson> anderson_;
   Eigen::VectorXd x_, g_, w_cell_, w_facet_;
   double w_u_ = 0;  ///< weight of u in the accelerated vector (mean-det only)
   State plain_;

@@ -46,4 +46,20 @@ int Anderson::step(const Eigen::VectorXd& x, Eigen::VectorXd& g) {
   return k;
 }
 
+bool SafeguardedAnderson::reject(double merit, bool ok, IterationRecord& rec, StepReport& report) {
+  if (!extrapolated_) return false;
+  extrapolated_ = false;
+  const bool rejected = !(ok && merit <= merit_before_);
+  rec.accelerated = rejected ? -1 : 1;
+  ++(rejected ? report.rejected : report.accepted);
+  if (rejected) aa_.restart();
+  return rejected;
+}
+
+bool SafeguardedAnderson::extrapolate(const Eigen::VectorXd& x, Eigen::VectorXd& g, double merit) {
+  extrapolated_ = aa_.step(x, g) > 0;
+  if (extrapolated_) merit_before_ = merit;
+  return extrapolated_;
+}
+
 }  // namespace ltl

@@ -15,6 +15,8 @@
 
 #include <Eigen/Dense>
 
+#include "state.hpp"
+
 namespace ltl {
 
 class Anderson {
@@ -47,6 +49,40 @@ class Anderson {
   Eigen::VectorXd f_, f_prev_, g_prev_, step_;
   Small gram_;
   SmallVec rhs_, gamma_;
+};
+
+/// The safeguard that makes Anderson acceleration "one that can only help", shared by ALG2
+/// (alg2.cpp) and the Signorini solver (signorini.cpp): an accelerated iterate is kept only when
+/// the merit r_G + r_B of the iteration that follows it does not exceed the merit of the iterate
+/// it was extrapolated from (and that iteration went well); otherwise the caller goes back to
+/// the plain iterate and the history restarts. Per iteration n of a fixed-point loop:
+///
+///   pack(state, x);  iterate;  rec = its residuals
+///   if (aa.reject(merit, ok, rec, report)) { state = plain; continue; }
+///   if (stop) break;
+///   pack(state, g);  if (aa.extrapolate(x, g, merit)) { plain = state; unpack(g, state); }
+class SafeguardedAnderson {
+ public:
+  SafeguardedAnderson(Eigen::Index n, int depth) : aa_(n, depth) {}
+
+  /// After an iteration with merit `merit` (ok: no failed local step, finite iterate): when it
+  /// started from an accelerated iterate, marks rec.accelerated (+1 kept, -1 rejected) and counts
+  /// it in report.accepted / report.rejected. True when rejected (the history is then restarted).
+  bool reject(double merit, bool ok, IterationRecord& rec, StepReport& report);
+  /// After a kept iteration that did not stop: x the packed iterate it started from, g the packed
+  /// iterate it produced, overwritten with the accelerated one when the history is full. True
+  /// when g was overwritten (the caller keeps its plain iterate and unpacks g).
+  bool extrapolate(const Eigen::VectorXd& x, Eigen::VectorXd& g, double merit);
+  /// Forgets the history (a new time step, a new R).
+  void restart() {
+    aa_.restart();
+    extrapolated_ = false;
+  }
+
+ private:
+  Anderson aa_;
+  bool extrapolated_ = false;  ///< is the current iterate an accelerated one?
+  double merit_before_ = 0;    ///< the merit of the iterate it was extrapolated from
 };
 
 }  // namespace ltl

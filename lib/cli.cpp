@@ -180,16 +180,4 @@ RunOptions run_options(const CommandLine& cmd, const Problem& problem) {
   return options;
 }
 
-void print_summary(const Problem& problem, const RunOptions& options, const RunSummary& s) {
-  if (options.verbosity > 0 && s.last_step < s.first_step)  // a finished run resumed
-    std::printf(
-        "%s: nothing to do: %s already holds steps 1..%d (time.steps = %d; raise it to "
-        "extend the run)\n",
-        problem.name.c_str(), options.output.c_str(), s.last_step, problem.time.steps);
-  else if (options.verbosity > 0)
-    std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
-                s.first_step, s.last_step, s.setup_seconds, s.solver_seconds,
-                options.output.c_str());
-}
-
 }  // namespace ltl

@@ -7,8 +7,8 @@
 // factorization, divergence), 2 on bad command-line usage.
 //
 // A driver's main() is guarded_main around its recipe (experiments/fig5/fig5.cpp):
-//   load_problem(cmd) -> run_options(cmd, problem) -> Solver -> ResultsWriter -> time steps
-//   (lib/simulation.hpp) -> print_summary -> the figure's report.
+//   load_problem(cmd) -> run_options(cmd, problem) -> Solver{Discretization(problem)} ->
+//   run(solver, options) (the time steps, lib/simulation.hpp) -> the figure's report.
 #pragma once
 
 #include <functional>
@@ -45,9 +45,5 @@ Problem load_problem(const CommandLine& cmd);
 /// configuration's output.file, else results/<name>.h5; its directory is created (a path below
 /// a regular file is an Error).
 RunOptions run_options(const CommandLine& cmd, const Problem& problem);
-
-/// The closing line of a run (verbosity > 0): steps computed, setup and solver seconds, the
-/// file written; or "nothing to do" for a finished run resumed.
-void print_summary(const Problem& problem, const RunOptions& options, const RunSummary& summary);
 
 }  // namespace ltl

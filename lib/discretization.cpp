@@ -1,13 +1,16 @@
 #include "discretization.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "error.hpp"
+#include "measures.hpp"
 
 namespace ltl {
 
 Discretization::Discretization(const Problem& problem) : problem_(problem) {
+  const auto t0 = std::chrono::steady_clock::now();
   problem_.validate();
   const Mesh& mesh = problem_.mesh;
   const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
@@ -112,6 +115,7 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
   F_dead_ = body_load(mesh, problem_.body_force);
   for (const auto& t : problem_.tractions)
     F_dead_ += surface_load(mesh, mesh.boundary(t.group, t.origin), t.g);
+  build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 // [(2.7), discretization.md] Per cell, with F_k = I + (point gradient at quadrature point k)
@@ -221,8 +225,7 @@ Eigen::VectorXd Discretization::pressure(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  if (!problem_.contact) return {};
-  return -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim()));
+  return ltl::contact_pressure(problem_, s);  // one definition, lib/measures.cpp
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {

@@ -28,6 +28,8 @@ class Discretization {
   explicit Discretization(const Problem& problem);
 
   const Problem& problem() const { return problem_; }
+  /// Wall-clock seconds the constructor took (part of the run's setup time).
+  double build_seconds() const { return build_seconds_; }
   int dim() const { return problem_.mesh.dim; }
   int num_cells() const { return problem_.mesh.num_cells(); }
   int num_nodes() const { return problem_.mesh.num_nodes(); }
@@ -110,7 +112,7 @@ class Discretization {
   DirichletData bc_;
   Eigen::MatrixXd F_dead_, Id_;
   Eigen::VectorXd vol_rows_;
-  double volume_ = 0, contact_area_ = 0;
+  double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
   // Mean-det: point gradients at the cell quadrature points (rows dim*(nq*e + k) + j, like Gbar),
   // their weighted transpose, the weights, and work buffers.
   bool mean_det_ = false;

@@ -22,27 +22,26 @@ Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
 ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points, const State& s,
                                  int axis) {
   ContactMeasures m;
-  const FacetOperators* pts = &points;
   if (!pb.contact) return m;
   const int dim = pb.mesh.dim;
   const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
   const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
   const Eigen::MatrixXd x = pb.mesh.X + s.u;          // deformed nodes
-  const Eigen::MatrixXd xp = pts->mean * x;           // deformed contact points
+  const Eigen::MatrixXd xp = points.mean * x;         // deformed contact points
   const Eigen::VectorXd p = contact_pressure(pb, s);  // nominal contact pressure
   const Eigen::VectorXi in = contact_set(p);
-  m.points = pts->size();
+  m.points = points.size();
   m.p_max = p.size() ? p.maxCoeff() : 0.0;
   double M0 = 0, M2 = 0;
-  for (int i = 0; i < pts->size(); ++i) {
-    m.force += pts->area(i) * p(i);
+  for (int i = 0; i < points.size(); ++i) {
+    m.force += points.area(i) * p(i);
     if (!in(i)) continue;
     ++m.in_contact;
-    m.area += pts->area(i);
-    for (SpMatR::InnerIterator it(pts->mean, i); it; ++it)
+    m.area += points.area(i);
+    for (SpMatR::InnerIterator it(points.mean, i); it; ++it)
       m.a_edge = std::max(m.a_edge, x(it.col(), axis));
-    M0 += pts->area(i) * p(i);
-    M2 += pts->area(i) * p(i) * xp(i, axis) * xp(i, axis);
+    M0 += points.area(i) * p(i);
+    M2 += points.area(i) * p(i) * xp(i, axis) * xp(i, axis);
   }
   m.a_moment = M0 > 0 ? 2 * std::sqrt(M2 / M0) : 0.0;
   m.penetration = -INFINITY;

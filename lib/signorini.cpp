@@ -281,11 +281,10 @@ SignoriniSolution SignoriniSolver::solve(
   auto rms = [&](const Eigen::VectorXd& x) {
     return std::sqrt(facets_.area.dot(x.cwiseAbs2()) / area_c_);
   };
-  // Anderson acceleration of the map (H, lambda_c) -> (H, lambda_c), with the safeguard of ALG2
-  // (alg2.cpp): an extrapolated iterate is kept only when the merit r_G + r_B of the iteration
-  // that follows it does not exceed the merit it was extrapolated from. The packed vector weighs
-  // each facet by sqrt(|G_s|) and the multiplier by 1 / R q_c, as in (3.3).
-  std::optional<Anderson> anderson;
+  // Anderson acceleration of the map (H, lambda_c) -> (H, lambda_c) with ALG2's safeguard
+  // (anderson.hpp). The packed vector weighs each facet by sqrt(|G_s|) and the multiplier by
+  // 1 / R q_c, as in (3.3).
+  std::optional<SafeguardedAnderson> anderson;
   Eigen::VectorXd x, gx, H_plain, lambda_plain;
   const Eigen::ArrayXd w = facets_.area.cwiseSqrt().array();
   auto pack = [&](Eigen::VectorXd& z) {
@@ -297,8 +296,6 @@ SignoriniSolution SignoriniSolver::solve(
     x.resize(2 * nf);
     gx.resize(2 * nf);
   }
-  bool extrapolated = false;
-  double merit_before = 0;
 
   for (int n = 1;; ++n) {
     IterationRecord rec;
@@ -338,30 +335,22 @@ SignoriniSolution SignoriniSolver::solve(
     rec.r_G = rms(sol.H - H_prev) / U;
     rec.t_update += seconds_since(t0);
     const double merit = rec.r_G + rec.r_B;
-    const bool reject = extrapolated && !(merit <= merit_before && sol.u.allFinite());
-    if (extrapolated) {
-      rec.accelerated = reject ? -1 : 1;
-      ++(reject ? report.rejected : report.accepted);
-    }
-    extrapolated = false;
+    const bool reject = anderson && anderson->reject(merit, sol.u.allFinite(), rec, report);
     policy.record(rec);
-    if (reject) {  // back to the plain iterate, history restarted
+    if (reject) {  // back to the plain iterate
       sol.H = H_plain;
       sol.lambda_c = lambda_plain;
-      anderson->restart();
       if (policy.capped(n)) break;
       continue;
     }
     if (policy.stop(rec, sol.u.allFinite())) break;
     if (anderson) {
       pack(gx);
-      if (anderson->step(x, gx) > 0) {
+      if (anderson->extrapolate(x, gx, merit)) {
         H_plain = sol.H;
         lambda_plain = sol.lambda_c;
         sol.H = (gx.head(nf).array() / w).matrix();
         sol.lambda_c = (gx.tail(nf).array() / w * Rqc).matrix();
-        extrapolated = true;
-        merit_before = merit;
       }
     }
   }

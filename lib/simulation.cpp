@@ -233,7 +233,7 @@ struct ResultsWriter::File {
   std::optional<OutputLock> lock;      ///< held while the writer lives
 };
 
-ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options, double setup_seconds)
+ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
     : solver_(solver),
       problem_(solver.problem()),
       options_(options),
@@ -241,7 +241,7 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options, do
       file_(std::make_unique<File>()),
       start_(solver.initial_state()) {
   const Problem& problem = problem_;
-  summary_.setup_seconds = setup_seconds;
+  summary_.setup_seconds = solver.setup_seconds();
   if (options.resume && options.output.empty()) throw Error("--resume needs a results file");
   if (!options.output.empty()) {
     check_output_path(problem, options.output);
@@ -303,7 +303,7 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options, do
     std::printf("%s: %d cells, %d nodes, %d contact points, %d factor(s), setup %.3f s\n",
                 problem.name.c_str(), problem.mesh.num_cells(), problem.mesh.num_nodes(),
                 solver.facets() ? solver.facets()->size() : 0, solver.global_step().num_factors(),
-                setup_seconds);
+                solver.setup_seconds());
   if (options.verbosity > 0)
     std::printf("%s: algorithm %s\n", problem.name.c_str(),
                 describe_algorithm(problem.algorithm).c_str());
@@ -378,17 +378,32 @@ RunSummary ResultsWriter::finish(const State& last) {
   return summary_;
 }
 
-RunSummary run(const Problem& problem, const RunOptions& options,
+RunSummary run(Solver& solver, const RunOptions& options,
                const std::function<void(const Solver&, int, const State&)>& on_step) {
-  const Stopwatch setup;
-  Solver solver(problem);  // bad input and failed factorizations throw here: no file is written
-  ResultsWriter results(solver, options, setup.seconds());
+  ResultsWriter results(solver, options);
   State state = results.start_state();
   for (int p = results.next_step(); p <= results.last_step(); ++p) {  // (2.1)
     results.append(solve_time_step(solver, p, state, options.verbosity));
     if (on_step) on_step(solver, p, state);
   }
-  return results.finish(state);
+  const RunSummary summary = results.finish(state);
+  const Problem& problem = solver.problem();
+  if (options.verbosity > 0 && summary.last_step < summary.first_step)  // a finished run resumed
+    std::printf(
+        "%s: nothing to do: %s already holds steps 1..%d (time.steps = %d; raise it to "
+        "extend the run)\n",
+        problem.name.c_str(), options.output.c_str(), summary.last_step, problem.time.steps);
+  else if (options.verbosity > 0)
+    std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
+                summary.first_step, summary.last_step, summary.setup_seconds,
+                summary.solver_seconds, options.output.c_str());
+  return summary;
+}
+
+RunSummary run(const Problem& problem, const RunOptions& options,
+               const std::function<void(const Solver&, int, const State&)>& on_step) {
+  Solver solver(problem);  // bad input and failed factorizations throw here: no file is written
+  return run(solver, options, on_step);
 }
 
 }  // namespace ltl

@@ -1,18 +1,13 @@
 // The time loop (2.1): one ALG2 solve per time step, each converged step appended to the
-// results file as soon as it is done. Its pieces, in the order a driver uses them:
+// results file as soon as it is done. run(solver, options) is, in lib/simulation.cpp:
 //
-//   Stopwatch setup;                             // times the discretization
-//   Solver solver(problem);                      // discretize; K factorized once (4.5)
-//   ResultsWriter results(solver, options, setup.seconds());  // lock, --resume, --stop-after
+//   ResultsWriter results(solver, options);      // lock, --resume, --stop-after
 //   State s = results.start_state();             // initial state, or the file's last step
 //   for (int p = results.next_step(); p <= results.last_step(); ++p)   // (2.1)
 //     results.append(solve_time_step(solver, p, s, options.verbosity)); // (4.1)-(4.4)
-//   RunSummary summary = results.finish(s);
-//
-// run() is exactly this loop.
+//   RunSummary summary = results.finish(s);      // + one summary line
 #pragma once
 
-#include <chrono>
 #include <functional>
 #include <map>
 #include <memory>
@@ -38,17 +33,6 @@ struct RunSummary {
   double solver_seconds = 0;          ///< time in the iterations (not setup or output)
   double setup_seconds = 0;           ///< discretization, assembly and factorization
   State state;                        ///< the last converged state
-};
-
-/// Wall-clock seconds since construction (the setup time printed and stored in RunSummary).
-class Stopwatch {
- public:
-  double seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
-
- private:
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
 /// One time step p as computed by solve_time_step: ALG2's report and the state it left.
@@ -82,7 +66,7 @@ class ResultsWriter {
  public:
   /// Checks the output path, takes the lock, on --resume checks and reads the file's last step;
   /// then prints the problem's size and algorithm (verbosity > 0). Throws Error.
-  ResultsWriter(const Solver& solver, const RunOptions& options, double setup_seconds);
+  ResultsWriter(const Solver& solver, const RunOptions& options);
   ResultsWriter(const ResultsWriter&) = delete;
   ResultsWriter& operator=(const ResultsWriter&) = delete;
   ~ResultsWriter();
@@ -120,7 +104,11 @@ class ResultsWriter {
 /// {E, e, beta, lambda, lambda_c}, keep beta_{p-1} for the dissipation, iterate to
 /// convergence. A step that does not converge ends the run with an Error (nothing is written
 /// for that step; an existing results file is marked "diverged at step p").
-/// `on_step` (optional) sees every converged step. The composition of the pieces above.
+/// `on_step` (optional) sees every converged step. The composition of the pieces above, then
+/// one summary line (verbosity > 0).
+RunSummary run(Solver& solver, const RunOptions& options,
+               const std::function<void(const Solver&, int, const State&)>& on_step = {});
+/// The same with the solver built here from the problem.
 RunSummary run(const Problem& problem, const RunOptions& options,
                const std::function<void(const Solver&, int, const State&)>& on_step = {});
 

@@ -15,15 +15,14 @@ namespace ltl::figures {
 /// Prints the peel summary of `name`; `extra(facets, opening)` (optional) prints more lines
 /// before the hardest step.
 inline void peel_report(
-    const char* name, const Problem& problem, const RunSummary& run,
+    const char* name, const Solver& solver, const RunSummary& run,
     const std::function<void(const FacetOperators&, const Eigen::VectorXd&)>& extra = {}) {
+  const Problem& problem = solver.problem();
   const State& s = run.state;
-  // The measures (lib/measures.hpp, one definition each) over the contact points, which carry
-  // beta: the facets of the contact surface (discretization.contact = "facet-mean", as in the
-  // paper) or its nodes.
-  const FacetOperators facets =
-      contact_points(problem.mesh, problem.mesh.boundary(problem.contact->group),
-                     problem.discretization.nodal_contact);
+  // The measures (lib/measures.hpp, one definition each) over the solver's contact points, which
+  // carry beta: the facets of the contact surface (discretization.contact = "facet-mean", as in
+  // the paper) or its nodes.
+  const FacetOperators& facets = *solver.facets();
   const PeelMeasures m = peel_measures(problem, facets, s, 0);
   const Eigen::VectorXd opening = ltl::opening(problem, s);  // -e . N per point, (4.11)
 

@@ -41,7 +41,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <utility>
 
 #include "../fig3/peel_report.hpp"
 #include "cli.hpp"
@@ -62,10 +61,10 @@ namespace {
 
 // The numbers of the figure at the last step (t = 800 s): beta and the vertical displacement of
 // the contact surface along x1, summarized by the debonding front and the largest opening.
-void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
+void report(const ltl::Solver& solver, const ltl::RunSummary& run) {
   // Here -N = e2: the opening is the vertical displacement of the contact surface the paper plots.
   ltl::figures::peel_report(
-      "fig4", problem, run, [](const ltl::FacetOperators& facets, const Eigen::VectorXd& opening) {
+      "fig4", solver, run, [](const ltl::FacetOperators& facets, const Eigen::VectorXd& opening) {
         std::printf("  vertical displacement of the contact surface e2 at x1 = 0.25, 0.5, 0.75 m:");
         for (double x : {0.25, 0.5, 0.75}) {
           int f_near = 0;
@@ -78,21 +77,14 @@ void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
 
 }  // namespace
 
-// The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize -> solve the time steps,
-// each written as soon as it converges -> measure.
+// The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize and precompute -> solve the
+// time steps, each written as soon as it converges -> measure.
 static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);             // the configuration, validated
   const ltl::RunOptions options = ltl::run_options(cmd, problem);  // -o or results/fig4.h5
-  const ltl::Stopwatch setup;
-  ltl::Discretization discrete(problem);    // cells, contact points, Dirichlet data, loads
-  ltl::Solver solver(std::move(discrete));  // ALG2's precompute: K with R q factorized once (4.5)
-  ltl::ResultsWriter results(solver, options, setup.seconds());  // locked; --resume, --stop-after
-  ltl::State s = results.start_state();  // the initial state, or the file's last step
-  for (int p = results.next_step(); p <= results.last_step(); ++p)          // (2.1) time steps
-    results.append(ltl::solve_time_step(solver, p, s, options.verbosity));  // ALG2 (4.1)-(4.4)
-  const ltl::RunSummary run = results.finish(s);
-  ltl::print_summary(problem, options, run);
-  report(problem, run);  // the figure's numbers
+  ltl::Solver solver{ltl::Discretization(problem)};  // discretize; K with R q factorized once (4.5)
+  const ltl::RunSummary run = ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
+  report(solver, run);                                    // the figure's numbers
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2.

@@ -34,7 +34,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <utility>
 
 #include "cli.hpp"
 #include "error.hpp"
@@ -58,18 +57,16 @@
 
 namespace {
 
-void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
+void report(const ltl::Solver& solver, const ltl::RunSummary& run) {
+  const ltl::Problem& problem = solver.problem();
   const ltl::State& s = run.state;
   const ltl::Mesh& mesh = problem.mesh;
-  // The measures (lib/measures.hpp, one definition each) over the contact points: the nodes of
-  // the contact surface (default) or its facets (discretization.contact = "facet-mean").
-  const ltl::FacetOperators points = ltl::contact_points(
-      mesh, mesh.boundary(problem.contact->group), problem.discretization.nodal_contact);
-  const ltl::ContactMeasures m = ltl::contact_measures(problem, points, s, 0);
+  // The measures (lib/measures.hpp, one definition each) over the solver's contact points: the
+  // nodes of the contact surface (default) or its facets (discretization.contact = "facet-mean").
+  const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
 
   // The weight of the half cylinder (per unit length): |f| |Omega|.
-  const double weight =
-      problem.body_force.head(mesh.dim).norm() * ltl::cell_operators(mesh).vol.sum();
+  const double weight = problem.body_force.head(mesh.dim).norm() * solver.discretization().volume();
 
   // The drop of the top of the cylinder: u2 at the node (0, 1).
   const int top = ltl::node_at(mesh, Eigen::Vector2d(0, 1));
@@ -91,21 +88,14 @@ void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
 
 }  // namespace
 
-// The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize -> solve the time steps,
-// each written as soon as it converges -> measure.
+// The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize and precompute -> solve the
+// time steps, each written as soon as it converges -> measure.
 static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);             // the configuration, validated
   const ltl::RunOptions options = ltl::run_options(cmd, problem);  // -o or results/fig5.h5
-  const ltl::Stopwatch setup;
-  ltl::Discretization discrete(problem);    // cells, contact points, Dirichlet data, loads
-  ltl::Solver solver(std::move(discrete));  // ALG2's precompute: K with R q factorized once (4.5)
-  ltl::ResultsWriter results(solver, options, setup.seconds());  // locked; --resume, --stop-after
-  ltl::State s = results.start_state();  // the initial state, or the file's last step
-  for (int p = results.next_step(); p <= results.last_step(); ++p)          // (2.1) time steps
-    results.append(ltl::solve_time_step(solver, p, s, options.verbosity));  // ALG2 (4.1)-(4.4)
-  const ltl::RunSummary run = results.finish(s);
-  ltl::print_summary(problem, options, run);
-  report(problem, run);  // the figure's numbers
+  ltl::Solver solver{ltl::Discretization(problem)};  // discretize; K with R q factorized once (4.5)
+  const ltl::RunSummary run = ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
+  report(solver, run);                                    // the figure's numbers
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2.

@@ -36,7 +36,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <utility>
 
 #include "cli.hpp"
 #include "fe.hpp"
@@ -57,26 +56,14 @@
 
 namespace {
 
-void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
+void report(const ltl::Solver& solver, const ltl::RunSummary& run) {
+  const ltl::Problem& problem = solver.problem();
   const ltl::State& s = run.state;
   const ltl::Mesh& mesh = problem.mesh;
-  const auto& contact = *problem.contact;
-  const ltl::FacetOperators points =
-      ltl::contact_points(mesh, mesh.boundary(contact.group), problem.discretization.nodal_contact);
-  const ltl::ContactMeasures m = ltl::contact_measures(problem, points, s, 0);
-
-  // The applied load: the dead tractions integrated over their facets (exact at the facet mean
-  // position for an affine g), component along -N (downward).
-  double load = 0;
-  const Eigen::Vector3d N3 = contact.plane_normal.normalized();
-  for (const auto& t : problem.tractions) {
-    const ltl::FacetOperators tf = ltl::facet_operators(mesh, mesh.boundary(t.group));
-    for (int f = 0; f < tf.size(); ++f) {
-      Eigen::Vector3d c = Eigen::Vector3d::Zero();
-      c.head(mesh.dim) = tf.centre.col(f);
-      load += t.g(c).dot(N3) * tf.area(f);
-    }
-  }
+  // The measures (lib/measures.hpp) over the solver's contact points, and the applied load
+  // along the plane's normal N (downward): the consistent nodal loads summed.
+  const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
+  const double load = ltl::load_along_normal(solver);
 
   // The sag: the largest downward displacement, and where it happens.
   int n_sag = 0;
@@ -101,21 +88,14 @@ void report(const ltl::Problem& problem, const ltl::RunSummary& run) {
 
 }  // namespace
 
-// The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize -> solve the time steps,
-// each written as soon as it converges -> measure.
+// The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize and precompute -> solve the
+// time steps, each written as soon as it converges -> measure.
 static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);             // the configuration, validated
   const ltl::RunOptions options = ltl::run_options(cmd, problem);  // -o or results/fig6.h5
-  const ltl::Stopwatch setup;
-  ltl::Discretization discrete(problem);    // cells, contact points, Dirichlet data, loads
-  ltl::Solver solver(std::move(discrete));  // ALG2's precompute: K with R q factorized once (4.5)
-  ltl::ResultsWriter results(solver, options, setup.seconds());  // locked; --resume, --stop-after
-  ltl::State s = results.start_state();  // the initial state, or the file's last step
-  for (int p = results.next_step(); p <= results.last_step(); ++p)          // (2.1) time steps
-    results.append(ltl::solve_time_step(solver, p, s, options.verbosity));  // ALG2 (4.1)-(4.4)
-  const ltl::RunSummary run = results.finish(s);
-  ltl::print_summary(problem, options, run);
-  report(problem, run);  // the figure's numbers
+  ltl::Solver solver{ltl::Discretization(problem)};  // discretize; K with R q factorized once (4.5)
+  const ltl::RunSummary run = ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
+  report(solver, run);                                    // the figure's numbers
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2.
