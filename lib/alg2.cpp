@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "error.hpp"
-#include "iteration.hpp"
+#include "fixed_point.hpp"
 #include "measures.hpp"
 
 namespace ltl {
@@ -32,20 +32,16 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
   // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per facet.
   w_cell_ = (a.q * disc_.volume_rows()).cwiseSqrt() / norm_I_;
   if (facets) w_facet_ = (a.q_c * facets->area).cwiseSqrt() / norm_I_;
-  if (a.acceleration == Acceleration::Anderson) {
-    Eigen::Index n = dim * dim * nc + dim * nf;            // lambda, lambda_c
-    if (a.accelerate != Accelerated::Multipliers) n *= 2;  // E, e
-    if (a.accelerate == Accelerated::All) n += nf;         // beta
-    // Mean-det: the lagged fluctuation terms make u part of the state the map acts on, so u is
-    // extrapolated with the rest, weighted like a gradient, sqrt(q |Omega| / #nodes) / h.
-    if (disc_.mean_det()) {
-      n += dim * nn;
-      const double h = std::pow(disc_.volume() / nc, 1.0 / dim);
-      w_u_ = std::sqrt(a.q * disc_.volume() / nn) / (h * norm_I_);
-    }
-    anderson_ = std::make_unique<SafeguardedAnderson>(n, a.depth);
-    x_.resize(n);
-    g_.resize(n);
+  // The packed iterate: lambda, lambda_c; E, e unless only the multipliers are accelerated; beta
+  // with "all". Mean-det: the lagged fluctuation terms make u part of the state the map acts on,
+  // so u is extrapolated with the rest, weighted like a gradient, sqrt(q |Omega| / #nodes) / h.
+  packed_size_ = dim * dim * nc + dim * nf;
+  if (a.accelerate != Accelerated::Multipliers) packed_size_ *= 2;
+  if (a.accelerate == Accelerated::All) packed_size_ += nf;
+  if (disc_.mean_det()) {
+    packed_size_ += dim * nn;
+    const double h = std::pow(disc_.volume() / nc, 1.0 / dim);
+    w_u_ = std::sqrt(a.q * disc_.volume() / nn) / (h * norm_I_);
   }
 
   rhs_.resize(nn, dim);
@@ -328,50 +324,50 @@ void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
       [&](Eigen::MatrixXd& u) { u = ConstMap(p, u.rows(), u.cols()) / w_u_; });
 }
 
+// ALG2 as a fixed-point map of the driver: the iterate is the caller's state; one application is
+// iterate(); adaptive R is the map's own check after an iteration.
+class Solver::Alg2Map final : public FixedPointMap {
+ public:
+  Alg2Map(Solver& solver, State& s, const Eigen::VectorXd& beta_prev)
+      : solver_(solver), s_(s), beta_prev_(beta_prev) {}
+  Eigen::Index packed_size() const override { return solver_.packed_size_; }
+  void pack(Eigen::VectorXd& z) const override { solver_.pack(s_, z); }
+  void unpack(const Eigen::VectorXd& z) override { solver_.unpack(z, s_); }
+  IterationRecord apply(int& failures) override {
+    return solver_.iterate(s_, beta_prev_, failures);
+  }
+  bool finite() const override { return s_.u.allFinite(); }
+  void keep_plain() override { plain_ = s_; }
+  void restore_plain() override { s_ = plain_; }
+  // Adaptive R: a new R re-factorizes K (the packed multipliers are scaled by 1 / R q, so the
+  // acceleration's history restarts).
+  bool after_iteration(const IterationRecord& rec) override {
+    const AlgorithmParams& a = solver_.alg();
+    if (!(a.adaptive_R && rec.n % a.adapt_every == 0 && solver_.adapt_R(rec, s_))) return false;
+    ++R_changes;
+    return true;
+  }
+  int R_changes = 0;
+
+ private:
+  Solver& solver_;
+  State& s_;
+  const Eigen::VectorXd& beta_prev_;
+  State plain_;
+};
+
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
-  const AlgorithmParams& a = alg();
-  IterationPolicy policy(a, report, progress);
-  // Anderson with the safeguard that can only help (anderson.hpp, SafeguardedAnderson).
-  if (anderson_) anderson_->restart();
   lowered_ = false;
-  for (int n = 1;; ++n) {
-    if (anderson_) pack(s, x_);
-    int failures = 0;
-    IterationRecord rec = iterate(s, beta_prev, failures);
-    rec.n = n;
-    const double merit = rec.r_G + rec.r_B;
-    const bool reject =
-        anderson_ && anderson_->reject(merit, failures == 0 && s.u.allFinite(), rec, report);
-    if (!reject) report.strain_failures += failures;
-    policy.record(rec);
-    if (reject) {
-      s = plain_;  // the plain iterate G(x^{n-1})
-      if (policy.capped(n)) break;
-      continue;
-    }
-    if (policy.stop(rec, s.u.allFinite())) break;
-    // Adaptive R: a new R re-factorizes K and restarts the acceleration's history (its packed
-    // multipliers are scaled by 1 / R q).
-    if (a.adaptive_R && n % a.adapt_every == 0 && adapt_R(rec, s)) {
-      ++report.R_changes;
-      if (anderson_) anderson_->restart();
-      continue;
-    }
-    if (anderson_) {
-      pack(s, g_);
-      if (anderson_->extrapolate(x_, g_, merit)) {
-        plain_ = s;
-        unpack(g_, s);
-      }
-    }
-  }
+  Alg2Map map(*this, s, beta_prev);
+  drive(map, alg(), report, progress);
   const EquilibriumMeasure eq = equilibrium_measure(*this, s);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;
   report.penetration = eq.penetration;
   report.R = R_;
+  report.R_changes = map.R_changes;
   return report;
 }
 

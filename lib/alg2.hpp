@@ -12,7 +12,8 @@
 //           lambda -= rho R q (I + Gbar u - E),  lambda_c -= rho R q_c (ubar - e)
 //
 // Stopping [LTL87 (4.4)]: r_G + r_B < tol, with both parts scaled by ||I||_q (see residuals());
-// the policy (NaN, blow-up, cap, history) is iteration.hpp's, shared with the Signorini solver.
+// the loop (acceleration, safeguard, NaN, blow-up, cap, history) is the driver's (fixed_point.hpp),
+// shared with the Signorini solver.
 #pragma once
 
 #include <Eigen/Dense>
@@ -21,7 +22,6 @@
 #include <string>
 #include <vector>
 
-#include "anderson.hpp"
 #include "contact_step.hpp"
 #include "discretization.hpp"
 #include "fe.hpp"
@@ -174,11 +174,12 @@ class Solver {
   GlobalOutput global_out_;
   Multipliers half_;
   State prev_;
-  // Anderson acceleration (allocated once): history, packed iterates, weights, the plain iterate.
-  std::unique_ptr<SafeguardedAnderson> anderson_;
-  Eigen::VectorXd x_, g_, w_cell_, w_facet_;
+  // The packed iterate of Anderson acceleration: its length and weights.
+  Eigen::Index packed_size_ = 0;
+  Eigen::VectorXd w_cell_, w_facet_;
   double w_u_ = 0;  ///< weight of u in the accelerated vector (mean-det only)
-  State plain_;
+  /// ALG2 as the fixed-point map of the driver (fixed_point.hpp), in alg2.cpp.
+  class Alg2Map;
 };
 
 }  // namespace ltl

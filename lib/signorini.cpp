@@ -4,11 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
-#include <optional>
 
-#include "anderson.hpp"
 #include "error.hpp"
-#include "iteration.hpp"
+#include "fixed_point.hpp"
 
 namespace ltl {
 
@@ -260,6 +258,87 @@ SignoriniSolution SignoriniSolver::solve(
   return solve(g_.cwiseMin(0.0), Eigen::VectorXd::Zero(nf), progress);
 }
 
+// The Signorini iteration (4.1)-(4.3) / (7.7)-(7.10) on (H, lambda_c) as a fixed-point map of
+// the driver (fixed_point.hpp). The packed iterate weighs each facet by sqrt(|G_s|) and the
+// multiplier by 1 / R q_c, as in (3.3).
+class SignoriniSolver::Map final : public FixedPointMap {
+ public:
+  Map(SignoriniSolver& solver, SignoriniSolution& sol)
+      : S_(solver),
+        sol_(sol),
+        nf_(solver.facets_.size()),
+        Rqc_(solver.problem_.algorithm.R * solver.problem_.algorithm.q_c),
+        w_(solver.facets_.area.cwiseSqrt().array()),
+        H_prev_(nf_),
+        lambda_half_(nf_),
+        B_(nf_) {}
+  Eigen::Index packed_size() const override { return 2 * nf_; }
+  void pack(Eigen::VectorXd& z) const override {
+    z.head(nf_) = (w_ * sol_.H.array()).matrix();
+    z.tail(nf_) = (w_ * sol_.lambda_c.array() / Rqc_).matrix();
+  }
+  void unpack(const Eigen::VectorXd& z) override {
+    sol_.H = (z.head(nf_).array() / w_).matrix();
+    sol_.lambda_c = (z.tail(nf_).array() / w_ * Rqc_).matrix();
+  }
+  bool finite() const override { return sol_.u.allFinite(); }
+  void keep_plain() override {
+    H_plain_ = sol_.H;
+    lambda_plain_ = sol_.lambda_c;
+  }
+  void restore_plain() override {
+    sol_.H = H_plain_;
+    sol_.lambda_c = lambda_plain_;
+  }
+
+  IterationRecord apply(int&) override {
+    const AlgorithmParams& alg = S_.problem_.algorithm;
+    const bool bm = alg.update == Update::BermudezMoreno;
+    IterationRecord rec;
+    H_prev_ = sol_.H;
+    // (4.1) / (7.7) global step with (H^{n-1}, lambda_c^{n-1}).
+    auto t0 = clock_type::now();
+    S_.global_solve(sol_.H, sol_.lambda_c, sol_.u);
+    sol_.uN = S_.normal_mean(sol_.u);
+    rec.t_global = seconds_since(t0);
+    // (7.8) Bermudez-Moreno half step with the previous local variable H^{n-1}.
+    t0 = clock_type::now();
+    const Eigen::VectorXd* lambda = &sol_.lambda_c;
+    if (bm) {
+      lambda_half_ = sol_.lambda_c - Rqc_ * (sol_.uN - H_prev_);
+      lambda = &lambda_half_;
+    }
+    rec.t_update = seconds_since(t0);
+    // (4.2) / (7.9) local step: the projection onto {H <= g}.
+    t0 = clock_type::now();
+    sol_.H = signorini_projection(sol_.uN, *lambda, Rqc_, S_.g_);
+    rec.t_contact = seconds_since(t0);
+    // (4.3) / (7.10) multiplier update, and the two residual parts.
+    t0 = clock_type::now();
+    B_ = sol_.uN - sol_.H;  // B(u^n, H^n) (7.4)
+    if (bm)
+      sol_.lambda_c = lambda_half_ - (2 * alg.rho - 1) * Rqc_ * B_;
+    else
+      sol_.lambda_c -= alg.rho * Rqc_ * B_;
+    const double U = std::max(sol_.u.rowwise().norm().maxCoeff(), 1e-300);
+    rec.r_B = rms(B_) / U;
+    rec.r_G = rms(sol_.H - H_prev_) / U;
+    rec.t_update += seconds_since(t0);
+    return rec;
+  }
+
+ private:
+  double rms(const Eigen::VectorXd& x) const {
+    return std::sqrt(S_.facets_.area.dot(x.cwiseAbs2()) / S_.area_c_);
+  }
+  SignoriniSolver& S_;
+  SignoriniSolution& sol_;
+  const int nf_;
+  const double Rqc_;
+  const Eigen::ArrayXd w_;
+  Eigen::VectorXd H_prev_, lambda_half_, B_, H_plain_, lambda_plain_;
+};
+
 SignoriniSolution SignoriniSolver::solve(
     const Eigen::VectorXd& H0, const Eigen::VectorXd& lambda_c0,
     const std::function<void(const IterationRecord&)>& progress) {
@@ -270,90 +349,11 @@ SignoriniSolution SignoriniSolver::solve(
         cat("SignoriniSolver::solve: H0 and lambda_c0 must have one entry per contact "
             "facet (",
             nf, "); got ", H0.size(), " and ", lambda_c0.size()));
-  const double Rqc = alg.R * alg.q_c;
-  const bool bm = alg.update == Update::BermudezMoreno;
   SignoriniSolution sol;
-  StepReport& report = sol.report;
   sol.H = H0;
   sol.lambda_c = lambda_c0;
-  Eigen::VectorXd H_prev(nf), lambda_half(nf), B(nf);
-  IterationPolicy policy(alg, report, progress);
-  auto rms = [&](const Eigen::VectorXd& x) {
-    return std::sqrt(facets_.area.dot(x.cwiseAbs2()) / area_c_);
-  };
-  // Anderson acceleration of the map (H, lambda_c) -> (H, lambda_c) with ALG2's safeguard
-  // (anderson.hpp). The packed vector weighs each facet by sqrt(|G_s|) and the multiplier by
-  // 1 / R q_c, as in (3.3).
-  std::optional<SafeguardedAnderson> anderson;
-  Eigen::VectorXd x, gx, H_plain, lambda_plain;
-  const Eigen::ArrayXd w = facets_.area.cwiseSqrt().array();
-  auto pack = [&](Eigen::VectorXd& z) {
-    z.head(nf) = (w * sol.H.array()).matrix();
-    z.tail(nf) = (w * sol.lambda_c.array() / Rqc).matrix();
-  };
-  if (alg.acceleration == Acceleration::Anderson) {
-    anderson.emplace(2 * nf, alg.depth);
-    x.resize(2 * nf);
-    gx.resize(2 * nf);
-  }
-
-  for (int n = 1;; ++n) {
-    IterationRecord rec;
-    rec.n = n;
-    H_prev = sol.H;
-    if (anderson) pack(x);
-
-    // (4.1) / (7.7) global step with (H^{n-1}, lambda_c^{n-1}).
-    auto t0 = clock_type::now();
-    global_solve(sol.H, sol.lambda_c, sol.u);
-    sol.uN = normal_mean(sol.u);
-    rec.t_global = seconds_since(t0);
-
-    // (7.8) Bermudez-Moreno half step with the previous local variable H^{n-1}.
-    t0 = clock_type::now();
-    const Eigen::VectorXd* lambda = &sol.lambda_c;
-    if (bm) {
-      lambda_half = sol.lambda_c - Rqc * (sol.uN - H_prev);
-      lambda = &lambda_half;
-    }
-    rec.t_update = seconds_since(t0);
-
-    // (4.2) / (7.9) local step: the projection onto {H <= g}.
-    t0 = clock_type::now();
-    sol.H = signorini_projection(sol.uN, *lambda, Rqc, g_);
-    rec.t_contact = seconds_since(t0);
-
-    // (4.3) / (7.10) multiplier update, and the two residual parts.
-    t0 = clock_type::now();
-    B = sol.uN - sol.H;  // B(u^n, H^n) (7.4)
-    if (bm)
-      sol.lambda_c = lambda_half - (2 * alg.rho - 1) * Rqc * B;
-    else
-      sol.lambda_c -= alg.rho * Rqc * B;
-    const double U = std::max(sol.u.rowwise().norm().maxCoeff(), 1e-300);
-    rec.r_B = rms(B) / U;
-    rec.r_G = rms(sol.H - H_prev) / U;
-    rec.t_update += seconds_since(t0);
-    const double merit = rec.r_G + rec.r_B;
-    const bool reject = anderson && anderson->reject(merit, sol.u.allFinite(), rec, report);
-    policy.record(rec);
-    if (reject) {  // back to the plain iterate
-      sol.H = H_plain;
-      sol.lambda_c = lambda_plain;
-      if (policy.capped(n)) break;
-      continue;
-    }
-    if (policy.stop(rec, sol.u.allFinite())) break;
-    if (anderson) {
-      pack(gx);
-      if (anderson->extrapolate(x, gx, merit)) {
-        H_plain = sol.H;
-        lambda_plain = sol.lambda_c;
-        sol.H = (gx.head(nf).array() / w).matrix();
-        sol.lambda_c = (gx.tail(nf).array() / w * Rqc).matrix();
-      }
-    }
-  }
+  Map map(*this, sol);
+  drive(map, alg, sol.report, progress);
   sol.p = -sol.lambda_c;
   sol.gap = g_ - sol.uN;
   return sol;

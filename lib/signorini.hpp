@@ -130,6 +130,8 @@ class SignoriniSolver {
  private:
   void global_solve(const Eigen::VectorXd& H, const Eigen::VectorXd& lambda_c,
                     Eigen::MatrixXd& u);  // (4.1) / (7.7)
+  /// The iteration as a fixed-point map of the driver (fixed_point.hpp), in signorini.cpp.
+  class Map;
 
   SignoriniProblem problem_;
   FacetOperators facets_;
