@@ -53,6 +53,7 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
     global_out_.ubar.resize(dim, nf);
     c_rows_.resize(nf, dim);
   }
+  if (a.solver == NonlinearSolver::Newton) newton_ = std::make_unique<Newton>(disc_);
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
 }
 
@@ -356,12 +357,42 @@ class Solver::Alg2Map final : public FixedPointMap {
   State plain_;
 };
 
+// [LTL87 (2.1)] One time step: ALG2 (the driver, fixed_point.hpp) to its tolerance, or with
+// algorithm.solver = "newton" ALG2 into Newton's basin and then Newton on the same discrete
+// problem (newton.hpp). A Newton phase that fails goes back to ALG2's iterate, which goes on to
+// a switch 10 times smaller; after the third failure ALG2 runs to its own tolerance.
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
   lowered_ = false;
   Alg2Map map(*this, s, beta_prev);
-  drive(map, alg(), report, progress);
+  const AlgorithmParams& a = alg();
+  if (!newton_) {
+    drive(map, a, report, progress);
+  } else {
+    AlgorithmParams phase = a;
+    double to_switch = a.newton_switch;
+    for (;;) {
+      const bool last = report.newton_attempts >= 3 || to_switch <= a.tol;
+      phase.tol = last ? a.tol : to_switch;
+      report.converged = false;
+      drive(map, phase, report, progress);
+      const bool alg2_done = report.converged && phase.tol <= a.tol;
+      const bool capped = !report.converged && report.iterations >= a.max_iter;
+      if (!(report.converged || capped) || !s.u.allFinite() || report.newton_attempts >= 3) break;
+      ++report.newton_attempts;
+      const Newton::Result r = newton_->solve(s, F_ext_, a, report, progress);
+      if (r.converged) {
+        report.converged = true;
+        report.status = r.status;
+        break;
+      }
+      report.converged = alg2_done;  // ALG2's own answer stands; its state is s
+      report.status = cat(alg2_done ? "converged (ALG2; " : "", r.status, alg2_done ? ")" : "");
+      if (alg2_done || capped) break;
+      to_switch /= 10;
+    }
+  }
   const EquilibriumMeasure eq = equilibrium_measure(*this, s);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;

@@ -26,6 +26,7 @@
 #include "discretization.hpp"
 #include "fe.hpp"
 #include "global_step.hpp"
+#include "newton.hpp"
 #include "problem.hpp"
 #include "state.hpp"
 #include "strain_step.hpp"
@@ -164,8 +165,9 @@ class Solver {
   std::unique_ptr<GlobalStep> global_;
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;
-  double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q
-  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
+  std::unique_ptr<Newton> newton_;  ///< algorithm.solver = "newton" (newton.hpp)
+  double gamma_ = 0;                ///< mean-det's proximal stiffness on the fluctuations, 2 R q
+  Eigen::MatrixXd F_ext_;           ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;
   double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers

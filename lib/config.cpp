@@ -521,12 +521,31 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   }
 
   // [algorithm] [LTL87 sec. 3-4, 7]
-  bool has_R = false, has_q = false, has_q_c = false;
+  bool has_R = false, has_q = false, has_q_c = false, has_solver = false;
   if (r.has("algorithm")) {
     const Reader a = r.sub("algorithm");
-    a.only({"update", "R", "q", "q_c", "rho", "sweeps", "contact_sweeps", "tol", "max_iter",
-            "blowup", "acceleration", "depth", "accelerate", "max_force_residual", "adaptive_R",
-            "adapt_every", "max_refactorizations", "R_min"});
+    a.only({"update",
+            "R",
+            "q",
+            "q_c",
+            "rho",
+            "sweeps",
+            "contact_sweeps",
+            "tol",
+            "max_iter",
+            "blowup",
+            "acceleration",
+            "depth",
+            "accelerate",
+            "max_force_residual",
+            "adaptive_R",
+            "adapt_every",
+            "max_refactorizations",
+            "R_min",
+            "solver",
+            "newton_switch",
+            "force_tol",
+            "newton_max_iter"});
     p.algorithm.update = a.choice<Update>(
         "update", {{"uzawa", Update::Uzawa}, {"bermudez-moreno", Update::BermudezMoreno}}, "uzawa");
     has_R = a.has("R"), has_q = a.has("q"), has_q_c = a.has("q_c");
@@ -562,6 +581,24 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     p.algorithm.R_min = a.number("R_min", p.algorithm.R_min);
     if (a.has("R_min") && !(p.algorithm.R_min > 0))
       a.fail("R_min", cat("= ", p.algorithm.R_min, ": must be > 0"));
+    // ALG2 alone (the paper's), or ALG2 into the basin of Newton's method (newton.hpp).
+    has_solver = a.has("solver");
+    p.algorithm.solver = a.choice<NonlinearSolver>(
+        "solver", {{"alg2", NonlinearSolver::Alg2}, {"newton", NonlinearSolver::Newton}}, "alg2");
+    p.algorithm.newton_switch = a.number("newton_switch", p.algorithm.newton_switch);
+    if (!(p.algorithm.newton_switch > 0))
+      a.fail("newton_switch", cat("= ", p.algorithm.newton_switch, ": must be > 0"));
+    p.algorithm.newton_max_iter =
+        a.integer("newton_max_iter", p.algorithm.newton_max_iter, 1, 1000000);
+    p.algorithm.force_tol = a.number("force_tol", p.algorithm.force_tol);
+    if (!(p.algorithm.force_tol > 0))
+      a.fail("force_tol", cat("= ", p.algorithm.force_tol, ": must be > 0"));
+  }
+  // [choice] solver left out: Newton after ALG2 (newton.hpp) where the Newton phase applies (no
+  // glue), else the paper's ALG2 alone.
+  if (!has_solver) {
+    const bool glue = p.contact && (p.contact->adhesion.kappa > 0 || p.contact->adhesion.w > 0);
+    p.algorithm.solver = glue ? NonlinearSolver::Alg2 : NonlinearSolver::Newton;
   }
   // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).
   derive_algorithm_defaults(p, has_R, has_q, has_q_c);

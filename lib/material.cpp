@@ -73,6 +73,36 @@ Eigen::Matrix2d Material::dW(const Eigen::Matrix2d& F2) const {
   return dW(embed(F2)).topLeftCorner<2, 2>();
 }
 
+/// d/dt dW(F + t H): Mooney-Rivlin 2 C1 H + 2 C2 (2 (F : H) F + |F|^2 H - H F^T F - F H^T F
+/// - F F^T H), the derivative of dI2/dF = 2 (|F|^2 F - F F^T F); compressible
+/// 2 C1 H + phi'(J) (cof F : H) cof F + phi(J) dcof F[H], phi(J) = 2 C3 J - 2 (C1 + C3) / J, with
+/// dcof F[H] column k = h_{k+1} x f_{k+2} + f_{k+1} x h_{k+2}.
+Eigen::Matrix3d Material::d2W(const Eigen::Matrix3d& F, const Eigen::Matrix3d& H) const {
+  if (model == MaterialModel::MooneyRivlin) {
+    const Eigen::Matrix3d C = F.transpose() * F;
+    const Eigen::Matrix3d dI2 = 2.0 * (2.0 * F.cwiseProduct(H).sum() * F + F.squaredNorm() * H -
+                                       H * C - F * H.transpose() * F - F * F.transpose() * H);
+    return 2.0 * C1 * H + C2 * dI2;
+  }
+  const double J = F.determinant();
+  if (!(J > 0.0)) return Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const Eigen::Matrix3d c = cofactor(F);
+  Eigen::Matrix3d dc;
+  for (int k = 0; k < 3; ++k) {
+    const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+    dc.col(k) = H.col(k1).cross(F.col(k2)) + F.col(k1).cross(H.col(k2));
+  }
+  const double phi = 2.0 * C3 * J - 2.0 * (C1 + C3) / J;
+  const double dphi = 2.0 * C3 + 2.0 * (C1 + C3) / (J * J);
+  return 2.0 * C1 * H + dphi * c.cwiseProduct(H).sum() * c + phi * dc;
+}
+
+Eigen::Matrix2d Material::d2W(const Eigen::Matrix2d& F2, const Eigen::Matrix2d& H2) const {
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  H.topLeftCorner<2, 2>() = H2;
+  return d2W(embed(F2), H).topLeftCorner<2, 2>();
+}
+
 double Material::plane_strain_sigma33(const Eigen::Matrix2d& F2, const Eigen::Matrix2d& P2) const {
   const Eigen::Matrix3d dW3 = dW(embed(F2));  // of the law itself, not of a split of it
   const double J = F2.determinant();

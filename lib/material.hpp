@@ -45,6 +45,11 @@ struct Material {
   /// Plane strain: W(diag(F2, 1)) and the in-plane block of dW.
   double W(const Eigen::Matrix2d& F2) const;
   Eigen::Matrix2d dW(const Eigen::Matrix2d& F2) const;
+  /// [LTL87 (1.5), sec. 8] The second derivative in direction H, d/dt dW(F + t H) at t = 0 (the
+  /// consistent tangent of the Newton phase, newton.hpp); plane strain: H = diag(H2, 0), the
+  /// in-plane block. NaN for the compressible law when det F <= 0.
+  Eigen::Matrix3d d2W(const Eigen::Matrix3d& F, const Eigen::Matrix3d& H) const;
+  Eigen::Matrix2d d2W(const Eigen::Matrix2d& F2, const Eigen::Matrix2d& H2) const;
 
   /// [LTL87 (1.5), (1.1)] Plane strain: the out-of-plane Cauchy stress sigma33 of a state with
   /// in-plane gradient F2 and in-plane first Piola-Kirchhoff stress P2 (e.g. the solver's

@@ -62,6 +62,10 @@ enum class Accelerated {
   All,                 ///< E, e, beta, lambda, lambda_c
 };
 
+/// How a time step is solved: the paper's ALG2 alone, or ALG2 from the previous step's state into
+/// the basin of Newton's method on the same discrete problem (newton.hpp).
+enum class NonlinearSolver { Alg2, Newton };
+
 /// Parameters of ALG2 [LTL87 sec. 3-4, 7].
 struct AlgorithmParams {
   double R = 1.0;    ///< augmentation parameter (dimensionless), R > 0
@@ -98,6 +102,14 @@ struct AlgorithmParams {
   /// (the rule is written there), and the mesh length h of the q_c rule (m; 0: q_c was given).
   bool R_derived = false, q_derived = false, q_c_derived = false;
   double h = 0;
+  NonlinearSolver solver = NonlinearSolver::Alg2;
+  /// Newton: ALG2 runs until r_G + r_B < newton_switch, then Newton; a Newton phase that fails
+  /// returns to ALG2's iterate, which goes on to a switch 10 times smaller (at most 3 starts).
+  double newton_switch = 1e-2;
+  /// Newton's stopping test: force residual (max nodal force / max nodal load) and
+  /// complementarity at most force_tol, |G_e| / |O_e| at most 1e-10.
+  double force_tol = 1e-8;
+  int newton_max_iter = 100;  ///< Newton iterations per start (rejected ones included)
 };
 
 /// Discrete choices where the paper's own (P2/H8 with everything on cell and facet means) does not

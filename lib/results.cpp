@@ -1394,6 +1394,9 @@ std::string resolved_configuration(const Problem& p) {
     << (a.accelerate == Accelerated::Multipliers          ? "\"multipliers\""
         : a.accelerate == Accelerated::StrainsMultipliers ? "\"strains-multipliers\""
                                                           : "\"all\"")
+    << "\nsolver = " << (a.solver == NonlinearSolver::Newton ? "\"newton\"" : "\"alg2\"")
+    << "\nnewton_switch = " << toml_real(a.newton_switch)
+    << "\nforce_tol = " << toml_real(a.force_tol) << "\nnewton_max_iter = " << a.newton_max_iter
     << "\n\n[discretization]\n"
     << "c2 = " << (p.discretization.c2_pointwise ? "\"pointwise\"" : "\"cell-mean\"") << "\n"
     << "contact = " << (p.discretization.nodal_contact ? "\"nodal\"" : "\"facet-mean\"") << "\n"

@@ -51,6 +51,10 @@ struct StepReport {
   double force_residual = 0, det_error = 0, penetration = 0;
   double R = 0;       ///< the augmentation parameter at the end of the step
   int R_changes = 0;  ///< how many times adaptive R changed R (and re-factorized K) in the step
+  /// algorithm.solver = "newton": the Newton iterations among `iterations` (the last rows of the
+  /// history: r_G = force residual, r_B = constraint residual), and how many times the Newton
+  /// phase was started (each failed start falls back to more ALG2 iterations).
+  int newton_iterations = 0, newton_attempts = 0;
 };
 
 }  // namespace ltl
