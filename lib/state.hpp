@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,11 @@ struct StepReport {
   double force_residual = 0, det_error = 0, penetration = 0;
   double R = 0;       ///< the augmentation parameter at the end of the step
   int R_changes = 0;  ///< how many times adaptive R changed R (and re-factorized K) in the step
+  /// The smallest det F = det(I + grad u) over the quadrature points (lib/admissibility.hpp,
+  /// min_det_F): > 0 unless a cell is inverted. Under mean-det det F varies inside a cell (its
+  /// cell mean is 1); det_error measures the constraint, this the orientation. NaN: not measured
+  /// (a non-finite iterate).
+  double det_min = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace ltl
