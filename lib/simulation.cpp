@@ -141,8 +141,8 @@ std::string divergence_hint(const Problem& problem, double factor) {
       " and larger under contact pressures or stresses above 2 C1: raise algorithm.R (x2); ",
       "leave R, q, q_c out to get the defaults q = 2 (C1 + C2) = ", 2 * C,
       " Pa, R q = ", dim == 3 ? 8 : 6,
-      " (C1 + C2), q_c = q / h (2-D) or q / (3 h) (3-D), h the contact facet size; a residual "
-      "that ",
+      " (C1 + C2), q_c = q / h (2-D) or q / (3 h) (3-D), h the contact facet size, with glue "
+      "at least kappa / R; a residual that ",
       "decreases slowly needs algorithm.max_iter or acceleration = \"anderson\"; a load too "
       "large for one step needs a load ramp ([load] ramp = \"linear\", ramp_time, more time.steps)"
       " (experiments/README.md, \"Choosing R, q, q_c\").");
