@@ -3,7 +3,7 @@
     import ltl_results
     r = ltl_results.load("run.h5")
     r.attrs["status"], r.mesh.X, r.steps[-1].p, r.steps[-1].fields["u"], r.steps[-1].history["r_B"]
-    r.steps[-1].equilibrium        # force_residual, det_error, penetration of the step
+    r.steps[-1].equilibrium        # force_residual, det_error, penetration, det_min of the step
     r.steps[-1].measures["front"]  # the step's measures (lib/measures.hpp), e.g. the front
     r.steps[-1].in_contact         # the contact set per contact point (bool), or None
     ltl_results.resolved_config(r)  # the configuration in SI with every default (dict)
@@ -58,14 +58,14 @@ class Mesh:
         return self.X.shape[1]
 
 
-EQUILIBRIUM = ("force_residual", "det_error", "penetration")
+EQUILIBRIUM = ("force_residual", "det_error", "penetration", "det_min")
 
 
 class Step:
     """One stored time step: p, t, iterations, status, fields (name -> array), history
     (column name -> array over the iterations), attrs (all attributes of the step), equilibrium
-    (the equilibrium measure: force_residual, det_error, penetration; empty in files of format
-    version 1), converged (False only for an entry of Results.unconverged), measures (name ->
+    (the equilibrium measure: force_residual, det_error, penetration, det_min; empty in files of
+    format version 1, without det_min in files written before it existed), converged (False only for an entry of Results.unconverged), measures (name ->
     float, /steps/N/measures; empty in older files), measure_units, measure_descriptions (name ->
     str), in_contact (bool per contact point, None without contact or in older files)."""
 
@@ -263,8 +263,9 @@ def summary(results, file=None):
             "iterations": [s.iterations for s in steps],
             "r_G": [last(s, "r_G") for s in steps], "r_B": [last(s, "r_B") for s in steps],
             "force_residual": [s.equilibrium.get("force_residual", np.nan) for s in steps],
-            "max|detE-1|": [s.equilibrium.get("det_error", np.nan) for s in steps],
+            "det_error": [s.equilibrium.get("det_error", np.nan) for s in steps],
             "penetration [m]": [s.equilibrium.get("penetration", np.nan) for s in steps],
+            "min det F": [s.equilibrium.get("det_min", np.nan) for s in steps],
         }, file=out, fmt="%.4g")
         names = sorted({k for s in steps for k in s.measures})
         if names:

@@ -82,6 +82,38 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
       surface_.gap(f) = (cc.plane_point.head(dim) - facets_->centre.col(f)).dot(surface_.N);
     surface_.vertices = facets_->vertices;
     const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
+    // The body must start on the admissible side of the plane: its centroid (cell centres
+    // weighted by volume) on the side N points away from. With the normal reversed the
+    // contact surface is still at the plane but the body lies in the obstacle, and the
+    // iteration wanders without converging.
+    {
+      Eigen::VectorXd centroid = Eigen::VectorXd::Zero(dim);
+      for (int c = 0; c < nc; ++c) {
+        Eigen::VectorXd xc = Eigen::VectorXd::Zero(dim);
+        for (int a = 0; a < mesh.nodes_per_cell(); ++a)
+          xc += mesh.X.row(mesh.cells(c, a)).transpose();
+        centroid += cells_.vol(c) * xc / mesh.nodes_per_cell();
+      }
+      centroid /= volume_;
+      const double side = (centroid - cc.plane_point.head(dim)).dot(surface_.N);
+      if (side > 1e-10 * scale) {
+        std::string n, reversed;
+        for (int k = 0; k < dim; ++k) {
+          n += cat(k ? ", " : "", surface_.N(k));
+          reversed += cat(k ? ", " : "", surface_.N(k) == 0 ? 0.0 : -surface_.N(k));
+        }
+        throw Error(cat(mesh.source,
+                        ": the body lies on the obstacle side of the contact plane "
+                        "(its centroid is ",
+                        side,
+                        " m from the plane along contact.plane_normal "
+                        "= (",
+                        n,
+                        ")): contact.plane_normal must point into the obstacle, away "
+                        "from the body; reverse it (plane_normal = [",
+                        reversed, "]) or check contact.plane_point"));
+      }
+    }
     for (int f = 0; f < facets_->size(); ++f)
       if (surface_.gap(f) < -1e-10 * scale)
         throw Error(cat(mesh.source, ": contact ",
@@ -89,6 +121,16 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
                         cc.group, "' starts inside the obstacle (gap ", surface_.gap(f),
                         " m at its centre): check contact.plane_point and contact.plane_normal "
                         "(the normal points into the obstacle)"));
+    // Every node of the body starts on the admissible side (the contact surface was checked
+    // above, facet by facet or node by node).
+    for (int n = 0; n < nn; ++n) {
+      const double inside = (mesh.X.row(n).transpose() - cc.plane_point.head(dim)).dot(surface_.N);
+      if (inside > 1e-10 * scale)
+        throw Error(cat(mesh.source, ": node ", n, " of the body (at ", mesh.X.row(n),
+                        ") starts inside the obstacle, ", inside,
+                        " m beyond the contact plane: check contact.plane_point and "
+                        "contact.plane_normal (the normal points into the obstacle)"));
+    }
     contact_area_ = facets_->area.sum();
   }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "admissibility.hpp"
 #include "error.hpp"
 
 namespace ltl {
@@ -176,6 +177,7 @@ EquilibriumMeasure equilibrium_measure(const Solver& solver, const State& s) {
       m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
   }
   if (solver.facets()) m.penetration = std::max(0.0, contact_measures(solver, s).penetration);
+  m.det_min = min_det_F(solver.discretization(), s.u);
   return m;
 }
 

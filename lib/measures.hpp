@@ -134,10 +134,16 @@ Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s);
 
 struct EquilibriumMeasure {
   double force_residual = 0;  ///< max |r| over free dofs / max |f_ext| (largest nodal load)
-  /// max over cells of |det E + c_e - 1|, the incompressibility as discretized (c_e = 0 for
-  /// det-mean, Solver::fluctuation_det for mean-det); 0 for a compressible law.
+  /// max over cells of |det E + c_e - 1|, the incompressibility constraint as discretized
+  /// (c_e = 0 for det-mean, Solver::fluctuation_det for mean-det); 0 for a compressible law.
+  /// It is NOT the pointwise det F: under mean-det only the cell mean of det F is 1 and det F
+  /// varies inside a cell legitimately (and so does det E_e = 1 - c_e); see det_min.
   double det_error = 0;
   double penetration = 0;  ///< ContactMeasures::penetration (0 without contact)
+  /// min over the quadrature points of every cell of det F = det(I + grad u) (in-plane block in
+  /// plane strain), lib/admissibility.hpp min_det_F: > 0 unless a cell is inverted. With
+  /// det_error ~ 0 it tells how far the pointwise det F strays from 1 under mean-det.
+  double det_min = 0;
 };
 
 /// The equilibrium measure of a state (reported with every converged step).

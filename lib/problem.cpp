@@ -1,5 +1,6 @@
 #include "problem.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
@@ -110,6 +111,12 @@ void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c)
               : mean_cell_size(p.mesh);
     if (!(a.h > 0)) a.h = 1;  // a degenerate mesh: validate() and the mesh checks report it
     a.q_c = a.q / ((p.mesh.dim == 2 ? 1 : 3) * a.h);
+    // With glue the local contact step (4.7) also holds the glue stiffness kappa = 1/eps: with
+    // R q_c well below kappa, beta jumps between 0 and 1 from one iteration to the next and the
+    // iteration stalls (a glued block pulled off the plane, kappa = 1e9 Pa/m: q / h = 4e7 Pa/m
+    // hits the cap, q_c >= 1.5e8 converges). R q_c >= kappa: as stiff as the glue.
+    if (p.contact && p.contact->adhesion.kappa > 0)
+      a.q_c = std::max(a.q_c, p.contact->adhesion.kappa / a.R);
   }
 }
 
@@ -121,7 +128,7 @@ std::string describe_algorithm(const AlgorithmParams& a) {
     << ", q_c = " << a.q_c << " Pa/m";
   if (a.q_c_derived)
     s << " (derived: q / h in 2-D, q / (3 h) in 3-D, h = " << a.h
-      << " m the mean contact facet size)";
+      << " m the mean contact facet size; with glue at least kappa / R)";
   return s.str();
 }
 

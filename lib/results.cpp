@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -931,10 +932,15 @@ void ResultsFile::write_step(const std::string& g, const StepData& step, bool co
                               g);
     write_scalar_attr<double>(group.get(), "det_error", rep ? rep->det_error : 0, file, g);
     write_scalar_attr<double>(group.get(), "penetration", rep ? rep->penetration : 0, file, g);
+    write_scalar_attr<double>(group.get(), "det_min",
+                              rep ? rep->det_min : std::numeric_limits<double>::quiet_NaN(), file,
+                              g);
     write_string_attr(group.get(), "units",
                       "t: s; force_residual: 1 (max nodal force residual / max nodal load); "
-                      "det_error: 1 (max over cells of |det E - 1|); penetration: m (max over "
-                      "the contact surface's nodes)",
+                      "det_error: 1 (max over cells of |det E + c_e - 1|, the incompressibility "
+                      "as discretized); penetration: m (max over the contact surface's nodes); "
+                      "det_min: 1 (min of det F over the quadrature points, > 0: no cell "
+                      "inverted)",
                       file, g);
     if (!converged) {
       write_scalar_attr<int>(group.get(), "unconverged", 1, file, g);

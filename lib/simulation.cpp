@@ -141,8 +141,8 @@ std::string divergence_hint(const Problem& problem, double factor) {
       " and larger under contact pressures or stresses above 2 C1: raise algorithm.R (x2); ",
       "leave R, q, q_c out to get the defaults q = 2 (C1 + C2) = ", 2 * C,
       " Pa, R q = ", dim == 3 ? 8 : 6,
-      " (C1 + C2), q_c = q / h (2-D) or q / (3 h) (3-D), h the contact facet size; a residual "
-      "that ",
+      " (C1 + C2), q_c = q / h (2-D) or q / (3 h) (3-D), h the contact facet size, with glue "
+      "at least kappa / R; a residual that ",
       "decreases slowly needs algorithm.max_iter or acceleration = \"anderson\"; a load too "
       "large for one step needs a load ramp ([load] ramp = \"linear\", ramp_time, more time.steps)"
       " (experiments/README.md, \"Choosing R, q, q_c\").");
@@ -177,6 +177,8 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   // Every measure of the step (lib/measures.hpp), one definition each.
   const StepMeasures m = step_measures(solver, state);
   d.measures = stored_measures(m, problem.mesh.dim);
+  if (step.admissibility.h > 0)
+    for (StoredMeasure& a : stored_measures(step.admissibility)) d.measures.push_back(a);
   d.in_contact = m.in_contact;
   return d;
 }
@@ -196,7 +198,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
       std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
           std::fflush(stdout);
   };
-  TimeStep step{p, solver.solve_step(state, beta_prev, progress), &state};
+  TimeStep step{p, solver.solve_step(state, beta_prev, progress), &state, {}};
   StepReport& report = step.report;
   // The stopping test looks at changes of the iterate; with a huge R they are small after one
   // iteration far from equilibrium. A step is converged only if it is also in equilibrium
@@ -207,6 +209,17 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
     report.status =
         cat("converged by the iterate residuals but the force residual ", report.force_residual,
             " exceeds ", bound, " (algorithm.max_force_residual); lower algorithm.tol or R");
+  }
+  // A converged state must also be a physical one (lib/admissibility.hpp); one that is not is
+  // reported like a divergence (ResultsWriter::append).
+  if (state.u.allFinite() && state.E.allFinite()) {
+    step.admissibility = check_admissibility(solver.discretization(), state);
+    report.det_min = step.admissibility.det_F_min;
+    if (report.converged && !step.admissibility.admissible()) {
+      report.converged = false;
+      report.status = cat("inadmissible: converged (r_G + r_B < tol, in equilibrium) but ",
+                          step.admissibility.message());
+    }
   }
   if (!report.converged) return step;
   if (verbosity > 0 && (P > 1 || verbosity == 1))
@@ -337,6 +350,7 @@ void ResultsWriter::append(const TimeStep& step) {
   if (!report.converged) {
     const auto& last = report.history.back();
     const bool unbalanced = report.status.rfind("converged by", 0) == 0;
+    const bool inadmissible = report.status.rfind("inadmissible", 0) == 0;
     // A diverged step (NaN, blow-up, iteration cap) keeps its last iterate and history in the
     // results file as /unconverged/NNNNNN, never as a result, so that a user can plot why: in
     // the run's file, or in a new one when this run has none yet (not over another run's file).
@@ -348,17 +362,19 @@ void ResultsWriter::append(const TimeStep& step) {
       saved = cat("; its iteration history and last iterate are saved in ", output, ", group ",
                   group, " (not a result)");
     }
-    const std::string msg = cat(unbalanced ? "not in equilibrium at step " : "diverged at step ", p,
-                                " (t = ", p * problem.time.dt, " s): ", report.status,
+    const std::string msg = cat(unbalanced     ? "not in equilibrium at step "
+                                : inadmissible ? "inadmissible state at step "
+                                               : "diverged at step ",
+                                p, " (t = ", p * problem.time.dt, " s): ", report.status,
                                 "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
                                 ". Nothing was written as a result for this step", saved);
     if (!saved.empty())
       file->save_unconverged(step_data(solver, step), msg);
     else if (file)
       file->set_status(msg);
-    throw Error(cat(problem.name, ": ", msg,
-                    file && p > 1 ? cat("; ", output, " keeps steps 1..", p - 1) : "", ".",
-                    unbalanced ? "" : divergence_hint(problem, solver.load_factor())));
+    throw Error(cat(
+        problem.name, ": ", msg, file && p > 1 ? cat("; ", output, " keeps steps 1..", p - 1) : "",
+        ".", unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor())));
   }
   if (!output.empty()) {
     if (!file) file = create_file();

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "admissibility.hpp"
 #include "alg2.hpp"
 #include "problem.hpp"
 
@@ -40,15 +41,20 @@ struct TimeStep {
   int p = 0;
   StepReport report;
   const State* state = nullptr;  ///< the caller's state, updated in place
+  /// The admissibility of the state (lib/admissibility.hpp), checked when it is finite.
+  AdmissibilityReport admissibility;
 };
 
 /// [LTL87 (2.1)-(2.2)] Time step p, backward Euler in beta: sets the load factor of step p
 /// (LoadRamp), keeps beta_{p-1} for the dissipation and iterates ALG2 (4.1)-(4.4) from `state`
 /// (step p-1's {E, e, beta, lambda, lambda_c}) to convergence. A step converged by the iterate
 /// residuals but not in equilibrium (force residual above algorithm.max_force_residual, a
-/// loaded problem) is marked not converged. Prints progress (verbosity 2: every iteration; 1:
-/// every 50 iterations of a static problem, every 2000 of an evolution, and one line per
-/// converged step). Never throws on divergence: ResultsWriter::append reports it.
+/// loaded problem) is marked not converged, and so is one that is not admissible
+/// (check_admissibility: a node inside the obstacle, det F <= 0, a cell on the rotated branch, a
+/// tension without glue, beta outside [0, 1]; status "inadmissible: ..."). Prints progress
+/// (verbosity 2: every iteration; 1: every 50 iterations of a static problem, every 2000 of an
+/// evolution, and one line per converged step). Never throws on divergence: ResultsWriter::append
+/// reports it.
 TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity = 1);
 
 /// The results file of a run (lib/results.hpp layout) and its bookkeeping:

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -55,6 +56,11 @@ struct StepReport {
   /// history: r_G = force residual, r_B = constraint residual), and how many times the Newton
   /// phase was started (each failed start falls back to more ALG2 iterations).
   int newton_iterations = 0, newton_attempts = 0;
+  /// The smallest det F = det(I + grad u) over the quadrature points (lib/admissibility.hpp,
+  /// min_det_F): > 0 unless a cell is inverted. Under mean-det det F varies inside a cell (its
+  /// cell mean is 1); det_error measures the constraint, this the orientation. NaN: not measured
+  /// (a non-finite iterate).
+  double det_min = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace ltl

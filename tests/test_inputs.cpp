@@ -187,6 +187,38 @@ TEST(AlgorithmDefaults, ExplicitValuesAreKept) {
   EXPECT_DOUBLE_EQ(p.algorithm.q_c, 1e6 / p.algorithm.h);
 }
 
+TEST(AlgorithmDefaults, Eq4_7_GluedBlockPulledOffConvergesWithoutAlgorithmKeys) {
+  // The block of first_problem glued to the plane (kappa = 1/eps = 1e9 Pa/m, w = 1 J/m^2) and
+  // pulled up by 10 kPa. With q_c = q / h = 4e7 Pa/m it hit the iteration cap (beta jumping
+  // between 0 and 1); with glue q_c is at least kappa / R.
+  const Problem p = load_problem(
+      kBlock, {"contact.beta0=1", "contact.w=\"1 J/m^2\"", "contact.kappa=\"1e9 Pa/m\"",
+               "load.traction[0].value=[0, \"10 kPa\"]"});
+  EXPECT_TRUE(p.algorithm.q_c_derived);
+  EXPECT_DOUBLE_EQ(p.algorithm.R, 3);
+  EXPECT_DOUBLE_EQ(p.algorithm.q_c, 1e9 / 3);
+  EXPECT_GT(p.algorithm.q_c, p.algorithm.q / p.algorithm.h);
+  EXPECT_NE(describe_algorithm(p.algorithm).find("with glue at least kappa / R"),
+            std::string::npos);
+  const auto r = ltl::testing::solve_one_step(p);
+  EXPECT_LT(r.report.iterations, 500);  // 161
+  // The glue holds (beta = 1) except at the free corner x1 = 0.1, where the peel stress
+  // concentrates (measured beta = 0.022), and carries the pull: sum w p = -10 kPa x 0.1 m.
+  int broken = -1, count = 0;
+  for (int i = 0; i < r.s.beta.size(); ++i)
+    if (r.s.beta(i) < 1) broken = i, ++count;
+  EXPECT_EQ(count, 1);
+  ASSERT_GE(broken, 0);
+  EXPECT_NEAR(r.solver->facets()->centre(0, broken), 0.1, 1e-12);
+  const Eigen::VectorXd pc = r.solver->contact_pressure(r.s);
+  EXPECT_NEAR(r.solver->facets()->area.dot(pc), -1000.0, 1e-2);
+  std::printf("  glued block pulled off, defaults %s: %d iterations\n",
+              describe_algorithm(p.algorithm).c_str(), r.report.iterations);
+  // Without glue the rule is unchanged (q_c = q / h).
+  const Problem free = load_problem(kBlock);
+  EXPECT_DOUBLE_EQ(free.algorithm.q_c, free.algorithm.q / free.algorithm.h);
+}
+
 // ---------------------------------------------------------------------------------------------
 // --set on list entries, and errors that name the --set argument.
 // ---------------------------------------------------------------------------------------------

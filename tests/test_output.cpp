@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "admissibility.hpp"
 #include "config.hpp"
 #include "error.hpp"
 #include "fe.hpp"
@@ -266,7 +267,8 @@ r = ltl_results.load(f"{d}/two.h5")
 assert r.format_version == 2
 for s in r.steps:
     eq = s.equilibrium
-    assert set(eq) == {"force_residual", "det_error", "penetration"}, eq
+    assert set(eq) == {"force_residual", "det_error", "penetration", "det_min"}, eq
+    assert 0 < eq["det_min"] < 1.5, eq
     assert 0 <= eq["force_residual"] < 0.1, eq
     # The measures of lib/measures.hpp, with units; the contact set per contact point.
     ms = s.measures
@@ -368,12 +370,19 @@ TEST(Output, StoredMeasuresEqualTheInMemoryOnes) {
     o.output = (dir / "out.h5").string();
     o.verbosity = 0;
     StepMeasures last;
-    run(p, o, [&](const Solver& solver, int, const State& s) { last = step_measures(solver, s); });
+    AdmissibilityReport admissibility;
+    run(p, o, [&](const Solver& solver, int, const State& s) {
+      last = step_measures(solver, s);
+      admissibility = check_admissibility(solver.discretization(), s);
+    });
     ASSERT_TRUE(last.contact) << config;
     EXPECT_EQ(last.peel.has_value(), p.contact->adhesion.kappa > 0) << config;
     const auto stored = ResultsFile::read_last_step(o.output);
     ASSERT_TRUE(stored);
-    const std::vector<StoredMeasure> expected = stored_measures(last, p.mesh.dim);
+    std::vector<StoredMeasure> expected = stored_measures(last, p.mesh.dim);
+    // ... and the admissibility of the step (lib/admissibility.hpp).
+    for (const StoredMeasure& m : stored_measures(admissibility)) expected.push_back(m);
+    EXPECT_TRUE(stored->measures.count("det_F_min") && stored->measures.count("rotation_jump"));
     EXPECT_EQ(stored->measures.size(), expected.size());
     for (const StoredMeasure& m : expected) {
       ASSERT_TRUE(stored->measures.count(m.name)) << m.name;

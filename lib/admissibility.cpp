@@ -1,0 +1,296 @@
+#include "admissibility.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "error.hpp"
+#include "signed_svd.hpp"
+
+namespace ltl {
+
+namespace {
+
+std::string position(const Eigen::MatrixXd& X, int n) {
+  std::string s = "(";
+  for (int k = 0; k < X.cols(); ++k) s += cat(k ? ", " : "", X(n, k));
+  return s + ")";
+}
+
+/// The reference centroid of cell c (mean of its nodes).
+Eigen::RowVectorXd cell_centre(const Mesh& mesh, int c) {
+  Eigen::RowVectorXd x = Eigen::RowVectorXd::Zero(mesh.dim);
+  for (int a = 0; a < mesh.nodes_per_cell(); ++a) x += mesh.X.row(mesh.cells(c, a));
+  return x / mesh.nodes_per_cell();
+}
+
+std::string cell_where(const Mesh& mesh, int c) {
+  const Eigen::RowVectorXd x = cell_centre(mesh, c);
+  return cat("cell ", c, " (centre ", position(x, 0), ")");
+}
+
+/// The rotation of the polar decomposition A = R U (U symmetric positive definite when
+/// det A > 0; otherwise the rotation closest to A), as a 3x3 rotation (2-D: about x3).
+Eigen::Matrix3d polar_rotation(const Eigen::MatrixXd& A) {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  if (A.rows() == 2) {
+    // 2-D closed form: R(theta) maximizes tr(R^T A), theta = atan2(A21 - A12, A11 + A22).
+    const double t = std::atan2(A(1, 0) - A(0, 1), A(0, 0) + A(1, 1));
+    R.topLeftCorner<2, 2>() << std::cos(t), -std::sin(t), std::sin(t), std::cos(t);
+  } else {
+    // [LTL87 (5.4)] A = Q diag(d) P^T with Q, P rotations: R = Q P^T.
+    Eigen::Matrix3d Q, P;
+    Eigen::Vector3d d;
+    signed_svd(Eigen::Matrix3d(A), Q, d, P);
+    R = Q * P.transpose();
+  }
+  return R;
+}
+
+/// The angle (degrees) of the rotation R1^T R2, acos((tr(R1^T R2) - 1) / 2).
+double angle_between(const Eigen::Matrix3d& R1, const Eigen::Matrix3d& R2) {
+  const double c = ((R1.transpose() * R2).trace() - 1) / 2;
+  return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / M_PI;
+}
+
+}  // namespace
+
+double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell,
+                 int* cells_inverted) {
+  const Mesh& mesh = d.problem().mesh;
+  const int dim = mesh.dim, npc = mesh.nodes_per_cell();
+  double worst = std::numeric_limits<double>::infinity();
+  int inverted = 0;
+  Eigen::MatrixXd Uc(npc, dim), F(dim, dim);
+  for (int c = 0; c < mesh.num_cells(); ++c) {
+    for (int a = 0; a < npc; ++a) Uc.row(a) = u.row(mesh.cells(c, a));
+    double cell_min = std::numeric_limits<double>::infinity();
+    for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double) {
+      // grad u = sum_a u_a (x) grad phi_a = Uc^T grad; F = I + grad u.
+      F.noalias() = Uc.transpose() * grad;
+      F.diagonal().array() += 1.0;
+      cell_min = std::min(cell_min, F.determinant());
+    });
+    if (!(cell_min > 0)) ++inverted;
+    if (cell_min < worst || (std::isnan(cell_min) && !std::isnan(worst))) {
+      worst = cell_min;
+      if (cell) *cell = c;
+    }
+  }
+  if (cells_inverted) *cells_inverted = inverted;
+  return worst;
+}
+
+AdmissibilityReport check_admissibility(const Discretization& d, const State& s) {
+  AdmissibilityReport r;
+  const Problem& pb = d.problem();
+  const Mesh& mesh = pb.mesh;
+  const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+  r.h = std::pow(d.volume() / std::max(1, nc), 1.0 / dim);
+  const Eigen::MatrixXd x = mesh.X + s.u;
+
+  // 1. Obstacle: every node of the body on the admissible side of the plane. The contact
+  // surface is held by the discretization at its contact points only (its nodes, or its facet
+  // means with discretization.contact = "facet-mean", whose P2 nodes may zig-zag about the plane,
+  // section8.md), and there through e (e . N <= g), which u meets up to the constraint residual
+  // ubar - e of the converged iterate: there the contact points are checked, each with that
+  // residual allowed; every other node is checked against the plane.
+  if (pb.contact) {
+    const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
+    const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
+    r.inside_tol = kInsideTolerance * r.h;
+    std::vector<char> on_surface(nn, 0);
+    const FacetOperators* pts = d.facets();
+    const bool points = pts && s.e.cols() == pts->size();
+    if (points)
+      for (int n : mesh.boundary_nodes(pb.contact->group)) on_surface[n] = 1;
+    double worst_excess = -std::numeric_limits<double>::infinity();
+    std::string worst;
+    // A point inside beyond its tolerance: counted, and described if it is the deepest so far.
+    const auto record = [&](double depth, double tol, const auto& where) {
+      if (depth <= tol) return;
+      ++r.nodes_inside;
+      if (!(depth - tol <= worst_excess)) worst_excess = depth - tol, worst = where();
+    };
+    for (int n = 0; n < nn; ++n) {
+      const double depth = (x.row(n).transpose() - p0).dot(N);
+      if (depth > r.max_inside || std::isnan(depth)) r.max_inside = depth, r.inside_node = n;
+      if (!on_surface[n])
+        record(depth, r.inside_tol, [&] {
+          return cat("node ", n, " at reference ", position(mesh.X, n), ", deformed ",
+                     position(x, n), ", ", depth, " m inside");
+        });
+    }
+    if (points) {
+      const Eigen::MatrixXd xbar = pts->mean * x, ubar = pts->mean * s.u;  // #points x dim
+      const bool nodal = !pts->nodes.empty();
+      for (int i = 0; i < pts->size(); ++i) {
+        const double depth = (xbar.row(i).transpose() - p0).dot(N);
+        const double residual = std::abs((ubar.row(i) - s.e.col(i).transpose()).dot(N));
+        record(depth, r.inside_tol + (std::isfinite(residual) ? residual : 0.0), [&] {
+          const std::string where =
+              nodal ? cat("node ", pts->nodes[i], " at reference ", position(mesh.X, pts->nodes[i]),
+                          ", deformed ", position(x, pts->nodes[i]))
+                    : cat("contact facet ", i, " (mean of its nodes at reference ",
+                          position(pts->centre.transpose(), i), ", deformed ", position(xbar, i),
+                          ")");
+          return cat(where, ", ", depth, " m inside (constraint residual ", residual, " m)");
+        });
+      }
+    }
+    if (r.nodes_inside > 0) {
+      r.failures.push_back(cat(r.nodes_inside, " points of the body are inside the obstacle ",
+                               "((x - p0) . N > ", r.inside_tol, " m); the deepest is ", worst));
+      r.remedies.push_back(
+          "the body went through the obstacle (the unilateral condition (1.1) holds on the "
+          "contact surface only, and a dead load admits equilibria turned through the plane): "
+          "apply the load progressively ([load] ramp = \"linear\", ramp_time, more time.steps) "
+          "or try algorithm.acceleration = \"anderson\"; check that contact.plane_normal points "
+          "into the obstacle");
+    }
+  }
+
+  // 2. Orientation: det F > 0 at every quadrature point, det E_e > 0.
+  r.det_F_min = min_det_F(d, s.u, &r.det_F_cell, &r.cells_inverted);
+  for (int c = 0; c < nc && s.E.rows() == dim * nc; ++c) {
+    const double J = cell_tensor(s.E, c).determinant();
+    if (J < r.det_E_min || (std::isnan(J) && !std::isnan(r.det_E_min)))
+      r.det_E_min = J, r.det_E_cell = c;
+  }
+  const bool inverted = r.cells_inverted > 0, E_inverted = !(r.det_E_min > 0);
+  if (inverted)
+    r.failures.push_back(cat("det F <= 0 at a quadrature point of ", r.cells_inverted,
+                             " cells: the smallest, det F = ", r.det_F_min, ", is in ",
+                             cell_where(mesh, r.det_F_cell)));
+  if (E_inverted)
+    r.failures.push_back(cat("the cell strain E has det E = ", r.det_E_min, " <= 0 in ",
+                             cell_where(mesh, r.det_E_cell)));
+  if (inverted || E_inverted)
+    r.remedies.push_back(
+        "a cell is turned inside out: refine the mesh where it is, or apply the load "
+        "progressively ([load] ramp = \"linear\", more time.steps)");
+
+  // 3. Rotated branch: the polar rotation of each cell's E against its neighbours' (the cells
+  // sharing a node with it). Per cell the angle that more than half of the neighbours exceed
+  // (sorted angles a_0 <= ... <= a_{n-1}: a_{n - floor(n/2) - 1}); above kRotationJumpDegrees
+  // the cell is flipped against the majority of its neighbours.
+  if (nc > 1 && s.E.rows() == dim * nc) {
+    std::vector<Eigen::Matrix3d> R(nc);
+    for (int c = 0; c < nc; ++c) R[c] = polar_rotation(cell_tensor(s.E, c));
+    std::vector<std::vector<int>> cells_of(nn);
+    for (int c = 0; c < nc; ++c)
+      for (int a = 0; a < mesh.nodes_per_cell(); ++a) cells_of[mesh.cells(c, a)].push_back(c);
+    std::vector<int> nbr;
+    std::vector<double> angles;
+    for (int c = 0; c < nc; ++c) {
+      nbr.clear();
+      for (int a = 0; a < mesh.nodes_per_cell(); ++a)
+        for (int o : cells_of[mesh.cells(c, a)])
+          if (o != c) nbr.push_back(o);
+      std::sort(nbr.begin(), nbr.end());
+      nbr.erase(std::unique(nbr.begin(), nbr.end()), nbr.end());
+      if (nbr.empty()) continue;
+      angles.clear();
+      for (int o : nbr) angles.push_back(angle_between(R[c], R[o]));
+      const std::size_t n = angles.size(), k = n - n / 2 - 1;
+      std::nth_element(angles.begin(), angles.begin() + static_cast<std::ptrdiff_t>(k),
+                       angles.end());
+      const double jump = angles[k];
+      if (jump > kRotationJumpDegrees || std::isnan(jump)) ++r.cells_rotated;
+      if (jump > r.rotation_jump || (std::isnan(jump) && !std::isnan(r.rotation_jump)))
+        r.rotation_jump = jump, r.rotation_cell = c;
+    }
+    if (r.cells_rotated > 0) {
+      const Eigen::MatrixXd E = cell_tensor(s.E, r.rotation_cell);
+      r.failures.push_back(cat(r.cells_rotated,
+                               " cells are on the rotated branch of the local strain step (4.6): "
+                               "their polar rotation differs by more than ",
+                               kRotationJumpDegrees,
+                               " degrees from most of their neighbours'; the worst is ",
+                               cell_where(mesh, r.rotation_cell), ", ", r.rotation_jump,
+                               " degrees, tr E = ", E.trace()));
+      const AlgorithmParams& a = pb.algorithm;
+      r.remedies.push_back(cat(
+          "R q = ", a.R * a.q, " Pa = ", a.R * a.q / d.split().C1,
+          " C1 is too small for the local stresses (paper_notes/section3-4.md: R q above 4 C1 in "
+          "3-D, 2.6 C1 in plane strain, more under contact pressures above 2 C1): raise "
+          "algorithm.R (x2)"));
+    }
+  }
+
+  // 4. Contact: no tension where there is no glue, 0 <= beta <= 1.
+  if (const FacetOperators* pts = d.facets();
+      pb.contact && pts && pts->size() > 0 && s.lambda_c.cols() == pts->size()) {
+    const Eigen::VectorXd p = d.contact_pressure(s);
+    const double kappa = pb.contact->adhesion.kappa;
+    const bool has_beta = s.beta.size() == pts->size();
+    const double load = d.dead_load().cwiseAbs().maxCoeff();
+    const double p_ref =
+        std::max({p.cwiseAbs().maxCoeff(), load / pts->area.minCoeff(), 1e-3 * d.split().C1});
+    r.pressure_tol = kPressureTolerance * p_ref;
+    for (int i = 0; i < pts->size(); ++i) {
+      const bool glued = kappa > 0 && has_beta && s.beta(i) > kBetaTolerance;
+      if (glued) continue;
+      if (p(i) < r.pressure_min || (std::isnan(p(i)) && !std::isnan(r.pressure_min)))
+        r.pressure_min = p(i), r.pressure_point = i;
+    }
+    if (r.pressure_point >= 0 && !(r.pressure_min >= -r.pressure_tol)) {
+      const int i = r.pressure_point;
+      r.failures.push_back(
+          cat("the contact pressure is ", r.pressure_min, " Pa (a tension; tolerance ",
+              r.pressure_tol, " Pa) at contact point ", i, " (reference ",
+              position(pts->centre.transpose(), i), "), where there is no glue to carry it"));
+      r.remedies.push_back(
+          "the contact multiplier has not settled: lower algorithm.tol; if it persists, check "
+          "contact.plane_normal (it points into the obstacle)");
+    }
+    if (has_beta) {
+      r.beta_min = s.beta.minCoeff();
+      r.beta_max = s.beta.maxCoeff();
+      for (int i = 0; i < s.beta.size(); ++i)
+        if (!(s.beta(i) >= -kBetaTolerance && s.beta(i) <= 1 + kBetaTolerance)) {
+          r.beta_point = i;
+          break;
+        }
+      if (r.beta_point >= 0) {
+        const int i = r.beta_point;
+        r.failures.push_back(cat("the adhesion intensity beta = ", s.beta(i),
+                                 " is outside [0, 1] at contact point ", i, " (reference ",
+                                 position(pts->centre.transpose(), i), ")"));
+        r.remedies.push_back(
+            "beta left [0, 1] (Anderson extrapolates it with algorithm.accelerate = \"all\"): "
+            "try algorithm.accelerate = \"strains-multipliers\"");
+      }
+    }
+  }
+  return r;
+}
+
+std::string AdmissibilityReport::message() const {
+  if (failures.empty()) return "";
+  std::string m = "the state is not admissible: ";
+  for (std::size_t i = 0; i < failures.size(); ++i) m += (i ? "; " : "") + failures[i];
+  m += ". What to try: ";
+  for (std::size_t i = 0; i < remedies.size(); ++i) m += (i ? "; " : "") + remedies[i];
+  return m;
+}
+
+std::vector<StoredMeasure> stored_measures(const AdmissibilityReport& r) {
+  std::vector<StoredMeasure> out = {
+      {"det_F_min", r.det_F_min, "1",
+       "smallest det F = det(I + grad u) over the quadrature points of every cell (plane strain: "
+       "in-plane block); > 0 for an admissible state"},
+      {"det_E_min", r.det_E_min, "1", "smallest det E over the cells"},
+      {"rotation_jump", r.rotation_jump, "degree",
+       cat("max over cells of the angle between the polar rotation of E and those of the cells "
+           "sharing a node with it, exceeded by more than half of them; above ",
+           kRotationJumpDegrees, ": a cell on the rotated branch")}};
+  if (r.inside_node >= 0)
+    out.push_back({"max_inside", r.max_inside, "m",
+                   "max over the body's nodes of (x - p0) . N (> 0: inside the obstacle)"});
+  if (r.pressure_point >= 0)
+    out.push_back({"pressure_min_unglued", r.pressure_min, "Pa",
+                   "smallest contact pressure over the contact points without glue"});
+  return out;
+}
+
+}  // namespace ltl
