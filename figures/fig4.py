@@ -97,6 +97,11 @@ def main(h5, png):
     else:
         state = "max|u| = %.2g m at t = %g s, drawn x%d (c) and at x1 (d)" % (umax, last.t,
                                                                             RAPPORT)
+    status = str(r.attrs.get("status", ""))
+    if status.startswith("inadmissible") or status.startswith("diverged"):
+        # The run was refused at a step (e.g. the literal reading: a cell folds at the clamp once
+        # the glue lets go); the figure draws the steps it kept.
+        state += "; run refused after t = %g s (%s)" % (last.t, status.split(":")[0])
     fig.suptitle("Fig 4 [LTL87]: incompressible Mooney-Rivlin bar [0,1] x [0,0.05] m, "
                  "C1 = 187.5 kPa, C2 = 0, |g2| = 10 (1 - x1) kPa\nreading %s; %s"
                  % (reading(r), state), fontsize=11)

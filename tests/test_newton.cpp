@@ -6,6 +6,7 @@
 #include <random>
 
 #include "config.hpp"
+#include "error.hpp"
 #include "newton.hpp"
 #include "simulation.hpp"
 #include "testing.hpp"
@@ -101,6 +102,125 @@ TEST(Newton, Eq2_2_Eq2_7_TangentIsTheDerivativeOfTheResidual) {
                            "discretization.c2=\"cell-mean\""},
                           0.02),
             1e-6);
+}
+
+// One time step of p with the given solver from rest.
+struct Solved {
+  StepReport report;
+  State state;
+};
+Solved solve(Problem p, NonlinearSolver solver) {
+  p.algorithm.solver = solver;
+  Solver s(p);
+  Solved r;
+  r.state = s.initial_state();
+  s.set_load_factor(p.ramp.factor(1, p.time.dt));
+  r.report = s.solve_step(r.state, r.state.beta);
+  return r;
+}
+double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff();
+}
+
+// [LTL87 (4.1)-(4.4)] Newton solves ALG2's discrete problem: the same state, in far fewer
+// iterations, at a force residual ALG2 reaches only with a tight tol; and the state is a fixed
+// point of ALG2 (r_B = 0 by construction, one more ALG2 iteration does not move it).
+TEST(Newton, Eq4_1to4_3_Fig5NewtonReachesAlg2sState) {
+  Problem p = figure("fig5", {"algorithm.tol=1e-11", "algorithm.max_iter=20000"});
+  const Solved alg2 = solve(p, NonlinearSolver::Alg2);
+  const Solved newton = solve(p, NonlinearSolver::Newton);
+  ASSERT_TRUE(alg2.report.converged) << alg2.report.status;
+  ASSERT_TRUE(newton.report.converged) << newton.report.status;
+  EXPECT_LT(relative_difference(newton.state.u, alg2.state.u), 1e-8);
+  EXPECT_LE(newton.report.force_residual, p.algorithm.force_tol);
+  EXPECT_LE(newton.report.iterations, 20);  // ALG2: about 1 500
+  EXPECT_GT(alg2.report.iterations, 50 * newton.report.iterations);
+  EXPECT_GE(newton.report.newton_iterations, 2);
+  EXPECT_EQ(newton.report.newton_attempts, 1);
+}
+
+TEST(Newton, Eq4_1to4_3_CoarseGutterNewtonReachesAlg2sState) {
+  Problem p = figure("fig6", {"mesh.parameters.nl=5", "mesh.parameters.na=5", "algorithm.tol=1e-11",
+                              "algorithm.max_iter=40000", "algorithm.acceleration=anderson"});
+  const Solved alg2 = solve(p, NonlinearSolver::Alg2);
+  const Solved newton = solve(p, NonlinearSolver::Newton);
+  ASSERT_TRUE(alg2.report.converged) << alg2.report.status;
+  ASSERT_TRUE(newton.report.converged) << newton.report.status;
+  EXPECT_LT(relative_difference(newton.state.u, alg2.state.u), 1e-7);
+  EXPECT_LE(newton.report.force_residual, p.algorithm.force_tol);
+  EXPECT_LT(newton.report.iterations, alg2.report.iterations / 10);
+}
+
+// [LTL87 (1.5)] The closed form of planar tension: Newton's answer is ALG2's and the exact one.
+TEST(Newton, Eq1_5_PlanarTensionClosedForm) {
+  const double l = 1.3;
+  const Solved newton = solve(testing::planar_tension(l), NonlinearSolver::Newton);
+  ASSERT_TRUE(newton.report.converged) << newton.report.status;
+  const Problem p = testing::planar_tension(l);
+  EXPECT_LT(testing::planar_tension_error(p.mesh, newton.state.u, l), 1e-9);
+  EXPECT_LE(newton.report.iterations, 15);
+}
+
+// The last Newton steps converge superlinearly: with f_k the force residual after step k,
+// f_{k+1} <= f_k^1.5 once f_k < 1e-2 (quadratic: exponent 2; linear: 1).
+TEST(Newton, Eq4_1to4_3_LastStepsAreSuperlinear) {
+  Problem p = figure("fig5", {});
+  p.algorithm.solver = NonlinearSolver::Newton;
+  p.algorithm.force_tol = 1e-12;
+  const Discretization disc(p);
+  const Newton newton(disc);
+  Solver s(p);
+  State state = s.initial_state();
+  StepReport report;
+  // From ALG2's first iterate.
+  AlgorithmParams one = p.algorithm;
+  one.solver = NonlinearSolver::Alg2;
+  one.max_iter = 1;
+  Problem q = p;
+  q.algorithm = one;
+  Solver first(q);
+  first.solve_step(state, state.beta);
+  const Newton::Result r = newton.solve(state, disc.dead_load(), p.algorithm, report, {});
+  ASSERT_TRUE(r.converged) << r.status;
+  int checked = 0;
+  for (std::size_t k = 0; k + 1 < r.forces.size(); ++k)
+    if (r.forces[k] < 1e-2 && r.forces[k + 1] > 1e-14) {
+      EXPECT_LE(r.forces[k + 1], std::pow(r.forces[k], 1.5)) << "step " << k + 1;
+      ++checked;
+    }
+  EXPECT_GE(checked, 1);
+}
+
+// The fall-back: a Newton phase capped at 2 iterations fails from ALG2's early iterates; ALG2
+// goes on to smaller switches, Newton starts again, and the step ends at the same state.
+TEST(Newton, Eq4_1to4_3_FallBackToAlg2IsCountedAndReachesTheSameState) {
+  Problem p = figure("fig5", {"algorithm.tol=1e-11", "algorithm.max_iter=20000"});
+  const Solved reference = solve(p, NonlinearSolver::Newton);
+  p.algorithm.newton_max_iter = 2;
+  p.algorithm.newton_switch = 1e-1;
+  const Solved capped = solve(p, NonlinearSolver::Newton);
+  ASSERT_TRUE(capped.report.converged) << capped.report.status;
+  EXPECT_GE(capped.report.newton_attempts, 2);
+  EXPECT_LT(relative_difference(capped.state.u, reference.state.u), 1e-8);
+  EXPECT_GT(capped.report.iterations, reference.report.iterations);
+}
+
+// Without glue the configuration's default is Newton; with glue ALG2 (the Newton phase does not
+// treat the glue, and says so when asked).
+TEST(Newton, DefaultSolverAndGlueRefused) {
+  EXPECT_EQ(
+      load_problem(testing::source_path("experiments/first_problem/block.toml")).algorithm.solver,
+      NonlinearSolver::Newton);
+  const Problem glued = figure("fig3");
+  EXPECT_EQ(glued.algorithm.solver, NonlinearSolver::Alg2);
+  Problem asked = glued;
+  asked.algorithm.solver = NonlinearSolver::Newton;
+  try {
+    Solver s(asked);
+    FAIL() << "a glued problem was accepted by the Newton phase";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("glue"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

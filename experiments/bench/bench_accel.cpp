@@ -189,8 +189,9 @@ int main(int argc, char** argv) try {
                             "mesh.parameters.na=" + std::to_string(9 * L),
                             "mesh.parameters.nl=" + std::to_string(15 * L)}});
   }
-  std::vector<std::string> plain = extra, accel = extra;
+  std::vector<std::string> plain = extra, accel = extra, newton = extra;
   plain.push_back("algorithm.acceleration=none");
+  newton.push_back("algorithm.solver=newton");  // ALG2 into Newton's basin (newton.hpp)
   accel.push_back("algorithm.acceleration=anderson");
   accel.push_back("algorithm.depth=" + std::to_string(depth));
 
@@ -202,20 +203,23 @@ int main(int argc, char** argv) try {
               loadavg().c_str(), cap_seconds, quick ? "; --quick (largest sizes skipped)" : "");
   std::printf(
       "columns: iterations to r_G + r_B < 1e-6 / to the configuration's tol; ms = wall time per "
-      "iteration (load-dependent, 1-min load at the end of the row)\n\n");
-  std::printf("%-10s %6s %7s %5s | %8s %8s %7s | %8s %8s %11s %7s | %6s %8s %5s\n", "case", "cells",
-              "nodes", "tol", "plain", "plain", "ms/it", "AA", "AA", "kept/rej", "ms/it", "ratio",
-              "|du|/|u|", "load");
-  std::printf("%-10s %6s %7s %5s | %8s %8s %7s | %8s %8s %11s %7s | %6s %8s %5s\n", "", "", "", "",
-              "1e-6", "tol", "", "1e-6", "tol", "", "", "(tol)", "", "");
+      "iteration (load-dependent, 1-min load at the end of the row); Newton: outer iterations "
+      "(ALG2 + Newton) to force residual 1e-8 and its solver seconds\n\n");
+  std::printf("%-10s %6s %7s %5s | %8s %8s %7s | %8s %8s %11s %7s | %6s %8s | %6s %7s %8s | %5s\n",
+              "case", "cells", "nodes", "tol", "plain", "plain", "ms/it", "AA", "AA", "kept/rej",
+              "ms/it", "ratio", "|du|/|u|", "Newton", "seconds", "|du|/|u|", "load");
+  std::printf("%-10s %6s %7s %5s | %8s %8s %7s | %8s %8s %11s %7s | %6s %8s | %6s %7s %8s | %5s\n",
+              "", "", "", "", "1e-6", "tol", "", "1e-6", "tol", "", "", "(tol)", "", "its", "",
+              "vs plain", "");
   for (auto& family : families) {
-    std::vector<Run> P, A;
+    std::vector<Run> P, A, N;
     for (const Case& c : family) {
       if (!trace.empty() && trace != c.name) continue;
       std::fprintf(stderr, "bench_accel: %s ...\n", c.name.c_str());
       P.push_back(run(c, plain, false, cap_seconds));
       A.push_back(run(c, accel, trace == c.name, cap_seconds));
-      const Run &p = P.back(), &a = A.back();
+      N.push_back(run(c, newton, false, cap_seconds));
+      const Run &p = P.back(), &a = A.back(), &nt = N.back();
       int n;
       const std::string p6 = count(p, true, n), pt = count(p, false, n);
       const std::string a6 = count(a, true, n), at = count(a, false, n);
@@ -229,15 +233,27 @@ int main(int argc, char** argv) try {
         std::snprintf(kr, sizeof kr, "-");
       else
         std::snprintf(kr, sizeof kr, "%d/%d", a.kept, a.rejected);
+      char nits[16] = "-", ndu[16] = "-";
+      if (nt.converged) std::snprintf(nits, sizeof nits, "%d", nt.iterations);
+      if (nt.converged && p.converged)
+        std::snprintf(ndu, sizeof ndu, "%.1e",
+                      (p.u - nt.u).cwiseAbs().maxCoeff() / p.u.cwiseAbs().maxCoeff());
       std::string load = loadavg();
       load = load.substr(0, load.find(' '));
-      std::printf("%-10s %6d %7d %5.0e | %8s %8s %7.2f | %8s %8s %11s %7.2f | %6s %8s %5s\n",
-                  c.name.c_str(), p.cells, p.nodes, p.tol, p6.c_str(), pt.c_str(),
-                  1e3 * p.seconds / std::max(1, p.iterations), a6.c_str(), at.c_str(), kr,
-                  1e3 * a.seconds / std::max(1, a.iterations), ratio, du, load.c_str());
-      for (const Run* r : {&p, &a})
+      std::printf(
+          "%-10s %6d %7d %5.0e | %8s %8s %7.2f | %8s %8s %11s %7.2f | %6s %8s | %6s %7.3f %8s | "
+          "%5s\n",
+          c.name.c_str(), p.cells, p.nodes, p.tol, p6.c_str(), pt.c_str(),
+          1e3 * p.seconds / std::max(1, p.iterations), a6.c_str(), at.c_str(), kr,
+          1e3 * a.seconds / std::max(1, a.iterations), ratio, du, nits, nt.seconds, ndu,
+          load.c_str());
+      for (const Run* r : {&p, &a, &nt})
         if (!r->converged)
-          std::printf("%-10s   %s: %s\n", "", r == &p ? "plain" : "Anderson", r->status.c_str());
+          std::printf("%-10s   %s: %s\n", "",
+                      r == &p   ? "plain"
+                      : r == &a ? "Anderson"
+                                : "Newton",
+                      r->status.c_str());
       std::fflush(stdout);
     }
     if (P.size() >= 2) {
@@ -249,6 +265,10 @@ int main(int argc, char** argv) try {
         std::printf("%-10s   to %-5s  plain %s   Anderson %s\n", "", issue ? "1e-6" : "tol",
                     verdict(ep, lp).c_str(), verdict(ea, la).c_str());
       }
+      int ln;
+      const double en = exponent(N, false, ln);
+      std::printf("%-10s   Newton (outer iterations to force residual 1e-8): %s\n", "",
+                  verdict(en, ln).c_str());
     }
     std::printf("\n");
   }
