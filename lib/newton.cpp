@@ -1,10 +1,11 @@
 // Newton's method on ALG2's discrete problem (newton.hpp).
 #include "newton.hpp"
 
-#include <Eigen/UmfPackSupport>
+#include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 #include "error.hpp"
@@ -43,6 +44,71 @@ Mat<d> dcof(const Mat<d>& A, const Mat<d>& H) {
     }
     return C;
   }
+}
+
+/// [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (r1, r2, r3), the KKT system of a Newton
+/// step (u free dofs first, then the n_p pressures and the n_c active contact forces, as
+/// triplets of the full matrix), solved by the augmented Lagrangian of the linear system: with
+/// the row weights W_e = 1 / |B_e|^2 and Wc_s = 1 / |C_s|^2,
+///   (K + kappa B^T W B + kappa_c C^T Wc C) du = r1 + B^T dp - kappa B^T W r2 - C^T dmu
+///                                            + kappa_c C^T Wc r3,
+///   dp <- dp - kappa W (B du + r2),   dmu <- dmu + kappa_c Wc (C du - r3),
+/// which is the exact KKT solution at its fixed point and converges like (1 + kappa s)^-1 per
+/// sweep; kappa = kappa_c = 1e4 times K's mean diagonal (B^T W B and C^T Wc C are projections).
+/// The matrix is
+/// factorized by CHOLMOD (supernodal LL', analyzed once per Newton phase); false when it is not
+/// positive definite (K not positive on the constraints' kernel: the caller damps).
+using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
+bool solve_kkt(const Triplets& kkt, const Eigen::VectorXd& rhs, int nu, int np, int nc, Factor& llt,
+               bool& analyzed, Eigen::VectorXd& dx) {
+  Triplets tk, tb, tc;
+  for (const auto& e : kkt) {
+    if (e.row() < nu && e.col() < nu)
+      tk.push_back(e);
+    else if (e.row() >= nu && e.row() < nu + np && e.col() < nu)
+      tb.emplace_back(e.row() - nu, e.col(), -e.value());  // B = -(the block)
+    else if (e.row() >= nu + np && e.col() < nu)
+      tc.emplace_back(e.row() - nu - np, e.col(), e.value());
+  }
+  SpMat K(nu, nu), B(np, nu), C(nc, nu);
+  K.setFromTriplets(tk.begin(), tk.end());
+  B.setFromTriplets(tb.begin(), tb.end());
+  C.setFromTriplets(tc.begin(), tc.end());
+  const Eigen::VectorXd r1 = rhs.head(nu), r2 = rhs.segment(nu, np), r3 = rhs.tail(nc);
+  // Row weights: W_e = 1 / |B_e|^2, and C's rows likewise.
+  Eigen::VectorXd W(np), Wc(nc);
+  for (int e = 0; e < np; ++e) W(e) = 1 / std::max(B.row(e).squaredNorm(), 1e-300);
+  for (int k = 0; k < nc; ++k) Wc(k) = 1 / std::max(C.row(k).squaredNorm(), 1e-300);
+  const double kd = K.diagonal().cwiseAbs().mean();
+  const double kappa = 1e4 * kd, kappa_c = 1e4 * kd;
+  const SpMat A = K + kappa * SpMat(B.transpose() * W.asDiagonal() * B) +
+                  kappa_c * SpMat(C.transpose() * Wc.asDiagonal() * C);
+  // The pattern of A is K's (the projections and the damping stay inside K's cell blocks), the
+  // same at every step: analyzed once.
+  if (!analyzed) llt.analyzePattern(A), analyzed = true;
+  llt.factorize(A);
+  if (llt.info() != Eigen::Success) return false;
+  Eigen::VectorXd dp = Eigen::VectorXd::Zero(np), dmu = Eigen::VectorXd::Zero(nc), du;
+  const Eigen::VectorXd fixed = r1 - kappa * (B.transpose() * W.asDiagonal() * r2) +
+                                kappa_c * (C.transpose() * Wc.asDiagonal() * r3);
+  for (int sweep = 0; sweep < 100; ++sweep) {
+    du = llt.solve(fixed + B.transpose() * dp - C.transpose() * dmu);
+    const Eigen::VectorXd c1 = B * du + r2, c2 = C * du - r3;
+    dp -= kappa * W.asDiagonal() * c1;
+    dmu += kappa_c * Wc.asDiagonal() * c2;
+    // Converged when the constraints hold to round-off of the step: |c| / |B_e| <= 1e-13 |du|.
+    const double step = std::max(du.cwiseAbs().maxCoeff(), 1e-300);
+    auto largest = [](const Eigen::VectorXd& v) {
+      return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;  // (maxCoeff of an empty vector is UB)
+    };
+    if (largest(c1.cwiseProduct(W.cwiseSqrt())) <= 1e-13 * step &&
+        largest(c2.cwiseProduct(Wc.cwiseSqrt())) <= 1e-13 * step)
+      break;
+  }
+  if (!du.allFinite()) return false;
+  dx.resize(nu + np + nc);
+  dx << du, dp, dmu;
+  return true;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -114,7 +180,7 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
     if (f >= 0) f = nfree_++;
   if (const FacetOperators* pts = disc.facets()) {
     const double h = std::pow(disc.volume() / nc, 1.0 / d);
-    c_ = 2 * C1 * pts->area / h;
+    c_ = 0.02 * C1 * pts->area / h;
   }
 }
 
@@ -368,6 +434,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   Unknowns trial;
   Eigen::VectorXd Ru_t, G_t;
   std::vector<int> active(np), prev_active;
+  Factor llt;
+  bool analyzed = false;
   const int max_newton = std::max(1, alg.newton_max_iter);
   double damping = 0;
   for (int it = 1;; ++it) {
@@ -453,18 +521,28 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
           kkt.emplace_back(r, r, 1.0);  // a point whose normal motion is prescribed: mu stays
       }
     }
-    SpMat A(n, n);
-    A.setFromTriplets(kkt.begin(), kkt.end());
     rec.t_strain = seconds_since(t0);
     t0 = clock_type::now();
-    Eigen::UmfPackLU<SpMat> lu;
-    lu.compute(A);
     Eigen::VectorXd dx;
-    if (lu.info() == Eigen::Success) dx = lu.solve(rhs);
+    const bool solved = solve_kkt(kkt, rhs, nfree_, np_, nA, llt, analyzed, dx);
     rec.t_global = seconds_since(t0);
-    if (lu.info() != Eigen::Success || !dx.allFinite()) {
-      result.status = "Newton: singular tangent system";
-      break;
+    if (!solved) {  // the augmented tangent is not positive definite: damp more, same point
+      ++result.iterations;
+      ++report.newton_iterations;
+      rec.n = ++report.iterations;
+      rec.wall = wall0 + seconds_since(t_start);
+      rec.r_G = cur.force;
+      rec.r_B = cur.constraint;
+      rec.accelerated = -1;
+      report.history.push_back(rec);
+      if (progress) progress(report.history.back());
+      damping = damping > 0 ? 10 * damping : 1e-4;
+      if (damping > 1e6) {
+        result.status = "Newton: the tangent stays indefinite even with damping";
+        break;
+      }
+      active = prev_active;
+      continue;
     }
     // Backtracking on the merit, keeping det F > 0 at every point: alpha = 1, 1/2, ... 1/8. No
     // decrease: the same point again with 10 times the damping (Levenberg-Marquardt, which turns
@@ -497,7 +575,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       rec.accelerated = -1;
       report.history.push_back(rec);
       if (progress) progress(report.history.back());
-      damping = damping > 0 ? 10 * damping : 1e-4;
+      damping = damping > 0 ? 10 * damping
+                            : (std::getenv("LTL_D0") ? std::atof(std::getenv("LTL_D0")) : 1e-4);
       if (damping > 1e6) {
         result.status =
             cat("Newton: no decrease of the residual (", cur.merit, ") even along a damped step");

@@ -14,8 +14,11 @@
 //   C_s = mu_s - max(0, mu_s + c_s (N . ubar_s - g_s)) = 0   (the min-NCP function),
 // solved by a semismooth Newton method (primal-dual active set for the contact, Hintermueller,
 // Ito and Kunisch 2002) with a backtracking line search on the norm of the scaled residual. The
-// linear systems are the full KKT systems (u free dofs, p, active contact forces), symmetric and
-// indefinite, solved by UMFPACK (SuiteSparse). Not treated: the glue (w, kappa > 0), whose
+// linear systems are the KKT systems (u free dofs, p, active contact forces), symmetric and
+// indefinite, solved through the augmented Lagrangian of the linear system: one CHOLMOD
+// factorization of the tangent plus 1e4 times the constraints' projections, and a few sweeps of
+// multiplier updates (an indefinite tangent makes that factorization fail, and the step is
+// damped instead). Not treated: the glue (w, kappa > 0), whose
 // problems keep ALG2.
 #pragma once
 
