@@ -180,4 +180,26 @@ RunOptions run_options(const CommandLine& cmd, const Problem& problem) {
   return options;
 }
 
+void print_newton_beside(const Problem& problem, const RunSummary& run) {
+  if (problem.time.steps != 1 || run.iterations.empty()) return;
+  Problem q = problem;
+  q.algorithm.solver = NonlinearSolver::Newton;
+  const std::string why = Newton::unsupported(Discretization(q));
+  if (!why.empty()) {
+    std::printf("  Newton on the same discrete problem: not run (%s)\n", why.c_str());
+    return;
+  }
+  Solver solver(q);
+  State s = solver.initial_state();
+  solver.set_load_factor(q.ramp.factor(1, q.time.dt));
+  const StepReport r = solver.solve_step(s, s.beta);
+  const double scale = run.state.u.cwiseAbs().maxCoeff();
+  std::printf(
+      "  Newton on the same discrete problem: %s, %d iterations (%d ALG2 + %d Newton) against "
+      "ALG2's %d; force residual %.1e; max |u_Newton - u_ALG2| / max |u| = %.1e\n",
+      r.converged ? "converged" : r.status.c_str(), r.iterations,
+      r.iterations - r.newton_iterations, r.newton_iterations, run.iterations[0], r.force_residual,
+      (s.u - run.state.u).cwiseAbs().maxCoeff() / (scale > 0 ? scale : 1.0));
+}
+
 }  // namespace ltl
