@@ -61,28 +61,40 @@ Mat<d> dcof(const Mat<d>& A, const Mat<d>& H) {
 using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
 bool solve_kkt(const Triplets& kkt, const Eigen::VectorXd& rhs, int nu, int np, int nc, Factor& llt,
                bool& analyzed, Eigen::VectorXd& dx) {
-  Triplets tk, tb, tc;
+  // The blocks K (lower triangle), B and C, and each constraint row's entries.
+  Triplets ta, tb, tc;
+  std::vector<std::vector<std::pair<int, double>>> rows(np + nc);
+  Eigen::VectorXd diag = Eigen::VectorXd::Zero(nu);
   for (const auto& e : kkt) {
-    if (e.row() < nu && e.col() < nu)
-      tk.push_back(e);
-    else if (e.row() >= nu && e.row() < nu + np && e.col() < nu)
-      tb.emplace_back(e.row() - nu, e.col(), -e.value());  // B = -(the block)
-    else if (e.row() >= nu + np && e.col() < nu)
-      tc.emplace_back(e.row() - nu - np, e.col(), e.value());
+    if (e.row() < nu && e.col() < nu) {
+      if (e.row() >= e.col()) ta.push_back(e);
+      if (e.row() == e.col()) diag(e.row()) += e.value();
+    } else if (e.row() >= nu && e.col() < nu) {
+      const int r = e.row() - nu;
+      const double v = r < np ? -e.value() : e.value();  // B = -(its block), C = its block
+      (r < np ? tb : tc).emplace_back(r < np ? r : r - np, e.col(), v);
+      rows[r].emplace_back(e.col(), v);
+    }
   }
-  SpMat K(nu, nu), B(np, nu), C(nc, nu);
-  K.setFromTriplets(tk.begin(), tk.end());
+  SpMat B(np, nu), C(nc, nu);
   B.setFromTriplets(tb.begin(), tb.end());
   C.setFromTriplets(tc.begin(), tc.end());
   const Eigen::VectorXd r1 = rhs.head(nu), r2 = rhs.segment(nu, np), r3 = rhs.tail(nc);
-  // Row weights: W_e = 1 / |B_e|^2, and C's rows likewise.
+  // Row weights W_e = 1 / |B_e|^2 (and C's), and kappa (W B^T B and Wc C^T C are projections).
   Eigen::VectorXd W(np), Wc(nc);
   for (int e = 0; e < np; ++e) W(e) = 1 / std::max(B.row(e).squaredNorm(), 1e-300);
   for (int k = 0; k < nc; ++k) Wc(k) = 1 / std::max(C.row(k).squaredNorm(), 1e-300);
-  const double kd = K.diagonal().cwiseAbs().mean();
+  const double kd = nu ? diag.cwiseAbs().mean() : 1.0;
   const double kappa = 1e4 * kd, kappa_c = 1e4 * kd;
-  const SpMat A = K + kappa * SpMat(B.transpose() * W.asDiagonal() * B) +
-                  kappa_c * SpMat(C.transpose() * Wc.asDiagonal() * C);
+  // A = K + kappa B^T W B + kappa_c C^T Wc C, the outer products of the rows (lower triangle).
+  for (int r = 0; r < np + nc; ++r) {
+    const double w = r < np ? kappa * W(r) : kappa_c * Wc(r - np);
+    for (const auto& [i, bi] : rows[r])
+      for (const auto& [j, bj] : rows[r])
+        if (i >= j) ta.emplace_back(i, j, w * bi * bj);
+  }
+  SpMat A(nu, nu);
+  A.setFromTriplets(ta.begin(), ta.end());
   // The pattern of A is K's (the projections and the damping stay inside K's cell blocks), the
   // same at every step: analyzed once.
   if (!analyzed) llt.analyzePattern(A), analyzed = true;
