@@ -128,7 +128,7 @@ std::map<std::string, std::string> identity(const Problem& problem) {
 
 /// What to change when a step does not converge: the parameters used, the rule of the defaults
 /// (derive_algorithm_defaults) and the usual remedies.
-std::string divergence_hint(const Problem& problem, double factor) {
+std::string divergence_hint(const Problem& problem, double factor, const TimeStep& step) {
   const AlgorithmParams& a = problem.algorithm;
   const Material& m = problem.material;
   const double C = m.C1 + (m.incompressible() ? m.C2 : 0.0);
@@ -143,8 +143,17 @@ std::string divergence_hint(const Problem& problem, double factor) {
       " Pa, R q = ", dim == 3 ? 8 : 6,
       " (C1 + C2), q_c = q / h (2-D) or q / (3 h) (3-D), h the contact facet size, with glue "
       "at least kappa / R; a residual that ",
-      "decreases slowly needs algorithm.max_iter or acceleration = \"anderson\"; a load too "
-      "large for one step needs a load ramp ([load] ramp = \"linear\", ramp_time, more time.steps)"
+      "decreases slowly needs algorithm.max_iter or acceleration = \"anderson\"",
+      step.failed_attempts() > 1
+          ? cat("; the load increment was already subdivided (", step.failed_attempts(),
+                " failed attempts, the smallest substep 1/", 1 << kMaxHalvings,
+                " of the increment): a finer load ramp alone is unlikely to help")
+      : step.not_subdivided.find("no dead load") != std::string::npos
+          ? "; prescribed displacements are applied in full at the first step (they are not "
+            "ramped: [load] ramp scales the dead loads only), so the step could not be "
+            "subdivided"
+          : "; a load too large for one step needs a load ramp ([load] ramp = \"linear\", "
+            "ramp_time, more time.steps)",
       " (experiments/README.md, \"Choosing R, q, q_c\").");
 }
 
@@ -179,16 +188,27 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   d.measures = stored_measures(m, problem.mesh.dim);
   if (step.admissibility.h > 0)
     for (StoredMeasure& a : stored_measures(step.admissibility)) d.measures.push_back(a);
+  // Load subdivision (solve_time_step): what it took to reach the step.
+  d.measures.push_back({"substeps", static_cast<double>(step.substeps), "1",
+                        "substeps of the load increment that made this step (1: the full "
+                        "increment; the stored state and history are the last substep's)"});
+  d.measures.push_back({"failed_attempts", static_cast<double>(step.failed_attempts()), "1",
+                        "solves of this step that failed before it was done in substeps (the "
+                        "step's status lists them)"});
   d.in_contact = m.in_contact;
   return d;
 }
 
 }  // namespace
 
-TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
+namespace {
+
+/// One solve of step p at the load factor `factor` from `state`: ALG2 (then Newton), the
+/// equilibrium check and the admissibility check. Prints iteration progress only.
+TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int verbosity) {
   const Problem& problem = solver.problem();
   const int P = problem.time.steps;
-  solver.set_load_factor(problem.ramp.factor(p, problem.time.dt));  // LoadRamp
+  solver.set_load_factor(factor);  // LoadRamp, or a substep of its increment
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   const Eigen::VectorXd beta_prev = state.beta;
   auto progress = [&](const IterationRecord& r) {
@@ -198,7 +218,10 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
       std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
           std::fflush(stdout);
   };
-  TimeStep step{p, solver.solve_step(state, beta_prev, progress), &state, {}};
+  TimeStep step;
+  step.p = p;
+  step.report = solver.solve_step(state, beta_prev, progress);
+  step.state = &state;
   StepReport& report = step.report;
   // The stopping test looks at changes of the iterate; with a huge R they are small after one
   // iteration far from equilibrium. A step is converged only if it is also in equilibrium
@@ -221,11 +244,114 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
                           step.admissibility.message());
     }
   }
+  return step;
+}
+
+/// Why a failed step p, whose load factor goes from f0 to f1, cannot be subdivided (empty: it
+/// can).
+std::string subdivision_refused(const Solver& solver, double f0, double f1) {
+  const Problem& problem = solver.problem();
+  if (problem.contact && problem.contact->adhesion.d0 > 0 &&
+      (problem.contact->adhesion.kappa > 0 || problem.contact->adhesion.w > 0))
+    return "not subdivided: glue with dissipation (contact.d0 > 0), whose term (6.4)-(6.5) "
+           "divides by the time step dt of the solver: a substep of the load would dissipate as "
+           "over the whole dt";
+  if (f1 == f0)
+    return cat("not subdivided: the load factor does not change at this step (", f1,
+               "); nothing to subdivide");
+  if (!(solver.external_load().cwiseAbs().maxCoeff() > 0))
+    return "not subdivided: no dead load (prescribed displacements are applied in full at every "
+           "step, not ramped)";
+  return "";
+}
+
+std::string attempts_text(const std::vector<StepAttempt>& attempts) {
+  std::string s;
+  for (const StepAttempt& a : attempts)
+    s += cat(s.empty() ? "" : "; ", a.from, " -> ", a.to, ": ",
+             a.converged ? cat("converged in ", a.iterations, " iterations")
+                         : cat("failed after ", a.iterations, " iterations (",
+                               a.status.substr(0, a.status.find(": ")), ")"));
+  return s;
+}
+
+}  // namespace
+
+int TimeStep::failed_attempts() const {
+  int n = 0;
+  for (const StepAttempt& a : attempts) n += !a.converged;
+  return n;
+}
+
+TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
+  const Problem& problem = solver.problem();
+  const int P = problem.time.steps;
+  const double f1 = problem.ramp.factor(p, problem.time.dt);
+  const double f0 = p > 1 ? problem.ramp.factor(p - 1, problem.time.dt) : 0.0;
+  std::vector<StepAttempt> attempts;
+  int substeps = 0;
+  TimeStep step;
+  // One attempt from the load factor a (the current state) to b; on failure, with halvings
+  // left, the state goes back to a's and the increment is done as two halves.
+  const std::function<bool(double, double, int)> advance = [&](double a, double b, int depth) {
+    const State from = depth < kMaxHalvings ? state : State{};
+    step = solve_at_factor(solver, p, b, state, verbosity);
+    const StepReport& r = step.report;
+    attempts.push_back({a, b, r.converged, r.iterations,
+                        r.history.empty() ? 0.0 : r.history.back().wall, r.status});
+    if (r.converged) return ++substeps, true;
+    if (depth >= kMaxHalvings) return false;
+    if (verbosity > 0)
+      std::printf(
+          "step %4d/%d  load factor %g -> %g failed after %d iterations (%s); retried "
+          "in two halves\n",
+          p, P, a, b, r.iterations, r.status.substr(0, r.status.find(": ")).c_str()),
+          std::fflush(stdout);
+    state = from;
+    const double m = a + (b - a) / 2;
+    return advance(a, m, depth + 1) && advance(m, b, depth + 1);
+  };
+  const State start = state;
+  step = solve_at_factor(solver, p, f1, state, verbosity);
+  attempts.push_back({f0, f1, step.report.converged, step.report.iterations,
+                      step.report.history.empty() ? 0.0 : step.report.history.back().wall,
+                      step.report.status});
+  std::string refused;
+  if (!step.report.converged) {
+    refused = subdivision_refused(solver, f0, f1);
+    if (refused.empty()) {
+      if (verbosity > 0)
+        std::printf(
+            "step %4d/%d  load factor %g -> %g failed after %d iterations (%s); retried "
+            "in two halves\n",
+            p, P, f0, f1, step.report.iterations,
+            step.report.status.substr(0, step.report.status.find(": ")).c_str()),
+            std::fflush(stdout);
+      state = start;
+      const double m = f0 + (f1 - f0) / 2;
+      if (advance(f0, m, 1)) advance(m, f1, 1);
+    }
+  }
+  step.attempts = std::move(attempts);
+  step.substeps = step.report.converged ? std::max(substeps, 1) : 0;
+  step.not_subdivided = refused;
+  StepReport& report = step.report;
+  const int failed = step.failed_attempts();
+  if (failed > 0 && report.converged)
+    report.status =
+        cat(report.status, "; load increment ", f0, " -> ", f1, " done in ", step.substeps,
+            " substeps after ", failed, " failed attempt(s): ", attempts_text(step.attempts));
+  else if (failed > 1)
+    report.status =
+        cat(report.status, "; the step was retried with its load increment ", f0, " -> ", f1,
+            " halved up to ", kMaxHalvings, " times: ", attempts_text(step.attempts));
+  else if (!report.converged && !refused.empty())
+    report.status = cat(report.status, " (", refused, ")");
   if (!report.converged) return step;
   if (verbosity > 0 && (P > 1 || verbosity == 1))
     std::printf(
         "step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  force residual %.1e  "
-        "%.3f s%s%s%s\n",
+        "%.3f s%s%s%s%s\n",
         p, P, p * problem.time.dt, report.iterations, report.history.back().r_G,
         report.history.back().r_B, report.force_residual, report.history.back().wall,
         report.strain_failures
@@ -236,6 +362,9 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
             : "",
         problem.algorithm.adaptive_R
             ? cat("  R = ", report.R, " (", report.R_changes, " changes)").c_str()
+            : "",
+        failed
+            ? cat("  (last of ", step.substeps, " substeps, ", failed, " failed attempts)").c_str()
             : "");
   std::fflush(stdout);
   return step;
@@ -346,7 +475,10 @@ void ResultsWriter::append(const TimeStep& step) {
                                points && !points->nodes.empty() ? &points->nodes : nullptr, false,
                                &solver.cells().vol);
   };
-  summary_.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
+  for (const StepAttempt& a : step.attempts) summary_.solver_seconds += a.seconds;
+  if (step.attempts.empty())
+    summary_.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
+  summary_.failed_attempts += step.failed_attempts();
   if (!report.converged) {
     const auto& last = report.history.back();
     const bool unbalanced = report.status.rfind("converged by", 0) == 0;
@@ -374,13 +506,15 @@ void ResultsWriter::append(const TimeStep& step) {
       file->set_status(msg);
     throw Error(cat(
         problem.name, ": ", msg, file && p > 1 ? cat("; ", output, " keeps steps 1..", p - 1) : "",
-        ".", unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor())));
+        ".",
+        unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor(), step)));
   }
   if (!output.empty()) {
     if (!file) file = create_file();
     file->append(step_data(solver, step), p == P ? "complete" : "running");
   }
   summary_.iterations.push_back(report.iterations);
+  summary_.substeps.push_back(step.substeps);
   summary_.last_step = p;
 }
 
@@ -413,6 +547,15 @@ RunSummary run(Solver& solver, const RunOptions& options,
     std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
                 summary.first_step, summary.last_step, summary.setup_seconds,
                 summary.solver_seconds, options.output.c_str());
+  if (options.verbosity > 0 && summary.failed_attempts > 0) {
+    std::string which;
+    for (std::size_t k = 0; k < summary.substeps.size(); ++k)
+      if (summary.substeps[k] > 1)
+        which += cat(which.empty() ? "" : ", ", summary.first_step + static_cast<int>(k), " (",
+                     summary.substeps[k], " substeps)");
+    std::printf("%s: load subdivision: %d failed attempt(s) retried; steps done in substeps: %s\n",
+                problem.name.c_str(), summary.failed_attempts, which.c_str());
+  }
   return summary;
 }
 

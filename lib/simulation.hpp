@@ -34,6 +34,19 @@ struct RunSummary {
   double solver_seconds = 0;          ///< time in the iterations (not setup or output)
   double setup_seconds = 0;           ///< discretization, assembly and factorization
   State state;                        ///< the last converged state
+  /// Load subdivision (solve_time_step): per computed step the number of substeps it took (1:
+  /// the full increment converged), and the failed attempts of the whole run.
+  std::vector<int> substeps;
+  int failed_attempts = 0;
+};
+
+/// One solve of a time step at one load factor (the full increment or a substep of it).
+struct StepAttempt {
+  double from = 0, to = 0;  ///< the load factor at the start and at the end of the attempt
+  bool converged = false;
+  int iterations = 0;
+  double seconds = 0;  ///< wall time of its iterations
+  std::string status;  ///< StepReport::status (with the equilibrium and admissibility checks)
 };
 
 /// One time step p as computed by solve_time_step: ALG2's report and the state it left.
@@ -43,18 +56,38 @@ struct TimeStep {
   const State* state = nullptr;  ///< the caller's state, updated in place
   /// The admissibility of the state (lib/admissibility.hpp), checked when it is finite.
   AdmissibilityReport admissibility;
+  /// Load subdivision: every solve of the step in order (the full increment first; the last one
+  /// is `report`), the number of substeps that make up the step when it converged (1: the full
+  /// increment), and why a failed step was not subdivided (empty when it was tried).
+  std::vector<StepAttempt> attempts;
+  int substeps = 1;
+  std::string not_subdivided;
+  int failed_attempts() const;
 };
+
+/// Load subdivision: a failed step is retried from step p-1's state with its load increment
+/// halved, recursively on the failing half, at most this many times (smallest substep 1/8 of
+/// the increment).
+constexpr int kMaxHalvings = 3;
 
 /// [LTL87 (2.1)-(2.2)] Time step p, backward Euler in beta: sets the load factor of step p
 /// (LoadRamp), keeps beta_{p-1} for the dissipation and iterates ALG2 (4.1)-(4.4) from `state`
-/// (step p-1's {E, e, beta, lambda, lambda_c}) to convergence. A step converged by the iterate
-/// residuals but not in equilibrium (force residual above algorithm.max_force_residual, a
-/// loaded problem) is marked not converged, and so is one that is not admissible
-/// (check_admissibility: a node inside the obstacle, det F <= 0, a cell on the rotated branch, a
-/// tension without glue, beta outside [0, 1]; status "inadmissible: ..."). Prints progress
-/// (verbosity 2: every iteration; 1: every 50 iterations of a static problem, every 2000 of an
-/// evolution, and one line per converged step). Never throws on divergence: ResultsWriter::append
-/// reports it.
+/// (step p-1's {E, e, beta, lambda, lambda_c}) to convergence (then Newton, algorithm.solver).
+/// A step that fails (divergence, cap, not in equilibrium, inadmissible) is retried from step
+/// p-1's state with its load increment (the LoadRamp factor from step p-1's to step p's; 0 before
+/// step 1) halved, the failing half halved again, at most kMaxHalvings times; only the last
+/// substep's state is the step's. Not subdivided: a step whose load factor does not change (a
+/// constant load after step 1, a problem without dead loads: prescribed displacements are not
+/// ramped and the solver applies them in full), and glue with dissipation (contact.d0 > 0: its
+/// term (6.4)-(6.5) divides by the solver's dt, fixed at the precompute, so a substep would
+/// dissipate as over the whole dt). Every attempt is in TimeStep::attempts and in the status. A
+/// step converged by the iterate residuals but not in equilibrium (force residual above
+/// algorithm.max_force_residual, a loaded problem) is marked not converged, and so is one that is
+/// not admissible (check_admissibility: a node inside the obstacle, det F <= 0, a cell on the
+/// rotated branch, a tension without glue, beta outside [0, 1]; status "inadmissible: ..."). Prints
+/// progress (verbosity 2: every iteration; 1: every 50 iterations of a static problem, every 2000
+/// of an evolution, and one line per converged step). Never throws on divergence:
+/// ResultsWriter::append reports it.
 TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity = 1);
 
 /// The results file of a run (lib/results.hpp layout) and its bookkeeping:

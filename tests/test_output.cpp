@@ -382,6 +382,9 @@ TEST(Output, StoredMeasuresEqualTheInMemoryOnes) {
     std::vector<StoredMeasure> expected = stored_measures(last, p.mesh.dim);
     // ... and the admissibility of the step (lib/admissibility.hpp).
     for (const StoredMeasure& m : stored_measures(admissibility)) expected.push_back(m);
+    // ... and the load subdivision of the step (lib/simulation.cpp): the full increment.
+    expected.push_back({"substeps", 1.0, "1", ""});
+    expected.push_back({"failed_attempts", 0.0, "1", ""});
     EXPECT_TRUE(stored->measures.count("det_F_min") && stored->measures.count("rotation_jump"));
     EXPECT_EQ(stored->measures.size(), expected.size());
     for (const StoredMeasure& m : expected) {
