@@ -375,11 +375,16 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     for (;;) {
       const bool last = report.newton_attempts >= 3 || to_switch <= a.tol;
       phase.tol = last ? a.tol : to_switch;
+      // ALG2 stalled above the switch (e.g. R too small for the stresses) hands over too.
+      phase.stagnation_window = last ? a.stagnation_window : 100;
       report.converged = false;
       drive(map, phase, report, progress);
       const bool alg2_done = report.converged && phase.tol <= a.tol;
       const bool capped = !report.converged && report.iterations >= a.max_iter;
-      if (!(report.converged || capped) || !s.u.allFinite() || report.newton_attempts >= 3) break;
+      const bool stalled = !report.converged && report.status.rfind("stagnated", 0) == 0;
+      if (!(report.converged || capped || stalled) || !s.u.allFinite() ||
+          report.newton_attempts >= 3)
+        break;
       ++report.newton_attempts;
       const Newton::Result r = newton_->solve(s, F_ext_, a, report, progress);
       if (r.converged) {
@@ -390,7 +395,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       report.converged = alg2_done;  // ALG2's own answer stands; its state is s
       report.status = cat(alg2_done ? "converged (ALG2; " : "", r.status, alg2_done ? ")" : "");
       if (alg2_done || capped) break;
-      to_switch /= 10;
+      if (!stalled) to_switch /= 10;
     }
   }
   const EquilibriumMeasure eq = equilibrium_measure(*this, s);

@@ -43,6 +43,12 @@ bool IterationPolicy::stop(const IterationRecord& rec, bool finite) {
     report_.status = "converged";
     return true;
   }
+  if (best_ < 0 || r < 0.99 * best_) best_ = r, best_n_ = rec.n;
+  if (rec.n - best_n_ >= alg_.stagnation_window) {
+    report_.status = cat("stagnated: r_G + r_B = ", r, " has not decreased by 1 % in ",
+                         alg_.stagnation_window, " iterations (best ", best_, ")");
+    return true;
+  }
   return capped(rec.n);
 }
 

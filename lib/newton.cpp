@@ -2,6 +2,7 @@
 #include "newton.hpp"
 
 #include <Eigen/CholmodSupport>
+#include <Eigen/UmfPackSupport>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -97,7 +98,11 @@ bool solve_kkt(const Triplets& kkt, const Eigen::VectorXd& rhs, int nu, int np, 
   A.setFromTriplets(ta.begin(), ta.end());
   // The pattern of A is K's (the projections and the damping stay inside K's cell blocks), the
   // same at every step: analyzed once.
-  if (!analyzed) llt.analyzePattern(A), analyzed = true;
+  if (!analyzed) {
+    llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
+    llt.analyzePattern(A);
+    analyzed = true;
+  }
   llt.factorize(A);
   if (llt.info() != Eigen::Success) return false;
   Eigen::VectorXd dp = Eigen::VectorXd::Zero(np), dmu = Eigen::VectorXd::Zero(nc), du;
@@ -121,6 +126,18 @@ bool solve_kkt(const Triplets& kkt, const Eigen::VectorXd& rhs, int nu, int np, 
   dx.resize(nu + np + nc);
   dx << du, dp, dmu;
   return true;
+}
+
+/// The same KKT system by UMFPACK's sparse LU (symmetric indefinite: the fall-back of
+/// solve_kkt when the augmented tangent is not positive definite). False when singular.
+bool solve_kkt_lu(const Triplets& kkt, const Eigen::VectorXd& rhs, Eigen::VectorXd& dx) {
+  SpMat A(rhs.size(), rhs.size());
+  A.setFromTriplets(kkt.begin(), kkt.end());
+  Eigen::UmfPackLU<SpMat> lu;
+  lu.compute(A);
+  if (lu.info() != Eigen::Success) return false;
+  dx = lu.solve(rhs);
+  return dx.allFinite();
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -536,9 +553,12 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     rec.t_strain = seconds_since(t0);
     t0 = clock_type::now();
     Eigen::VectorXd dx;
-    const bool solved = solve_kkt(kkt, rhs, nfree_, np_, nA, llt, analyzed, dx);
+    bool solved = solve_kkt(kkt, rhs, nfree_, np_, nA, llt, analyzed, dx);
+    // The augmented tangent is not positive definite (a saddle of the energy on the constraints,
+    // e.g. a compressed block under a dead load): the KKT system itself, by sparse LU.
+    if (!solved) solved = solve_kkt_lu(kkt, rhs, dx);
     rec.t_global = seconds_since(t0);
-    if (!solved) {  // the augmented tangent is not positive definite: damp more, same point
+    if (!solved) {  // singular: damp more, same point
       ++result.iterations;
       ++report.newton_iterations;
       rec.n = ++report.iterations;
@@ -550,7 +570,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       if (progress) progress(report.history.back());
       damping = damping > 0 ? 10 * damping : 1e-4;
       if (damping > 1e6) {
-        result.status = "Newton: the tangent stays indefinite even with damping";
+        result.status = "Newton: the tangent stays singular even with damping";
         break;
       }
       active = prev_active;

@@ -17,8 +17,9 @@
 // linear systems are the KKT systems (u free dofs, p, active contact forces), symmetric and
 // indefinite, solved through the augmented Lagrangian of the linear system: one CHOLMOD
 // factorization of the tangent plus 1e4 times the constraints' projections, and a few sweeps of
-// multiplier updates (an indefinite tangent makes that factorization fail, and the step is
-// damped instead). Not treated: the glue (w, kappa > 0), whose
+// multiplier updates. When that factorization fails (the tangent is not positive on the
+// constraints' kernel: a saddle, e.g. a compressed block under a dead load) the KKT system itself
+// is solved by UMFPACK's sparse LU. Not treated: the glue (w, kappa > 0), whose
 // problems keep ALG2.
 #pragma once
 

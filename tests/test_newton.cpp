@@ -225,3 +225,25 @@ TEST(Newton, DefaultSolverAndGlueRefused) {
 
 }  // namespace
 }  // namespace ltl
+
+namespace ltl {
+namespace {
+
+// [LTL87 (4.4)] A step that cannot converge and does not diverge either (Fig 5 with the body
+// force reversed: nothing holds the cylinder, r_G stays at 5.7e-2) stops as "stagnated" after
+// stagnation_window iterations, not at the cap (26 hours at max_iter = 1e9 before); with the
+// Newton phase it ends too, not converged.
+TEST(Stagnation, Eq4_4_AStalledStepStopsAsStagnated) {
+  for (const NonlinearSolver solver : {NonlinearSolver::Alg2, NonlinearSolver::Newton}) {
+    Problem p =
+        figure("fig5", {"load.body_force=[0, \"400 kN/m^3\"]", "algorithm.max_iter=1000000"});
+    const Solved r = solve(p, solver);
+    EXPECT_FALSE(r.report.converged);
+    EXPECT_LT(r.report.iterations, 3 * p.algorithm.stagnation_window) << r.report.status;
+    if (solver == NonlinearSolver::Alg2)
+      EXPECT_EQ(r.report.status.rfind("stagnated", 0), 0u) << r.report.status;
+  }
+}
+
+}  // namespace
+}  // namespace ltl
