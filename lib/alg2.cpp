@@ -401,6 +401,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   const EquilibriumMeasure eq = equilibrium_measure(*this, s);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;
+  report.det_min = eq.det_min;
   report.penetration = eq.penetration;
   report.R = R_;
   report.R_changes = map.R_changes;

@@ -4,7 +4,8 @@
 //          particular case of algorithm (4.1)-(4.4)") and section 8 ("The use of the
 //          BERMUDEZ-MORENO variant of section 7 did not bring any speed-up of the algorithm").
 //   Anderson: every figure also runs with algorithm.acceleration = "anderson" (variants
-//          "...-anderson"): the accelerated iteration next to the paper's plain one.
+//          "...-anderson"): the accelerated iteration next to the paper's plain one; Figs 5
+//          and 6 also with algorithm.solver = "newton" ("uzawa-newton").
 //   Make:  make compare
 //   Run:   build/experiments/compare [OUTDIR]        (default results/compare)
 //
@@ -60,6 +61,9 @@ std::vector<Run> runs() {
     r.push_back({fig, "bermudez-moreno", cfg, {bm}});
     r.push_back({fig, "uzawa-anderson", cfg, {uzawa, anderson}});
     r.push_back({fig, "bermudez-moreno-anderson", cfg, {bm, anderson}});
+    // ALG2 into the basin of Newton's method on the same discrete problem (lib/newton.hpp):
+    // the history's last rows are Newton's (r_G = force residual, r_B = constraint residual).
+    r.push_back({fig, "uzawa-newton", cfg, {uzawa, "algorithm.solver=newton"}});
   }
   // 2. Sweeps of R (both updates) and rho (Bermudez-Moreno) on Fig 5 and on the first six
   //    steps of Fig 3.
@@ -98,6 +102,12 @@ std::vector<Run> runs() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc > 2 || (argc == 2 && argv[1][0] == '-')) {  // no option is a directory name
+    const bool help =
+        argc == 2 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help");
+    std::fprintf(help ? stdout : stderr, "usage: compare [OUTDIR]   (default results/compare)\n");
+    return help ? 0 : 2;
+  }
   const std::string out = argc > 1 ? argv[1] : "results/compare";
   std::filesystem::create_directories(out);
   std::printf("%-12s %-26s %10s %12s  %s\n", "problem", "variant", "iterations", "solver [s]",
