@@ -222,7 +222,13 @@ void fluctuation_loop(const Eigen::MatrixXd& GQ, const Eigen::VectorXd& wq,
 void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                                  const Eigen::MatrixXd* E, Eigen::VectorXd* c,
                                  Eigen::MatrixXd* force) const {
-  GQ_.noalias() = Gq_ * u;
+  // The point gradients Gq u, computed once per u: ALG2 asks for them at the end of an iteration
+  // (the targets J, at the new u) and at the start of the next (the lagged force, at the same u
+  // unless the acceleration moved it), so the second product is skipped when u is unchanged.
+  if (!(u_GQ_.rows() == u.rows() && u_GQ_.cols() == u.cols() && u_GQ_ == u)) {
+    GQ_.noalias() = Gq_ * u;
+    u_GQ_ = u;
+  }
   Eigen::MatrixXd* S = force ? &Sq_ : nullptr;
   if (dim() == 2)
     fluctuation_loop<2>(GQ_, wq_, cells_.vol, nq_, lambda, E, c, S);

@@ -121,6 +121,7 @@ class Discretization {
   Eigen::VectorXd wq_;
   SpMat fluctuation_laplacian_;
   mutable Eigen::MatrixXd GQ_, Sq_;
+  mutable Eigen::MatrixXd u_GQ_;  ///< the u of GQ_ = Gq u (fluctuation computes it once per u)
 };
 
 }  // namespace ltl

@@ -240,8 +240,9 @@ TEST(Stagnation, Eq4_4_AStalledStepStopsAsStagnated) {
     const Solved r = solve(p, solver);
     EXPECT_FALSE(r.report.converged);
     EXPECT_LT(r.report.iterations, 3 * p.algorithm.stagnation_window) << r.report.status;
-    if (solver == NonlinearSolver::Alg2)
+    if (solver == NonlinearSolver::Alg2) {
       EXPECT_EQ(r.report.status.rfind("stagnated", 0), 0u) << r.report.status;
+    }
   }
 }
 
