@@ -277,26 +277,49 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
   const Eigen::VectorXd& vol = disc_.cells().vol;
   Eigen::MatrixXd ue(n, d), Ke(d * n, d * n);
   Eigen::VectorXd be(d * n);
+  // The fourth-order tangents as (d*d) x (d*d) matrices, column k d + l = the derivative in the
+  // direction E_kl (entry i d + j), and their contraction with two gradient tables:
+  //   Ke(d a + i, d b + k) += c sum_{j,l} T(i d + j, k d + l) g(a, j) h(b, l).
+  using Tangent = Eigen::Matrix<double, d * d, d * d>;
+  Tangent T;
+  auto contract = [&](const Tangent& A, const Eigen::MatrixXd& g, double c) {
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b)
+        for (int i = 0; i < d; ++i)
+          for (int k = 0; k < d; ++k) {
+            double v = 0;
+            for (int j = 0; j < d; ++j)
+              for (int l = 0; l < d; ++l) v += A(i * d + j, k * d + l) * g(a, j) * g(b, l);
+            Ke(d * a + i, d * b + k) += c * v;
+          }
+  };
+  // r(d a + i) += c sum_j P(i, j) g(a, j)
+  auto add_row = [&](const Mat<d>& P, const Eigen::MatrixXd& g, double c, Eigen::VectorXd& r,
+                     const int* nodes) {
+    for (int a = 0; a < n; ++a)
+      for (int i = 0; i < d; ++i) {
+        double v = 0;
+        for (int j = 0; j < d; ++j) v += P(i, j) * g(a, j);
+        r(nodes ? d * nodes[a] + i : d * a + i) += c * v;
+      }
+  };
   for (int e = 0; e < nc; ++e) {
     const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
     for (int a = 0; a < n; ++a) ue.row(a) = x.u.row(nodes[a]);
     const Eigen::MatrixXd& gb = gbar_[e];
     Mat<d> F = Mat<d>::Identity() + ue.transpose() * gb;
-    if (Ru) {
-      const Eigen::MatrixXd r = vol(e) * (m.dW(F) * gb.transpose());  // d x n
-      for (int a = 0; a < n; ++a)
-        for (int i = 0; i < d; ++i) (*Ru)(d * nodes[a] + i) += r(i, a);
-    }
+    if (Ru) add_row(m.dW(F), gb, vol(e), *Ru, nodes);
     if (K) {
       Ke.setZero();
-      for (int b = 0; b < n; ++b)
-        for (int k = 0; k < d; ++k) {
+      for (int k = 0; k < d; ++k)
+        for (int l = 0; l < d; ++l) {
           Mat<d> H = Mat<d>::Zero();
-          H.row(k) = gb.row(b);
-          const Eigen::MatrixXd col = vol(e) * (m.d2W(F, H) * gb.transpose());
-          for (int a = 0; a < n; ++a)
-            for (int i = 0; i < d; ++i) Ke(d * a + i, d * b + k) += col(i, a);
+          H(k, l) = 1;
+          const Mat<d> dP = m.d2W(F, H);
+          for (int i = 0; i < d; ++i)
+            for (int j = 0; j < d; ++j) T(i * d + j, k * d + l) = dP(i, j);
         }
+      contract(T, gb, vol(e));
     }
     if (incompressible_) {
       double Ge = -vol(e);
@@ -307,18 +330,18 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
         const double w = wq_[q];
         const Mat<d> Fq = Mat<d>::Identity() + ue.transpose() * g;
         Ge += w * Fq.determinant();
-        const Eigen::MatrixXd c = w * (cof<d>(Fq) * g.transpose());
-        for (int a = 0; a < n; ++a)
-          for (int i = 0; i < d; ++i) be(d * a + i) += c(i, a);
-        if (K && p != 0)
-          for (int b = 0; b < n; ++b)
-            for (int k = 0; k < d; ++k) {
+        add_row(cof<d>(Fq), g, w, be, nullptr);
+        if (K && p != 0) {
+          for (int k = 0; k < d; ++k)
+            for (int l = 0; l < d; ++l) {
               Mat<d> H = Mat<d>::Zero();
-              H.row(k) = g.row(b);
-              const Eigen::MatrixXd col = (p * w) * (dcof<d>(Fq, H) * g.transpose());
-              for (int a = 0; a < n; ++a)
-                for (int i = 0; i < d; ++i) Ke(d * a + i, d * b + k) -= col(i, a);
+              H(k, l) = 1;
+              const Mat<d> dC = dcof<d>(Fq, H);
+              for (int i = 0; i < d; ++i)
+                for (int j = 0; j < d; ++j) T(i * d + j, k * d + l) = dC(i, j);
             }
+          contract(T, g, -p * w);
+        }
       }
       if (G) (*G)(e) = Ge;
       if (Ru)
