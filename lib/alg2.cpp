@@ -68,8 +68,10 @@ void Solver::precompute(double R) {
   gamma_ = disc_.mean_det() ? 2 * Rq : 0.0;
   const SpMat K =
       global_matrix(disc_.cells(), disc_.facets(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
+  const double scale = global_ ? global_->value_scale() : 1.0;  // a substep's, kept
   global_.reset();  // release the old factor before the new one is computed
   global_ = std::make_unique<GlobalStep>(K, disc_.dirichlet());
+  global_->set_value_scale(scale);
   ++factorizations_;
   strain_ = std::make_unique<StrainStep>(disc_.split(), Rq);
   if (disc_.facets()) {
@@ -462,6 +464,11 @@ void Solver::set_load_factor(double factor) {
   if (!std::isfinite(factor)) throw Error(cat("load factor ", factor, ": must be finite"));
   load_factor_ = factor;
   F_ext_ = factor * disc_.dead_load();  // same size: no allocation
+}
+
+void Solver::set_displacement_factor(double factor) {
+  if (!std::isfinite(factor)) throw Error(cat("displacement factor ", factor, ": must be finite"));
+  global_->set_value_scale(factor);
 }
 
 double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {

@@ -86,6 +86,9 @@ class Solver {
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
   /// external_load() = factor x the assembled dead loads f, g. K is unchanged.
   void set_load_factor(double factor);
+  /// The prescribed displacements at `factor` x their values (1 by default): the load
+  /// subdivision of lib/simulation.cpp ramps them over a failed step's substeps. K is unchanged.
+  void set_displacement_factor(double factor);
   double load_factor() const { return load_factor_; }
   /// The augmentation parameter R in use (the configuration's, or the last one chosen by the
   /// adaptive rule, AlgorithmParams::adaptive_R), and how many times K was factorized.

@@ -148,14 +148,14 @@ void GlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) {
     for (int k = 0; k < nc; ++k) {  // block = (b - K_fd u_d) on the free nodes, permuted
       const double* bk = b.col(g.components[k]).data();
       const double* sh = g.shift.col(k).data();
-      for (int i = 0; i < nf; ++i) y[nc * i + k] = bk[g.node[i]] - sh[i];
+      for (int i = 0; i < nf; ++i) y[nc * i + k] = bk[g.node[i]] - scale_ * sh[i];
     }
     g.factor->solve_in_place();
     for (int k = 0; k < nc; ++k) {
       const int c = g.components[k];
       double* uc = u.col(c).data();
       for (int i = 0; i < nf; ++i) uc[g.node[i]] = y[nc * i + k];
-      for (int i : bc_.fixed[c]) uc[i] = bc_.value(i, c);
+      for (int i : bc_.fixed[c]) uc[i] = scale_ * bc_.value(i, c);
     }
   };
   // Distinct factors are independent (and each has its own CHOLMOD state): solve them

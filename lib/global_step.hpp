@@ -51,6 +51,11 @@ class GlobalStep {
   /// Allocation-free after the first call.
   void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u);
 
+  /// The prescribed values are value_scale x DirichletData::value (1 unless set: a substep of
+  /// the increment of prescribed displacements, lib/simulation.cpp). The factors do not change.
+  void set_value_scale(double s) { scale_ = s; }
+  double value_scale() const { return scale_; }
+
   int num_factors() const { return static_cast<int>(groups_.size()); }
   double analyze_seconds() const { return analyze_seconds_; }
   double factorize_seconds() const { return factorize_seconds_; }
@@ -74,6 +79,7 @@ class GlobalStep {
   double analyze_seconds_ = 0, factorize_seconds_ = 0, factor_nnz_ = 0, min_rcond_ = 1;
   double solve_seconds_ = 0;
   long solve_calls_ = 0;
+  double scale_ = 1;  ///< see set_value_scale
 };
 
 }  // namespace ltl

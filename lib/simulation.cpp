@@ -149,9 +149,8 @@ std::string divergence_hint(const Problem& problem, double factor, const TimeSte
                 " failed attempts, the smallest substep 1/", 1 << kMaxHalvings,
                 " of the increment): a finer load ramp alone is unlikely to help")
       : step.not_subdivided.find("no dead load") != std::string::npos
-          ? "; prescribed displacements are applied in full at the first step (they are not "
-            "ramped: [load] ramp scales the dead loads only), so the step could not be "
-            "subdivided"
+          ? "; nothing changes the loading at this step (no dead load, no prescribed "
+            "displacement increment), so the step could not be subdivided"
           : "; a load too large for one step needs a load ramp ([load] ramp = \"linear\", "
             "ramp_time, more time.steps)",
       " (experiments/README.md, \"Choosing R, q, q_c\").");
@@ -209,6 +208,12 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   const Problem& problem = solver.problem();
   const int P = problem.time.steps;
   solver.set_load_factor(factor);  // LoadRamp, or a substep of its increment
+  // Prescribed displacements: in full from step 1 on; a substep of a failed step takes the same
+  // fraction theta of their increment (0 -> 1 at step 1, none later).
+  const double f1 = problem.ramp.factor(p, problem.time.dt);
+  const double f0 = p > 1 ? problem.ramp.factor(p - 1, problem.time.dt) : 0.0;
+  const double theta = f1 != f0 ? (factor - f0) / (f1 - f0) : 1.0;
+  solver.set_displacement_factor(p > 1 ? 1.0 : theta);
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   const Eigen::VectorXd beta_prev = state.beta;
   auto progress = [&](const IterationRecord& r) {
@@ -249,7 +254,7 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
 
 /// Why a failed step p, whose load factor goes from f0 to f1, cannot be subdivided (empty: it
 /// can).
-std::string subdivision_refused(const Solver& solver, double f0, double f1) {
+std::string subdivision_refused(const Solver& solver, int p, double f0, double f1) {
   const Problem& problem = solver.problem();
   if (problem.contact && problem.contact->adhesion.d0 > 0 &&
       (problem.contact->adhesion.kappa > 0 || problem.contact->adhesion.w > 0))
@@ -259,9 +264,11 @@ std::string subdivision_refused(const Solver& solver, double f0, double f1) {
   if (f1 == f0)
     return cat("not subdivided: the load factor does not change at this step (", f1,
                "); nothing to subdivide");
-  if (!(solver.external_load().cwiseAbs().maxCoeff() > 0))
-    return "not subdivided: no dead load (prescribed displacements are applied in full at every "
-           "step, not ramped)";
+  const bool displaced =
+      p == 1 && solver.discretization().dirichlet().value.cwiseAbs().maxCoeff() > 0;
+  if (!(solver.external_load().cwiseAbs().maxCoeff() > 0) && !displaced)
+    return "not subdivided: no dead load, and no prescribed displacement increment (prescribed "
+           "displacements are applied in full from step 1 on)";
   return "";
 }
 
@@ -318,7 +325,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
                       step.report.status});
   std::string refused;
   if (!step.report.converged) {
-    refused = subdivision_refused(solver, f0, f1);
+    refused = subdivision_refused(solver, p, f0, f1);
     if (refused.empty()) {
       if (verbosity > 0)
         std::printf(

@@ -351,15 +351,16 @@ TEST(UserCases, FailedStepIsRetriedInSubstepsAndOnlyTheLastIsWritten) {
   fs::remove_all(dir);
 }
 
-TEST(UserCases, PrescribedDisplacementsAndDissipativeGlueAreNotSubdivided) {
-  // Prescribed displacements are not ramped (LoadRamp) and the solver applies them in full:
-  // a failed step of a problem without dead loads is not retried, and says so. The O-ring at
-  // 35 % (see ORingTwentyPercentConvergesAndThirtyFiveIsAClearRefusal below) fails this way.
+TEST(UserCases, PrescribedDisplacementsAreSubdividedDissipativeGlueIsNot) {
+  // A failed first step of a problem loaded by prescribed displacements is retried in substeps
+  // of their increment (Solver::set_displacement_factor): the O-ring at 35 % (see
+  // ORingTwentyPercentConvergesAndThirtyFiveIsAClearRefusal below) reaches 87.5 % of the
+  // squeeze and then fails, clearly.
   const Outcome o = run_case("oring35", oring_config(0.35, 6));
   ASSERT_FALSE(o.ok);
-  EXPECT_TRUE(contains(o.error, "not subdivided: no dead load")) << o.error;
-  EXPECT_TRUE(contains(o.error, "prescribed displacements are applied in full")) << o.error;
-  EXPECT_FALSE(contains(o.error, "needs a load ramp")) << o.error;
+  EXPECT_TRUE(contains(o.error, "retried with its load increment 0 -> 1 halved")) << o.error;
+  EXPECT_TRUE(contains(o.error, "0 -> 0.5: converged")) << o.error;
+  EXPECT_FALSE(contains(o.error, "not subdivided")) << o.error;
   // Glue with dissipation: the solver's dt is fixed, so a substep would dissipate as over dt.
   const Outcome g = run_case("strip_d0", strip_config("10 kPa"),
                              {"contact.d0=\"1000 1/m\"", "algorithm.max_iter=5"});
@@ -391,8 +392,8 @@ TEST(UserCases, Eq1_1_ORingTwentyPercentConvergesAndThirtyFiveIsAClearRefusal) {
   expect_oring(0.20, 6);
   // 35 %: ALG2 stalls at r ~ 0.8 and three Newton starts fail (a cell at the corner of the flat
   // folds: with algorithm.R = 12 ALG2 converges to det F = -0.15 there). A clear refusal: not
-  // converged, the reason, nothing written as a result; prescribed displacements are not
-  // subdivided (PrescribedDisplacementsAndDissipativeGlueAreNotSubdivided).
+  // converged, the reason, nothing written as a result, after substeps down to 1/8 of the
+  // squeeze (PrescribedDisplacementsAreSubdividedDissipativeGlueIsNot).
   const Outcome o = run_case("oring35", oring_config(0.35, 6));
   EXPECT_FALSE(o.ok);
   EXPECT_TRUE(contains(o.error, "diverged at step 1")) << o.error;
