@@ -258,6 +258,48 @@ const std::vector<Case>& catalogue() {
        [](const fs::path& d) {
          fs::create_symlink("created_through_the_lock", d / "out.h5.lock");
        }},
+      // Stack overflows (exit 139) turned into messages: a long Include name (std::regex in the
+      // geometry scan), a --set key of 60 000 parts, a header and a value nested 50 000 deep.
+      {"geo_include_long_name",
+       "half_disc.geo",
+       "inc.geo",
+       o,
+       1,
+       {"inc.geo: Include", "(100000 characters)", "longer than the system allows"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "inc.geo", read_bytes(d / "half_disc.geo") + "Include \"" +
+                                                     std::string(100000, 'a') + "\";\n");
+       }},
+      {"set_key_60000_parts",
+       "",
+       "",
+       "--set '" +
+           [] {
+             std::string k = "a";
+             for (int i = 1; i < 60000; ++i) k += ".a";
+             return k;
+           }() +
+           "=1'" + o,
+       1,
+       {"--set 'a.a.a", "a key of 60000 parts; keys have at most 64"}},
+      {"header_50000_deep",
+       "steps = 1",
+       "steps = 1\n[" +
+           [] {
+             std::string k = "a";
+             for (int i = 1; i < 50000; ++i) k += ".a";
+             return k;
+           }() +
+           "]\nx = 1",
+       o,
+       1,
+       {"case.toml:27: keys nested deeper than 64 levels"}},
+      {"set_value_50000_deep",
+       "",
+       "",
+       "--set 'algorithm.R=" + std::string(50000, '[') + std::string(50000, ']') + "'" + o,
+       1,
+       {"--set 'algorithm.R=[[[", "(100012 characters)", "nested deeper than 64"}},
       // The files beside the results: an XDMF file this code did not write is not replaced;
       // -o '' is a usage error (it used to fall back to results/<name>.h5).
       {"xdmf_not_ours",
@@ -286,6 +328,61 @@ const std::vector<Case>& catalogue() {
        }},
       {"output_empty", "", "", "-o ''", 2, {"-o '': the results file name is empty"}},
       // Smaller messages naming the cause (item 7).
+      {"geo_includes_itself",
+       "half_disc.geo",
+       "self.geo",
+       o,
+       1,
+       {"self.geo: Include \"self.geo\" includes the geometry file itself", "Include cycle"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "self.geo",
+                                  "Include \"self.geo\";\n" + read_bytes(d / "half_disc.geo"));
+       }},
+      {"geo_include_cycle",
+       "half_disc.geo",
+       "a.geo",
+       o,
+       1,
+       {"b.geo: Include \"a.geo\"", "Include cycle"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "a.geo",
+                                  "Include \"b.geo\";\n" + read_bytes(d / "half_disc.geo"));
+         ltl::testing::write_file(d / "b.geo", "Include \"a.geo\";\n");
+       }},
+      {"geo_include_fifo",
+       "half_disc.geo",
+       "a.geo",
+       o,
+       1,
+       {"a.geo: Include \"fifo.geo\"", "not a regular file"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "a.geo",
+                                  "Include \"fifo.geo\";\n" + read_bytes(d / "half_disc.geo"));
+         ASSERT_EQ(::mkfifo((d / "fifo.geo").c_str(), 0644), 0);
+       }},
+      {"geometry_dev_zero",
+       "\"half_disc.geo\"",
+       "\"/dev/zero\"",
+       o,
+       1,
+       {"mesh.geometry", "/dev/zero", "not a regular file"}},
+      {"geometry_fifo",
+       "half_disc.geo",
+       "fifo.geo",
+       o,
+       1,
+       {"mesh.geometry", "fifo.geo", "not a regular file"},
+       [](const fs::path& d) { ASSERT_EQ(::mkfifo((d / "fifo.geo").c_str(), 0644), 0); }},
+      {"config_fifo",
+       "",
+       "",
+       o,
+       1,
+       {"case.toml: is not a regular file"},
+       [](const fs::path& d) {
+         fs::remove(d / "case.toml");
+         ASSERT_EQ(::mkfifo((d / "case.toml").c_str(), 0644), 0);
+       }},
       {"output_fifo",
        "",
        "",
