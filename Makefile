@@ -31,7 +31,8 @@ test: build
 # Eigen does; otherwise ASan reports a bad-free when a gmsh-allocated Eigen array is freed here.
 # Leak checking is off (libgmsh and OpenMP keep allocations until exit). The Fig 3 exact-kernel
 # regression takes ~6 min under ASan; skip it with SANITIZE_CTEST="-E exact_kernel".
-# Last run (make sanitize JOBS=2, GCC 12, 2 cores): clean, 231/231 tests passed (one skip by
+# Last run (make sanitize JOBS=2, GCC 12, 2 cores; the suite had 231 tests then, more since:
+# `ctest -N`): clean, 231/231 tests passed (one skip by
 # design: OutOfMemoryIsAMessage) with no ASan/UBSan report; ctest 320 s on idle cores (532 s
 # loaded), the build from scratch ~1 h on a loaded machine.
 SANITIZE_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined \

@@ -72,6 +72,11 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
     }
     if (a == "-o") {
       cmd.output = argv[++i];
+      // An empty value (-o "$UNSET" in a script) is an error, not the default path.
+      if (cmd.output.empty()) {
+        std::fprintf(stderr, "%s: -o '': the results file name is empty\n", program);
+        return 2;
+      }
     } else if (a == "--set") {
       cmd.overrides.push_back(argv[++i]);
     } else if (a == "--resume") {

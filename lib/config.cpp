@@ -2,6 +2,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <filesystem>
@@ -232,6 +233,98 @@ int component_index(const Reader& r, const std::string& k, int dim) {
   r.fail(k, cat("expected one of ", dim == 2 ? "\"x\", \"y\"" : "\"x\", \"y\", \"z\""));
 }
 
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// The deepest nesting of keys this code accepts: table headers, dotted keys and inline tables
+/// together (its configurations use at most 5). toml++ builds, prints and destroys tables
+/// recursively: a header `[a.a.a...]` of 50 000 parts overflowed the stack (exit 139).
+constexpr int kMaxKeyDepth = 64;
+
+/// Refuses TOML text whose keys nest deeper than kMaxKeyDepth, naming the line, before toml++
+/// parses it. A linear scan that knows TOML's strings and comments: the depth of a key is that of
+/// its table (header parts, + 1 for an array of tables), + its dotted parts, + the inline tables
+/// and arrays around it. (Values alone are bounded by toml++: 256 nested arrays or inline tables.)
+void check_key_depth(const std::string& text, const std::string& where) {
+  struct Open {
+    char bracket;
+    int cur, container;
+  };
+  std::vector<Open> open;
+  int line = 1, base = 0, container = 0, cur = 0, dots = 0;
+  bool key = true;  // reading a key (else a value)
+  const auto check = [&](int depth) {
+    if (depth > kMaxKeyDepth)
+      throw Error(cat(where, ":", line, ": keys nested deeper than ", kMaxKeyDepth,
+                      " levels (table headers, dotted keys, arrays and inline tables together); "
+                      "refusing to parse it"));
+  };
+  // Skips the string starting at i (a key or a value); returns the index of its last character.
+  const auto skip_string = [&](std::size_t i) {
+    const char q = text[i];
+    const bool triple = text.compare(i, 3, std::string(3, q)) == 0;
+    std::size_t j = i + (triple ? 3 : 1);
+    for (; j < text.size(); ++j) {
+      if (text[j] == '\n') {
+        if (!triple) return j - 1;  // an unterminated string: toml++ says so
+        ++line;
+      }
+      if (q == '"' && text[j] == '\\') {
+        ++j;
+        if (j < text.size() && text[j] == '\n') ++line;
+        continue;
+      }
+      if (text[j] == q && (!triple || text.compare(j, 3, std::string(3, q)) == 0))
+        return triple ? j + 2 : j;
+    }
+    return text.size();
+  };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      if (open.empty()) key = true, dots = 0, container = base;
+    } else if (c == '#') {
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+    } else if (c == '"' || c == '\'') {
+      i = skip_string(i);
+    } else if (key && open.empty() && c == '[') {  // a table header
+      const bool array = i + 1 < text.size() && text[i + 1] == '[';
+      int parts = 1;
+      for (++i; i < text.size() && text[i] != ']' && text[i] != '\n'; ++i) {
+        if (text[i] == '"' || text[i] == '\'') i = skip_string(i);
+        if (i < text.size() && text[i] == '.') ++parts;
+      }
+      if (i < text.size() && text[i] == '\n') --i;
+      base = container = parts + (array ? 1 : 0);
+      check(base);
+    } else if (key && c == '.') {
+      ++dots;
+    } else if (key && c == '=') {
+      cur = container + dots + 1;
+      check(cur);
+      key = false;
+      dots = 0;
+    } else if (!key && (c == '[' || c == '{')) {
+      open.push_back({c, cur, container});
+      if (c == '{') container = cur, key = true, dots = 0;
+      check(++cur);
+    } else if (!key && c == ',' && !open.empty()) {
+      if (open.back().bracket == '{') key = true, dots = 0;
+      cur = open.back().cur + 1;
+    } else if ((c == ']' || c == '}') && !open.empty()) {
+      cur = open.back().cur;
+      container = open.back().container;
+      open.pop_back();
+      key = false;
+    }
+  }
+}
+
 // Inserts `key = value` (value in TOML syntax) at a dotted path whose parts may index arrays:
 // "algorithm.R", "load.traction[0].value", "load.factor[2]". Tables on the way are created;
 // array entries must exist. Returns the key in the form the Reader names keys.
@@ -241,9 +334,22 @@ std::string apply_override(toml::table& root, const std::string& assignment,
   if (eq == std::string::npos || eq == 0)
     throw Error(cat(file, ": --set '", assignment, "': expected key=value, e.g. algorithm.R=4"));
   const std::string key = assignment.substr(0, eq), value = assignment.substr(eq + 1);
+  // Messages quote at most 80 characters of the assignment (it may be megabytes long).
+  const std::string quoted = assignment.size() <= 80 ? assignment
+                                                     : cat(assignment.substr(0, 80), "... (",
+                                                           assignment.size(), " characters)");
   auto bad = [&](const std::string& msg) -> Error {
-    return Error(cat(file, ": --set '", assignment, "': ", msg));
+    return Error(cat(file, ": --set '", quoted, "': ", msg));
   };
+  const auto depth =
+      1 + std::count(key.begin(), key.end(), '.') + std::count(key.begin(), key.end(), '[');
+  if (depth > kMaxKeyDepth)
+    throw bad(cat("a key of ", depth, " parts; keys have at most ", kMaxKeyDepth));
+  try {
+    check_key_depth("v = " + value, "the value");
+  } catch (const Error& e) {
+    throw bad(e.what());
+  }
   toml::table parsed;
   try {
     parsed = toml::parse("v = " + value);
@@ -345,10 +451,15 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   namespace fs = std::filesystem;
   if (!fs::exists(path)) throw Error(cat(path, ": no such configuration file"));
   if (fs::is_directory(path)) throw Error(cat(path, ": is a directory, not a configuration file"));
+  if (!fs::is_regular_file(path))
+    throw Error(
+        cat(path, ": is not a regular file (a FIFO, device or socket); refusing to read it"));
   if (!std::ifstream(path).good()) throw Error(cat(path, ": cannot read the configuration file"));
   toml::table root;
   try {
-    root = toml::parse_file(path);
+    const std::string text = read_text(path);
+    check_key_depth(text, path);
+    root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     throw Error(cat(path, ":", e.source().begin.line, ":", e.source().begin.column,
                     ": not valid TOML: ", e.description()));
@@ -385,6 +496,10 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   m.only({"geometry", "parameters"});
   const fs::path geo = fs::path(path).parent_path() / m.string("geometry");
   if (fs::is_directory(geo)) m.fail("geometry", cat("'", geo.string(), "' is a directory"));
+  if (fs::exists(geo) && !fs::is_regular_file(geo))
+    m.fail("geometry",
+           cat("'", geo.string(),
+               "' is not a regular file (a FIFO, device or socket); refusing to read it"));
   if (!std::ifstream(geo).good())
     m.fail("geometry", cat("'", geo.string(), "': cannot open the mesh/geometry file"));
   std::map<std::string, double> params;

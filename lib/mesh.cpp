@@ -5,12 +5,13 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <regex>
 #include <sstream>
 #include <unordered_map>
 
@@ -142,25 +143,68 @@ std::string strip_comments(const std::string& t) {
   return out;
 }
 
-void scan(const std::filesystem::path& file, GeometryScan& out, Fingerprint& hash, int depth) {
+// The string literals that follow `word` (and optional white space) in `code`, `word` starting
+// at a word boundary when `boundary`. A linear scan: std::regex recursed once per character of a
+// match and overflowed the stack on a long literal (an Include of a 100 000-character name).
+std::vector<std::string> quoted_after(const std::string& code, const std::string& word,
+                                      bool boundary) {
+  const auto is_word = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
+  };
+  std::vector<std::string> out;
+  for (std::size_t at = code.find(word); at != std::string::npos; at = code.find(word, at + 1)) {
+    if (boundary && at > 0 && is_word(code[at - 1])) continue;
+    std::size_t i = at + word.size();
+    while (i < code.size() && std::isspace(static_cast<unsigned char>(code[i]))) ++i;
+    if (i >= code.size() || code[i] != '"') continue;
+    const std::size_t end = code.find('"', i + 1);
+    if (end == std::string::npos) break;
+    if (end > i + 1) out.push_back(code.substr(i + 1, end - i - 1));
+  }
+  return out;
+}
+
+// A name for messages: at most 60 characters of it.
+std::string shown(const std::string& name) {
+  return name.size() <= 60 ? name : cat(name.substr(0, 60), "... (", name.size(), " characters)");
+}
+
+void scan(const std::filesystem::path& file, GeometryScan& out, Fingerprint& hash,
+          std::vector<std::filesystem::path>& chain) {
   namespace fs = std::filesystem;
-  if (depth > 16) throw Error(cat(file.string(), ": Include nested too deeply"));
+  if (chain.size() > 16) throw Error(cat(file.string(), ": Include nested too deeply"));
   const std::string text = read_text(file.string());
   out.files.push_back(file.string());
   hash.add(text);
   const std::string ext = file.extension().string();
   if (ext == ".msh") return;
   const std::string code = strip_comments(text);
-  static const std::regex name(R"re(Name\s*"Parameters/([^"]+)")re");
-  for (std::sregex_iterator it(code.begin(), code.end(), name), end; it != end; ++it)
-    out.parameters.insert((*it)[1].str());
-  static const std::regex include(R"re(\bInclude\s*"([^"]+)")re");
-  for (std::sregex_iterator it(code.begin(), code.end(), include), end; it != end; ++it) {
-    const fs::path inc = file.parent_path() / (*it)[1].str();
-    if (fs::is_regular_file(inc) &&
-        std::find(out.files.begin(), out.files.end(), inc.string()) == out.files.end())
-      scan(inc, out, hash, depth + 1);
+  const std::string prefix = "Parameters/";
+  for (const std::string& name : quoted_after(code, "Name", false))
+    if (name.size() > prefix.size() && name.compare(0, prefix.size(), prefix) == 0)
+      out.parameters.insert(name.substr(prefix.size()));
+  chain.push_back(file);
+  for (const std::string& name : quoted_after(code, "Include", true)) {
+    if (name.size() >= PATH_MAX)
+      throw Error(cat(file.string(), ": Include \"", shown(name),
+                      "\": the file name is longer than the system allows (", PATH_MAX, ")"));
+    const fs::path inc = file.parent_path() / name;
+    std::error_code ec;
+    const auto st = fs::status(inc, ec);
+    if (!fs::exists(st)) continue;  // gmsh says so if the Include is reached
+    if (!fs::is_regular_file(st))
+      throw Error(cat(file.string(), ": Include \"", shown(name), "\": ", inc.string(),
+                      " is not a regular file (a directory, FIFO or device)"));
+    for (const fs::path& outer : chain)
+      if (fs::equivalent(inc, outer, ec))
+        throw Error(cat(file.string(), ": Include \"", shown(name), "\" includes ",
+                        outer == chain.front() ? "the geometry file itself"
+                                               : cat(outer.string(), ", which includes it"),
+                        " (an Include cycle: gmsh would include it again and again)"));
+    if (std::find(out.files.begin(), out.files.end(), inc.string()) == out.files.end())
+      scan(inc, out, hash, chain);
   }
+  chain.pop_back();
 }
 
 std::size_t gmsh_log_size() {
@@ -188,7 +232,8 @@ std::string gmsh_last_error(std::size_t from = 0) {
 GeometryScan scan_geometry(const std::string& path) {
   GeometryScan out;
   Fingerprint hash;
-  scan(path, out, hash, 0);
+  std::vector<std::filesystem::path> chain;
+  scan(path, out, hash, chain);
   out.hash = hash.hex();
   return out;
 }
@@ -219,6 +264,10 @@ std::vector<int> Mesh::boundary_nodes(const std::string& name, const std::string
 }
 
 Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters) {
+  if (std::filesystem::exists(path) && !std::filesystem::is_directory(path) &&
+      !std::filesystem::is_regular_file(path))
+    throw Error(
+        cat(path, ": is not a regular file (a FIFO, device or socket); refusing to read it"));
   if (std::filesystem::is_directory(path) || !std::ifstream(path).good())
     throw Error(cat(path, ": cannot open the mesh/geometry file"));
   Mesh mesh;

@@ -123,12 +123,46 @@ Handle memory_access(const std::string& file) {
   return fapl;
 }
 
-/// Writes `image` to `work` (created or truncated) and forces it to the disk; a failure (ENOSPC)
-/// removes `work` and names `file`. The fault point in the middle is the kill test's "inside the
-/// flush".
+/// Creates `path` afresh for writing: a name this code owns beside the results file (the
+/// `.partial` working file, an XDMF file's `.tmp`), written only while the writer holds the lock,
+/// so whatever is there is stale and is removed first. unlink(2) removes a symbolic link or a
+/// hard link without touching what it points to, and the file is then created with
+/// O_CREAT | O_EXCL | O_NOFOLLOW: a link made there meanwhile is an error, never followed. With
+/// `mode` >= 0 the file gets exactly that mode (the permissions of the file it will replace).
+int create_fresh(const std::string& path, int mode, const std::string& file) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode))
+      fail(file, cat("cannot create the working file ", path, ": a directory is in the way"));
+    if (::unlink(path.c_str()) != 0)
+      fail(file, cat("cannot remove the stale working file ", path, ": ", errno_text(errno)));
+  }
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0)
+    fail(file, cat("cannot create the working file ", path, ": ",
+                   errno == EEXIST ? std::string("another process created it meanwhile")
+                                   : errno_text(errno)));
+  if (mode >= 0 && ::fchmod(fd, static_cast<mode_t>(mode)) != 0) {
+    const int e = errno;
+    ::close(fd);
+    ::unlink(path.c_str());
+    fail(file, cat("cannot set the mode of ", path, ": ", errno_text(e)));
+  }
+  return fd;
+}
+
+/// The permission bits of the regular file at `path`, or -1 (no file).
+int mode_of(const std::string& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return -1;
+  return static_cast<int>(st.st_mode & 07777);
+}
+
+/// Writes `image` to `work` (created afresh, create_fresh) and forces it to the disk; a failure
+/// (ENOSPC) removes `work` and names `file`. `work` gets the mode of `file` when it exists. The
+/// fault point in the middle is the kill test's "inside the flush".
 void write_image(const std::string& work, const std::vector<char>& image, const std::string& file) {
-  const int fd = ::open(work.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) fail(file, cat("cannot create the working file ", work, ": ", errno_text(errno)));
+  const int fd = create_fresh(work, mode_of(file), file);
   const auto failed = [&](const char* what) {
     const int e = errno;
     ::close(fd);
@@ -150,6 +184,30 @@ void write_image(const std::string& work, const std::vector<char>& image, const 
     ::unlink(work.c_str());
     fail(file, cat("cannot close ", work, ": ", errno_text(e)));
   }
+}
+
+/// The bytes of the regular file `path` (opened without following a symbolic link).
+std::vector<char> read_image(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) fail(path, cat("cannot open the results file: ", errno_text(errno)));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    fail(path, "is not a regular file");
+  }
+  std::vector<char> image(static_cast<std::size_t>(st.st_size));
+  for (std::size_t done = 0; done < image.size();) {
+    const ssize_t n = ::read(fd, image.data() + done, image.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int e = n < 0 ? errno : 0;
+      ::close(fd);
+      fail(path, cat("cannot read the results file: ", e ? errno_text(e) : "it shrank"));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+  return image;
 }
 
 /// Whether the object at absolute `path` ("/a/b/c") exists (every component is checked, as
@@ -599,6 +657,13 @@ std::string number(double x) {
   return buf;
 }
 
+/// The comment that opens every XDMF file this code writes for the results file `path`: how
+/// is_xdmf_of() recognizes its own files.
+std::string xdmf_marker(const std::string& path) {
+  return "<!-- Written by ltl::ResultsFile: the time steps of " +
+         xml_escape(std::filesystem::path(path).filename().string());
+}
+
 std::string work_path_of(const std::string& path) {
   return path + ".partial";
 }
@@ -614,6 +679,20 @@ std::string xdmf_path_of(const std::string& path, const std::string& suffix) {
 
 std::string contact_xdmf_path_of(const std::string& path) {
   return xdmf_path_of(path, "_contact");
+}
+
+bool is_xdmf_of(const std::string& xdmf, const std::string& path) {
+  const int fd = ::open(xdmf.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return false;
+  struct stat st {};
+  std::string head(512, '\0');
+  ssize_t n = -1;
+  if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) n = ::read(fd, head.data(), head.size());
+  ::close(fd);
+  if (n <= 0) return false;
+  head.resize(static_cast<std::size_t>(n));
+  const std::string first = "<?xml version=\"1.0\"?>\n" + xdmf_marker(path) + " for ParaView";
+  return head.compare(0, first.size(), first) == 0;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -790,12 +869,20 @@ ResultsFile ResultsFile::open(const std::string& path) {
 void ResultsFile::begin() {
   if (file_ >= 0) return;
   quiet_hdf5();
-  std::error_code ec;
-  std::filesystem::copy_file(path_, work_, std::filesystem::copy_options::overwrite_existing, ec);
-  if (ec)
-    fail(work_, cat("cannot copy ", path_, " to this working file: ", errno_text(ec.value())));
-  file_ = H5Fopen(work_.c_str(), H5F_ACC_RDWR, memory_access(path_).get());
-  if (file_ < 0) fail(work_, "cannot open the working copy of the results file for writing");
+  // The file is read into memory and opened from that image (HDF5's core driver without a
+  // backing store writes nothing to disk); the name given to H5Fopen must not exist, so a stale
+  // working file is removed first (without following a link there).
+  const std::vector<char> image = read_image(path_);
+  if (image.empty()) fail(path_, "is empty, not a results file");
+  struct stat st {};
+  if (::lstat(work_.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) ::unlink(work_.c_str());
+  Handle fapl = memory_access(path_);
+  ok(H5Pset_file_image(fapl.get(), const_cast<char*>(image.data()), image.size()), path_,
+     "cannot load the file into memory");
+  file_ = H5Fopen(work_.c_str(), H5F_ACC_RDWR, fapl.get());
+  if (file_ < 0)
+    fail(path_, cat("cannot open the results file in memory for writing (a damaged file, or ",
+                    work_, " is in the way?)"));
   if (exists(file_, "/steps/incomplete", path_))
     ok(H5Ldelete(file_, "/steps/incomplete", H5P_DEFAULT), path_,
        "cannot delete /steps/incomplete");
@@ -1168,8 +1255,8 @@ std::string ResultsFile::xdmf_text(bool contact) const {
   };
   const std::vector<std::string> names = step_names(file_, file);
   o << "<?xml version=\"1.0\"?>\n"
-    << "<!-- Written by ltl::ResultsFile: the time steps of " << h5 << " for ParaView"
-    << (contact ? ", on the contact surface" : "") << " (layout: experiments/README.md). -->\n"
+    << xdmf_marker(path_) << " for ParaView" << (contact ? ", on the contact surface" : "")
+    << " (layout: experiments/README.md). -->\n"
     << "<Xdmf Version=\"3.0\">\n  <Domain>\n";
   const bool series = names.size() > 1;
   if (series)
@@ -1211,16 +1298,25 @@ std::string ResultsFile::xdmf_text(bool contact) const {
 
 void ResultsFile::write_xdmf(const std::string& xdmf, const std::string& text) const {
   // Written beside and renamed, so that a reader never sees half a file.
+  // The temporary is created afresh (create_fresh: never through a link).
   const std::string tmp = xdmf + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) fail(xdmf, "cannot write the XDMF file");
+  const int fd = create_fresh(tmp, -1, xdmf);
+  for (std::size_t done = 0; done < text.size();) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int e = errno;
+      ::close(fd);
+      ::unlink(tmp.c_str());
+      fail(xdmf, cat("cannot write the XDMF file: ", errno_text(e)));
+    }
+    done += static_cast<std::size_t>(n);
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, xdmf, ec);
-  if (ec) fail(xdmf, cat("cannot write the XDMF file: ", ec.message()));
+  if (::close(fd) != 0 || std::rename(tmp.c_str(), xdmf.c_str()) != 0) {
+    const int e = errno;
+    ::unlink(tmp.c_str());
+    fail(xdmf, cat("cannot write the XDMF file: ", errno_text(e)));
+  }
 }
 
 std::optional<StoredStep> ResultsFile::read_last_step(const std::string& path) {

@@ -33,8 +33,11 @@
 // a copy of `path` when it exists); its image is written to `path + ".partial"` with checked
 // write(2) calls (a full disk is an Error naming ENOSPC), fsync'ed and renamed onto `path`
 // (rename(2) is atomic), and the directory is fsync'ed. A process killed at any instant leaves
-// either the previous complete file or the new one (and perhaps a stale .partial, overwritten by
-// the next writer); a run killed in the middle keeps every step it completed, and can be resumed.
+// either the previous complete file or the new one (and perhaps a stale .partial, removed by the
+// next writer); a run killed in the middle keeps every step it completed, and can be resumed.
+// The working file and the XDMF temporaries are created afresh (O_CREAT | O_EXCL | O_NOFOLLOW,
+// a stale entry unlinked first, never followed), with the mode of the file they replace; an
+// existing file is read into memory without following a link (open with O_NOFOLLOW).
 // Cost: one copy of the file per committed change.
 // Environment LTL_FAULT_AT_WRITE=k (tests only) kills the process at the k-th write event.
 //
@@ -68,6 +71,10 @@ inline constexpr int kFormatVersion = 2;
 std::string xdmf_path_of(const std::string& path, const std::string& suffix = "");
 /// The XDMF file of the contact surface: <stem>_contact.xdmf.
 std::string contact_xdmf_path_of(const std::string& path);
+/// Whether `xdmf` is a regular file (not a link) that this code wrote for the results file
+/// `path`: it opens with the comment naming path's file name (xdmf_text). The XDMF files beside a
+/// results file are replaced only when they are (check_output_path).
+bool is_xdmf_of(const std::string& xdmf, const std::string& path);
 
 /// [issue 9] The resolved configuration of a problem as TOML text: every value in SI (units in
 /// comments), every default filled in, in the sections of the configuration file. Written into

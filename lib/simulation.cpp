@@ -14,6 +14,7 @@
 #include "error.hpp"
 #include "hash.hpp"
 #include "measures.hpp"
+#include "output_guard.hpp"
 #include "results.hpp"
 #include "version.hpp"
 
@@ -22,109 +23,6 @@ namespace ltl {
 namespace {
 
 namespace fs = std::filesystem;
-
-bool same_file(const fs::path& a, const fs::path& b) {
-  std::error_code ec;
-  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
-  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
-}
-
-/// Refuses an output path that would destroy something: an input of the run (configuration,
-/// geometry and the files it includes), a directory, or an existing file that is not a results
-/// file. The XDMF, working and lock files beside it are checked the same way.
-void check_output_path(const Problem& problem, const std::string& output) {
-  std::vector<std::pair<std::string, std::string>> inputs = {
-      {problem.config_path, "the configuration"}};
-  if (!problem.mesh.source.empty()) {
-    std::vector<std::string> files{problem.mesh.source};
-    try {
-      files = scan_geometry(problem.mesh.source).files;
-    } catch (const Error&) {
-    }
-    for (const auto& f : files) inputs.push_back({f, "the geometry"});
-  }
-  const fs::path out(output);
-  for (const std::string& written : {output, xdmf_path_of(output), contact_xdmf_path_of(output),
-                                     output + ".partial", output + ".lock"})
-    for (const auto& [path, what] : inputs)
-      if (!path.empty() && same_file(written, path))
-        throw Error(cat(output, ": refusing to write the results over ", what, " (", path,
-                        written == output ? "" : cat(", via ", written),
-                        "); choose another output path"));
-  std::error_code ec;
-  if (fs::is_directory(out, ec))
-    throw Error(cat(output, ": is a directory; give a file name for the results (e.g. ",
-                    (out / (problem.name + ".h5")).string(), ")"));
-  if (fs::exists(out, ec)) {
-    if (!fs::is_regular_file(out, ec))
-      throw Error(cat(output, ": exists and is not a regular file; refusing to replace it"));
-    try {
-      ResultsFile::read_attribute(output, "config");
-    } catch (const Error&) {
-      throw Error(cat(output,
-                      ": exists and is not a results file of this code; refusing to replace it "
-                      "(remove it or choose another output path)"));
-    }
-  }
-}
-
-/// An exclusive lock on `<output>.lock` held for the whole run: a second writer (fresh or
-/// --resume) is refused while the first runs. The lock file is removed on release; the inode
-/// check after flock() makes that safe against a writer that opened the file just before.
-class OutputLock {
- public:
-  explicit OutputLock(const std::string& output) : path_(output + ".lock") {
-    for (int attempt = 0; attempt < 100; ++attempt) {
-      fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-      if (fd_ < 0) throw Error(cat(path_, ": cannot create the lock file: ", std::strerror(errno)));
-      if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-        const int e = errno;
-        ::close(fd_);
-        fd_ = -1;
-        if (e == EWOULDBLOCK)
-          throw Error(cat(output, ": another process is writing this results file (", path_,
-                          " is locked); wait for it to finish"));
-        throw Error(cat(path_, ": cannot lock: ", std::strerror(e)));
-      }
-      struct stat held {
-      }, now{};
-      if (::fstat(fd_, &held) == 0 && ::stat(path_.c_str(), &now) == 0 &&
-          held.st_dev == now.st_dev && held.st_ino == now.st_ino)
-        return;      // the file we locked is the one at the path
-      ::close(fd_);  // removed by the previous holder meanwhile: try again
-      fd_ = -1;
-    }
-    throw Error(cat(path_, ": cannot acquire the lock"));
-  }
-  OutputLock(const OutputLock&) = delete;
-  OutputLock& operator=(const OutputLock&) = delete;
-  ~OutputLock() {
-    if (fd_ < 0) return;
-    ::unlink(path_.c_str());
-    ::close(fd_);
-  }
-
- private:
-  std::string path_;
-  int fd_ = -1;
-};
-
-std::string mesh_fingerprint(const Mesh& m) {
-  Fingerprint f;
-  f.add(&m.dim, sizeof m.dim);
-  f.add(m.X.data(), sizeof(double) * static_cast<std::size_t>(m.X.size()));
-  f.add(m.cells.data(), sizeof(int) * static_cast<std::size_t>(m.cells.size()));
-  return f.hex();
-}
-
-/// What a results file must match to be resumed: root attribute -> this run's value.
-std::map<std::string, std::string> identity(const Problem& problem) {
-  return {{"mesh_nodes", std::to_string(problem.mesh.num_nodes())},
-          {"mesh_cells", std::to_string(problem.mesh.num_cells())},
-          {"mesh_hash", mesh_fingerprint(problem.mesh)},
-          {"geometry_hash", problem.mesh.source_hash},
-          {"config_hash", fingerprint(problem.config_identity)}};
-}
 
 /// What to change when a step does not converge: the parameters used, the rule of the defaults
 /// (derive_algorithm_defaults) and the usual remedies.
@@ -399,47 +297,9 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
   int p0 = 1;
   if (options.resume) {
     const std::string& out = options.output;
-    // The file must have been written by this problem: same configuration (time.steps may grow),
-    // same geometry file(s), same mesh. Files without the fingerprints are compared on the
-    // configuration text.
-    const bool has_ids = !ResultsFile::read_attribute(out, "config_hash").empty();
-    if (has_ids) {
-      for (const auto& [key, value] : ids_) {
-        const std::string stored = ResultsFile::read_attribute(out, key);
-        if (stored != value)
-          throw Error(cat(
-              out, ": cannot resume: ",
-              key == "config_hash" ? "the configuration differs from the one the file was written "
-                                     "with (only time.steps may change)"
-              : key == "geometry_hash" ? cat("the geometry file ", problem.mesh.source,
-                                             " changed since the file was written")
-                                       : cat("the mesh differs from the file's (", key, " ", stored,
-                                             " in the file, ", value, " now)")));
-      }
-    } else if (ResultsFile::read_attribute(out, "config") != problem.config_text) {
-      throw Error(cat(out,
-                      ": cannot resume: the file was written with a different "
-                      "configuration"));
-    }
-    if (auto last = ResultsFile::read_last_step(out)) {
-      const State& s = last->state;
-      const State& state = start_;
-      const auto same = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-        return a.rows() == b.rows() && a.cols() == b.cols();
-      };
-      if (!same(s.u, state.u) || !same(s.E, state.E) || !same(s.lambda, state.lambda) ||
-          !same(s.e, state.e) || !same(s.lambda_c, state.lambda_c) ||
-          s.beta.size() != state.beta.size())
-        throw Error(cat(out, ": cannot resume: step ", last->p,
-                        " has the fields of another mesh or contact surface (u is ", s.u.rows(),
-                        " x ", s.u.cols(), ", this problem's ", state.u.rows(), " x ",
-                        state.u.cols(), ")"));
-      if (last->p > problem.time.steps)
-        throw Error(cat(out, ": cannot resume: the file already holds step ", last->p,
-                        ", beyond time.steps = ", problem.time.steps));
-      start_ = s;
-      p0 = last->p + 1;
-    }
+    const ResumePoint resumed = resume_point(problem, out, ids_, start_);
+    start_ = resumed.state;
+    p0 = resumed.next_step;
     file_->results = ResultsFile::open(out);
     file_->results->set_status("running");
   }

@@ -6,12 +6,14 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstring>
 #include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "results.hpp"
@@ -29,12 +31,19 @@ std::string read_bytes(const fs::path& p) {
   return s.str();
 }
 
-/// Every entry below `dir` with its content (files) or "<dir>" (folders).
+/// Every entry below `dir` with its content and permissions (files), "<dir>" (folders),
+/// "<link to X>" (symbolic links, not followed) or "<special>" (FIFOs, devices: never opened).
 std::map<std::string, std::string> snapshot(const fs::path& dir) {
   std::map<std::string, std::string> out;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    const fs::file_status st = e.symlink_status();
     out[fs::relative(e.path(), dir).string()] =
-        e.is_directory() ? std::string("<dir>") : read_bytes(e.path());
+        fs::is_symlink(st)     ? "<link to " + fs::read_symlink(e.path()).string() + ">"
+        : fs::is_directory(st) ? std::string("<dir>")
+        : fs::is_regular_file(st)
+            ? std::to_string(static_cast<int>(st.permissions())) + ":" + read_bytes(e.path())
+            : std::string("<special>");
+  }
   return out;
 }
 
@@ -228,6 +237,169 @@ const std::vector<Case>& catalogue() {
        {"not a results file"},
        [](const fs::path& d) { ltl::testing::write_file(d / "notes.txt", "my notes\n"); }},
       {"config_directory", "", "", "", 1, {"is a directory"}},
+      // Issue 25. Symbolic links: at the output path refused (the rename would replace the link,
+      // not its target); at the lock file refused (a dangling one would be created through).
+      {"output_symlink",
+       "",
+       "",
+       o,
+       1,
+       {"out.h5: is a symbolic link (to notes.txt)", "refusing to write through it"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "notes.txt", "my notes\n");
+         fs::create_symlink("notes.txt", d / "out.h5");
+       }},
+      {"lock_symlink",
+       "",
+       "",
+       o,
+       1,
+       {"out.h5.lock: is a symbolic link", "refusing to follow it"},
+       [](const fs::path& d) {
+         fs::create_symlink("created_through_the_lock", d / "out.h5.lock");
+       }},
+      // Stack overflows (exit 139) turned into messages: a long Include name (std::regex in the
+      // geometry scan), a --set key of 60 000 parts, a header and a value nested 50 000 deep.
+      {"geo_include_long_name",
+       "half_disc.geo",
+       "inc.geo",
+       o,
+       1,
+       {"inc.geo: Include", "(100000 characters)", "longer than the system allows"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "inc.geo", read_bytes(d / "half_disc.geo") + "Include \"" +
+                                                     std::string(100000, 'a') + "\";\n");
+       }},
+      {"set_key_60000_parts",
+       "",
+       "",
+       "--set '" +
+           [] {
+             std::string k = "a";
+             for (int i = 1; i < 60000; ++i) k += ".a";
+             return k;
+           }() +
+           "=1'" + o,
+       1,
+       {"--set 'a.a.a", "a key of 60000 parts; keys have at most 64"}},
+      {"header_50000_deep",
+       "steps = 1",
+       "steps = 1\n[" +
+           [] {
+             std::string k = "a";
+             for (int i = 1; i < 50000; ++i) k += ".a";
+             return k;
+           }() +
+           "]\nx = 1",
+       o,
+       1,
+       {"case.toml:27: keys nested deeper than 64 levels"}},
+      {"set_value_50000_deep",
+       "",
+       "",
+       "--set 'algorithm.R=" + std::string(50000, '[') + std::string(50000, ']') + "'" + o,
+       1,
+       {"--set 'algorithm.R=[[[", "(100012 characters)", "nested deeper than 64"}},
+      // The files beside the results: an XDMF file this code did not write is not replaced;
+      // -o '' is a usage error (it used to fall back to results/<name>.h5).
+      {"xdmf_not_ours",
+       "",
+       "",
+       "-o notes.h5",
+       1,
+       {"notes.xdmf, was not written by this code", "refusing to replace it"},
+       [](const fs::path& d) { ltl::testing::write_file(d / "notes.xdmf", "my notes\n"); }},
+      {"contact_xdmf_not_ours",
+       "",
+       "",
+       "-o notes.h5",
+       1,
+       {"notes_contact.xdmf, was not written by this code"},
+       [](const fs::path& d) { ltl::testing::write_file(d / "notes_contact.xdmf", "<?xml?>\n"); }},
+      {"xdmf_symlink",
+       "",
+       "",
+       o,
+       1,
+       {"out.xdmf, is a symbolic link (to notes.txt)"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "notes.txt", "my notes\n");
+         fs::create_symlink("notes.txt", d / "out.xdmf");
+       }},
+      {"output_empty", "", "", "-o ''", 2, {"-o '': the results file name is empty"}},
+      // Smaller messages naming the cause (item 7).
+      {"geo_includes_itself",
+       "half_disc.geo",
+       "self.geo",
+       o,
+       1,
+       {"self.geo: Include \"self.geo\" includes the geometry file itself", "Include cycle"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "self.geo",
+                                  "Include \"self.geo\";\n" + read_bytes(d / "half_disc.geo"));
+       }},
+      {"geo_include_cycle",
+       "half_disc.geo",
+       "a.geo",
+       o,
+       1,
+       {"b.geo: Include \"a.geo\"", "Include cycle"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "a.geo",
+                                  "Include \"b.geo\";\n" + read_bytes(d / "half_disc.geo"));
+         ltl::testing::write_file(d / "b.geo", "Include \"a.geo\";\n");
+       }},
+      {"geo_include_fifo",
+       "half_disc.geo",
+       "a.geo",
+       o,
+       1,
+       {"a.geo: Include \"fifo.geo\"", "not a regular file"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "a.geo",
+                                  "Include \"fifo.geo\";\n" + read_bytes(d / "half_disc.geo"));
+         ASSERT_EQ(::mkfifo((d / "fifo.geo").c_str(), 0644), 0);
+       }},
+      {"geometry_dev_zero",
+       "\"half_disc.geo\"",
+       "\"/dev/zero\"",
+       o,
+       1,
+       {"mesh.geometry", "/dev/zero", "not a regular file"}},
+      {"geometry_fifo",
+       "half_disc.geo",
+       "fifo.geo",
+       o,
+       1,
+       {"mesh.geometry", "fifo.geo", "not a regular file"},
+       [](const fs::path& d) { ASSERT_EQ(::mkfifo((d / "fifo.geo").c_str(), 0644), 0); }},
+      {"config_fifo",
+       "",
+       "",
+       o,
+       1,
+       {"case.toml: is not a regular file"},
+       [](const fs::path& d) {
+         fs::remove(d / "case.toml");
+         ASSERT_EQ(::mkfifo((d / "case.toml").c_str(), 0644), 0);
+       }},
+      {"output_fifo",
+       "",
+       "",
+       o,
+       1,
+       {"out.h5: exists and is not a regular file"},
+       [](const fs::path& d) { ASSERT_EQ(::mkfifo((d / "out.h5").c_str(), 0644), 0); }},
+      {"output_truncated",
+       "",
+       "",
+       o,
+       1,
+       {"out.h5: exists and is a damaged or truncated HDF5 file"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "out.h5",
+                                  std::string("\x89HDF\r\n\x1a\n", 8) + std::string(200, '\0'));
+       }},
   };
   return cases;
 }
@@ -399,6 +571,103 @@ TEST(Hardening, ASecondWriterIsRefused) {
   EXPECT_EQ(changes(before, snapshot(f.dir)), "");
   EXPECT_EQ(f.run("case.toml -q -o out.h5").status, 0);
   EXPECT_FALSE(fs::exists(lock));  // released and removed
+}
+
+// Issue 25: symbolic (and hard) links planted at the working files `<out>.partial` and
+// `<out>.xdmf.tmp`, `<out>_contact.xdmf.tmp` are not followed: the victim outside the run's
+// folder keeps its content, the run writes a real results file (fresh, then replacing it with a
+// two-step run that reopens it) and leaves no temporary behind.
+TEST(Hardening, LinksAtTheWorkingFilesAreNotFollowed) {
+  Folder f("links", with(kValid, "steps = 1", "steps = 2"));
+  const fs::path victim = f.dir.parent_path() / (f.dir.filename().string() + ".victim");
+  ltl::testing::write_file(victim, "victim\n");
+  const auto plant = [&](bool hard) {
+    for (const char* name : {"out.h5.partial", "out.xdmf.tmp", "out_contact.xdmf.tmp"}) {
+      fs::remove(f.dir / name);
+      if (hard && std::string(name) == "out.h5.partial")
+        fs::create_hard_link(victim, f.dir / name);
+      else
+        fs::create_symlink(victim, f.dir / name);
+    }
+  };
+  for (const bool again : {false, true}) {
+    plant(again);
+    const Outcome r = f.run("case.toml -q -o out.h5");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_bytes(victim), "victim\n");
+    for (const char* name : {"out.h5", "out.xdmf", "out_contact.xdmf"})
+      EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(f.dir / name))) << name;
+    const auto last = ResultsFile::read_last_step((f.dir / "out.h5").string());
+    ASSERT_TRUE(last);
+    EXPECT_EQ(last->p, 2);
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(f.dir)) names.insert(e.path().filename());
+    EXPECT_EQ(names, (std::set<std::string>{"case.toml", "half_disc.geo", "out.h5", "out.xdmf",
+                                            "out_contact.xdmf"}));
+  }
+  fs::remove(victim);
+}
+
+// The lock is keyed on the file: the output named through a symlinked folder takes the lock of
+// the real folder, so a second writer through the alias is refused.
+TEST(Hardening, ASymlinkedAliasOfTheOutputTakesTheSameLock) {
+  Folder f("alias");
+  fs::create_directory(f.dir / "real");
+  fs::create_directory_symlink("real", f.dir / "alias");
+  const std::string lock = (f.dir / "real" / "out.h5.lock").string();
+  const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  const auto before = snapshot(f.dir);
+  const Outcome r = f.run("case.toml -q -o alias/out.h5");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("alias/out.h5: another process is writing"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  ::close(fd);
+  fs::remove(lock);
+  EXPECT_EQ(f.run("case.toml -q -o alias/out.h5").status, 0);
+  EXPECT_TRUE(fs::is_regular_file(f.dir / "real" / "out.h5"));
+  EXPECT_FALSE(fs::exists(lock));
+}
+
+// A results file made read-only is not replaced (the rename used to give it mode 644), fresh or
+// --resume; a writable one keeps its mode when it is replaced.
+TEST(Hardening, TheModeOfAnExistingResultsFileIsRespected) {
+  Folder f("mode", with(kValid, "steps = 1", "steps = 2"));
+  ASSERT_EQ(f.run("case.toml -q -o out.h5 --stop-after 1").status, 0);
+  const fs::path out = f.dir / "out.h5";
+  fs::permissions(out, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  const auto before = snapshot(f.dir);
+  for (const char* mode : {"", " --resume"}) {
+    const Outcome r = f.run(std::string("case.toml -q -o out.h5") + mode);
+    EXPECT_EQ(r.status, 1) << mode << r.err;
+    EXPECT_NE(r.err.find("out.h5: is read-only (mode 0444); refusing to replace it"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  }
+  const auto rw = fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read;
+  fs::permissions(out, rw);
+  EXPECT_EQ(f.run("case.toml -q -o out.h5 --resume").status, 0);
+  EXPECT_EQ(fs::status(out).permissions(), rw);
+  EXPECT_EQ(ResultsFile::read_last_step(out.string())->p, 2);
+}
+
+// The XDMF files this code wrote are recognized (and replaced by the next run); once a user
+// writes over one, it is kept and the run refused, naming it.
+TEST(Hardening, OnlyOurOwnXdmfFilesAreReplaced) {
+  Folder f("xdmf");
+  ASSERT_EQ(f.run("case.toml -q -o notes.h5").status, 0);
+  EXPECT_TRUE(ltl::is_xdmf_of((f.dir / "notes.xdmf").string(), (f.dir / "notes.h5").string()));
+  EXPECT_FALSE(ltl::is_xdmf_of((f.dir / "notes.xdmf").string(), (f.dir / "other.h5").string()));
+  EXPECT_EQ(f.run("case.toml -q -o notes.h5").status, 0);
+  ltl::testing::write_file(f.dir / "notes_contact.xdmf", "my notes\n");
+  const auto before = snapshot(f.dir);
+  const Outcome r = f.run("case.toml -q -o notes.h5");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("notes_contact.xdmf, was not written by this code"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
 }
 
 // Kill at every write event: the file is the previous complete one or a readable new one, and

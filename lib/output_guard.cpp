@@ -1,0 +1,226 @@
+#include "output_guard.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <climits>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <vector>
+
+#include "error.hpp"
+#include "hash.hpp"
+#include "mesh.hpp"
+#include "results.hpp"
+
+namespace ltl {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+bool same_file(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
+  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+}
+
+std::string mesh_fingerprint(const Mesh& m) {
+  Fingerprint f;
+  f.add(&m.dim, sizeof m.dim);
+  f.add(m.X.data(), sizeof(double) * static_cast<std::size_t>(m.X.size()));
+  f.add(m.cells.data(), sizeof(int) * static_cast<std::size_t>(m.cells.size()));
+  return f.hex();
+}
+
+/// What is at `path` without following a symbolic link: "" (nothing), "link", "dir", "file",
+/// "special".
+std::string kind_at(const std::string& path, struct stat* st) {
+  if (::lstat(path.c_str(), st) != 0) return "";
+  if (S_ISLNK(st->st_mode)) return "link";
+  if (S_ISDIR(st->st_mode)) return "dir";
+  if (S_ISREG(st->st_mode)) return "file";
+  return "special";
+}
+
+std::string link_target(const std::string& path) {
+  std::error_code ec;
+  const fs::path t = fs::read_symlink(path, ec);
+  return ec ? std::string("?") : t.string();
+}
+
+}  // namespace
+
+void check_output_path(const Problem& problem, const std::string& output) {
+  if (output.empty()) throw Error("the results file name is empty");
+  std::vector<std::pair<std::string, std::string>> inputs = {
+      {problem.config_path, "the configuration"}};
+  if (!problem.mesh.source.empty()) {
+    std::vector<std::string> files{problem.mesh.source};
+    try {
+      files = scan_geometry(problem.mesh.source).files;
+    } catch (const Error&) {
+    }
+    for (const auto& f : files) inputs.push_back({f, "the geometry"});
+  }
+  const fs::path out(output);
+  for (const std::string& written : {output, xdmf_path_of(output), contact_xdmf_path_of(output),
+                                     output + ".partial", lock_path_of(output)})
+    for (const auto& [path, what] : inputs)
+      if (!path.empty() && same_file(written, path))
+        throw Error(cat(output, ": refusing to write the results over ", what, " (", path,
+                        written == output ? "" : cat(", via ", written),
+                        "); choose another output path"));
+  struct stat st {};
+  const std::string kind = kind_at(output, &st);
+  // A symbolic link at the output path is refused rather than resolved: the rename that commits
+  // a change would replace the link, not its target, and writing through it would let whoever
+  // made the link choose the file replaced.
+  if (kind == "link")
+    throw Error(cat(output, ": is a symbolic link (to ", link_target(output),
+                    "); refusing to write through it: give the target's path with -o, or remove "
+                    "the link"));
+  if (kind == "dir")
+    throw Error(cat(output, ": is a directory; give a file name for the results (e.g. ",
+                    (out / (problem.name + ".h5")).string(), ")"));
+  if (kind == "special")
+    throw Error(cat(output, ": exists and is not a regular file; refusing to replace it"));
+  if (kind == "file") {
+    try {
+      ResultsFile::read_attribute(output, "config");
+    } catch (const Error& e) {
+      // An HDF5 file that cannot be opened (a results file cut short?) is named as such.
+      const bool damaged = std::string(e.what()).find("damaged") != std::string::npos;
+      throw Error(cat(output,
+                      damaged ? ": exists and is a damaged or truncated HDF5 file (it has the HDF5 "
+                                "signature but cannot be opened)"
+                              : ": exists and is not a results file of this code",
+                      "; refusing to replace it (remove it or choose another output path)"));
+    }
+    if ((st.st_mode & S_IWUSR) == 0) {
+      char mode[8];
+      std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+      throw Error(cat(output, ": is read-only (mode ", mode,
+                      "); refusing to replace it (make it writable, chmod u+w, or choose another "
+                      "output path)"));
+    }
+  }
+  // The XDMF files beside it are replaced at every commit: only when this code wrote them.
+  for (const std::string& xdmf : {xdmf_path_of(output), contact_xdmf_path_of(output)}) {
+    const std::string k = kind_at(xdmf, &st);
+    if (k.empty() || (k == "file" && is_xdmf_of(xdmf, output))) continue;
+    throw Error(cat(output, ": the XDMF file beside it, ", xdmf,
+                    k == "link"   ? cat(", is a symbolic link (to ", link_target(xdmf), ")")
+                    : k == "file" ? ", was not written by this code for this results file"
+                                  : ", is not a regular file",
+                    "; refusing to replace it (move it away or choose another output path)"));
+  }
+}
+
+std::string lock_path_of(const std::string& output) {
+  const fs::path out(output);
+  const fs::path dir = out.parent_path().empty() ? fs::path(".") : out.parent_path();
+  char real[PATH_MAX];
+  if (::realpath(dir.c_str(), real) == nullptr) return output + ".lock";
+  return (fs::path(real) / (out.filename().string() + ".lock")).string();
+}
+
+OutputLock::OutputLock(const std::string& output) : path_(lock_path_of(output)) {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC, 0644);
+    if (fd_ < 0 && errno == ELOOP)
+      throw Error(cat(path_,
+                      ": is a symbolic link, not a lock file of this code; refusing to "
+                      "follow it (remove it)"));
+    if (fd_ < 0) throw Error(cat(path_, ": cannot create the lock file: ", std::strerror(errno)));
+    struct stat held {};
+    if (::fstat(fd_, &held) != 0 || !S_ISREG(held.st_mode)) {
+      ::close(fd_);
+      fd_ = -1;
+      throw Error(cat(path_, ": is not a regular file, not a lock file of this code (remove it)"));
+    }
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      const int e = errno;
+      ::close(fd_);
+      fd_ = -1;
+      if (e == EWOULDBLOCK)
+        throw Error(cat(output, ": another process is writing this results file (", path_,
+                        " is locked); wait for it to finish"));
+      throw Error(cat(path_, ": cannot lock: ", std::strerror(e)));
+    }
+    struct stat now {};
+    if (::lstat(path_.c_str(), &now) == 0 && held.st_dev == now.st_dev && held.st_ino == now.st_ino)
+      return;      // the file we locked is the one at the path
+    ::close(fd_);  // removed by the previous holder meanwhile: try again
+    fd_ = -1;
+  }
+  throw Error(cat(path_, ": cannot acquire the lock"));
+}
+
+OutputLock::~OutputLock() {
+  if (fd_ < 0) return;
+  ::unlink(path_.c_str());
+  ::close(fd_);
+}
+
+std::map<std::string, std::string> identity(const Problem& problem) {
+  return {{"mesh_nodes", std::to_string(problem.mesh.num_nodes())},
+          {"mesh_cells", std::to_string(problem.mesh.num_cells())},
+          {"mesh_hash", mesh_fingerprint(problem.mesh)},
+          {"geometry_hash", problem.mesh.source_hash},
+          {"config_hash", fingerprint(problem.config_identity)}};
+}
+
+ResumePoint resume_point(const Problem& problem, const std::string& out,
+                         const std::map<std::string, std::string>& ids, const State& initial) {
+  // The file must have been written by this problem: same configuration (time.steps may grow),
+  // same geometry file(s), same mesh. Files without the fingerprints are compared on the
+  // configuration text.
+  const bool has_ids = !ResultsFile::read_attribute(out, "config_hash").empty();
+  if (has_ids) {
+    for (const auto& [key, value] : ids) {
+      const std::string stored = ResultsFile::read_attribute(out, key);
+      if (stored != value)
+        throw Error(cat(
+            out, ": cannot resume: ",
+            key == "config_hash" ? "the configuration differs from the one the file was written "
+                                   "with (only time.steps may change)"
+            : key == "geometry_hash" ? cat("the geometry file ", problem.mesh.source,
+                                           " changed since the file was written")
+                                     : cat("the mesh differs from the file's (", key, " ", stored,
+                                           " in the file, ", value, " now)")));
+    }
+  } else if (ResultsFile::read_attribute(out, "config") != problem.config_text) {
+    throw Error(cat(out,
+                    ": cannot resume: the file was written with a different "
+                    "configuration"));
+  }
+  ResumePoint r{initial, 1};
+  if (auto last = ResultsFile::read_last_step(out)) {
+    const State& s = last->state;
+    const State& state = initial;
+    const auto same = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+      return a.rows() == b.rows() && a.cols() == b.cols();
+    };
+    if (!same(s.u, state.u) || !same(s.E, state.E) || !same(s.lambda, state.lambda) ||
+        !same(s.e, state.e) || !same(s.lambda_c, state.lambda_c) ||
+        s.beta.size() != state.beta.size())
+      throw Error(cat(out, ": cannot resume: step ", last->p,
+                      " has the fields of another mesh or contact surface (u is ", s.u.rows(),
+                      " x ", s.u.cols(), ", this problem's ", state.u.rows(), " x ", state.u.cols(),
+                      ")"));
+    if (last->p > problem.time.steps)
+      throw Error(cat(out, ": cannot resume: the file already holds step ", last->p,
+                      ", beyond time.steps = ", problem.time.steps));
+    r.state = s;
+    r.next_step = last->p + 1;
+  }
+  return r;
+}
+
+}  // namespace ltl
