@@ -47,89 +47,12 @@ Mat<d> dcof(const Mat<d>& A, const Mat<d>& H) {
   }
 }
 
-/// [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (r1, r2, r3), the KKT system of a Newton
-/// step (u free dofs first, then the n_p pressures and the n_c active contact forces, as
-/// triplets of the full matrix), solved by the augmented Lagrangian of the linear system: with
-/// the row weights W_e = 1 / |B_e|^2 and Wc_s = 1 / |C_s|^2,
-///   (K + kappa B^T W B + kappa_c C^T Wc C) du = r1 + B^T dp - kappa B^T W r2 - C^T dmu
-///                                            + kappa_c C^T Wc r3,
-///   dp <- dp - kappa W (B du + r2),   dmu <- dmu + kappa_c Wc (C du - r3),
-/// which is the exact KKT solution at its fixed point and converges like (1 + kappa s)^-1 per
-/// sweep; kappa = kappa_c = 1e4 times K's mean diagonal (B^T W B and C^T Wc C are projections).
-/// The matrix is
-/// factorized by CHOLMOD (supernodal LL', analyzed once per Newton phase); false when it is not
-/// positive definite (K not positive on the constraints' kernel: the caller damps).
 using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
-bool solve_kkt(const Triplets& kkt, const Eigen::VectorXd& rhs, int nu, int np, int nc, Factor& llt,
-               bool& analyzed, Eigen::VectorXd& dx) {
-  // The blocks K (lower triangle), B and C, and each constraint row's entries.
-  Triplets ta, tb, tc;
-  std::vector<std::vector<std::pair<int, double>>> rows(np + nc);
-  Eigen::VectorXd diag = Eigen::VectorXd::Zero(nu);
-  for (const auto& e : kkt) {
-    if (e.row() < nu && e.col() < nu) {
-      if (e.row() >= e.col()) ta.push_back(e);
-      if (e.row() == e.col()) diag(e.row()) += e.value();
-    } else if (e.row() >= nu && e.col() < nu) {
-      const int r = e.row() - nu;
-      const double v = r < np ? -e.value() : e.value();  // B = -(its block), C = its block
-      (r < np ? tb : tc).emplace_back(r < np ? r : r - np, e.col(), v);
-      rows[r].emplace_back(e.col(), v);
-    }
-  }
-  SpMat B(np, nu), C(nc, nu);
-  B.setFromTriplets(tb.begin(), tb.end());
-  C.setFromTriplets(tc.begin(), tc.end());
-  const Eigen::VectorXd r1 = rhs.head(nu), r2 = rhs.segment(nu, np), r3 = rhs.tail(nc);
-  // Row weights W_e = 1 / |B_e|^2 (and C's), and kappa (W B^T B and Wc C^T C are projections).
-  Eigen::VectorXd W(np), Wc(nc);
-  for (int e = 0; e < np; ++e) W(e) = 1 / std::max(B.row(e).squaredNorm(), 1e-300);
-  for (int k = 0; k < nc; ++k) Wc(k) = 1 / std::max(C.row(k).squaredNorm(), 1e-300);
-  const double kd = nu ? diag.cwiseAbs().mean() : 1.0;
-  const double kappa = 1e4 * kd, kappa_c = 1e4 * kd;
-  // A = K + kappa B^T W B + kappa_c C^T Wc C, the outer products of the rows (lower triangle).
-  for (int r = 0; r < np + nc; ++r) {
-    const double w = r < np ? kappa * W(r) : kappa_c * Wc(r - np);
-    for (const auto& [i, bi] : rows[r])
-      for (const auto& [j, bj] : rows[r])
-        if (i >= j) ta.emplace_back(i, j, w * bi * bj);
-  }
-  SpMat A(nu, nu);
-  A.setFromTriplets(ta.begin(), ta.end());
-  // The pattern of A is K's (the projections and the damping stay inside K's cell blocks), the
-  // same at every step: analyzed once.
-  if (!analyzed) {
-    llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
-    llt.analyzePattern(A);
-    analyzed = true;
-  }
-  llt.factorize(A);
-  if (llt.info() != Eigen::Success) return false;
-  Eigen::VectorXd dp = Eigen::VectorXd::Zero(np), dmu = Eigen::VectorXd::Zero(nc), du;
-  const Eigen::VectorXd fixed = r1 - kappa * (B.transpose() * W.asDiagonal() * r2) +
-                                kappa_c * (C.transpose() * Wc.asDiagonal() * r3);
-  for (int sweep = 0; sweep < 100; ++sweep) {
-    du = llt.solve(fixed + B.transpose() * dp - C.transpose() * dmu);
-    const Eigen::VectorXd c1 = B * du + r2, c2 = C * du - r3;
-    dp -= kappa * W.asDiagonal() * c1;
-    dmu += kappa_c * Wc.asDiagonal() * c2;
-    // Converged when the constraints hold to round-off of the step: |c| / |B_e| <= 1e-13 |du|.
-    const double step = std::max(du.cwiseAbs().maxCoeff(), 1e-300);
-    auto largest = [](const Eigen::VectorXd& v) {
-      return v.size() ? v.cwiseAbs().maxCoeff() : 0.0;  // (maxCoeff of an empty vector is UB)
-    };
-    if (largest(c1.cwiseProduct(W.cwiseSqrt())) <= 1e-13 * step &&
-        largest(c2.cwiseProduct(Wc.cwiseSqrt())) <= 1e-13 * step)
-      break;
-  }
-  if (!du.allFinite()) return false;
-  dx.resize(nu + np + nc);
-  dx << du, dp, dmu;
-  return true;
-}
 
-/// The same KKT system by UMFPACK's sparse LU (symmetric indefinite: the fall-back of
-/// solve_kkt when the augmented tangent is not positive definite). False when singular.
+/// [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (r1, r2, r3), the KKT system of a Newton
+/// step as triplets (u free dofs first, then the pressures and the active contact forces), by
+/// UMFPACK's sparse LU: the fall-back of Newton::augmented_step when the augmented tangent is
+/// not positive definite. False when singular.
 bool solve_kkt_lu(const Triplets& kkt, const Eigen::VectorXd& rhs, Eigen::VectorXd& dx) {
   SpMat A(rhs.size(), rhs.size());
   A.setFromTriplets(kkt.begin(), kkt.end());
@@ -211,6 +134,58 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
     const double h = std::pow(disc.volume() / nc, 1.0 / d);
     c_ = 0.02 * C1 * pts->area / h;
   }
+
+  // The pattern of the augmented tangent: every pair of free dofs of a cell (lower triangle), the
+  // diagonal; the constraint rows (cells, contact points) and the fluctuation term stay inside.
+  const int dn = d * npc_;
+  Triplets tp;
+  for (int k = 0; k < nfree_; ++k) tp.emplace_back(k, k, 0.0);
+  auto fdof = [&](int e, int r) { return free_[d * nodes_[e * npc_ + r / d] + r % d]; };
+  for (int e = 0; e < nc; ++e)
+    for (int r = 0; r < dn; ++r)
+      for (int c = 0; c < dn; ++c)
+        if (fdof(e, r) >= 0 && fdof(e, c) >= 0 && fdof(e, r) >= fdof(e, c))
+          tp.emplace_back(fdof(e, r), fdof(e, c), 0.0);
+  pattern_.resize(nfree_, nfree_);
+  pattern_.setFromTriplets(tp.begin(), tp.end());
+  pattern_.makeCompressed();
+  auto position = [&](int row, int col) {  // of (row, col), row >= col, in pattern_'s values
+    const int* begin = pattern_.innerIndexPtr() + pattern_.outerIndexPtr()[col];
+    const int* end = pattern_.innerIndexPtr() + pattern_.outerIndexPtr()[col + 1];
+    const int* it = std::lower_bound(begin, end, row);
+    if (it == end || *it != row) throw Error("Newton: an entry outside the tangent's pattern");
+    return static_cast<int>(it - pattern_.innerIndexPtr());
+  };
+  cell_pos_.assign(static_cast<std::size_t>(nc) * dn * dn, -1);
+  for (int e = 0; e < nc; ++e)
+    for (int r = 0; r < dn; ++r)
+      for (int c = 0; c < dn; ++c)
+        if (fdof(e, r) >= 0 && fdof(e, c) >= 0 && fdof(e, r) >= fdof(e, c))
+          cell_pos_[(static_cast<std::size_t>(e) * dn + r) * dn + c] =
+              position(fdof(e, r), fdof(e, c));
+  diag_pos_.resize(nfree_);
+  for (int k = 0; k < nfree_; ++k) diag_pos_[k] = position(k, k);
+  for (int k = 0; k < fluct_.outerSize(); ++k)
+    for (SpMat::InnerIterator it(fluct_, k); it; ++it) {
+      const int r = free_[it.row()], c = free_[it.col()];
+      if (r >= 0 && c >= 0 && r >= c) fluct_pos_.emplace_back(position(r, c), it.value());
+    }
+  if (const FacetOperators* pts = disc.facets()) {
+    const Eigen::VectorXd& N = disc.surface().N;
+    const int np = pts->size();
+    point_dofs_.resize(np), point_coef_.resize(np), point_pos_.resize(np);
+    for (int k = 0; k < np; ++k) {
+      for (SpMatR::InnerIterator it(pts->mean, k); it; ++it)
+        for (int j = 0; j < d; ++j)
+          if (free_[d * it.col() + j] >= 0 && N(j) != 0) {
+            point_dofs_[k].push_back(free_[d * it.col() + j]);
+            point_coef_[k].push_back(it.value() * N(j));
+          }
+      const std::vector<int>& f = point_dofs_[k];
+      for (int a : f)
+        for (int b : f) point_pos_[k].push_back(a >= b ? position(a, b) : -1);
+    }
+  }
 }
 
 Newton::Unknowns Newton::unknowns(const State& s) const {
@@ -271,7 +246,7 @@ void Newton::to_state(const Unknowns& x, State& s) const {
 // sum_k w_k cof F_k : grad v and, times -p_e, its Hessian sum_k w_k dcof F_k[grad du] : grad v.
 template <int d>
 void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G, Triplets* K,
-                      Triplets* B) const {
+                      Triplets* B, const CellSink* on_cell) const {
   const int nc = disc_.num_cells(), n = npc_;
   const Material& m = disc_.split();
   const Eigen::VectorXd& vol = disc_.cells().vol;
@@ -309,7 +284,7 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
     const Eigen::MatrixXd& gb = gbar_[e];
     Mat<d> F = Mat<d>::Identity() + ue.transpose() * gb;
     if (Ru) add_row(m.dW(F), gb, vol(e), *Ru, nodes);
-    if (K) {
+    if (K || on_cell) {
       Ke.setZero();
       for (int k = 0; k < d; ++k)
         for (int l = 0; l < d; ++l) {
@@ -331,7 +306,7 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
         const Mat<d> Fq = Mat<d>::Identity() + ue.transpose() * g;
         Ge += w * Fq.determinant();
         add_row(cof<d>(Fq), g, w, be, nullptr);
-        if (K && p != 0) {
+        if ((K || on_cell) && p != 0) {
           for (int k = 0; k < d; ++k)
             for (int l = 0; l < d; ++l) {
               Mat<d> H = Mat<d>::Zero();
@@ -357,7 +332,139 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
           for (int b = 0; b < n; ++b)
             for (int k = 0; k < d; ++k)
               K->emplace_back(d * nodes[a] + i, d * nodes[b] + k, Ke(d * a + i, d * b + k));
+    if (on_cell) (*on_cell)(e, Ke, be);
   }
+}
+
+// The work of augmented_step kept across Newton iterations: the matrix (pattern_'s), its
+// factor (analyzed once), the cells' constraint gradients.
+struct Newton::Scatter {
+  SpMat A;
+  Factor llt;
+  bool analyzed = false;
+  std::vector<Eigen::VectorXd> be;  ///< per cell, dG_e/du on the cell's local dofs
+};
+
+// [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
+// K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_.
+bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
+                            const Eigen::VectorXd& G, const Eigen::VectorXd& gap,
+                            const std::vector<int>& active, double damping, Scatter& w,
+                            Eigen::VectorXd& dx) const {
+  const int d = dim_, nc = disc_.num_cells(), dn = d * npc_;
+  const int np = incompressible_ ? nc : 0, npts = static_cast<int>(active.size());
+  if (w.A.size() == 0) w.A = pattern_;
+  double* A = w.A.valuePtr();
+  std::fill(A, A + w.A.nonZeros(), 0.0);
+  w.be.resize(np);
+  auto fdof = [&](int e, int r) { return free_[d * nodes_[e * npc_ + r / d] + r % d]; };
+  const CellSink sink = [&](int e, const Eigen::MatrixXd& Ke, const Eigen::VectorXd& be) {
+    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
+    for (int r = 0; r < dn; ++r)
+      for (int c = 0; c < dn; ++c)
+        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += Ke(r, c);
+    if (np) w.be[e] = be;
+  };
+  if (d == 2)
+    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+  else
+    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+  for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
+  Eigen::VectorXd diag(nfree_);
+  for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
+  const double kappa = 1e4 * (nfree_ ? diag.cwiseAbs().mean() : 1.0);
+  // The constraint rows: W_e = 1 / |B_e|^2 over the free dofs, their outer products.
+  Eigen::VectorXd W(np);
+  for (int e = 0; e < np; ++e) {
+    double b2 = 0;
+    for (int r = 0; r < dn; ++r)
+      if (fdof(e, r) >= 0) b2 += w.be[e](r) * w.be[e](r);
+    W(e) = 1 / std::max(b2, 1e-300);
+    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
+    for (int r = 0; r < dn; ++r)
+      for (int c = 0; c < dn; ++c)
+        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += kappa * W(e) * w.be[e](r) * w.be[e](c);
+  }
+  std::vector<int> act;
+  Eigen::VectorXd Wc(npts);
+  for (int k = 0; k < npts; ++k) {
+    if (!active[k] || point_dofs_[k].empty()) continue;
+    act.push_back(k);
+    const std::vector<double>& cf = point_coef_[k];
+    double c2 = 0;
+    for (double v : cf) c2 += v * v;
+    Wc(k) = 1 / c2;
+    const int m = static_cast<int>(cf.size());
+    for (int a = 0; a < m; ++a)
+      for (int b = 0; b < m; ++b)
+        if (point_pos_[k][a * m + b] >= 0)
+          A[point_pos_[k][a * m + b]] += kappa * Wc(k) * cf[a] * cf[b];
+  }
+  if (damping > 0)
+    for (int k = 0; k < nfree_; ++k) A[diag_pos_[k]] += damping * std::abs(diag(k));
+  if (!w.analyzed) {
+    w.llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
+    w.llt.analyzePattern(w.A);
+    w.analyzed = true;
+  }
+  w.llt.factorize(w.A);
+  if (w.llt.info() != Eigen::Success) return false;
+  // The multiplier sweeps: B du = sum over the cell's free dofs, B^T dp scattered back.
+  Eigen::VectorXd r1(nfree_), du, rhs(nfree_);
+  for (int k = 0; k < static_cast<int>(free_.size()); ++k)
+    if (free_[k] >= 0) r1(free_[k]) = -Ru(k);
+  Eigen::VectorXd dp = Eigen::VectorXd::Zero(np);
+  std::vector<double> dmu(npts, 0.0);
+  auto Bdu = [&](int e, const Eigen::VectorXd& v) {
+    double s = 0;
+    for (int r = 0; r < dn; ++r)
+      if (fdof(e, r) >= 0) s += w.be[e](r) * v(fdof(e, r));
+    return s;
+  };
+  auto Cdu = [&](int k, const Eigen::VectorXd& v) {
+    double s = 0;
+    for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
+      s += point_coef_[k][a] * v(point_dofs_[k][a]);
+    return s;
+  };
+  for (int sweep = 0; sweep < 100; ++sweep) {
+    // rhs = r1 + B^T (dp - kappa W r2) - C^T (dmu - kappa_c Wc r3), r2 = G, r3 = -gap.
+    rhs = r1;
+    for (int e = 0; e < np; ++e) {
+      const double y = dp(e) - kappa * W(e) * G(e);
+      for (int r = 0; r < dn; ++r)
+        if (fdof(e, r) >= 0) rhs(fdof(e, r)) += w.be[e](r) * y;
+    }
+    for (int k : act) {
+      const double y = dmu[k] - kappa * Wc(k) * (-gap(k));
+      for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
+        rhs(point_dofs_[k][a]) -= point_coef_[k][a] * y;
+    }
+    du = w.llt.solve(rhs);
+    double worst = 0;
+    for (int e = 0; e < np; ++e) {
+      const double c1 = Bdu(e, du) + G(e);
+      dp(e) -= kappa * W(e) * c1;
+      worst = std::max(worst, std::abs(c1) * std::sqrt(W(e)));
+    }
+    for (int k : act) {
+      const double c2 = Cdu(k, du) + gap(k);
+      dmu[k] += kappa * Wc(k) * c2;
+      worst = std::max(worst, std::abs(c2) * std::sqrt(Wc(k)));
+    }
+    // Converged when the constraints hold to round-off of the step.
+    if (worst <= 1e-13 * std::max(du.cwiseAbs().maxCoeff(), 1e-300)) break;
+  }
+  if (!du.allFinite()) return false;
+  // dx in the layout of the KKT system: du, dp, then the active points' dmu in order.
+  int nA = 0;
+  for (int k = 0; k < npts; ++k) nA += active[k];
+  dx.resize(nfree_ + np + nA);
+  dx.head(nfree_) = du;
+  dx.segment(nfree_, np) = dp;
+  for (int k = 0, a = 0; k < npts; ++k)
+    if (active[k]) dx(nfree_ + np + a++) = dmu[k];
+  return true;
 }
 
 void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::VectorXd& Ru,
@@ -486,8 +593,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   Unknowns trial;
   Eigen::VectorXd Ru_t, G_t;
   std::vector<int> active(np), prev_active;
-  Factor llt;
-  bool analyzed = false;
+  Scatter scatter;
   const int max_newton = std::max(1, alg.newton_max_iter);
   double damping = 0;
   for (int it = 1;; ++it) {
@@ -526,60 +632,63 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       if (!active[k]) base.mu(k) = 0;
     residual(base, F, Ru, G);
     // [K, -B^T, C_A^T; -B, 0, 0; C_A, 0, 0] (du, dp, dmu_A) = (-R_u, G, g_A - N . ubar_A).
-    Triplets t, tb;
-    if (d == 2)
-      assemble<2>(base, nullptr, nullptr, &t, &tb);
-    else
-      assemble<3>(base, nullptr, nullptr, &t, &tb);
-    for (int k = 0; k < fluct_.outerSize(); ++k)
-      for (SpMat::InnerIterator i(fluct_, k); i; ++i) t.emplace_back(i.row(), i.col(), i.value());
-    const int np_ = incompressible_ ? nc : 0, n = nfree_ + np_ + nA;
-    Triplets kkt;
-    kkt.reserve(t.size() + 2 * tb.size() + 2 * d * nA);
-    Eigen::VectorXd diag = Eigen::VectorXd::Zero(nfree_);
-    for (const auto& e : t)
-      if (free_[e.row()] >= 0 && free_[e.col()] >= 0) {
-        kkt.emplace_back(free_[e.row()], free_[e.col()], e.value());
-        if (e.row() == e.col()) diag(free_[e.row()]) += e.value();
-      }
-    // Levenberg-Marquardt damping of the u block (0: Newton's step), see below.
-    if (damping > 0)
-      for (int k = 0; k < nfree_; ++k) kkt.emplace_back(k, k, damping * std::abs(diag(k)));
-    for (const auto& e : tb)
-      if (free_[e.col()] >= 0) {
-        kkt.emplace_back(free_[e.col()], nfree_ + e.row(), -e.value());
-        kkt.emplace_back(nfree_ + e.row(), free_[e.col()], -e.value());
-      }
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
-    for (int k = 0; k < Ru.size(); ++k)
-      if (free_[k] >= 0) rhs(free_[k]) = -Ru(k);
-    for (int e = 0; e < np_; ++e) rhs(nfree_ + e) = G(e);
-    if (pts) {
-      gapv = (pts->mean * base.u) * N - disc_.surface().gap;
-      for (int k = 0; k < np; ++k) {
-        if (!active[k]) continue;
-        const int r = nfree_ + np_ + aidx[k];
-        bool any = false;
-        for (SpMatR::InnerIterator i(pts->mean, k); i; ++i)
-          for (int j = 0; j < d; ++j)
-            if (free_[d * i.col() + j] >= 0 && N(j) != 0) {
-              kkt.emplace_back(free_[d * i.col() + j], r, i.value() * N(j));
-              kkt.emplace_back(r, free_[d * i.col() + j], i.value() * N(j));
-              any = true;
-            }
-        if (any)
-          rhs(r) = -gapv(k);
-        else
-          kkt.emplace_back(r, r, 1.0);  // a point whose normal motion is prescribed: mu stays
-      }
-    }
+    const int np_ = incompressible_ ? nc : 0;
+    if (pts) gapv = (pts->mean * base.u) * N - disc_.surface().gap;
     rec.t_strain = seconds_since(t0);
     t0 = clock_type::now();
     Eigen::VectorXd dx;
-    bool solved = solve_kkt(kkt, rhs, nfree_, np_, nA, llt, analyzed, dx);
-    // The augmented tangent is not positive definite (a saddle of the energy on the constraints,
-    // e.g. a compressed block under a dead load): the KKT system itself, by sparse LU.
-    if (!solved) solved = solve_kkt_lu(kkt, rhs, dx);
+    bool solved = augmented_step(base, Ru, G, gapv, active, damping, scatter, dx);
+    if (!solved) {
+      // The augmented tangent is not positive definite (a saddle of the energy on the
+      // constraints, e.g. a compressed block under a dead load): the KKT system itself.
+      Triplets t, tb;
+      if (d == 2)
+        assemble<2>(base, nullptr, nullptr, &t, &tb);
+      else
+        assemble<3>(base, nullptr, nullptr, &t, &tb);
+      for (int k = 0; k < fluct_.outerSize(); ++k)
+        for (SpMat::InnerIterator i(fluct_, k); i; ++i) t.emplace_back(i.row(), i.col(), i.value());
+      const int n = nfree_ + np_ + nA;
+      Triplets kkt;
+      kkt.reserve(t.size() + 2 * tb.size() + 2 * d * nA);
+      Eigen::VectorXd diag = Eigen::VectorXd::Zero(nfree_);
+      for (const auto& e : t)
+        if (free_[e.row()] >= 0 && free_[e.col()] >= 0) {
+          kkt.emplace_back(free_[e.row()], free_[e.col()], e.value());
+          if (e.row() == e.col()) diag(free_[e.row()]) += e.value();
+        }
+      // Levenberg-Marquardt damping of the u block (0: Newton's step), see below.
+      if (damping > 0)
+        for (int k = 0; k < nfree_; ++k) kkt.emplace_back(k, k, damping * std::abs(diag(k)));
+      for (const auto& e : tb)
+        if (free_[e.col()] >= 0) {
+          kkt.emplace_back(free_[e.col()], nfree_ + e.row(), -e.value());
+          kkt.emplace_back(nfree_ + e.row(), free_[e.col()], -e.value());
+        }
+      Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
+      for (int k = 0; k < Ru.size(); ++k)
+        if (free_[k] >= 0) rhs(free_[k]) = -Ru(k);
+      for (int e = 0; e < np_; ++e) rhs(nfree_ + e) = G(e);
+      if (pts) {
+        for (int k = 0; k < np; ++k) {
+          if (!active[k]) continue;
+          const int r = nfree_ + np_ + aidx[k];
+          bool any = false;
+          for (SpMatR::InnerIterator i(pts->mean, k); i; ++i)
+            for (int j = 0; j < d; ++j)
+              if (free_[d * i.col() + j] >= 0 && N(j) != 0) {
+                kkt.emplace_back(free_[d * i.col() + j], r, i.value() * N(j));
+                kkt.emplace_back(r, free_[d * i.col() + j], i.value() * N(j));
+                any = true;
+              }
+          if (any)
+            rhs(r) = -gapv(k);
+          else
+            kkt.emplace_back(r, r, 1.0);  // a point whose normal motion is prescribed: mu stays
+        }
+      }
+      solved = solve_kkt_lu(kkt, rhs, dx);
+    }
     rec.t_global = seconds_since(t0);
     if (!solved) {  // singular: damp more, same point
       ++result.iterations;
@@ -657,8 +766,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
 }
 
 template void Newton::assemble<2>(const Unknowns&, Eigen::VectorXd*, Eigen::VectorXd*, Triplets*,
-                                  Triplets*) const;
+                                  Triplets*, const CellSink*) const;
 template void Newton::assemble<3>(const Unknowns&, Eigen::VectorXd*, Eigen::VectorXd*, Triplets*,
-                                  Triplets*) const;
+                                  Triplets*, const CellSink*) const;
 
 }  // namespace ltl

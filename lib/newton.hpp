@@ -85,10 +85,20 @@ class Newton {
                const std::function<void(const IterationRecord&)>& progress) const;
 
  private:
+  /// Per cell: the residual and constraint into Ru and G, the tangent Ke and the constraint
+  /// gradient be (local dof d a + i) as triplets into K and B, and/or handed to on_cell.
+  using CellSink = std::function<void(int, const Eigen::MatrixXd&, const Eigen::VectorXd&)>;
   template <int d>
   void assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G,
-                std::vector<Eigen::Triplet<double>>* K,
-                std::vector<Eigen::Triplet<double>>* B) const;
+                std::vector<Eigen::Triplet<double>>* K, std::vector<Eigen::Triplet<double>>* B,
+                const CellSink* on_cell = nullptr) const;
+  /// The Newton step by the augmented Lagrangian of its KKT system (solve_kkt in newton.cpp),
+  /// with the matrix scattered into the fixed pattern_ (no triplets). False when the augmented
+  /// tangent is not positive definite.
+  struct Scatter;
+  bool augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
+                      const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
+                      Scatter& work, Eigen::VectorXd& dx) const;
   /// Smallest det F over the constraint points (+inf without them) and over the cell means.
   double min_det(const Eigen::MatrixXd& u) const;
 
@@ -105,7 +115,17 @@ class Newton {
   Eigen::SparseMatrix<double> fluct_;  ///< 2 C1 (L - GbarT_vol Gbar) (x) I_dim, dof numbering
   std::vector<int> free_;              ///< per dof, its free index or -1
   int nfree_ = 0;
-  Eigen::VectorXd c_;  ///< per contact point, the NCP parameter 2 C1 |G_s| / h (force / length)
+  Eigen::VectorXd c_;  ///< per contact point, the NCP parameter 0.02 C1 |G_s| / h
+  /// The pattern of the augmented tangent (free dofs, lower triangle) and where each entry of a
+  /// cell matrix (cell_pos_, (d npc)^2 per cell, -1: fixed dof or upper triangle), of the
+  /// fluctuation term (fluct_pos_), of the diagonal (diag_pos_) and of a contact point's pairs
+  /// (point_dofs_, point_coef_: its free dofs and their coefficients in N . ubar_s;
+  /// point_pos_: their pairs) lands in its values.
+  Eigen::SparseMatrix<double> pattern_;
+  std::vector<int> cell_pos_, diag_pos_;
+  std::vector<std::pair<int, double>> fluct_pos_;
+  std::vector<std::vector<int>> point_dofs_, point_pos_;
+  std::vector<std::vector<double>> point_coef_;
 };
 
 }  // namespace ltl
