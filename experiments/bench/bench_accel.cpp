@@ -154,7 +154,12 @@ int main(int argc, char** argv) try {
   std::string trace;
   std::vector<std::string> extra;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--quick"))
+    if (!std::strcmp(argv[i], "-h") || !std::strcmp(argv[i], "--help")) {
+      std::printf(
+          "usage: bench_accel [--quick] [--depth M] [--cap-seconds S] [--trace CASE] "
+          "[key=value]...\n");
+      return 0;
+    } else if (!std::strcmp(argv[i], "--quick"))
       quick = true;
     else if (!std::strcmp(argv[i], "--depth") && i + 1 < argc)
       depth = std::stoi(argv[++i]);

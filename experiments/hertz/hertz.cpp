@@ -164,6 +164,10 @@ double order(double e_coarse, double e_fine, double ratio) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc > 1 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help")) {
+    std::printf("usage: hertz [levels >= 1] [0 < a_over_Rc < 0.5] [1/2 < rho_BM <= 1] [OUTDIR]\n");
+    return 0;
+  }
   try {
     Data d;
     const int levels = argc > 1 ? std::atoi(argv[1]) : 4;
