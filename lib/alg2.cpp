@@ -87,11 +87,11 @@ void Solver::precompute(double R) {
 
 State Solver::initial_state() const {
   const int dim = this->dim();
-  const int nf = facets() ? facets()->size() : 0;
+  const int nf = disc_.facets() ? disc_.facets()->size() : 0;
   State s;
   s.u = disc_.dirichlet().value;
   s.E = disc_.identity();
-  s.lambda = 2 * split().C1 * disc_.identity();
+  s.lambda = 2 * disc_.split().C1 * disc_.identity();
   s.e = Eigen::MatrixXd::Zero(dim, nf);
   s.lambda_c = Eigen::MatrixXd::Zero(dim, nf);
   s.beta = Eigen::VectorXd::Constant(nf, problem().contact ? problem().contact->beta0 : 0.0);
@@ -108,7 +108,7 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   const double Rq = R_ * a.q;
   const CellOperators& cells = disc_.cells();
   const FacetOperators* facets = disc_.facets();
-  T_ = Rq * (s.E - disc_.identity()) + s.lambda - 2 * split().C1 * disc_.identity();
+  T_ = Rq * (s.E - disc_.identity()) + s.lambda - 2 * disc_.split().C1 * disc_.identity();
   rhs_.noalias() = cells.GbarT_vol * T_;
   rhs_ += F_ext_;
   if (disc_.mean_det()) {  // the pressure's work on the fluctuations, lagged

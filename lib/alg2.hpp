@@ -55,21 +55,6 @@ class Solver {
   const Discretization& discretization() const { return disc_; }
   const Problem& problem() const { return disc_.problem(); }
   int dim() const { return disc_.dim(); }
-  // Shorthands for discretization().X (see discretization.hpp).
-  const Material& split() const { return disc_.split(); }
-  const CellOperators& cells() const { return disc_.cells(); }
-  const FacetOperators* facets() const { return disc_.facets(); }
-  bool mean_det() const { return disc_.mean_det(); }
-  const std::vector<std::vector<int>>& fixed_nodes() const { return disc_.dirichlet().fixed; }
-  Eigen::MatrixXd piola(const State& s) const { return disc_.piola(s); }
-  Eigen::MatrixXd cauchy(const State& s) const { return disc_.cauchy(s); }
-  Eigen::VectorXd pressure(const State& s) const { return disc_.pressure(s); }
-  Eigen::VectorXd contact_pressure(const State& s) const { return disc_.contact_pressure(s); }
-  Eigen::VectorXd contact_gap(const State& s) const { return disc_.contact_gap(s); }
-  Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const {
-    return disc_.fluctuation_det(u);
-  }
-  Eigen::MatrixXd fluctuation_force(const State& s) const { return disc_.fluctuation_force(s); }
   /// Discretization::energy_gradient at the current load.
   Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u) const {
     return disc_.energy_gradient(u, F_ext_);

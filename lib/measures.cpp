@@ -152,31 +152,33 @@ double load_along_normal(const Solver& solver) {
 }
 
 Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s) {
-  const CellOperators& c = solver.cells();
-  const double C1 = solver.split().C1;
+  const CellOperators& c = solver.discretization().cells();
+  const double C1 = solver.discretization().split().C1;
   const Eigen::MatrixXd GU = c.Gbar * s.u;
-  Eigen::MatrixXd r = c.GbarT_vol * solver.piola(s) +
+  Eigen::MatrixXd r = c.GbarT_vol * solver.discretization().piola(s) +
                       2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - solver.external_load();
-  if (solver.facets()) r -= solver.facets()->meanT_area * s.lambda_c.transpose();
-  if (solver.mean_det()) r -= solver.fluctuation_force(s);
+  if (solver.discretization().facets())
+    r -= solver.discretization().facets()->meanT_area * s.lambda_c.transpose();
+  if (solver.discretization().mean_det()) r -= solver.discretization().fluctuation_force(s);
   return r;
 }
 
 EquilibriumMeasure equilibrium_measure(const Solver& solver, const State& s) {
   EquilibriumMeasure m;
   Eigen::MatrixXd r = equilibrium_residual(solver, s);
-  const auto& fixed = solver.fixed_nodes();
+  const auto& fixed = solver.discretization().dirichlet().fixed;
   for (int c = 0; c < solver.dim(); ++c)
     for (int i : fixed[c]) r(i, c) = 0;
   const double load = solver.external_load().cwiseAbs().maxCoeff();
   m.force_residual = r.cwiseAbs().maxCoeff() / (load > 0 ? load : 1.0);
   if (solver.problem().material.incompressible()) {
     // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
-    const Eigen::VectorXd c = solver.fluctuation_det(s.u);
+    const Eigen::VectorXd c = solver.discretization().fluctuation_det(s.u);
     for (int e = 0; e < solver.problem().mesh.num_cells(); ++e)
       m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
   }
-  if (solver.facets()) m.penetration = std::max(0.0, contact_measures(solver, s).penetration);
+  if (solver.discretization().facets())
+    m.penetration = std::max(0.0, contact_measures(solver, s).penetration);
   m.det_min = min_det_F(solver.discretization(), s.u);
   return m;
 }

@@ -68,8 +68,9 @@ struct ContactMeasures {
 ContactMeasures contact_measures(const Problem& problem, const FacetOperators& points,
                                  const State& s, int axis = 0);
 inline ContactMeasures contact_measures(const Solver& solver, const State& s, int axis = 0) {
-  return solver.facets() ? contact_measures(solver.problem(), *solver.facets(), s, axis)
-                         : ContactMeasures{};
+  return solver.discretization().facets()
+             ? contact_measures(solver.problem(), *solver.discretization().facets(), s, axis)
+             : ContactMeasures{};
 }
 
 /// [LTL87 (4.11)] The opening of each contact point, -e_i . N (m): the contact displacement
@@ -108,7 +109,7 @@ struct StepMeasures {
 StepMeasures step_measures(const Problem& problem, const FacetOperators* points, const State& s,
                            int axis = 0);
 inline StepMeasures step_measures(const Solver& solver, const State& s, int axis = 0) {
-  return step_measures(solver.problem(), solver.facets(), s, axis);
+  return step_measures(solver.problem(), solver.discretization().facets(), s, axis);
 }
 
 /// The measures as written to results files (/steps/N/measures): name, value, unit,

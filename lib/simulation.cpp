@@ -65,9 +65,9 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   d.t = step.p * problem.time.dt;
   d.state = &state;
   d.report = &step.report;
-  d.P = solver.piola(state);
-  d.sigma = solver.cauchy(state);
-  d.pressure = solver.pressure(state);
+  d.P = solver.discretization().piola(state);
+  d.sigma = solver.discretization().cauchy(state);
+  d.pressure = solver.discretization().pressure(state);
   const int nc = problem.mesh.num_cells();
   if (problem.mesh.dim == 2 && state.E.rows() == 2 * nc) {
     d.sigma33.resize(nc);
@@ -78,8 +78,8 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
       d.pressure(c) = -(d.sigma.block<2, 2>(2 * c, 0).trace() + d.sigma33(c)) / 3;
     }
   }
-  d.contact_pressure = solver.contact_pressure(state);
-  d.gap = solver.contact_gap(state);
+  d.contact_pressure = solver.discretization().contact_pressure(state);
+  d.gap = solver.discretization().contact_gap(state);
   // Every measure of the step (lib/measures.hpp), one definition each.
   const StepMeasures m = step_measures(solver, state);
   d.measures = stored_measures(m, problem.mesh.dim);
@@ -311,8 +311,8 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
   if (options.verbosity > 0)
     std::printf("%s: %d cells, %d nodes, %d contact points, %d factor(s), setup %.3f s\n",
                 problem.name.c_str(), problem.mesh.num_cells(), problem.mesh.num_nodes(),
-                solver.facets() ? solver.facets()->size() : 0, solver.global_step().num_factors(),
-                solver.setup_seconds());
+                solver.discretization().facets() ? solver.discretization().facets()->size() : 0,
+                solver.global_step().num_factors(), solver.setup_seconds());
   if (options.verbosity > 0)
     std::printf("%s: algorithm %s\n", problem.name.c_str(),
                 describe_algorithm(problem.algorithm).c_str());
@@ -336,11 +336,11 @@ void ResultsWriter::append(const TimeStep& step) {
     info.attributes["git_version"] = git_version();
     const Mesh::Boundary* cb =
         problem.contact ? &problem.mesh.boundary(problem.contact->group) : nullptr;
-    const FacetOperators* points = solver.facets();
+    const FacetOperators* points = solver.discretization().facets();
     return ResultsFile::create(output, problem.mesh, info, cb, points ? &points->centre : nullptr,
                                points ? &points->area : nullptr,
                                points && !points->nodes.empty() ? &points->nodes : nullptr, false,
-                               &solver.cells().vol);
+                               &solver.discretization().cells().vol);
   };
   for (const StepAttempt& a : step.attempts) summary_.solver_seconds += a.seconds;
   if (step.attempts.empty())

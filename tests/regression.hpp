@@ -88,12 +88,12 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
   summary = run(p, options, [&](const Solver& solver, int, const State& s) {
     last.clear();
     if (!p.contact) return;
-    const Eigen::VectorXd gap = solver.contact_gap(s);
+    const Eigen::VectorXd gap = solver.discretization().contact_gap(s);
     if (p.contact->adhesion.kappa > 0) {
       // Adhesion: the peel measures of lib/measures.hpp (beta profile, the damage front at
       // beta < kDamagedBeta, the opening of the contact surface); the stored keys floor the
       // front (none: 0) and the opening at 0.
-      const PeelMeasures pm = peel_measures(p, *solver.facets(), s);
+      const PeelMeasures pm = peel_measures(p, *solver.discretization().facets(), s);
       const double front = std::isnan(pm.damage_front) ? 0.0 : std::max(0.0, pm.damage_front);
       const double opening = std::max(0.0, pm.max_opening);
       last.push_back(quantity("beta_min", pm.beta_min, 1.0));

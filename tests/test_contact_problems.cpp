@@ -45,8 +45,9 @@ ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& 
 // convergence they agree up to the tolerance, and this one is what the body actually does.
 Eigen::VectorXd mean_gap(const Solver& solver, const State& s) {
   const Eigen::VectorXd N = solver.problem().contact->plane_normal.head(solver.dim());
-  const Eigen::MatrixXd ubar = solver.facets()->mean * s.u;                // #facets x dim
-  const Eigen::VectorXd g0 = solver.contact_gap(s) + s.e.transpose() * N;  // initial gap g_s
+  const Eigen::MatrixXd ubar = solver.discretization().facets()->mean * s.u;  // #facets x dim
+  const Eigen::VectorXd g0 =
+      solver.discretization().contact_gap(s) + s.e.transpose() * N;  // initial gap g_s
   return g0 - ubar * N;
 }
 
@@ -116,7 +117,7 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   EXPECT_LT(worst_u, 1e-6) << "after " << r.report.iterations << " iterations";
 
   // Stress: P = -p e_d e_d^T in every cell.
-  const Eigen::MatrixXd P = solver.piola(s);
+  const Eigen::MatrixXd P = solver.discretization().piola(s);
   Eigen::MatrixXd P_exact = Eigen::MatrixXd::Zero(d, d);
   P_exact(d - 1, d - 1) = -exact.p;
   double worst_P = 0;
@@ -126,8 +127,9 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
 
   // Contact: p_s = p on every facet [Solver::contact_pressure = -lambda_c . N], no tangential
   // traction (frictionless), closed gap, no penetration.
-  const Eigen::VectorXd pc = solver.contact_pressure(s), gap = solver.contact_gap(s);
-  ASSERT_EQ(pc.size(), solver.facets()->size());
+  const Eigen::VectorXd pc = solver.discretization().contact_pressure(s),
+                        gap = solver.discretization().contact_gap(s);
+  ASSERT_EQ(pc.size(), solver.discretization().facets()->size());
   ASSERT_GT(pc.size(), 0);
   const double worst_p = (pc.array() - exact.p).abs().maxCoeff() / exact.p;
   EXPECT_LT(worst_p, 1e-6);
@@ -144,16 +146,16 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   EXPECT_LT(gap_u.cwiseAbs().maxCoeff(), 1e-9);
   // The contact force balances the load: sum_s |G_s| p_s = p |top| (the top has the reference
   // area of the bottom).
-  const double force = solver.facets()->area.dot(pc);
-  EXPECT_NEAR(force, exact.p * solver.facets()->area.sum(), 1e-6 * force);
+  const double force = solver.discretization().facets()->area.dot(pc);
+  EXPECT_NEAR(force, exact.p * solver.discretization().facets()->area.sum(), 1e-6 * force);
   // The same through the measures (lib/measures.hpp): every point in the contact set, the
   // contact force equal to the applied load along N, the peak pressure p.
   const ContactMeasures cm = contact_measures(solver, s);
   EXPECT_EQ(cm.in_contact, cm.points);
   EXPECT_NEAR(cm.force, load_along_normal(solver), 1e-6 * cm.force);
-  EXPECT_NEAR(cm.force, exact.p * solver.facets()->area.sum(), 1e-6 * cm.force);
+  EXPECT_NEAR(cm.force, exact.p * solver.discretization().facets()->area.sum(), 1e-6 * cm.force);
   EXPECT_NEAR(cm.p_max, exact.p, 1e-6 * exact.p);
-  EXPECT_NEAR(cm.area, solver.facets()->area.sum(), 1e-12);
+  EXPECT_NEAR(cm.area, solver.discretization().facets()->area.sum(), 1e-12);
   std::printf(
       "  %dD %s: p = %.6g Pa, stretches (%.4f, %.4f, %.4f), %d iterations; max |u - u_exact| = "
       "%.1e m, max |P - P_exact|/p = %.1e, max |p_s - p|/p = %.1e, max |lambda_t|/p = %.1e, "
@@ -241,8 +243,8 @@ namespace {
 int expect_signorini(const Solver& solver, const State& s, double L, double tol_g, double tol_p) {
   const int d = solver.dim();
   const Eigen::VectorXd N = solver.problem().contact->plane_normal.head(d);
-  const Eigen::VectorXd p = solver.contact_pressure(s), gap = solver.contact_gap(s),
-                        gap_u = mean_gap(solver, s);
+  const Eigen::VectorXd p = solver.discretization().contact_pressure(s),
+                        gap = solver.discretization().contact_gap(s), gap_u = mean_gap(solver, s);
   const double p_max = p.maxCoeff();
   EXPECT_GT(p_max, 0.0);
   int in_contact = 0;
@@ -291,22 +293,22 @@ TEST(Fig5, CylinderOnPlane_SignoriniConditionsAndContactForceEqualsWeight) {
   std::printf("  Fig 5: %d iterations (R = %g, q = %g Pa, tol 1e-9)\n", r.report.iterations,
               problem.algorithm.R, problem.algorithm.q);
 
-  const int nf = solver.facets()->size();
+  const int nf = solver.discretization().facets()->size();
   const int in_contact = expect_signorini(solver, s, Rc, 1e-6, 1e-6);
   // A genuine contact zone: neither a single point nor the whole lower quarter.
   EXPECT_GE(in_contact, 2);
   EXPECT_LT(in_contact, nf);
 
   // Loads: the consistent nodal loads add up to the weight, |Omega| = pi/2 up to the P2 geometry.
-  const double area = solver.cells().vol.sum();
+  const double area = solver.discretization().cells().vol.sum();
   EXPECT_NEAR(area, M_PI / 2, 2e-4);
   const double weight = 400e3 * area;
   EXPECT_NEAR(-solver.external_load().col(1).sum(), weight, 1e-12 * weight);
   EXPECT_NEAR(solver.external_load().col(0).sum(), 0.0, 1e-12 * weight);
 
   // The plane carries the weight.
-  const Eigen::VectorXd p = solver.contact_pressure(s);
-  const double force = solver.facets()->area.dot(p);
+  const Eigen::VectorXd p = solver.discretization().contact_pressure(s);
+  const double force = solver.discretization().facets()->area.dot(p);
   EXPECT_NEAR(force, weight, 1e-6 * weight);
 
   // Global equilibrium (4.5) at the fixed point: zero residual on every free dof; no node is
@@ -334,8 +336,8 @@ TEST(Fig5, Eq4_1to4_3_AndersonAndPlainReachTheSameFixedPoint) {
   const Solved accel = solve_one_step(load_problem(
       config, {"algorithm.tol=1e-9", "algorithm.acceleration=anderson", "algorithm.depth=10"}));
   const double du = (accel.s.u - plain.s.u).cwiseAbs().maxCoeff() / plain.s.u.cwiseAbs().maxCoeff();
-  const Eigen::VectorXd pp = plain.solver->contact_pressure(plain.s),
-                        pa = accel.solver->contact_pressure(accel.s);
+  const Eigen::VectorXd pp = plain.solver->discretization().contact_pressure(plain.s),
+                        pa = accel.solver->discretization().contact_pressure(accel.s);
   const double dp = (pa - pp).cwiseAbs().maxCoeff() / pp.cwiseAbs().maxCoeff();
   std::printf(
       "  plain %d iterations, Anderson %d; max |du|/max |u| = %.1e, max |dp_c|/max p_c = "
@@ -343,7 +345,8 @@ TEST(Fig5, Eq4_1to4_3_AndersonAndPlainReachTheSameFixedPoint) {
       plain.report.iterations, accel.report.iterations, du, dp);
   EXPECT_LT(du, 1e-6);
   EXPECT_LT(dp, 1e-5);
-  const double fp = plain.solver->facets()->area.dot(pp), fa = accel.solver->facets()->area.dot(pa);
+  const double fp = plain.solver->discretization().facets()->area.dot(pp),
+               fa = accel.solver->discretization().facets()->area.dot(pa);
   EXPECT_NEAR(fa, fp, 1e-6 * fp);
   expect_signorini(*accel.solver, accel.s, 1.0, 1e-6, 1e-6);
   EXPECT_LT(accel.report.iterations, plain.report.iterations / 2);
@@ -362,7 +365,7 @@ TEST(Fig6, GutterOverPlane_SignoriniConditionsAndVerticalBalanceWithClampReactio
   const State& s = r.s;
   std::printf("  Fig 6 (nl = 5, %d H8): %d iterations\n", problem.mesh.num_cells(),
               r.report.iterations);
-  const int nf = solver.facets()->size();
+  const int nf = solver.discretization().facets()->size();
   const int in_contact = expect_signorini(solver, s, 1.0, 1e-6, 1e-5);
   EXPECT_GE(in_contact, 1);
   EXPECT_LT(in_contact, nf);
@@ -373,8 +376,8 @@ TEST(Fig6, GutterOverPlane_SignoriniConditionsAndVerticalBalanceWithClampReactio
   EXPECT_NEAR(load, 500 * M_PI / 2 * 10, 2e-2 * load);
   EXPECT_NEAR(solver.external_load().col(0).sum(), 0.0, 1e-12 * load);
 
-  const Eigen::VectorXd p = solver.contact_pressure(s);
-  const double contact = solver.facets()->area.dot(p);  // upward, N = -e2
+  const Eigen::VectorXd p = solver.discretization().contact_pressure(s);
+  const double contact = solver.discretization().facets()->area.dot(p);  // upward, N = -e2
 
   const Eigen::MatrixXd res = equilibrium_residual(solver, s);
   const double scale = solver.external_load().cwiseAbs().maxCoeff();

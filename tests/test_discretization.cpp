@@ -50,7 +50,7 @@ double deformed_area(const ltl::Mesh& mesh, const Eigen::MatrixXd& u) {
 // with E = I and lambda = p I per cell (so that p_e = lambda : E / (d det E) = p).
 void expect_force_is_derivative(const ltl::Problem& problem, double amplitude) {
   const ltl::Solver solver(problem);
-  ASSERT_TRUE(solver.mean_det());
+  ASSERT_TRUE(solver.discretization().mean_det());
   ltl::State s = solver.initial_state();
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> U(-amplitude, amplitude);
@@ -61,13 +61,13 @@ void expect_force_is_derivative(const ltl::Problem& problem, double amplitude) {
   const double p = 1.3e6;
   s.u = u;
   s.lambda = p * s.E;  // E = I blocks
-  const Eigen::MatrixXd force = solver.fluctuation_force(s);
+  const Eigen::MatrixXd force = solver.discretization().fluctuation_force(s);
   const double h = 1e-6;
-  const Eigen::VectorXd& vol = solver.cells().vol;
-  const double fd =
-      p *
-      (vol.dot(solver.fluctuation_det(u + h * v)) - vol.dot(solver.fluctuation_det(u - h * v))) /
-      (2 * h);
+  const Eigen::VectorXd& vol = solver.discretization().cells().vol;
+  const double fd = p *
+                    (vol.dot(solver.discretization().fluctuation_det(u + h * v)) -
+                     vol.dot(solver.discretization().fluctuation_det(u - h * v))) /
+                    (2 * h);
   const double exact = (force.array() * v.array()).sum();
   EXPECT_NEAR(fd, exact, 1e-6 * std::abs(exact));
   EXPECT_GT(std::abs(exact), 1.0);  // not a vacuous 0 = 0
@@ -76,12 +76,12 @@ void expect_force_is_derivative(const ltl::Problem& problem, double amplitude) {
 // An affine u has no fluctuation: c_e = 0 and no force (the patch test of mean-det).
 void expect_affine_has_no_fluctuation(const ltl::Problem& problem, const Eigen::MatrixXd& A) {
   const ltl::Solver solver(problem);
-  ASSERT_TRUE(solver.mean_det());
+  ASSERT_TRUE(solver.discretization().mean_det());
   ltl::State s = solver.initial_state();
   s.u = problem.mesh.X * A.transpose();
   s.lambda *= 7.0;
-  EXPECT_LT(solver.fluctuation_det(s.u).cwiseAbs().maxCoeff(), 1e-12);
-  EXPECT_LT(solver.fluctuation_force(s).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_LT(solver.discretization().fluctuation_det(s.u).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT(solver.discretization().fluctuation_force(s).cwiseAbs().maxCoeff(), 1e-6);
 }
 
 // (2.7) mean-det: the force of the constraint's pressure on the intra-cell fluctuations is the
@@ -117,7 +117,8 @@ TEST(MeanDet, Eq2_7_ConvergedFig5KeepsItsAreaWhereDetMeanLosesIt) {
     ltl::State s = solver.initial_state();
     const ltl::StepReport report = solver.solve_step(s, s.beta);
     ASSERT_TRUE(report.converged) << report.status;
-    const double change = deformed_area(problem.mesh, s.u) - solver.cells().vol.sum();
+    const double change =
+        deformed_area(problem.mesh, s.u) - solver.discretization().cells().vol.sum();
     if (mean_det) {
       EXPECT_LT(std::abs(change), 1e-8);
       EXPECT_LT(report.det_error, 1e-8);  // det E_e + c_e = 1 per cell
@@ -139,11 +140,12 @@ TEST(MeanDet, Eq2_7_ConvergedGutterKeepsItsVolumeWhereDetMeanDoesNot) {
     ltl::State s = solver.initial_state();
     const ltl::StepReport report = solver.solve_step(s, s.beta);
     ASSERT_TRUE(report.converged) << report.status;
-    const double change = deformed_area(problem.mesh, s.u) - solver.cells().vol.sum();
+    const double change =
+        deformed_area(problem.mesh, s.u) - solver.discretization().cells().vol.sum();
     std::printf("  %s: %d iterations, volume change %.3e m^3, det error %.1e\n",
                 mean_det ? "mean-det" : "det-mean", report.iterations, change, report.det_error);
     if (mean_det) {
-      EXPECT_TRUE(solver.mean_det());
+      EXPECT_TRUE(solver.discretization().mean_det());
       EXPECT_LT(std::abs(change), 1e-6);
       EXPECT_LT(report.det_error, 1e-7);  // det E_e + c_e = 1 per cell
       EXPECT_LT(report.force_residual, 1e-3);

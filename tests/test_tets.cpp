@@ -329,7 +329,7 @@ void expect_pressed_block(bool nodal) {
     for (int k = 0; k < 3; ++k)
       worst_u = std::max(worst_u, std::abs(s.u(i, k) - (stretch(k) - 1) * mesh.X(i, k)));
   EXPECT_LT(worst_u, 1e-6) << "after " << r.report.iterations << " iterations";
-  const Eigen::MatrixXd P = solver.piola(s);
+  const Eigen::MatrixXd P = solver.discretization().piola(s);
   double worst_P = 0;
   for (int c = 0; c < mesh.num_cells(); ++c) {
     Eigen::Matrix3d expected = Eigen::Matrix3d::Zero();
@@ -341,8 +341,9 @@ void expect_pressed_block(bool nodal) {
   // Contact pressure: on facets p_s = p; at nodes the force area(a) p_a is the consistent load
   // of the pressure, p integral phi_a (0 at the vertices, p |G|/3 per adjacent face mid-edge),
   // i.e. p_a = 0 at vertices and 4 p / 3 at mid-edge nodes with the weights |G|/12, |G|/4.
-  const FacetOperators& pts = *solver.facets();
-  const Eigen::VectorXd pc = solver.contact_pressure(s), gap = solver.contact_gap(s);
+  const FacetOperators& pts = *solver.discretization().facets();
+  const Eigen::VectorXd pc = solver.discretization().contact_pressure(s),
+                        gap = solver.discretization().contact_gap(s);
   ASSERT_EQ(pc.size(), pts.size());
   Eigen::VectorXd expected = Eigen::VectorXd::Constant(pts.size(), p_exact);
   if (nodal) {

@@ -283,7 +283,8 @@ inline void expect_uniaxial_tension_3d(const Mesh& mesh) {
       worst = std::max(worst, std::abs(s.u(i, 2) - (lt - 1) * mesh.X(i, 2)) / l);
     }
     EXPECT_LT(worst, 1e-6) << "stretch " << l << " after " << report.iterations << " iterations";
-    const Eigen::MatrixXd Pc = solver.piola(s), sigma = solver.cauchy(s);
+    const Eigen::MatrixXd Pc = solver.discretization().piola(s),
+                          sigma = solver.discretization().cauchy(s);
     double worst_P = 0, worst_sigma = 0, worst_det = 0;
     for (int c = 0; c < mesh.num_cells(); ++c) {
       Eigen::Matrix3d expected = Eigen::Matrix3d::Zero();

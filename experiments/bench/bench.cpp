@@ -207,7 +207,7 @@ double vmed(std::vector<double> v) {
 template <int d>
 double strain_standalone(const ltl::Solver& solver, const ltl::State& s, int& failures) {
   const double Rq = solver.problem().algorithm.R * solver.problem().algorithm.q;
-  const Eigen::MatrixXd GU = solver.cells().Gbar * s.u;
+  const Eigen::MatrixXd GU = solver.discretization().cells().Gbar * s.u;
   const int nc = static_cast<int>(GU.rows() / d);
   std::vector<Eigen::Matrix<double, d, d>> D(nc);
   for (int c = 0; c < nc; ++c) {
@@ -345,7 +345,7 @@ int run_case(const Case& c, int iters, int warm) {
   const ltl::GlobalStep& gs = solver.global_step();
   put("cells", problem.mesh.num_cells());
   put("nodes", problem.mesh.num_nodes());
-  put("facets", solver.facets() ? solver.facets()->size() : 0);
+  put("facets", solver.discretization().facets() ? solver.discretization().facets()->size() : 0);
   put("factors", gs.num_factors());
   {
     double cols = 0;

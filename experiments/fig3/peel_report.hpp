@@ -22,7 +22,7 @@ inline void peel_report(
   // The measures (lib/measures.hpp, one definition each) over the solver's contact points, which
   // carry beta: the facets of the contact surface (discretization.contact = "facet-mean", as in
   // the paper) or its nodes.
-  const FacetOperators& facets = *solver.facets();
+  const FacetOperators& facets = *solver.discretization().facets();
   const PeelMeasures m = peel_measures(problem, facets, s, 0);
   const Eigen::VectorXd opening = ltl::opening(problem, s);  // -e . N per point, (4.11)
 
