@@ -43,10 +43,14 @@ bool IterationPolicy::stop(const IterationRecord& rec, bool finite) {
     report_.status = "converged";
     return true;
   }
+  if (best_ < 0) start_n_ = rec.n - 1;
   if (best_ < 0 || r < 0.99 * best_) best_ = r, best_n_ = rec.n;
-  if (rec.n - best_n_ >= alg_.stagnation_window) {
-    report_.status = cat("stagnated: r_G + r_B = ", r, " has not decreased by 1 % in ",
-                         alg_.stagnation_window, " iterations (best ", best_, ")");
+  // The window grows with the step (half its iterations so far): a slow evolution that still
+  // gains 1 % now and then is not stopped, a residual stuck for good is.
+  const int window = std::max(alg_.stagnation_window, (rec.n - start_n_) / 2);
+  if (rec.n - best_n_ >= window) {
+    report_.status = cat("stagnated: r_G + r_B = ", r, " has not decreased by 1 % in ", window,
+                         " iterations (best ", best_, ")");
     return true;
   }
   return capped(rec.n);

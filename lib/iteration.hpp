@@ -25,8 +25,8 @@ class IterationPolicy {
   void record(IterationRecord& rec);
   /// After record(): true when the step ends here (report.converged and report.status set):
   /// NaN in r_G + r_B or in the iterate (finite = false), blow-up, r_G + r_B < tol, stagnation
-  /// (the best r_G + r_B not lowered by 1 % in alg.stagnation_window iterations; status starts
-  /// with "stagnated"), or the cap.
+  /// (the best r_G + r_B not lowered by 1 % in max(alg.stagnation_window, half the step's
+  /// iterations) iterations; status starts with "stagnated"), or the cap.
   bool stop(const IterationRecord& rec, bool finite);
   /// The cap alone (for an iterate the acceleration safeguard rejected): true when n reached it.
   bool capped(int n);
@@ -38,7 +38,7 @@ class IterationPolicy {
   std::chrono::steady_clock::time_point start_;
   double first_ = -1;  ///< the first residual r_G + r_B of the step
   double best_ = -1;   ///< the best r_G + r_B, and the iteration it was last lowered by 1 %
-  int best_n_ = 0;
+  int best_n_ = 0, start_n_ = 0;
 };
 
 }  // namespace ltl

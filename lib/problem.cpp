@@ -129,6 +129,8 @@ std::string describe_algorithm(const AlgorithmParams& a) {
   if (a.q_c_derived)
     s << " (derived: q / h in 2-D, q / (3 h) in 3-D, h = " << a.h
       << " m the mean contact facet size; with glue at least kappa / R)";
+  s << "; solver "
+    << (a.solver == NonlinearSolver::Newton ? "newton (ALG2, then Newton: newton.hpp)" : "alg2");
   return s.str();
 }
 

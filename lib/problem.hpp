@@ -109,11 +109,12 @@ struct AlgorithmParams {
   /// Newton's stopping test: force residual (max nodal force / max nodal load) and
   /// complementarity at most force_tol, |G_e| / |O_e| at most 1e-10.
   double force_tol = 1e-8;
-  /// Stagnation: a step whose best r_G + r_B has not decreased by 1 % over this many iterations
-  /// ends "stagnated" (ALG2 alone: a divergence; solver = "newton": Newton starts from there).
-  /// Not a configuration key: 2000 (ALG2's slow modes contract by 0.9992 per iteration on the
-  /// gutter, 20 % in 2000), 100 for the first phase of solver = "newton".
-  int stagnation_window = 2000;
+  /// Stagnation: a step whose best r_G + r_B has not decreased by 1 % over max(this, half of
+  /// its iterations so far) iterations ends "stagnated" (ALG2 alone: a divergence; solver =
+  /// "newton": Newton starts from there). Not a configuration key: 20000 (the literal readings of
+  /// Figs 3-4 plateau for thousands of iterations while the peel runs away, then converge), 100
+  /// for the first phase of solver = "newton".
+  int stagnation_window = 20000;
   int newton_max_iter = 100;  ///< Newton iterations per start (rejected ones included)
 };
 
