@@ -12,6 +12,9 @@ struct Adhesion {
   double d0 = 0.0;     ///< kernel parameter of d(y) = d0 exp(-d0|y|), 1/m (>= 0); 0: no dissipation
   double dt = 1.0;     ///< time step t_p - t_{p-1}, s (> 0)
   bool exact_kernel = false;  ///< false: centre-point rule (the paper's); true: exact integral
+  /// Is there glue at all (an adhesion energy or a stiffness)? Without it the contact is pure
+  /// frictionless contact: the Newton phase applies and steps are subdivided freely.
+  bool glued() const { return kappa > 0 || w > 0; }
 };
 
 }  // namespace ltl

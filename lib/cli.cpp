@@ -189,7 +189,7 @@ void print_newton_beside(const Problem& problem, const RunSummary& run) {
   if (problem.time.steps != 1 || run.iterations.empty()) return;
   Problem q = problem;
   q.algorithm.solver = NonlinearSolver::Newton;
-  const std::string why = Newton::unsupported(Discretization(q));
+  const std::string why = Newton::unsupported(q);
   if (!why.empty()) {
     std::printf("  Newton on the same discrete problem: not run (%s)\n", why.c_str());
     return;

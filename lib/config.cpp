@@ -712,7 +712,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   // [choice] solver left out: Newton after ALG2 (newton.hpp) where the Newton phase applies (no
   // glue), else the paper's ALG2 alone.
   if (!has_solver) {
-    const bool glue = p.contact && (p.contact->adhesion.kappa > 0 || p.contact->adhesion.w > 0);
+    const bool glue = p.contact && p.contact->adhesion.glued();
     p.algorithm.solver = glue ? NonlinearSolver::Alg2 : NonlinearSolver::Newton;
   }
   // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "cofactor.hpp"
 #include "error.hpp"
 #include "measures.hpp"
 
@@ -167,19 +168,6 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
 // and the force block p_e cof(delta_k), delta_k = F_k - Fbar. The blocks are transposed tensors;
 // det and cof commute with the transpose.
 namespace {
-template <int d>
-Eigen::Matrix<double, d, d> cofactor(const Eigen::Matrix<double, d, d>& A) {
-  Eigen::Matrix<double, d, d> C;
-  if constexpr (d == 2) {
-    C << A(1, 1), -A(1, 0), -A(0, 1), A(0, 0);
-  } else {
-    C.row(0) = A.row(1).cross(A.row(2));
-    C.row(1) = A.row(2).cross(A.row(0));
-    C.row(2) = A.row(0).cross(A.row(1));
-  }
-  return C;
-}
-
 template <int d>
 void fluctuation_loop(const Eigen::MatrixXd& GQ, const Eigen::VectorXd& wq,
                       const Eigen::VectorXd& vol, int nq, const Eigen::MatrixXd* lambda,

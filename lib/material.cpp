@@ -4,18 +4,11 @@
 #include <cmath>
 #include <limits>
 
+#include "cofactor.hpp"
+
 namespace ltl {
 
 namespace {
-
-/// cof F = det(F) F^{-T}, written without the inverse so that it holds for singular F too.
-Eigen::Matrix3d cofactor(const Eigen::Matrix3d& F) {
-  Eigen::Matrix3d c;
-  c.col(0) = F.col(1).cross(F.col(2));
-  c.col(1) = F.col(2).cross(F.col(0));
-  c.col(2) = F.col(0).cross(F.col(1));
-  return c;
-}
 
 Eigen::Matrix3d embed(const Eigen::Matrix2d& F2) {
   Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
@@ -36,7 +29,7 @@ double Material::W(const Eigen::Matrix3d& F) const {
   if (model == MaterialModel::MooneyRivlin) {
     // |adj F|^2 = |cof F|^2 (= I2), from the cofactor columns: the textbook form
     // ((tr C)^2 - tr C^2) / 2 loses eps |F|^2 relative accuracy at large stretch.
-    const double I2 = cofactor(F).squaredNorm();
+    const double I2 = cofactor<3>(F).squaredNorm();
     return C1 * (I1 - 3.0) + C2 * (I2 - 3.0);
   }
   const double J = F.determinant();
@@ -50,7 +43,7 @@ double Material::W(const Eigen::Matrix3d& F) const {
 /// compressible 2 C1 F + (2 C3 J - 2 (C1 + C3) / J) cof F   (dJ/dF = cof F).
 Eigen::Matrix3d Material::dW(const Eigen::Matrix3d& F) const {
   if (model == MaterialModel::MooneyRivlin) {
-    const Eigen::Matrix3d c = cofactor(F);
+    const Eigen::Matrix3d c = cofactor<3>(F);
     Eigen::Matrix3d dI2;
     for (int k = 0; k < 3; ++k) {
       const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
@@ -62,7 +55,7 @@ Eigen::Matrix3d Material::dW(const Eigen::Matrix3d& F) const {
   if (!(J > 0.0)) {
     return Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
   }
-  return 2.0 * C1 * F + (2.0 * C3 * J - 2.0 * (C1 + C3) / J) * cofactor(F);
+  return 2.0 * C1 * F + (2.0 * C3 * J - 2.0 * (C1 + C3) / J) * cofactor<3>(F);
 }
 
 double Material::W(const Eigen::Matrix2d& F2) const {
@@ -86,12 +79,8 @@ Eigen::Matrix3d Material::d2W(const Eigen::Matrix3d& F, const Eigen::Matrix3d& H
   }
   const double J = F.determinant();
   if (!(J > 0.0)) return Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  const Eigen::Matrix3d c = cofactor(F);
-  Eigen::Matrix3d dc;
-  for (int k = 0; k < 3; ++k) {
-    const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-    dc.col(k) = H.col(k1).cross(F.col(k2)) + F.col(k1).cross(H.col(k2));
-  }
+  const Eigen::Matrix3d c = cofactor<3>(F);
+  const Eigen::Matrix3d dc = cofactor_derivative<3>(F, H);
   const double phi = 2.0 * C3 * J - 2.0 * (C1 + C3) / J;
   const double dphi = 2.0 * C3 + 2.0 * (C1 + C3) / (J * J);
   return 2.0 * C1 * H + dphi * c.cwiseProduct(H).sum() * c + phi * dc;
@@ -108,8 +97,7 @@ double Material::plane_strain_sigma33(const Eigen::Matrix2d& F2, const Eigen::Ma
   const double J = F2.determinant();
   double p = 0;
   if (incompressible()) {
-    Eigen::Matrix2d cof2;  // cof F2 = J F2^{-T}
-    cof2 << F2(1, 1), -F2(1, 0), -F2(0, 1), F2(0, 0);
+    const Eigen::Matrix2d cof2 = cofactor<2>(F2);  // J F2^{-T}
     p = (dW3.topLeftCorner<2, 2>() - P2).cwiseProduct(cof2).sum() / cof2.squaredNorm();
   }
   return (dW3(2, 2) - p * J) / J;

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <limits>
 
+#include "cofactor.hpp"
 #include "error.hpp"
 
 namespace ltl {
@@ -17,35 +18,6 @@ namespace {
 using Triplets = std::vector<Eigen::Triplet<double>>;
 template <int d>
 using Mat = Eigen::Matrix<double, d, d>;
-
-/// cof A, so that d det A / dA = cof A.
-template <int d>
-Mat<d> cof(const Mat<d>& A) {
-  Mat<d> C;
-  if constexpr (d == 2) {
-    C << A(1, 1), -A(1, 0), -A(0, 1), A(0, 0);
-  } else {
-    C.col(0) = A.col(1).cross(A.col(2));
-    C.col(1) = A.col(2).cross(A.col(0));
-    C.col(2) = A.col(0).cross(A.col(1));
-  }
-  return C;
-}
-
-/// d/dt cof(A + t H) at t = 0 (the second derivative of det).
-template <int d>
-Mat<d> dcof(const Mat<d>& A, const Mat<d>& H) {
-  if constexpr (d == 2) {
-    return cof<2>(H);
-  } else {
-    Mat<3> C;
-    for (int k = 0; k < 3; ++k) {
-      const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-      C.col(k) = H.col(k1).cross(A.col(k2)) + A.col(k1).cross(H.col(k2));
-    }
-    return C;
-  }
-}
 
 using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
 
@@ -68,15 +40,14 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-std::string Newton::unsupported(const Discretization& disc) {
-  const auto& contact = disc.problem().contact;
-  if (contact && (contact->adhesion.kappa > 0 || contact->adhesion.w > 0))
+std::string Newton::unsupported(const Problem& problem) {
+  if (problem.contact && problem.contact->adhesion.glued())
     return "the glue (contact.w, contact.kappa > 0) is not treated by the Newton phase";
   return "";
 }
 
 Newton::Newton(const Discretization& disc) : disc_(disc) {
-  const std::string why = unsupported(disc);
+  const std::string why = unsupported(disc.problem());
   if (!why.empty()) throw Error(cat("algorithm.solver = \"newton\": ", why, "; use \"alg2\""));
   const Mesh& mesh = disc.problem().mesh;
   dim_ = disc.dim();
@@ -200,10 +171,10 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
       Eigen::MatrixXd dW(d, d), C(d, d);
       if (d == 2) {
         dW = m.dW(Eigen::Matrix2d(E));
-        C = cof<2>(Eigen::Matrix2d(E));
+        C = cofactor<2>(Eigen::Matrix2d(E));
       } else {
         dW = m.dW(Eigen::Matrix3d(E));
-        C = cof<3>(Eigen::Matrix3d(E));
+        C = cofactor<3>(Eigen::Matrix3d(E));
       }
       x.p(e) = (L - 2 * m.C1 * E + dW).cwiseProduct(C).sum() / C.squaredNorm();
     }
@@ -226,10 +197,10 @@ void Newton::to_state(const Unknowns& x, State& s) const {
     Eigen::MatrixXd L(d, d);
     if (d == 2) {
       const Eigen::Matrix2d F2 = F;
-      L = 2 * m.C1 * F2 - m.dW(F2) + (incompressible_ ? x.p(e) : 0.0) * cof<2>(F2);
+      L = 2 * m.C1 * F2 - m.dW(F2) + (incompressible_ ? x.p(e) : 0.0) * cofactor<2>(F2);
     } else {
       const Eigen::Matrix3d F3 = F;
-      L = 2 * m.C1 * F3 - m.dW(F3) + (incompressible_ ? x.p(e) : 0.0) * cof<3>(F3);
+      L = 2 * m.C1 * F3 - m.dW(F3) + (incompressible_ ? x.p(e) : 0.0) * cofactor<3>(F3);
     }
     s.E.block(d * e, 0, d, d) = F.transpose();
     s.lambda.block(d * e, 0, d, d) = L.transpose();
@@ -305,13 +276,13 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
         const double w = wq_[q];
         const Mat<d> Fq = Mat<d>::Identity() + ue.transpose() * g;
         Ge += w * Fq.determinant();
-        add_row(cof<d>(Fq), g, w, be, nullptr);
+        add_row(cofactor<d>(Fq), g, w, be, nullptr);
         if ((K || on_cell) && p != 0) {
           for (int k = 0; k < d; ++k)
             for (int l = 0; l < d; ++l) {
               Mat<d> H = Mat<d>::Zero();
               H(k, l) = 1;
-              const Mat<d> dC = dcof<d>(Fq, H);
+              const Mat<d> dC = cofactor_derivative<d>(Fq, H);
               for (int i = 0; i < d; ++i)
                 for (int j = 0; j < d; ++j) T(i * d + j, k * d + l) = dC(i, j);
             }
@@ -513,18 +484,22 @@ Eigen::SparseMatrix<double> Newton::constraint_gradient(const Eigen::MatrixXd& u
   return B;
 }
 
+template <int d>
 double Newton::min_det(const Eigen::MatrixXd& u) const {
-  const int d = dim_, nc = disc_.num_cells(), n = npc_;
+  const int nc = disc_.num_cells(), n = npc_;
   double m = std::numeric_limits<double>::infinity();
-  Eigen::MatrixXd ue(n, d);
+  // F = I + sum_a u_a (x) g_a for a gradient table g (n x d), without temporaries.
+  auto det_F = [&](const int* nodes, const Eigen::MatrixXd& g) {
+    Mat<d> F = Mat<d>::Identity();
+    for (int a = 0; a < n; ++a)
+      for (int i = 0; i < d; ++i)
+        for (int j = 0; j < d; ++j) F(i, j) += u(nodes[a], i) * g(a, j);
+    return F.determinant();
+  };
   for (int e = 0; e < nc; ++e) {
-    for (int a = 0; a < n; ++a) ue.row(a) = u.row(nodes_[static_cast<std::size_t>(e) * n + a]);
-    Eigen::MatrixXd F = Eigen::MatrixXd::Identity(d, d) + ue.transpose() * gbar_[e];
-    m = std::min(m, F.determinant());
-    for (int q = nq_ * e; q < nq_ * (e + 1); ++q) {
-      F = Eigen::MatrixXd::Identity(d, d) + ue.transpose() * gq_[q];
-      m = std::min(m, F.determinant());
-    }
+    const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
+    m = std::min(m, det_F(nodes, gbar_[e]));
+    for (int q = nq_ * e; q < nq_ * (e + 1); ++q) m = std::min(m, det_F(nodes, gq_[q]));
   }
   return m;
 }
@@ -559,9 +534,9 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     double merit = 0, force = 0, constraint = 0;
   };
   Eigen::VectorXd gapv(np), comp(np);
-  auto measure = [&](const Unknowns& y, Eigen::VectorXd& ru, Eigen::VectorXd& g) {
+  // (score: of a residual already evaluated at y; measure: evaluates it first.)
+  auto score = [&](const Unknowns& y, const Eigen::VectorXd& ru, const Eigen::VectorXd& g) {
     Measures mm;
-    residual(y, F, ru, g);
     double f2 = 0;
     for (int k = 0; k < ru.size(); ++k)
       if (free_[k] >= 0) {
@@ -587,9 +562,15 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     mm.merit = std::sqrt((f2 + c2) / (Fs * Fs) + g2);
     return mm;
   };
-  auto admissible = [&](const Unknowns& y) { return min_det(y.u) > 0; };
+  auto measure = [&](const Unknowns& y, Eigen::VectorXd& ru, Eigen::VectorXd& g) {
+    residual(y, F, ru, g);
+    return score(y, ru, g);
+  };
+  auto admissible = [&](const Unknowns& y) {
+    return (d == 2 ? min_det<2>(y.u) : min_det<3>(y.u)) > 0;
+  };
 
-  Measures cur = measure(x, Ru, G);
+  Measures cur = score(x, Ru, G);  // Ru, G at x: evaluated above for the load scale
   Unknowns trial;
   Eigen::VectorXd Ru_t, G_t;
   std::vector<int> active(np), prev_active;
@@ -628,9 +609,10 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     }
     // The inactive forces vanish: set them, and the residual follows (linear in mu).
     Unknowns base = x;
+    bool released = false;
     for (int k = 0; k < np; ++k)
-      if (!active[k]) base.mu(k) = 0;
-    residual(base, F, Ru, G);
+      if (!active[k] && base.mu(k) != 0) base.mu(k) = 0, released = true;
+    if (released) residual(base, F, Ru, G);  // else Ru, G are x's, from the last evaluation
     // [K, -B^T, C_A^T; -B, 0, 0; C_A, 0, 0] (du, dp, dmu_A) = (-R_u, G, g_A - N . ubar_A).
     const int np_ = incompressible_ ? nc : 0;
     if (pts) gapv = (pts->mean * base.u) * N - disc_.surface().gap;

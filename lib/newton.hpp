@@ -38,7 +38,7 @@ namespace ltl {
 class Newton {
  public:
   /// Why the Newton phase cannot treat this discrete problem (the glue), or empty.
-  static std::string unsupported(const Discretization& disc);
+  static std::string unsupported(const Problem& problem);
 
   /// The per-cell data (nodes, mean gradients, the points of the incompressibility constraint)
   /// and the constant part of the tangent. disc must outlive the object.
@@ -100,6 +100,7 @@ class Newton {
                       const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
                       Scatter& work, Eigen::VectorXd& dx) const;
   /// Smallest det F over the constraint points (+inf without them) and over the cell means.
+  template <int d>
   double min_det(const Eigen::MatrixXd& u) const;
 
   const Discretization& disc_;

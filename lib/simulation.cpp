@@ -100,6 +100,15 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
 
 namespace {
 
+/// The load factors of LoadRamp at the start and the end of step p (0 before step 1).
+struct Increment {
+  double f0, f1;
+};
+Increment load_increment(const Problem& problem, int p) {
+  return {p > 1 ? problem.ramp.factor(p - 1, problem.time.dt) : 0.0,
+          problem.ramp.factor(p, problem.time.dt)};
+}
+
 /// One solve of step p at the load factor `factor` from `state`: ALG2 (then Newton), the
 /// equilibrium check and the admissibility check. Prints iteration progress only.
 TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int verbosity) {
@@ -108,8 +117,7 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   solver.set_load_factor(factor);  // LoadRamp, or a substep of its increment
   // Prescribed displacements: in full from step 1 on; a substep of a failed step takes the same
   // fraction theta of their increment (0 -> 1 at step 1, none later).
-  const double f1 = problem.ramp.factor(p, problem.time.dt);
-  const double f0 = p > 1 ? problem.ramp.factor(p - 1, problem.time.dt) : 0.0;
+  const auto [f0, f1] = load_increment(problem, p);
   const double theta = f1 != f0 ? (factor - f0) / (f1 - f0) : 1.0;
   solver.set_displacement_factor(p > 1 ? 1.0 : theta);
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
@@ -154,8 +162,7 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
 /// can).
 std::string subdivision_refused(const Solver& solver, int p, double f0, double f1) {
   const Problem& problem = solver.problem();
-  if (problem.contact && problem.contact->adhesion.d0 > 0 &&
-      (problem.contact->adhesion.kappa > 0 || problem.contact->adhesion.w > 0))
+  if (problem.contact && problem.contact->adhesion.d0 > 0 && problem.contact->adhesion.glued())
     return "not subdivided: glue with dissipation (contact.d0 > 0), whose term (6.4)-(6.5) "
            "divides by the time step dt of the solver: a substep of the load would dissipate as "
            "over the whole dt";
@@ -191,8 +198,7 @@ int TimeStep::failed_attempts() const {
 TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
   const Problem& problem = solver.problem();
   const int P = problem.time.steps;
-  const double f1 = problem.ramp.factor(p, problem.time.dt);
-  const double f0 = p > 1 ? problem.ramp.factor(p - 1, problem.time.dt) : 0.0;
+  const auto [f0, f1] = load_increment(problem, p);
   std::vector<StepAttempt> attempts;
   int substeps = 0;
   TimeStep step;
