@@ -138,6 +138,12 @@ class Solver {
   /// true when R changed (K re-factorized).
   bool adapt_R(const IterationRecord& rec, State& s);
 
+  /// [LTL87 (4.7), (6.1)-(6.8)] Is s (a converged Newton state, e = ubar) a fixed point of the
+  /// local contact step: does each point's global minimizer over (e, gamma) give back s's e and
+  /// beta? No when Newton met the first-order conditions on another branch of the glue (a
+  /// stationary point the local step would leave, of higher energy).
+  bool local_contact_step_holds(const State& s, const Eigen::VectorXd& beta_prev) const;
+
   const AlgorithmParams& alg() const { return disc_.problem().algorithm; }
 
   Discretization disc_;

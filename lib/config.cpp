@@ -709,12 +709,9 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     if (!(p.algorithm.force_tol > 0))
       a.fail("force_tol", cat("= ", p.algorithm.force_tol, ": must be > 0"));
   }
-  // [choice] solver left out: Newton after ALG2 (newton.hpp) where the Newton phase applies (no
-  // glue), else the paper's ALG2 alone.
-  if (!has_solver) {
-    const bool glue = p.contact && p.contact->adhesion.glued();
-    p.algorithm.solver = glue ? NonlinearSolver::Alg2 : NonlinearSolver::Newton;
-  }
+  // [choice] solver left out: Newton after ALG2 (newton.hpp), glue or not; the figures ask for
+  // the paper's ALG2.
+  if (!has_solver) p.algorithm.solver = NonlinearSolver::Newton;
   // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).
   derive_algorithm_defaults(p, has_R, has_q, has_q_c);
   // [discretization]: the defaults converge under refinement; "cell-mean" and "facet-mean" are
