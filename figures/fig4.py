@@ -11,6 +11,7 @@ panel (d) the state at t = 800 s at true scale. Prints the numbers it plots.
 """
 
 import sys
+import textwrap
 
 import numpy as np
 
@@ -24,13 +25,13 @@ from fig3 import (RUNAWAY_OPENING, contact_normal, draw_state,  # noqa: E402
 RAPPORT = 50  # the paper's magnification
 
 
-def state_height(X, step, scale, width=10.0):
-    """Inches of a panel of `width` inches drawing the state at equal aspect (as draw_state
-    frames it), with room for its title and axis labels."""
+def state_height(X, step, scale, width=8.6):
+    """Inches of a panel `width` inches wide (the full row of an 11-inch figure) drawing the
+    state at equal aspect, framed as draw_state frames it."""
     x = lr.deformed(X, step.fields["u"], scale)
     lo, hi = min(X[:, 0].min(), x[:, 0].min()), max(X[:, 0].max(), x[:, 0].max())
     top = max(X[:, 1].max(), x[:, 1].max())
-    return float(np.clip(width * (top + 0.11) / (hi - lo + 0.1), 0.6, 6.0)) + 0.7
+    return float(np.clip(width * (top + 0.11) / (hi - lo + 0.1), 0.5, 6.0))
 
 
 def below_plane_note(r, X1, u2, xc, e2):
@@ -38,17 +39,20 @@ def below_plane_note(r, X1, u2, xc, e2):
     surface, which starts on the plane), or "" when none is: how far, where, and why the
     discretization allows it."""
     k = int(np.argmin(u2))
-    if u2[k] >= -1e-9:
+    tiny = 1e-3 * np.abs(u2).max()  # below it: round-off of a node resting on the plane
+    if u2[k] >= -tiny:
         return ""
     res = lr.resolved_config(r) or {}
     rule = res.get("discretization", {}).get("contact", "")
     why = ("non-penetration is imposed on the facet means (contact = \"facet-mean\", the "
-           "paper's P0 unknowns): the facet mean e2 there is %.2g mm, and a P2 node may dip "
+           "paper's P0 unknowns): the facet mean e2 there is %.1e m, and a P2 node may dip "
            "between them (paper_notes/discretization.md)"
-           % (1e3 * e2[np.argmin(np.abs(xc - X1[k]))]) if rule == "facet-mean"
+           % e2[np.argmin(np.abs(xc - X1[k]))] if rule == "facet-mean"
            else "within the iteration's tolerance on the nodal constraint")
-    return ("%d contact node(s) below the plane; the lowest, at x1 = %.3g m, %.2g mm below:\n%s"
-            % (int(np.sum(u2 < -1e-9)), X1[k], -1e3 * u2[k], why))
+    text = ("%d contact node(s) below the plane; the lowest, at x1 = %.3g m, %.2g mm below "
+            "(the dip under the free end in (c), x%d): %s"
+            % (int(np.sum(u2 < -tiny)), X1[k], -1e3 * u2[k], RAPPORT, why))
+    return "\n".join(textwrap.wrap(text, 75))
 
 
 def main(h5, png):
@@ -80,9 +84,10 @@ def main(h5, png):
     # stands up to 1.4 m); (a) and (b) side by side below.
     ran_away = pre is not last
     h_c, h_d, h_ab = state_height(m.X, pre, RAPPORT), state_height(m.X, last, 1.0), 3.2
-    fig = plt.figure(figsize=(11.0, h_c + h_d + h_ab + 1.2))
-    gs = fig.add_gridspec(3, 2, height_ratios=[h_c, h_d, h_ab], hspace=0.55, wspace=0.22,
-                          top=1 - 0.8 / (h_c + h_d + h_ab + 1.2), bottom=0.06)
+    height = (h_c + h_d + h_ab) * 1.25 + 1.0
+    fig = plt.figure(figsize=(11.0, height))
+    gs = fig.add_gridspec(3, 2, height_ratios=[h_c, h_d, h_ab], hspace=0.4, wspace=0.22,
+                          top=1 - 0.9 / height, bottom=0.5 / height)
 
     # (c) the paper's x50 view, at t = 800 s, or at the last step before the runaway if there is
     # one.
@@ -121,7 +126,7 @@ def main(h5, png):
     ax.set_title("(b) vertical displacement of the contact surface, t = %g s" % last.t)
     dip = below_plane_note(r, m.X[nodes, 0], u2, xc, lift)
     if dip:
-        ax.text(0.02, 0.04, dip, transform=ax.transAxes, fontsize=7, va="bottom", wrap=True,
+        ax.text(0.98, 0.04, dip, transform=ax.transAxes, fontsize=6.5, va="bottom", ha="right",
                 bbox=dict(facecolor="white", alpha=0.85, lw=0))
         print("panel (b): " + dip.replace("\n", " "))
     ax.legend(loc="upper right")
