@@ -158,7 +158,7 @@ def main(directory, output):
         for problem in sorted(p for p in runs if p.startswith("sweep")):
             rho_runs = {v: rh for v, rh in runs[problem].items()
                         if v.startswith("bermudez-moreno-rho")}
-            fig, axes = plt.subplots(1, 2 if rho_runs else 1, figsize=(11 if rho_runs else 6, 4.2),
+            fig, axes = plt.subplots(1, 2 if rho_runs else 1, figsize=(11 if rho_runs else 7.5, 4.2),
                                      squeeze=False)
             axes = axes[0]
             for variant_prefix, marker in (("uzawa-R", "o"), ("bermudez-moreno-R", "s")):
@@ -178,8 +178,8 @@ def main(directory, output):
                 axes[1].legend(fontsize=7)
             for ax in axes:
                 ax.grid(True, which="both", alpha=0.3)
-            fig.suptitle(f"{problem}: how the speed depends on R and rho "
-                         "(x at the top: the run did not converge)")
+            fig.suptitle(f"{problem}: iterations against R" + (" and rho" if rho_runs else "") +
+                         "\n(x on the top edge: the run did not converge)")
             fig.tight_layout()
             pdf.savefig(fig)
             plt.close(fig)
