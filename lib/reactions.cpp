@@ -17,8 +17,7 @@ SupportReactions support_reactions(const Solver& solver, const State& s) {
   for (int k = 0; k < nd; ++k) {
     const DirichletCondition& d = pb.dirichlet[k];
     std::string key = d.origin.empty() ? "dirichlet[" + std::to_string(k) + "]" : d.origin;
-    if (key.size() > 6 && key.compare(key.size() - 6, 6, ".group") == 0)
-      key.resize(key.size() - 6);
+    if (key.size() > 6 && key.compare(key.size() - 6, 6, ".group") == 0) key.resize(key.size() - 6);
     out.labels.push_back(key + ":" + d.group);
     const std::vector<int> nodes = pb.mesh.boundary_nodes(d.group, d.origin);
     for (int a : nodes) {

@@ -84,8 +84,9 @@ double measure_of(const std::string& file, int p, const std::string& name) {
 /// A square block [0, a]^2 (a = 0.1 m, tests/geometry/square.geo) with the given boundary
 /// conditions and loads.
 std::string block_config(const std::string& body) {
-  return "name = \"loads\"\n[mesh]\ngeometry = \"" + ltl::testing::test_path("geometry/square.geo") +
-         "\"\nparameters = { a = 0.1, n = 3 }\n" + body;
+  return "name = \"loads\"\n[mesh]\ngeometry = \"" +
+         ltl::testing::test_path("geometry/square.geo") + "\"\nparameters = { a = 0.1, n = 3 }\n" +
+         body;
 }
 
 /// Runs `config` with overrides into a temporary file; returns the file (the caller removes the
@@ -97,7 +98,7 @@ struct LoadRun {
   int steps = 0;
 };
 LoadRun run_config(const std::string& name, const std::string& config,
-               const std::vector<std::string>& overrides = {}) {
+                   const std::vector<std::string>& overrides = {}) {
   LoadRun r;
   r.dir = ltl::testing::temp_dir("loads_" + name);
   ltl::testing::write_file(r.dir / "case.toml", config);
@@ -176,7 +177,7 @@ TEST(Loads, Eq4_1_RampedPrescribedStretchSameStateWithAlg2AndNewton) {
   // leaves on the fixed degrees of freedom): both solvers reach the same state at every step.
   const LoadRun n = run_config("newton", block_config(kStretch), {"algorithm.solver=\"newton\""});
   const LoadRun a = run_config("alg2", block_config(kStretch),
-                           {"algorithm.solver=\"alg2\"", "algorithm.tol=1e-10"});
+                               {"algorithm.solver=\"alg2\"", "algorithm.tol=1e-10"});
   ASSERT_EQ(n.steps, 3);
   ASSERT_EQ(a.steps, 3);
   for (int p = 1; p <= 3; ++p) {
