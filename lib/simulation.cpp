@@ -163,9 +163,9 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   return step;
 }
 
-/// Why a failed step p, whose load factor goes from f0 to f1, cannot be subdivided (empty: it
+/// Why a failed step, whose load factor goes from f0 to f1, cannot be subdivided (empty: it
 /// can).
-std::string subdivision_refused(const Solver& solver, int p, double f0, double f1) {
+std::string subdivision_refused(const Solver& solver, double f0, double f1) {
   const Problem& problem = solver.problem();
   if (problem.contact && problem.contact->adhesion.d0 > 0 && problem.contact->adhesion.glued())
     return "not subdivided: glue with dissipation (contact.d0 > 0), whose term (6.4)-(6.5) "
@@ -232,7 +232,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
                       step.report.status});
   std::string refused;
   if (!step.report.converged) {
-    refused = subdivision_refused(solver, p, f0, f1);
+    refused = subdivision_refused(solver, f0, f1);
     if (refused.empty()) {
       if (verbosity > 0)
         std::printf(

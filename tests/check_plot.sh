@@ -23,34 +23,9 @@ plot="$src/figures/ltl_results.py"
 cat "$dir/block.out"
 grep -q "load factor against displacement" "$dir/block.out"
 grep -q "contact force" "$dir/block.out"
-# 2. Displacement control: [[fixed]] with a per-component value, ramped.
-cat > "$dir/stretch.toml" <<TOML
-name = "stretch"
-[mesh]
-geometry = "$src/tests/geometry/square.geo"
-parameters = { a = 0.1, n = 3 }
-[material]
-model = "mooney-rivlin"
-C1 = "435 kPa"
-C2 = "65 kPa"
-[[symmetry]]
-group = "left"
-component = "x"
-[[symmetry]]
-group = "bottom"
-component = "y"
-[[fixed]]
-group = "right"
-component = "x"
-value = "20 mm"
-[load]
-ramp = "linear"
-ramp_time = "2 s"
-[time]
-dt = "1 s"
-steps = 2
-TOML
-"$run" "$dir/stretch.toml" -q -o "$dir/stretch.h5"
+# 2. Displacement control: [[fixed]] with a per-component value, ramped (tests/geometry/).
+"$run" "$src/tests/geometry/stretch.toml" -q -o "$dir/stretch.h5" \
+  --set 'load.ramp_time="2 s"' --set time.steps=2
 "$python" "$plot" plot "$dir/stretch.h5" > "$dir/stretch.out"
 cat "$dir/stretch.out"
 test -f "$dir/stretch.png"

@@ -89,20 +89,19 @@ std::string block_config(const std::string& body) {
          body;
 }
 
-/// Runs `config` with overrides into a temporary file; returns the file (the caller removes the
-/// folder) and the last state.
+/// Runs the configuration file `path` with overrides into a temporary results file; returns the
+/// file (the caller removes the folder) and the last state.
 struct LoadRun {
   fs::path dir;
   std::string file;
   State last;
   int steps = 0;
 };
-LoadRun run_config(const std::string& name, const std::string& config,
-                   const std::vector<std::string>& overrides = {}) {
+LoadRun run_file(const std::string& name, const std::string& path,
+                 const std::vector<std::string>& overrides = {}) {
   LoadRun r;
   r.dir = ltl::testing::temp_dir("loads_" + name);
-  ltl::testing::write_file(r.dir / "case.toml", config);
-  const Problem problem = load_problem((r.dir / "case.toml").string(), overrides);
+  const Problem problem = load_problem(path, overrides);
   RunOptions options;
   options.output = r.file = (r.dir / "out.h5").string();
   options.verbosity = 0;
@@ -112,36 +111,16 @@ LoadRun run_config(const std::string& name, const std::string& config,
   return r;
 }
 
-// The stretch: symmetry planes x = 0 and y = 0, the right face x = a pulled to x = a + factor x
-// delta in x alone (free to slide in y), the top free: F = diag(lambda, 1 / lambda).
+// The stretch (tests/geometry/stretch.toml): symmetry planes x = 0 and y = 0, the right face
+// x = a pulled to x = a + factor x delta in x alone (free to slide in y), the top free:
+// F = diag(lambda, 1 / lambda).
 const double kC1 = 435e3, kC2 = 65e3, kA = 0.1, kDelta = 0.02;
-const std::string kStretch = R"(
-[material]
-model = "mooney-rivlin"
-C1 = "435 kPa"
-C2 = "65 kPa"
-[[symmetry]]
-group = "left"
-component = "x"
-[[symmetry]]
-group = "bottom"
-component = "y"
-[[fixed]]
-group = "right"
-component = "x"
-value = "20 mm"
-[load]
-ramp = "linear"
-ramp_time = "3 s"
-[time]
-dt = "1 s"
-steps = 3
-)";
+const std::string kStretch = ltl::testing::test_path("geometry/stretch.toml");
 
 }  // namespace
 
 TEST(Loads, Eq1_5_RampedPrescribedStretchReactionMatchesClosedForm) {
-  const LoadRun r = run_config("stretch", block_config(kStretch));
+  const LoadRun r = run_file("stretch", kStretch);
   ASSERT_EQ(r.steps, 3);
   for (int p = 1; p <= 3; ++p) {
     const double factor = p / 3.0, lambda = 1 + factor * kDelta / kA;
@@ -175,9 +154,9 @@ TEST(Loads, Eq1_5_RampedPrescribedStretchReactionMatchesClosedForm) {
 TEST(Loads, Eq4_1_RampedPrescribedStretchSameStateWithAlg2AndNewton) {
   // The Newton phase reads the prescribed values through the same Solver (the state ALG2
   // leaves on the fixed degrees of freedom): both solvers reach the same state at every step.
-  const LoadRun n = run_config("newton", block_config(kStretch), {"algorithm.solver=\"newton\""});
-  const LoadRun a = run_config("alg2", block_config(kStretch),
-                               {"algorithm.solver=\"alg2\"", "algorithm.tol=1e-10"});
+  const LoadRun n = run_file("newton", kStretch, {"algorithm.solver=\"newton\""});
+  const LoadRun a =
+      run_file("alg2", kStretch, {"algorithm.solver=\"alg2\"", "algorithm.tol=1e-10"});
   ASSERT_EQ(n.steps, 3);
   ASSERT_EQ(a.steps, 3);
   for (int p = 1; p <= 3; ++p) {
@@ -214,7 +193,10 @@ value = ["80 kPa", "-20 kPa"]
 dt = "1 s"
 steps = 2
 )");
-  const LoadRun r = run_config("bar", config);
+  const fs::path dir = ltl::testing::temp_dir("loads_bar_config");
+  ltl::testing::write_file(dir / "bar.toml", config);
+  const LoadRun r = run_file("bar", (dir / "bar.toml").string());
+  fs::remove_all(dir);
   ASSERT_EQ(r.steps, 2);
   for (int p = 1; p <= 2; ++p) {
     const double factor = p == 1 ? 0.5 : 1.0;
@@ -232,36 +214,17 @@ steps = 2
 }
 
 TEST(Loads, FixedValueNeedsItsComponentsAndUnits) {
-  // A per-component value with a wrong component or unit is refused naming the key.
-  const fs::path dir = ltl::testing::temp_dir("loads_bad");
-  ltl::testing::write_file(dir / "bad.toml", block_config(R"(
-[material]
-model = "mooney-rivlin"
-C1 = "435 kPa"
-[[fixed]]
-group = "left"
-component = "z"
-value = "1 mm"
-)"));
-  try {
-    load_problem((dir / "bad.toml").string());
-    ADD_FAILURE() << "component z in 2-D accepted";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("fixed[0].component"), std::string::npos) << e.what();
+  // A per-component value with a wrong component, or a value in the wrong unit, is refused
+  // naming the key.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"fixed[0].component=\"z\"", "fixed[0].component"},
+      {"fixed=[{group=\"right\", value=[\"1 kPa\", 0]}]", "fixed[0].value"}};
+  for (const auto& [set, key] : cases) {
+    try {
+      load_problem(kStretch, {set});
+      ADD_FAILURE() << "accepted: --set " << set;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
   }
-  ltl::testing::write_file(dir / "bad.toml", block_config(R"(
-[material]
-model = "mooney-rivlin"
-C1 = "435 kPa"
-[[fixed]]
-group = "left"
-value = ["1 kPa", 0]
-)"));
-  try {
-    load_problem((dir / "bad.toml").string());
-    ADD_FAILURE() << "a value in kPa accepted";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("fixed[0].value"), std::string::npos) << e.what();
-  }
-  fs::remove_all(dir);
 }
