@@ -75,24 +75,23 @@ def main(results, png):
                             "not run" if run is None else
                             "did not finish" if v is None else "")
                 if v is None:
-                    ax.text(xi, 1.2, note, rotation=90, ha="center", va="bottom", fontsize=6,
-                            color=colour if key != "paper" else "0.3")
+                    ax.text(xi, 0.02, note, rotation=90, ha="center", va="bottom", fontsize=6,
+                            color=colour if key != "paper" else "0.3",
+                            transform=ax.get_xaxis_transform())
                     continue
                 ax.bar(xi, v, width, color=colour)
                 ax.text(xi, v * 1.08, "%.3g" % v if a else "%d" % v, ha="center",
                         va="bottom", fontsize=6, rotation=90)
             ax.bar(np.nan, np.nan, color=colour, label=label)  # one legend entry per series
         ax.set_yscale("log")
-        ax.set_ylim(1, None)
         ax.set_xticks(x)
         ax.set_xticklabels(["Fig %s" % f[3:] for f in FIGURES])
         ax.set_ylabel("iterations (all time steps)" if a == 0 else
-                      "solver time [s] (paper: CPU on a DPS 8; ours: wall, 2 shared cores)")
+                      "seconds (paper: CPU, DPS 8; ours: solver wall time)")
         ax.set_title("(%s) %s" % ("ab"[a], "iterations" if a == 0 else "time"))
         ax.legend(fontsize=7, loc="upper left")
-    top = max(ax.get_ylim()[1] for ax in axes)
-    for ax in axes:
-        ax.set_ylim(1, top * 30)
+    for ax, bottom in zip(axes, (1, 1e-3)):  # room above the bars for their values
+        ax.set_ylim(bottom, ax.get_ylim()[1] * 30)
     fig.suptitle("The paper's stated cost beside this package's, per figure (Figs 3-4: reading "
                  "R3, 160 steps; Figs 5-6: one step)")
     fig.tight_layout()
