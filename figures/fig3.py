@@ -114,7 +114,7 @@ def opening_panel(ax, t, opening):
         ax.axhline(RUNAWAY_OPENING, color=style.REFERENCE, ls=":", lw=1,
                    label="%g mm: runaway threshold (panel a)" % (RUNAWAY_OPENING * 1e3))
         ax.set_ylabel("largest opening\nmax e.(-N) (m)")
-        ax.legend(loc="lower right")
+        ax.legend(loc="center right")
     else:
         ax.plot(t, opening * 1e3, color=style.BODY, marker="o", ms=2.5)
         ax.axhline(0, color=style.REFERENCE, lw=0.8)
