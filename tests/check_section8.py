@@ -1,5 +1,5 @@
-"""The numbers paper_notes/section8.md quotes for Fig 5 and the Signorini problem are what the
-code gives (a CTest): the Fig 5 paragraph (iterations, Newton's iterations, contact nodes,
+"""The numbers paper_notes/section8.md quotes for Figs 5-6 and the Signorini problem are what the
+code gives (a CTest): the Fig 5 and Fig 6 paragraphs (iterations, Newton's iterations, contact nodes,
 half-widths, peak pressure, force ratio, drop), the Fig 5 and Signorini rows of the `make compare`
 table, and the R and rho sweeps of Fig 5. Each number is read from the note and compared with
 a run of build/experiments/ltl_run (or hertz), so a stale number fails the test.
@@ -87,6 +87,40 @@ def main(build, src, tmp):
     good &= check("Fig 5 force / weight", q(r"\(ratio ([\d.]+)\)", "ratio"),
                   m["contact_force"] / weight, abs_=6e-5)
     good &= check("Fig 5 drop [m]", q(r"drops by ([\d.]+) m", "drop"), -u[top, 1], abs_=6e-5)
+
+    # 1b. The Fig 6 paragraph (one run of the figure's configuration, plain ALG2, and one with
+    # the Newton phase).
+    para6 = find(r"What we see \(`make fig6`.*?Pa\.", note, "the Fig 6 paragraph").group(0)
+    q6 = lambda p, what: number(find(p, para6, what).group(1))
+    cfg6 = os.path.join(src, "experiments", "fig6", "fig6.toml")
+    runs6 = {}
+    for name, sets in (("fig6", []), ("fig6-newton", ['algorithm.solver="newton"'])):
+        out = os.path.join(tmp, name + ".h5")
+        args = [run, cfg6, "-q", "-o", out] + [a for s_ in sets for a in ("--set", s_)]
+        if subprocess.run(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode:
+            fail("Fig 6 (%s) did not run" % name)
+        runs6[name] = h5py.File(out, "r")["steps/000001"]
+    s6 = runs6["fig6"]
+    m6 = {k: float(v[()]) for k, v in s6["measures"].items() if k != "in_contact"}
+    good &= check("Fig 6 iterations", q6(r"([\d ]+) iterations to `tol", "iterations"),
+                  s6.attrs["iterations"], rel=0.02)
+    row6 = find(r"\| Fig 6 \| - \| ([\d ]+) it,", note, "the Fig 6 row")
+    good &= check("table: Fig 6 Uzawa", number(row6.group(1)), s6.attrs["iterations"], rel=0.02)
+    good &= check("Fig 6 Newton iterations", q6(r"driver's last line: (\d+)\s+iterations",
+                                                "Newton"),
+                  runs6["fig6-newton"].attrs["iterations"], rel=0.1)
+    good &= check("Fig 6 sag [m]", q6(r"sags ([\d.]+) m", "sag"), -s6["u"][()][:, 1].min(),
+                  abs_=6e-5)
+    good &= check("Fig 6 contact nodes touching", q6(r"(\d+) of the \d+ contact nodes", "touch"),
+                  m6["in_contact_count"])
+    good &= check("Fig 6 contact nodes", q6(r"\d+ of the (\d+) contact nodes", "nodes"),
+                  m6["contact_points"])
+    good &= check("Fig 6 contact area [m^2]", q6(r"over ([\d.]+) m\^2", "area"),
+                  m6["contact_area"], abs_=6e-4)
+    good &= check("Fig 6 contact force [N]", q6(r"carries ([\d.]+) N", "force"),
+                  m6["contact_force"], abs_=0.06)
+    good &= check("Fig 6 p_max [Pa]", q6(r"pressure is ([\d.]+) Pa", "p_max"), m6["p_max"],
+                  abs_=0.6)
 
     # 2. The Fig 5 row of the table, and the R and rho sweeps.
     row = find(r"\| Fig 5 \| - \| ([\d ]+) it, [^|]*\| ([\d ]+) it,", note, "the Fig 5 row")
