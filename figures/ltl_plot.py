@@ -153,9 +153,12 @@ def plot(path, out=None):
 
 def main(argv):
     usage = "usage: ltl-results plot RESULTS.h5 [-o OUT.png]"
-    if not argv or argv[0] in ("-h", "--help"):
-        print(usage + "\n" + __doc__.split("\n\n", 2)[1])
-        return 0 if argv else 2
+    if argv[:1] in (["-h"], ["--help"]):
+        print(usage + "\n\n" + __doc__.split("\n\n", 2)[2])
+        return 0
+    if not argv:
+        print(usage, file=sys.stderr)
+        return 2
     path, out = argv[0], None
     rest = argv[1:]
     if rest[:1] == ["-o"] and len(rest) == 2:
