@@ -482,6 +482,7 @@ void Solver::set_load_factor(double factor) {
   if (!std::isfinite(factor)) throw Error(cat("load factor ", factor, ": must be finite"));
   load_factor_ = factor;
   F_ext_ = factor * disc_.dead_load();  // same size: no allocation
+  set_displacement_factor(factor);      // prescribed displacements follow the same factor
 }
 
 void Solver::set_displacement_factor(double factor) {

@@ -69,10 +69,11 @@ class Solver {
   const GlobalStep& global_step() const { return *global_; }
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
-  /// external_load() = factor x the assembled dead loads f, g. K is unchanged.
+  /// external_load() = factor x the assembled dead loads f, g, and the prescribed displacements
+  /// at factor x their values (set_displacement_factor(factor)). K is unchanged.
   void set_load_factor(double factor);
-  /// The prescribed displacements at `factor` x their values (1 by default): the load
-  /// subdivision of lib/simulation.cpp ramps them over a failed step's substeps. K is unchanged.
+  /// The prescribed displacements alone at `factor` x their values (1 by default). K is
+  /// unchanged.
   void set_displacement_factor(double factor);
   double load_factor() const { return load_factor_; }
   /// The augmentation parameter R in use (the configuration's, or the last one chosen by the

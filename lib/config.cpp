@@ -546,9 +546,18 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
 
   // Boundary conditions.
   for (const auto& f : r.subs("fixed")) {
-    f.only({"group"});
+    // Gamma_1: u = value (0 by default) on every component, or on `component` alone; the value
+    // follows the load factor of the step like the tractions (Solver::set_load_factor).
+    f.only({"group", "component", "value"});
     DirichletCondition d{f.string("group"), {}, {}, f.key("group")};
-    for (int c = 0; c < dim; ++c) d.components.push_back(c);
+    if (f.has("component")) {
+      const int c = component_index(f, "component", dim);
+      d.components.push_back(c);
+      d.field.value(c) = f.quantity("value", "m", 0.0);
+    } else {
+      for (int c = 0; c < dim; ++c) d.components.push_back(c);
+      if (f.has("value")) d.field.value = f.vector("value", "m", dim);
+    }
     p.dirichlet.push_back(d);
   }
   for (const auto& f : r.subs("symmetry")) {
