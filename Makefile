@@ -52,14 +52,14 @@ figures: fig3 fig4 fig5 fig6 paper-vs-package
 
 # The paper's stated iterations and CPU beside ours (results/paper_vs_package.png): plain ALG2
 # from the figure runs above (results/figN.h5), and the same configurations with Anderson
-# acceleration and (Figs 5-6, not glued) with the Newton phase, in results/paper_vs_package/.
+# acceleration and with the Newton phase, in results/paper_vs_package/.
 # Needs results/figN.h5 (`make figures` makes them first); about a minute on 2 shared cores.
 PVP := $(RESULTS)/paper_vs_package
 paper-vs-package: build
 	@mkdir -p $(PVP)
 	for f in fig3 fig4 fig5 fig6; do $(RUN)/ltl_run experiments/$$f/$$f.toml -q \
 	  -o $(PVP)/$$f-anderson.h5 --set algorithm.acceleration=anderson || exit 1; done
-	for f in fig5 fig6; do $(RUN)/ltl_run experiments/$$f/$$f.toml -q \
+	for f in fig3 fig4 fig5 fig6; do $(RUN)/ltl_run experiments/$$f/$$f.toml -q \
 	  -o $(PVP)/$$f-newton.h5 --set algorithm.solver=newton || exit 1; done
 	$(PYTHON) figures/paper_vs_package.py $(RESULTS) $(RESULTS)/paper_vs_package.png
 

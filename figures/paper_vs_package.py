@@ -6,7 +6,7 @@ Reads only results files: RESULTS_DIR/figN.h5 (`make figN`: the paper's ALG2, pl
 figure configurations state it) and RESULTS_DIR/paper_vs_package/figN-anderson.h5 and
 figN-newton.h5 (`make paper-vs-package`: the same configuration with
 algorithm.acceleration = "anderson", and with algorithm.solver = "newton", ALG2 into Newton's
-method; glued problems, Figs 3-4, have no Newton phase), and the paper's claims from
+method), and the paper's claims from
 figures/paper_claims.toml (Fig 5: 40 iterations; Fig 6: 70 iterations, 108 min on a DPS 8;
 nothing for Figs 3-4). Iterations: the sum over the time steps of each step's stored
 `iterations`; time: the sum of each step's solver wall time (the last `wall` of its history).
@@ -70,9 +70,7 @@ def main(results, png):
                 else:
                     run = rows[f][key]
                     v = None if run is None or not run[2].startswith("complete") else run[a]
-                    note = ("no Newton phase:\nglued, ALG2 alone" if key == "newton" and f in
-                            ("fig3", "fig4") and run is None else
-                            "not run" if run is None else
+                    note = ("not run" if run is None else
                             "did not finish" if v is None else "")
                 if v is None:
                     ax.text(xi, 0.02, note, rotation=90, ha="center", va="bottom", fontsize=6,
