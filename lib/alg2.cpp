@@ -366,7 +366,7 @@ class Solver::Alg2Map final : public FixedPointMap {
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
-  lowered_ = false;
+  adaptive_R_.start_step();
   Alg2Map map(*this, s, beta_prev);
   const AlgorithmParams& a = alg();
   if (!newton_) {
@@ -428,52 +428,9 @@ bool Solver::local_contact_step_holds(const State& s, const Eigen::VectorXd& bet
          (e - s.e).cwiseAbs().maxCoeff() <= 1e-6 * scale;
 }
 
-// Residual balancing [Boyd et al. 2011, sec. 3.4.1, for ADMM]: r_B is the primal residual and
-// R r_G the dual one (the change of the local variables priced at R q, in the units of r_B).
-// R grows when the constraint lags, and shrinks when the local variables still move, by a factor
-// 2 when the two are more than 10 apart; never below R_min (the local step's physical branch).
-double Solver::balanced_R(const IterationRecord& rec) const {
-  constexpr double mu = 10, tau = 2;
-  const AlgorithmParams& a = alg();
-  const double R_min = std::max(a.R_min > 0 ? a.R_min : a.R, R_floor_);
-  if (rec.r_B > mu * R_ * rec.r_G) return tau * R_;
-  if (R_ * rec.r_G > mu * rec.r_B) return std::max(R_ / tau, std::min(R_min, R_));
-  return R_;
-}
-
-// The safeguard of a lowered R: a smaller R q can put the local strain step on a rotated branch
-// under high stresses (paper_notes/section3-4.md), where the iteration stalls and then drifts
-// away. Since the last lowering the best iterate (by merit, at the checks) is kept; when no check
-// has improved on it for 10 checks, that iterate is restored, R goes back to its value before the
-// lowering and stays at or above it for the rest of the run.
 bool Solver::adapt_R(const IterationRecord& rec, State& s) {
-  const AlgorithmParams& a = alg();
-  const int n = rec.n;
-  const double merit = rec.r_G + rec.r_B;
-  const bool may_factorize = factorizations_ <= a.max_refactorizations;
-  if (lowered_) {
-    if (merit < best_merit_) {
-      best_merit_ = merit, best_n_ = n;
-      best_ = s;
-    } else if (n - best_n_ >= 10 * a.adapt_every && may_factorize) {
-      s = best_;
-      R_floor_ = R_before_lowering_;
-      lowered_ = false;
-      precompute(R_before_lowering_);
-      return true;
-    }
-  }
-  if (!may_factorize) return false;
-  const double R = balanced_R(rec);
+  const double R = adaptive_R_.next(rec, R_, factorizations_, s);
   if (R == R_) return false;
-  if (R < R_) {
-    lowered_ = true;
-    R_before_lowering_ = R_;
-    best_merit_ = merit, best_n_ = n;
-    best_ = s;
-  } else {
-    lowered_ = false;
-  }
   precompute(R);
   return true;
 }

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "adaptive_r.hpp"
 #include "contact_step.hpp"
 #include "discretization.hpp"
 #include "fe.hpp"
@@ -130,13 +131,9 @@ class Solver {
   /// for each beta_s with its weight, u(A) for the displacement (mean-det).
   template <class S, class Cells, class Facets, class Beta, class U>
   void for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const;
-  /// [residual balancing] The R that balances r_G and r_B after iteration rec
-  /// (AlgorithmParams::adaptive_R), or R itself.
-  double balanced_R(const IterationRecord& rec) const;
-
-  /// Adaptive R at the check after iteration rec (every adapt_every iterations): lowers or raises
-  /// R by balanced_R, or undoes a lowering that stalled (restoring the best iterate since, s);
-  /// true when R changed (K re-factorized).
+  /// Adaptive R at the check after iteration rec (every adapt_every iterations): the R that
+  /// adaptive_R_ (adaptive_r.hpp) asks for; true when it changed (K re-factorized; s may have
+  /// been restored to the best iterate since a lowering that stalled).
   bool adapt_R(const IterationRecord& rec, State& s);
 
   /// [LTL87 (4.7), (6.1)-(6.8)] Is s (a converged Newton state, e = ubar) a fixed point of the
@@ -151,12 +148,7 @@ class Solver {
   double R_ = 1;  ///< R in use (see R())
   int factorizations_ = 0;
   double setup_seconds_ = 0;
-  // Adaptive R's safeguard (adapt_R): whether R was last lowered, the R before, the best merit
-  // since, its iteration and iterate; the floor left by an undone lowering.
-  bool lowered_ = false;
-  double R_before_lowering_ = 0, best_merit_ = 0, R_floor_ = 0;
-  int best_n_ = 0;
-  State best_;
+  AdaptiveR adaptive_R_{alg()};  ///< algorithm.adaptive_R (adaptive_r.hpp)
   std::unique_ptr<GlobalStep> global_;
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;
