@@ -77,8 +77,9 @@ void ResultsFile::commit() {
   const std::string xdmf = xdmf_text(f, path_, false);
   const std::string contact_xdmf = contact_ ? xdmf_text(f, path_, true) : "";
   file_->commit();
-  write_replacing(xdmf_path_of(path_), xdmf);
-  if (!contact_xdmf.empty()) write_replacing(contact_xdmf_path_of(path_), contact_xdmf);
+  write_appending(xdmf_path_of(path_), xdmf, xdmf_);
+  if (!contact_xdmf.empty())
+    write_appending(contact_xdmf_path_of(path_), contact_xdmf, contact_xdmf_);
 }
 
 void ResultsFile::append(const StepData& step, const std::string& status) {

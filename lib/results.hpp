@@ -173,6 +173,7 @@ class ResultsFile {
   void commit();  ///< commits the change and rewrites the XDMF files
   std::string path_;
   std::unique_ptr<CommittedFile> file_;
+  std::string xdmf_, contact_xdmf_;  ///< the XDMF texts written last
   int dim_ = 0;
   int num_nodes_ = 0, num_cells_ = 0, num_points_ = 0;
   bool contact_ = false;  ///< the file has /mesh/contact_facets

@@ -291,6 +291,24 @@ void write_replacing(const std::string& path, const std::string& text) {
   }
 }
 
+void write_appending(const std::string& path, const std::string& text, std::string& on_disk) {
+  std::size_t common = 0;
+  const std::size_t n = std::min(text.size(), on_disk.size());
+  while (common < n && text[common] == on_disk[common]) ++common;
+  bool done = false;
+  if (!on_disk.empty() && text.size() >= on_disk.size() && common + 256 >= on_disk.size()) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
+    struct stat st {};
+    if (fd >= 0 && ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_nlink == 1 &&
+        static_cast<std::size_t>(st.st_size) == on_disk.size())
+      done =
+          write_all(fd, text.data() + common, text.size() - common, static_cast<long long>(common));
+    if (fd >= 0 && ::close(fd) != 0) done = false;
+  }
+  if (!done) write_replacing(path, text);
+  on_disk = text;
+}
+
 void recover(const std::string& path) {
   const std::string jp = journal_path_of(path);
   const auto bytes = read_file(jp, true);

@@ -41,6 +41,13 @@ std::string errno_text(int e);
 int create_fresh(const std::string& path, int mode, const std::string& file);
 /// Writes `text` to `path` atomically: to `path + ".tmp"` (create_fresh), then renamed.
 void write_replacing(const std::string& path, const std::string& text);
+/// Makes the file `path` hold `text`, given that it holds `on_disk` (what this process wrote there
+/// last; empty: unknown). When `text` only changes the last 256 bytes of `on_disk` and extends it
+/// (a step added to an XDMF file), and the file is still that text, the file is updated in place
+/// by one write of what changed; otherwise it is replaced (write_replacing). Then on_disk = text.
+/// For files derived from the results file (XDMF), which a kill in the middle of that one write
+/// may leave incomplete until the next run or --resume rewrites them.
+void write_appending(const std::string& path, const std::string& text, std::string& on_disk);
 
 /// Bytes this process has written to results files, journals and XDMF files (all commits).
 std::uint64_t bytes_committed();
