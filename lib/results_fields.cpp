@@ -22,47 +22,13 @@ const Field& field(std::string_view name, const std::string& file) {
 }
 
 namespace {
+// Indexed by the enumerators, in their order.
+constexpr const char* kEntities[] = {"", "#nodes", "#cells", "#points", ""};
+constexpr const char* kLocationNames[] = {"mesh", "node", "cell", "point", "step"};
+constexpr const char* kShapeNames[] = {"scalar", "vector", "tensor", "table"};
+
 const char* entities(Location at) {
-  switch (at) {
-    case Location::Node:
-      return "#nodes";
-    case Location::Cell:
-      return "#cells";
-    case Location::Point:
-      return "#points";
-    default:
-      return "";
-  }
-}
-
-const char* location_name(Location at) {
-  switch (at) {
-    case Location::Mesh:
-      return "mesh";
-    case Location::Node:
-      return "node";
-    case Location::Cell:
-      return "cell";
-    case Location::Point:
-      return "point";
-    case Location::Step:
-      return "step";
-  }
-  return "";
-}
-
-const char* shape_name(Shape s) {
-  switch (s) {
-    case Shape::Scalar:
-      return "scalar";
-    case Shape::Vector:
-      return "vector";
-    case Shape::Tensor:
-      return "tensor";
-    case Shape::Table:
-      return "table";
-  }
-  return "";
+  return kEntities[static_cast<int>(at)];
 }
 }  // namespace
 
@@ -94,8 +60,9 @@ std::string python_field_table() {
     << "# name: (location, shape, unit in 2-D, unit in 3-D)\n"
     << "FIELDS = {\n";
   for (const Field& f : kFields)
-    o << "    \"" << f.name << "\": (\"" << location_name(f.at) << "\", \"" << shape_name(f.shape)
-      << "\", \"" << f.unit_2d << "\", \"" << f.unit_3d << "\"),\n";
+    o << "    \"" << f.name << "\": (\"" << kLocationNames[static_cast<int>(f.at)] << "\", \""
+      << kShapeNames[static_cast<int>(f.shape)] << "\", \"" << f.unit_2d << "\", \"" << f.unit_3d
+      << "\"),\n";
   o << "}\n# END FIELDS\n";
   return o.str();
 }

@@ -5,7 +5,6 @@
 #include <hdf5.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -16,20 +15,13 @@
 #include "results.hpp"
 #include "results_commit.hpp"
 #include "results_fields.hpp"
-
-#ifndef LTL_SOURCE_DIR
-#define LTL_SOURCE_DIR ""
-#endif
+#include "testing.hpp"
 
 namespace fs = std::filesystem;
 using namespace ltl;
+using ltl::testing::source_path;
 
 namespace {
-
-fs::path source_dir() {
-  if (std::string(LTL_SOURCE_DIR).size()) return LTL_SOURCE_DIR;
-  return fs::absolute(fs::path(__FILE__)).parent_path().parent_path();
-}
 
 std::string read_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -44,7 +36,7 @@ std::string trim(const std::string& s) {
 }
 
 TEST(FieldTable, PythonReaderHoldsTheGeneratedTable) {
-  const std::string py = read_text(source_dir() / "figures" / "ltl_results.py");
+  const std::string py = read_text(source_path("figures/ltl_results.py"));
   const std::size_t a = py.find("# BEGIN FIELDS"), b = py.find("# END FIELDS\n");
   ASSERT_NE(a, std::string::npos) << "figures/ltl_results.py has no '# BEGIN FIELDS' line";
   ASSERT_NE(b, std::string::npos) << "figures/ltl_results.py has no '# END FIELDS' line";
@@ -55,7 +47,7 @@ TEST(FieldTable, PythonReaderHoldsTheGeneratedTable) {
 
 TEST(FieldTable, ReadmeLayoutTableAgrees) {
   // The rows "| `name` | shape | unit | what |" of the layout table in experiments/README.md.
-  std::istringstream readme(read_text(source_dir() / "experiments" / "README.md"));
+  std::istringstream readme(read_text(source_path("experiments/README.md")));
   std::map<std::string, std::pair<std::string, std::string>> rows;
   for (std::string line; std::getline(readme, line);) {
     if (line.rfind("| `", 0) != 0) continue;
@@ -103,12 +95,7 @@ TEST(FieldTable, NamesAreUniqueAndStepFieldsHaveUnits) {
 
 class AppendCost : public ::testing::Test {
  protected:
-  void SetUp() override {
-    static std::atomic<int> counter{0};
-    dir_ = fs::temp_directory_path() /
-           ("ltl_test_layers_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = ltl::testing::temp_dir("append_cost"); }
   void TearDown() override {
     std::error_code ec;
     fs::remove_all(dir_, ec);
