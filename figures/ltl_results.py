@@ -189,7 +189,7 @@ def _journal_image(path):
     old, new, count = struct.unpack_from("<QQQ", data, 8)
     with open(path, "rb") as f:
         image = bytearray(f.read())
-    if len(image) not in (old, new):
+    if not min(old, new) <= len(image) <= max(old, new):  # not this file's journal
         return None
     image = image[:new] + bytes(max(0, new - len(image)))
     at = 32

@@ -36,7 +36,7 @@
 // of a step hold), lib/results_xdmf.hpp (the XDMF files), lib/results_info.hpp (library versions)
 // and lib/results_config.hpp (the resolved configuration). This class puts them together.
 //
-// XDMF (rewritten after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
+// XDMF (updated after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
 // sigma) and, with a contact surface, contact_xdmf_path_of(path) (beta, contact_pressure, gap, e,
 // lambda_c on the contact facets, per contact node or per facet). They refer to the HDF5 file by
 // its bare name, so keep the files side by side. Several steps: a temporal collection of uniform

@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -208,6 +209,12 @@ std::optional<Journal> parse_journal(const std::vector<char>& bytes) {
   return j;
 }
 
+/// Whether a file of `size` bytes can be the file of journal `j` in the middle of its commit: it
+/// had j.old_size bytes when the journal was written, and grows (or shrinks) to j.new_size.
+bool written_by(const Journal& j, std::uint64_t size) {
+  return std::min(j.old_size, j.new_size) <= size && size <= std::max(j.old_size, j.new_size);
+}
+
 /// How applying a journal to a file ended.
 enum class Applied { Done, FailedPastEnd, FailedInPlace };
 
@@ -318,8 +325,7 @@ void recover(const std::string& path) {
     const int fd = ::open(path.c_str(), O_RDWR | O_NOFOLLOW | O_CLOEXEC);
     struct stat st {};
     const bool ours = fd >= 0 && ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) &&
-                      (static_cast<std::uint64_t>(st.st_size) == j->old_size ||
-                       static_cast<std::uint64_t>(st.st_size) == j->new_size);
+                      written_by(*j, static_cast<std::uint64_t>(st.st_size));
     if (ours && (::flock(fd, LOCK_EX) != 0 || apply_journal(fd, *j) != Applied::Done)) {
       const int e = errno;
       ::close(fd);
@@ -338,8 +344,7 @@ h5::Handle open_committed(const std::string& path) {
   const std::optional<Journal> j = bytes ? parse_journal(*bytes) : std::nullopt;
   if (!j) return h5::open_for_reading(path);
   std::vector<char> image = *read_file(path, false);
-  if (image.size() != j->old_size && image.size() != j->new_size)
-    return h5::open_for_reading(path);  // the journal is not this file's
+  if (!written_by(*j, image.size())) return h5::open_for_reading(path);  // not this file's
   image.resize(j->new_size);
   for (const auto& [r, data] : j->ranges) std::memcpy(image.data() + r.offset, data, r.length);
   h5::quiet();

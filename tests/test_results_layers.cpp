@@ -3,8 +3,11 @@
 // step, not to the file), and readers during and after an in-place commit.
 #include <gtest/gtest.h>
 #include <hdf5.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -237,7 +240,8 @@ TEST_F(AppendCost, BytesWrittenGrowWithTheStepNotWithTheFile) {
 }
 
 // A reader that has the file open (HDF5 holds a shared lock meanwhile) keeps seeing the file it
-// opened: the writer then replaces the file whole instead of changing it in place.
+// opened: the writer then replaces the file whole instead of changing it in place; without a
+// reader the next step is written in place.
 TEST_F(AppendCost, AnOpenReaderKeepsACompleteFile) {
   const Mesh m = grid(4);
   const std::string path = (dir_ / "run.h5").string();
@@ -249,9 +253,15 @@ TEST_F(AppendCost, AnOpenReaderKeepsACompleteFile) {
   r.append(s1.data);
   r.append(s2.data);
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  struct stat before {
+  }, after{};
+  ASSERT_EQ(::stat(path.c_str(), &before), 0);
   const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   ASSERT_GE(f, 0);
   r.append(s3.data);
+  ASSERT_EQ(::stat(path.c_str(), &after), 0);
+  EXPECT_NE(before.st_ino, after.st_ino);  // replaced whole (renamed), not changed in place
+
   H5G_info_t g;
   const hid_t steps = H5Gopen2(f, "/steps", H5P_DEFAULT);
   ASSERT_GE(steps, 0);
@@ -266,6 +276,66 @@ TEST_F(AppendCost, AnOpenReaderKeepsACompleteFile) {
   H5Gclose(steps);
   H5Fclose(f);
   EXPECT_EQ(ResultsFile::read_last_step(path)->p, 3);
+  // With no reader left, the next step is written in place.
+  Step s4;
+  fill(s4, m, 9, 4);
+  r.append(s4.data);
+  struct stat later {};
+  ASSERT_EQ(::stat(path.c_str(), &later), 0);
+  EXPECT_EQ(later.st_ino, after.st_ino);
+  EXPECT_EQ(ResultsFile::read_last_step(path)->p, 4);
+}
+
+}  // namespace
+
+namespace {
+
+/// Runs `command` in a shell; its exit status (-1 if it did not exit).
+int shell(const std::string& command) {
+  const int rc = std::system(command.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+// A writer killed in the middle of an in-place commit (LTL_FAULT_AT_WRITE=k, each k a write
+// event of the run) that leaves the journal beside the file: the C++ and the Python readers see
+// the file with the journal applied (the step being committed), and --resume writes it into the
+// file, removes the journal and finishes the run. A journal cut by the kill is ignored.
+TEST_F(AppendCost, AJournalLeftByAKilledWriterIsAppliedByReadersAndResume) {
+  ltl::testing::write_file(dir_ / "case.toml", ltl::testing::coarse_fig5_config(
+                                                   source_path("experiments/fig5/half_disc.geo")));
+  const std::string run = "cd '" + dir_.string() + "' && ";
+  const std::string ltl_run = ltl::testing::binary_path("experiments/ltl_run") +
+                              " case.toml -q -o out.h5 --set time.steps=2";
+  const fs::path out = dir_ / "out.h5";
+  int journals = 0;
+  for (int k = 1; k < 200; ++k) {
+    for (const char* f : {"out.h5", "out.h5.journal", "out.xdmf", "out_contact.xdmf"})
+      fs::remove(dir_ / f);
+    const int rc =
+        shell(run + "LTL_FAULT_AT_WRITE=" + std::to_string(k) + " " + ltl_run + " 2> /dev/null");
+    if (rc == 0) break;  // k is past the last write event
+    if (!fs::exists(dir_ / "out.h5.journal")) continue;
+    // A complete journal ends with its trailer; a kill while it was written leaves it cut, and
+    // the file as it was (step 1).
+    const std::string journal = read_text(dir_ / "out.h5.journal");
+    const bool complete = journal.size() >= 8 && journal.substr(journal.size() - 8) == "LTLJEND1";
+    journals += complete;
+    const auto last = ResultsFile::read_last_step(out.string());
+    ASSERT_TRUE(last) << "k = " << k;
+    EXPECT_EQ(last->p, complete ? 2 : 1) << "k = " << k;  // step 2 is committed in place
+    const std::string py = run + "/usr/bin/python3 -c 'import sys; sys.path.insert(0, \"" +
+                           source_path("figures") +
+                           "\"); import ltl_results; r = ltl_results.load(\"out.h5\"); "
+                           "sys.exit(0 if r.steps[-1].p == " +
+                           std::to_string(last->p) + " else 1)'";
+    EXPECT_EQ(shell(py), 0) << "k = " << k << ": the Python reader does not apply the journal";
+    ASSERT_EQ(shell(run + ltl_run + " --resume"), 0) << "k = " << k;
+    EXPECT_FALSE(fs::exists(dir_ / "out.h5.journal")) << "k = " << k;
+    EXPECT_EQ(ResultsFile::read_last_step(out.string())->p, 2) << "k = " << k;
+    EXPECT_EQ(ResultsFile::read_attribute(out.string(), "status"), "complete") << "k = " << k;
+  }
+  std::printf("kills that left a complete journal: %d\n", journals);
+  EXPECT_GE(journals, 3);  // the journal written; the new data written; the file complete
 }
 
 }  // namespace

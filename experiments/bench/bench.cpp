@@ -11,6 +11,7 @@
 //             2 sweeps x 8 bytes x nnz(L) / (read bandwidth of this machine),
 //           the bandwidth being measured here by a STREAM-like loop; Table 5 compares our
 //           supernodal sweeps with CHOLMOD's supernodal and simplicial solves on the same factor.
+//           Table 6: the bytes written to append a step to a results file of each case.
 //           Discussion of the numbers: paper_notes/performance.md.
 //
 // Run:      make bench               (all sizes up to 2e5 cells, ~5 min on 2 cores, 5.5 GB peak)
