@@ -10,8 +10,11 @@
 
 Arrays keep the file's layout: u (#nodes, dim); E, lambda, P, sigma (#cells, dim, dim) with
 [c, i, j] the (i, j) entry of cell c's tensor; sigma33 (#cells, plane strain), pressure
-(#cells); e, lambda_c (#points, dim); beta, contact_pressure, gap (#points). The 2-D "xdmf"
-subgroup (padded copies for ParaView) is not loaded. The "measures" subgroup (every reported
+(#cells); e, lambda_c (#points, dim); beta, contact_pressure, gap (#points). Which datasets are
+fields, where they live and their units is FIELDS, the field table of the writer
+(lib/results_fields.hpp), copied below and checked by tests/test_results_layers.cpp;
+Step.units[name] is a field's unit. The 2-D "xdmf" subgroup (padded copies for ParaView) is not
+loaded. The "measures" subgroup (every reported
 number, computed once by lib/measures.hpp: contact force, half-width, debonding front, opening,
 ...) is Step.measures (name -> float), Step.measure_units and Step.measure_descriptions (name ->
 str), and Step.in_contact (bool per contact point); figure scripts read these and never
@@ -27,12 +30,48 @@ As a program it prints a summary of a file (steps, iterations, equilibrium measu
 Use /usr/bin/python3 (it has h5py and numpy).
 """
 
+import io
+import struct
 import sys
+import time
 
 import h5py
 import numpy as np
 
 HISTORY_COLUMNS = ("n", "r_G", "r_B", "t_global", "t_strain", "t_contact", "t_update", "wall")
+
+# BEGIN FIELDS (from lib/results_fields.hpp; tests/test_results_layers.cpp checks it)
+# name: (location, shape, unit in 2-D, unit in 3-D)
+FIELDS = {
+    "X": ("mesh", "vector", "m", "m"),
+    "cells": ("mesh", "table", "1", "1"),
+    "cell_volume": ("mesh", "scalar", "m^2", "m^3"),
+    "contact_facets": ("mesh", "table", "1", "1"),
+    "contact_nodes": ("mesh", "scalar", "1", "1"),
+    "contact_topology": ("mesh", "table", "1", "1"),
+    "contact_centre": ("mesh", "vector", "m", "m"),
+    "contact_area": ("mesh", "scalar", "m", "m^2"),
+    "u": ("node", "vector", "m", "m"),
+    "E": ("cell", "tensor", "1", "1"),
+    "lambda": ("cell", "tensor", "Pa", "Pa"),
+    "P": ("cell", "tensor", "Pa", "Pa"),
+    "sigma": ("cell", "tensor", "Pa", "Pa"),
+    "sigma33": ("cell", "scalar", "Pa", "Pa"),
+    "pressure": ("cell", "scalar", "Pa", "Pa"),
+    "beta": ("point", "scalar", "1", "1"),
+    "e": ("point", "vector", "m", "m"),
+    "lambda_c": ("point", "vector", "Pa", "Pa"),
+    "contact_pressure": ("point", "scalar", "Pa", "Pa"),
+    "gap": ("point", "scalar", "m", "m"),
+    "reactions": ("support", "vector", "N/m", "N"),
+    "support_u": ("support", "vector", "m", "m"),
+    "in_contact": ("point", "scalar", "1", "1"),
+    "history": ("step", "table", "1 1 1 s s s s s", "1 1 1 s s s s s"),
+}
+# END FIELDS
+
+# Where the per-step fields live (a step's fields are the FIELDS rows at these locations).
+STEP_LOCATIONS = ("node", "cell", "point", "support")
 
 
 class Mesh:
@@ -69,10 +108,11 @@ class Step:
     (the equilibrium measure: force_residual, det_error, penetration, det_min; empty in files of
     format version 1, without det_min in files written before it existed), converged (False only for an entry of Results.unconverged), measures (name ->
     float, /steps/N/measures; empty in older files), measure_units, measure_descriptions (name ->
-    str), in_contact (bool per contact point, None without contact or in older files)."""
+    str), in_contact (bool per contact point, None without contact or in older files), units
+    (field name -> unit, from FIELDS)."""
 
     def __init__(self, p, t, iterations, status, fields, history, attrs, measures=None,
-                 measure_units=None, measure_descriptions=None, in_contact=None):
+                 measure_units=None, measure_descriptions=None, in_contact=None, units=None):
         self.p = p
         self.t = t
         self.iterations = iterations
@@ -86,6 +126,7 @@ class Step:
         self.measure_units = measure_units or {}
         self.measure_descriptions = measure_descriptions or {}
         self.in_contact = in_contact
+        self.units = units or {}
 
     def __repr__(self):
         return "Step(p=%d, t=%g, iterations=%d, fields=%s)" % (
@@ -131,12 +172,55 @@ def _attrs(obj):
     return {k: _value(v) for k, v in obj.attrs.items()}
 
 
-def _open(path):
-    # Without file locking, a file that a running simulation is writing can be read too.
+def _journal_image(path):
+    """The bytes of `path` with the redo journal `path + ".journal"` applied, when a writer was
+    killed in the middle of an in-place commit (lib/results_commit.hpp: the format); None when
+    there is no complete journal."""
     try:
-        return h5py.File(path, "r", locking=False)
-    except TypeError:  # h5py older than 3.5
-        return h5py.File(path, "r")
+        with open(path + ".journal", "rb") as j:
+            data = j.read()
+    except OSError:
+        return None
+    n = len(data)
+    if n < 56 or n % 8 or data[:8] != b"LTLJRNL1" or data[-8:] != b"LTLJEND1":
+        return None
+    w = np.frombuffer(data, dtype="<u8", count=(n - 24) // 8)
+    with np.errstate(over="ignore"):
+        s1 = int(w.sum(dtype=np.uint64))
+        s2 = int((w * np.arange(1, len(w) + 1, dtype=np.uint64)).sum(dtype=np.uint64))
+    if (s1, s2) != struct.unpack_from("<QQ", data, n - 24):
+        return None
+    old, new, count = struct.unpack_from("<QQQ", data, 8)
+    with open(path, "rb") as f:
+        image = bytearray(f.read())
+    if not min(old, new) <= len(image) <= max(old, new):  # not this file's journal
+        return None
+    image = image[:new] + bytes(max(0, new - len(image)))
+    at = 32
+    for _ in range(count):
+        offset, length = struct.unpack_from("<QQ", data, at)
+        at += 16
+        image[offset:offset + length] = data[at:at + length]
+        at += length + (-length % 8)
+    return bytes(image)
+
+
+def _open(path):
+    # With HDF5's file locking: a writer updating the file in place holds it exclusively for a
+    # few milliseconds; wait for it (about ten seconds at most, then read without locking).
+    image = _journal_image(path)
+    if image is not None:
+        return h5py.File(io.BytesIO(image), "r")
+    for _ in range(1000):
+        try:
+            return h5py.File(path, "r", locking="best-effort")
+        except (TypeError, ValueError):  # h5py older than 3.5, or HDF5 without the option
+            return h5py.File(path, "r")
+        except OSError as err:
+            if "lock" not in str(err):
+                raise
+            time.sleep(0.01)
+    return h5py.File(path, "r", locking=False)
 
 
 def load(path, fields=None):
@@ -156,20 +240,20 @@ def load(path, fields=None):
                     contact_area=get("contact_area"), cell_type=_value(m.attrs.get("cell_type", "")),
                     contact_boundary=_value(m["contact_facets"].attrs.get("boundary", ""))
                     if "contact_facets" in m else "", contact_nodes=get("contact_nodes"))
-        steps = _read_steps(f["steps"], fields)
-        unconverged = _read_steps(f["unconverged"], fields) if "unconverged" in f else []
+        steps = _read_steps(f["steps"], fields, mesh.dim)
+        unconverged = _read_steps(f["unconverged"], fields, mesh.dim) if "unconverged" in f else []
         return Results(path, _attrs(f), mesh, steps, unconverged)
 
 
-def _read_steps(group, fields):
+def _read_steps(group, fields, dim):
     """The step groups (six-digit names) of /steps or /unconverged, in increasing p."""
     steps = []
+    step_fields = [k for k, row in FIELDS.items() if row[0] in STEP_LOCATIONS]
     for name in sorted(k for k in group if len(k) == 6 and k.isdigit()):
         g = group[name]
         a = _attrs(g)
-        data = {k: g[k][()] for k in g
-                if isinstance(g[k], h5py.Dataset) and k != "history"
-                and (fields is None or k in fields)}
+        data = {k: g[k][()] for k in step_fields
+                if k in g and isinstance(g[k], h5py.Dataset) and (fields is None or k in fields)}
         h = g["history"][()] if "history" in g else np.zeros((0, len(HISTORY_COLUMNS)))
         columns = _value(g["history"].attrs.get("columns", "")) if "history" in g else ""
         names = columns.split() if columns else list(HISTORY_COLUMNS)
@@ -186,7 +270,8 @@ def _read_steps(group, fields):
         steps.append(Step(p=int(a["p"]), t=float(a["t"]), iterations=int(a["iterations"]),
                           status=a.get("status", ""), fields=data, history=history, attrs=a,
                           measures=measures, measure_units=units, measure_descriptions=texts,
-                          in_contact=in_contact))
+                          in_contact=in_contact,
+                          units={k: FIELDS[k][2 if dim == 2 else 3] for k in data}))
     steps.sort(key=lambda s: s.p)
     return steps
 

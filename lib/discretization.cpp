@@ -252,12 +252,26 @@ Eigen::MatrixXd Discretization::cauchy(const State& s) const {
   return sigma;
 }
 
-Eigen::VectorXd Discretization::pressure(const State& s) const {
+// (1.5) in plane strain: sigma33 from the law at F33 = 1 and the cell's pressure; the mean stress
+// counts it, so that the pressure is the same in 2-D and 3-D.
+Discretization::Stresses Discretization::stresses(const State& s) const {
   const int d = dim(), nc = num_cells();
-  const Eigen::MatrixXd sigma = cauchy(s);
-  Eigen::VectorXd p(nc);
-  for (int c = 0; c < nc; ++c) p(c) = -sigma.block(d * c, 0, d, d).trace() / d;
-  return p;
+  Stresses out;
+  out.P = piola(s);
+  out.sigma = cauchy(s);
+  out.pressure.resize(nc);
+  if (d == 2 && s.E.rows() == 2 * nc) out.sigma33.resize(nc);
+  for (int c = 0; c < nc; ++c) {
+    double trace = out.sigma.block(d * c, 0, d, d).trace();
+    if (out.sigma33.size()) {
+      const Eigen::Matrix2d E = s.E.block<2, 2>(2 * c, 0).transpose();
+      const Eigen::Matrix2d P = out.P.block<2, 2>(2 * c, 0).transpose();
+      out.sigma33(c) = problem_.material.plane_strain_sigma33(E, P);
+      trace += out.sigma33(c);
+    }
+    out.pressure(c) = -trace / 3;
+  }
+  return out;
 }
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {

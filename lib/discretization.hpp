@@ -88,8 +88,16 @@ class Discretization {
   Eigen::MatrixXd piola(const State& s) const;
   /// Cauchy stress sigma = P E^T / det E (in-plane block in plane strain).
   Eigen::MatrixXd cauchy(const State& s) const;
-  /// Pressure per cell, -tr(sigma)/dim (in plane strain the mean in-plane stress).
-  Eigen::VectorXd pressure(const State& s) const;
+  /// Every stress of a state per cell, one definition each: P and sigma (above), in plane
+  /// strain the out-of-plane Cauchy stress sigma33 from the law with F33 = 1 (1.5)
+  /// (Material::plane_strain_sigma33 of the problem's material, not of the split one), and the
+  /// pressure, the mean stress p = -tr(sigma) / 3 of the three-dimensional stress (in plane
+  /// strain -(sigma11 + sigma22 + sigma33) / 3). sigma33 is empty in 3-D.
+  struct Stresses {
+    Eigen::MatrixXd P, sigma;  ///< transposed-block layout like E
+    Eigen::VectorXd sigma33, pressure;
+  };
+  Stresses stresses(const State& s) const;
   /// Contact pressure per contact point, p_c = -lambda_c . N >= 0 where the body presses.
   Eigen::VectorXd contact_pressure(const State& s) const;
   /// Gap to the plane after deformation per contact point: g_s - e_s . N (>= 0 when admissible).

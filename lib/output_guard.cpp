@@ -17,6 +17,7 @@
 #include "hash.hpp"
 #include "mesh.hpp"
 #include "results.hpp"
+#include "results_commit.hpp"
 
 namespace ltl {
 
@@ -69,8 +70,9 @@ void check_output_path(const Problem& problem, const std::string& output) {
     for (const auto& f : files) inputs.push_back({f, "the geometry"});
   }
   const fs::path out(output);
-  for (const std::string& written : {output, xdmf_path_of(output), contact_xdmf_path_of(output),
-                                     output + ".partial", lock_path_of(output)})
+  for (const std::string& written :
+       {output, xdmf_path_of(output), contact_xdmf_path_of(output), output + ".partial",
+        journal_path_of(output), lock_path_of(output)})
     for (const auto& [path, what] : inputs)
       if (!path.empty() && same_file(written, path))
         throw Error(cat(output, ": refusing to write the results over ", what, " (", path,

@@ -13,9 +13,10 @@
 //   contact_topology (the facets numbered by contact point)
 //   /steps/NNNNNN        one group per completed time step p (6 digits): attributes p, t,
 //                        iterations, status, converged, strain_failures and the equilibrium
-//                        measure force_residual, det_error, penetration; datasets u, E, lambda,
-//                        P, sigma, sigma33 (2-D), pressure, and with contact beta, e, lambda_c,
-//                        contact_pressure, gap; history (#iterations, 8)
+//                        measure force_residual, det_error, penetration; the datasets of the
+//                        field table (lib/results_fields.hpp): u, E, lambda, P, sigma, sigma33
+//                        (2-D), pressure, and with contact beta, e, lambda_c, contact_pressure,
+//                        gap; history (#iterations, 8)
 //   /steps/NNNNNN/measures  the step's measures (lib/measures.hpp, stored_measures): one scalar
 //                        dataset per measure (contact force, half-width, debonding front,
 //                        opening, ...) and with contact in_contact (#points, 0/1)
@@ -28,58 +29,44 @@
 // Strings are variable-length UTF-8 scalars. A step is written as /steps/incomplete and renamed
 // once complete, so a name of six digits always denotes a complete step.
 //
-// Crash consistency: the file at `path` is only ever replaced whole. Every change (the mesh with
-// the first step, each further step, a status) is made in memory (HDF5's core driver, loaded from
-// a copy of `path` when it exists); its image is written to `path + ".partial"` with checked
-// write(2) calls (a full disk is an Error naming ENOSPC), fsync'ed and renamed onto `path`
-// (rename(2) is atomic), and the directory is fsync'ed. A process killed at any instant leaves
-// either the previous complete file or the new one (and perhaps a stale .partial, removed by the
-// next writer); a run killed in the middle keeps every step it completed, and can be resumed.
-// The working file and the XDMF temporaries are created afresh (O_CREAT | O_EXCL | O_NOFOLLOW,
-// a stale entry unlinked first, never followed), with the mode of the file they replace; an
-// existing file is read into memory without following a link (open with O_NOFOLLOW).
-// Cost: one copy of the file per committed change.
-// Environment LTL_FAULT_AT_WRITE=k (tests only) kills the process at the k-th write event.
+// Layers: lib/hdf5_io.hpp (HDF5 handles and checked reads and writes), lib/results_commit.hpp
+// (the crash-safe commit: the whole file replaced by a rename, or only what changed written in
+// place after a redo journal), lib/results_fields.hpp (the one field table: every dataset's
+// location, shape, unit and description), lib/results_layout.hpp (what the groups of the mesh and
+// of a step hold), lib/results_xdmf.hpp (the XDMF files), lib/results_info.hpp (library versions)
+// and lib/results_config.hpp (the resolved configuration). This class puts them together.
 //
-// XDMF (rewritten after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
+// XDMF (updated after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
 // sigma) and, with a contact surface, contact_xdmf_path_of(path) (beta, contact_pressure, gap, e,
 // lambda_c on the contact facets, per contact node or per facet). They refer to the HDF5 file by
 // its bare name, so keep the files side by side. Several steps: a temporal collection of uniform
 // grids; one step: its uniform grid alone (what meshio.read() accepts).
-// The readers open files without HDF5 file locking when another process is writing them, so
-// a running simulation can be inspected; a second writer is refused.
+// The readers wait while a writer updates the file in place (a few milliseconds per step) and
+// apply a journal left by a killed writer in memory, so a running simulation can be inspected;
+// a second writer is refused (lib/output_guard.hpp).
 #pragma once
 
 #include <Eigen/Dense>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "mesh.hpp"
 #include "problem.hpp"
+#include "results_config.hpp"
+#include "results_info.hpp"
+#include "results_xdmf.hpp"
 #include "state.hpp"
 
 namespace ltl {
 
+class CommittedFile;
+
 /// Version of the file layout (root attribute format_version; files without it are version 1:
 /// no units, no sigma33, no equilibrium measure, no contact XDMF, no config_resolved).
 inline constexpr int kFormatVersion = 2;
-
-/// The XDMF file of the body beside a results file: path with .h5 replaced by suffix + ".xdmf"
-/// (else path + suffix + ".xdmf").
-std::string xdmf_path_of(const std::string& path, const std::string& suffix = "");
-/// The XDMF file of the contact surface: <stem>_contact.xdmf.
-std::string contact_xdmf_path_of(const std::string& path);
-/// Whether `xdmf` is a regular file (not a link) that this code wrote for the results file
-/// `path`: it opens with the comment naming path's file name (xdmf_text). The XDMF files beside a
-/// results file are replaced only when they are (check_output_path).
-bool is_xdmf_of(const std::string& xdmf, const std::string& path);
-
-/// [issue 9] The resolved configuration of a problem as TOML text: every value in SI (units in
-/// comments), every default filled in, in the sections of the configuration file. Written into
-/// results files as the root attribute config_resolved beside the text as given.
-std::string resolved_configuration(const Problem& problem);
 
 /// What is written once per run.
 struct RunInfo {
@@ -104,17 +91,40 @@ struct StepData {
   double t = 0;
   const State* state = nullptr;
   const StepReport* report = nullptr;
-  Eigen::MatrixXd P, sigma;               ///< transposed-block layout like State::E
-  Eigen::VectorXd sigma33;                ///< #cells, plane strain only (Pa)
-  Eigen::VectorXd pressure;               ///< #cells
-  Eigen::VectorXd contact_pressure, gap;  ///< #facets (empty without contact)
-  std::vector<StoredMeasure> measures;    ///< /steps/N/measures (none: no group)
-  Eigen::VectorXi in_contact;             ///< #facets, 1 in the contact set (may be empty)
-  /// Per Dirichlet condition (lib/reactions.hpp; none: not written): the support's reaction
-  /// force and the mean displacement of its nodes (#conditions x dim), and their labels
-  /// ("fixed[0]:left; symmetry[0]:bottom", the step's attribute `conditions`).
-  Eigen::MatrixXd reactions, support_u;
+  /// The computed fields (rows of lib/results_fields.hpp with Source::Derived: P, sigma, sigma33,
+  /// pressure, contact_pressure, gap, ...) by name, in the solver's layouts: a scalar a column
+  /// (#entities), a vector #entities x dim, a tensor dim x dim blocks stacked like State::E.
+  /// Each one given is written (wrong sizes and names not in the table are an Error).
+  std::map<std::string, Eigen::MatrixXd> fields;
+  std::vector<StoredMeasure> measures;  ///< /steps/N/measures (none: no group)
+  Eigen::VectorXi in_contact;           ///< #points, 1 in the contact set (may be empty)
+  /// The Dirichlet conditions of the support fields (reactions, support_u) in their row order,
+  /// e.g. "fixed[0]:left; symmetry[0]:bottom": the step's attribute `conditions`.
   std::string conditions;
+};
+
+/// What a results file stores of the contact surface, beside the mesh.
+struct ContactOutput {
+  const Mesh::Boundary* facets = nullptr;  ///< the contact boundary (null: no contact surface)
+  /// The contact points: the facets, or with `nodes` (nodal contact, /mesh/contact_nodes) those
+  /// mesh nodes, in that order.
+  std::vector<int> nodes;
+  /// Reference position of each contact point, dim x #points (the layout of
+  /// FacetOperators::centre; #points x dim is accepted when not square). Empty: with nodes, the
+  /// nodes' positions; without, not written.
+  Eigen::MatrixXd centre;
+  Eigen::VectorXd area;  ///< weight of each contact point (empty: not written)
+};
+
+/// How ResultsFile::create starts a file.
+struct ResultsOptions {
+  ContactOutput contact;
+  /// /mesh/cell_volume: the solver's CellOperators::vol, or when empty cell_operators(mesh).vol
+  /// (the discretization's, never a second copy of shape functions).
+  Eigen::VectorXd cell_volume;
+  /// false: `path` is left as it is (an existing file stays) until the first append(); the mesh
+  /// is committed together with the first step.
+  bool commit = true;
 };
 
 /// A step read back from a file (for resuming, and for tests).
@@ -128,34 +138,21 @@ struct StoredStep {
 
 class ResultsFile {
  public:
-  /// Creates `path` (truncating it), writing the root attributes and the mesh. `contact_facets`
-  /// is the contact boundary's facets (may be null) with the contact points' centres and areas
-  /// (each may be null). The contact points are the facets, or with `contact_nodes` (nodal
-  /// contact, written as /mesh/contact_nodes) those nodes, in that order. `contact_centre` is dim x
-  /// #facets (the layout of FacetOperators::centre); #facets x dim is accepted too when the shape
-  /// is not square. Supported cells: six-node P2 triangles (2-D), eight-node hexahedra and
-  /// ten-node P2 tetrahedra (3-D).
-  /// /mesh/cell_volume is `cell_volume` (the solver's CellOperators::vol), or when null
-  /// cell_operators(mesh).vol: the discretization's, never a second copy of shape functions.
-  /// With `commit` false, `path` is left as it is (an existing file stays) until the first
-  /// append(): the mesh is committed together with the first step.
+  /// Creates `path` (replacing it), writing the root attributes, the mesh and, with
+  /// options.contact.facets, the contact surface. Supported cells: six-node P2 triangles (2-D),
+  /// eight-node hexahedra and ten-node P2 tetrahedra (3-D).
   static ResultsFile create(const std::string& path, const Mesh& mesh, const RunInfo& info,
-                            const Mesh::Boundary* contact_facets = nullptr,
-                            const Eigen::MatrixXd* contact_centre = nullptr,
-                            const Eigen::VectorXd* contact_area = nullptr,
-                            const std::vector<int>* contact_nodes = nullptr, bool commit = true,
-                            const Eigen::VectorXd* cell_volume = nullptr);
+                            const ResultsOptions& options = {});
   /// Opens an existing file to append further steps (resume).
   static ResultsFile open(const std::string& path);
 
   ResultsFile(ResultsFile&&) noexcept;
   ResultsFile& operator=(ResultsFile&&) noexcept;
-  ~ResultsFile();  ///< closes the file and rewrites the XDMF file beside it
+  ~ResultsFile();  ///< drops a change not committed (an error in the middle of a step)
 
-  /// Appends one step, flushes it to disk and rewrites the XDMF file. `state` is required;
-  /// without `report` the step has no history and 0 iterations. P, sigma, pressure,
-  /// contact_pressure, gap are written when non-empty (wrong sizes are an Error). Storing a p
-  /// that is already in the file is an Error.
+  /// Appends one step, commits it to disk and rewrites the XDMF files. `state` is required;
+  /// without `report` the step has no history and 0 iterations. Storing a p that is already in
+  /// the file is an Error. Costs about twice the step's bytes on disk (lib/results_commit.hpp).
   /// With a non-empty `status`, the root attribute "status" is set in the same commit.
   void append(const StepData& step, const std::string& status = "");
   /// Saves the last iterate and the iteration history of step `step.p`, which did not converge,
@@ -176,23 +173,13 @@ class ResultsFile {
 
  private:
   ResultsFile() = default;
-  std::string xdmf_text(bool contact) const;  ///< from the open working file ("" if none)
-  void write_xdmf(const std::string& xdmf, const std::string& text) const;  ///< atomically
-  void check_step(const StepData& step) const;
-  void write_step(const std::string& group, const StepData& step, bool converged);
-  void begin();             ///< opens the working file (a copy of path) if it is not open
-  void commit();            ///< closes, syncs and renames the working file onto path
-  void discard() noexcept;  ///< closes and removes an uncommitted working file
-  void close() noexcept;    ///< discards uncommitted changes
-  long long file_ = -1;     ///< hid_t of the working file while a change is being made
-  std::string path_, work_;
+  void commit();  ///< commits the change and rewrites the XDMF files
+  std::string path_;
+  std::unique_ptr<CommittedFile> file_;
+  std::string xdmf_, contact_xdmf_;  ///< the XDMF texts written last
   int dim_ = 0;
-  int num_nodes_ = 0, num_cells_ = 0, num_facets_ = 0;
+  int num_nodes_ = 0, num_cells_ = 0, num_points_ = 0;
   bool contact_ = false;  ///< the file has /mesh/contact_facets
 };
-
-/// Versions of the libraries in use, as attributes: keys "eigen", "cholmod" (compile time),
-/// "hdf5" (run time), "gmsh" (compile time), values like "3.4.0".
-std::map<std::string, std::string> library_versions();
 
 }  // namespace ltl

@@ -56,8 +56,8 @@ std::string divergence_hint(const Problem& problem, double factor, const TimeSte
 }
 
 /// What is written for a step: the state, its report (history, equilibrium measure) and the
-/// stresses. Plane strain: the out-of-plane stress sigma33 from the law (F33 = 1) and the
-/// mean stress -(sigma11 + sigma22 + sigma33) / 3.
+/// fields computed from it (the Derived rows of lib/results_fields.hpp): the stresses, one
+/// definition each (Discretization::stresses), the contact pressure and gap.
 StepData step_data(const Solver& solver, const TimeStep& step) {
   const Problem& problem = solver.problem();
   const State& state = *step.state;
@@ -66,21 +66,15 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   d.t = step.p * problem.time.dt;
   d.state = &state;
   d.report = &step.report;
-  d.P = solver.discretization().piola(state);
-  d.sigma = solver.discretization().cauchy(state);
-  d.pressure = solver.discretization().pressure(state);
-  const int nc = problem.mesh.num_cells();
-  if (problem.mesh.dim == 2 && state.E.rows() == 2 * nc) {
-    d.sigma33.resize(nc);
-    for (int c = 0; c < nc; ++c) {
-      const Eigen::Matrix2d E = state.E.block<2, 2>(2 * c, 0).transpose();
-      const Eigen::Matrix2d Pc = d.P.block<2, 2>(2 * c, 0).transpose();
-      d.sigma33(c) = problem.material.plane_strain_sigma33(E, Pc);
-      d.pressure(c) = -(d.sigma.block<2, 2>(2 * c, 0).trace() + d.sigma33(c)) / 3;
-    }
+  Discretization::Stresses stress = solver.discretization().stresses(state);
+  d.fields["P"] = std::move(stress.P);
+  d.fields["sigma"] = std::move(stress.sigma);
+  if (stress.sigma33.size()) d.fields["sigma33"] = stress.sigma33;
+  d.fields["pressure"] = stress.pressure;
+  if (solver.discretization().facets()) {
+    d.fields["contact_pressure"] = solver.discretization().contact_pressure(state);
+    d.fields["gap"] = solver.discretization().contact_gap(state);
   }
-  d.contact_pressure = solver.discretization().contact_pressure(state);
-  d.gap = solver.discretization().contact_gap(state);
   // Every measure of the step (lib/measures.hpp), one definition each.
   const StepMeasures m = step_measures(solver, state);
   d.measures = stored_measures(m, problem.mesh.dim);
@@ -99,8 +93,8 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
                         "load factor of the step ([load] ramp): multiplies the body force, the "
                         "tractions and the prescribed displacements"});
   const SupportReactions r = support_reactions(solver, state);
-  d.reactions = r.force;
-  d.support_u = r.u;
+  d.fields["reactions"] = r.force;
+  d.fields["support_u"] = r.u;
   d.conditions = joined_labels(r);
   return d;
 }
@@ -343,13 +337,16 @@ void ResultsWriter::append(const TimeStep& step) {
     for (const auto& [key, value] : ids_) info.attributes[key] = value;
     info.attributes["code_version"] = code_version();
     info.attributes["git_version"] = git_version();
-    const Mesh::Boundary* cb =
-        problem.contact ? &problem.mesh.boundary(problem.contact->group) : nullptr;
-    const FacetOperators* points = solver.discretization().facets();
-    return ResultsFile::create(output, problem.mesh, info, cb, points ? &points->centre : nullptr,
-                               points ? &points->area : nullptr,
-                               points && !points->nodes.empty() ? &points->nodes : nullptr, false,
-                               &solver.discretization().cells().vol);
+    ResultsOptions options;
+    options.commit = false;
+    options.cell_volume = solver.discretization().cells().vol;
+    if (problem.contact) options.contact.facets = &problem.mesh.boundary(problem.contact->group);
+    if (const FacetOperators* points = solver.discretization().facets()) {
+      options.contact.centre = points->centre;
+      options.contact.area = points->area;
+      options.contact.nodes = points->nodes;
+    }
+    return ResultsFile::create(output, problem.mesh, info, options);
   };
   for (const StepAttempt& a : step.attempts) summary_.solver_seconds += a.seconds;
   if (step.attempts.empty())

@@ -163,6 +163,37 @@ TEST(Output, PlanarTensionRunWritesTheTrueSigma33UnitsAndMeasures) {
   fs::remove_all(dir);
 }
 
+// [LTL87 (1.5)] One set of stresses and one pressure (Discretization::stresses): planar tension
+// F = diag(l, 1/l, 1) with sigma22 = 0 has sigma11 = P11 l = 2 (l^2 - l^-2)(C1 + C2) and the
+// closed-form sigma33, so the pressure is -(sigma11 + sigma33) / 3, the mean of the
+// three-dimensional stress (not the in-plane mean); in 3-D the pressure is -tr(sigma) / 3 and
+// there is no sigma33.
+TEST(Stresses, Eq1_5_OnePressureTheMeanOfTheThreeDimensionalStress) {
+  const double l = 1.5;
+  const auto r = ltl::testing::solve_one_step(ltl::testing::planar_tension(l, kC1, kC2));
+  const Discretization::Stresses st = r.solver->discretization().stresses(r.s);
+  const double sigma11 = 2 * (l * l - 1 / (l * l)) * (kC1 + kC2);
+  const double p = -(sigma11 + planar_sigma33(l)) / 3;
+  const int nc = r.solver->discretization().num_cells();
+  ASSERT_EQ(st.pressure.size(), nc);
+  ASSERT_EQ(st.sigma33.size(), nc);
+  EXPECT_EQ((st.P - r.solver->discretization().piola(r.s)).norm(), 0.0);
+  for (int c = 0; c < nc; ++c) {
+    EXPECT_NEAR(st.sigma(2 * c, 0), sigma11, 1e-5 * sigma11) << "cell " << c;
+    EXPECT_NEAR(st.sigma33(c), planar_sigma33(l), 1e-5 * sigma11) << "cell " << c;
+    EXPECT_NEAR(st.pressure(c), p, 1e-5 * sigma11) << "cell " << c;
+  }
+  const Mesh box = ltl::testing::distorted_box(2);
+  const auto b = ltl::testing::homogeneous_3d(box, Material::mooney_rivlin(kC1, kC2),
+                                              Eigen::Vector3d(1.2, 1 / 1.2, 1.0).asDiagonal());
+  const Discretization::Stresses st3 = b.solver->discretization().stresses(b.s);
+  EXPECT_EQ(st3.sigma33.size(), 0);
+  for (int c = 0; c < box.num_cells(); ++c) {
+    const double trace = st3.sigma.block(3 * c, 0, 3, 3).trace();
+    EXPECT_NEAR(st3.pressure(c), -trace / 3, 1e-12 * st3.sigma.norm());
+  }
+}
+
 TEST(Output, ADivergedStepIsSavedApartAsUnconverged) {
   const fs::path dir = ltl::testing::temp_dir("output_unconverged");
   const std::string out = (dir / "cap.h5").string();

@@ -170,15 +170,18 @@ Step make_step(const Mesh& m, int nf, int p) {
   s.report = make_report(p);
   s.data.p = p;
   s.data.t = 0.5 * p;
-  s.data.P = tensor_field(p, 2, m.num_cells(), m.dim);
-  s.data.sigma = tensor_field(p, 3, m.num_cells(), m.dim);
-  s.data.pressure.resize(m.num_cells());
-  for (int c = 0; c < m.num_cells(); ++c) s.data.pressure(c) = p + c + 0.75;
-  s.data.contact_pressure.resize(nf);
-  s.data.gap.resize(nf);
+  s.data.fields["P"] = tensor_field(p, 2, m.num_cells(), m.dim);
+  s.data.fields["sigma"] = tensor_field(p, 3, m.num_cells(), m.dim);
+  Eigen::VectorXd pressure(m.num_cells()), contact_pressure(nf), gap(nf);
+  for (int c = 0; c < m.num_cells(); ++c) pressure(c) = p + c + 0.75;
   for (int f = 0; f < nf; ++f) {
-    s.data.contact_pressure(f) = 2.0 * p + f;
-    s.data.gap(f) = -f - 0.5 * p;
+    contact_pressure(f) = 2.0 * p + f;
+    gap(f) = -f - 0.5 * p;
+  }
+  s.data.fields["pressure"] = pressure;
+  if (nf > 0) {
+    s.data.fields["contact_pressure"] = contact_pressure;
+    s.data.fields["gap"] = gap;
   }
   return s;
 }
@@ -198,6 +201,16 @@ Eigen::MatrixXd centres(int dim, int nf) {
   return c;
 }
 
+/// Options of a file with the contact surface m.boundaries[0] (and its centres and areas).
+ResultsOptions contact_options(const Mesh& m, const Eigen::MatrixXd& centre = {},
+                               const Eigen::VectorXd& area = {}) {
+  ResultsOptions o;
+  o.contact.facets = &m.boundaries[0];
+  o.contact.centre = centre;
+  o.contact.area = area;
+  return o;
+}
+
 RunInfo run_info() {
   RunInfo info;
   info.name = "unit";
@@ -212,7 +225,7 @@ void write_2d(const std::string& path, int n) {
   const Mesh m = mesh2d();
   const Eigen::MatrixXd c = centres(2, 3);
   const Eigen::VectorXd area = Eigen::Vector3d(1.25, 1.5, 1.75);
-  ResultsFile r = ResultsFile::create(path, m, run_info(), &m.boundaries[0], &c, &area);
+  ResultsFile r = ResultsFile::create(path, m, run_info(), contact_options(m, c, area));
   for (int p = 1; p <= n; ++p) append_step(r, m, 3, p);
 }
 
@@ -652,7 +665,7 @@ TEST_F(ResultsTest, KilledWriterKeepsStepsAndResumeMatchesUninterruptedRun) {
       const Eigen::MatrixXd c = centres(2, 3);
       const Eigen::VectorXd area = Eigen::Vector3d(1.25, 1.5, 1.75);
       auto* r =
-          new ResultsFile(ResultsFile::create(killed, m, run_info(), &m.boundaries[0], &c, &area));
+          new ResultsFile(ResultsFile::create(killed, m, run_info(), contact_options(m, c, area)));
       append_step(*r, m, 3, 1);
       append_step(*r, m, 3, 2);
     } catch (...) {
@@ -699,7 +712,7 @@ TEST_F(ResultsTest, KilledWriterKeepsStepsAndResumeMatchesUninterruptedRun) {
 TEST_F(ResultsTest, FlushedStepsAreReadableWhileTheWriterIsOpen) {
   const std::string path = file("open.h5");
   const Mesh m = mesh2d();
-  ResultsFile r = ResultsFile::create(path, m, run_info(), &m.boundaries[0]);
+  ResultsFile r = ResultsFile::create(path, m, run_info(), contact_options(m));
   EXPECT_FALSE(ResultsFile::read_last_step(path));  // a results file with no step yet
   append_step(r, m, 3, 1);
   append_step(r, m, 3, 2);
@@ -837,7 +850,7 @@ TEST_F(ResultsTest, ClearErrorsNamingTheFile) {
   // Wrong sizes and duplicate steps when appending.
   {
     const Mesh m = mesh2d();
-    ResultsFile r = ResultsFile::create(file("sizes.h5"), m, run_info(), &m.boundaries[0]);
+    ResultsFile r = ResultsFile::create(file("sizes.h5"), m, run_info(), contact_options(m));
     Step s = make_step(m, 3, 1);
     s.data.state = &s.state;
     s.state.u.conservativeResize(8, 2);

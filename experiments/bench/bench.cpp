@@ -11,6 +11,7 @@
 //             2 sweeps x 8 bytes x nnz(L) / (read bandwidth of this machine),
 //           the bandwidth being measured here by a STREAM-like loop; Table 5 compares our
 //           supernodal sweeps with CHOLMOD's supernodal and simplicial solves on the same factor.
+//           Table 6: the bytes written to append a step to a results file of each case.
 //           Discussion of the numbers: paper_notes/performance.md.
 //
 // Run:      make bench               (all sizes up to 2e5 cells, ~5 min on 2 cores, 5.5 GB peak)
@@ -41,6 +42,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -52,6 +54,8 @@
 #include "alg2.hpp"
 #include "config.hpp"
 #include "global_step.hpp"
+#include "results.hpp"
+#include "results_commit.hpp"
 
 namespace {
 
@@ -321,6 +325,49 @@ void solve_variants(const ltl::Solver& solver, std::map<std::string, double>& ou
   }
 }
 
+/// The bytes written (lib/results_commit.hpp's count) to append a step of state `s` (its stresses,
+/// contact pressure and gap) to a results file of this problem: the mean over steps 2..4 (step 1
+/// carries the mesh); and the size of the 4-step file.
+std::pair<double, double> write_cost(const ltl::Solver& solver, const ltl::State& s) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("ltl_bench_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string path = (dir / "bench.h5").string();
+  const ltl::Problem& pb = solver.problem();
+  const ltl::Discretization& d = solver.discretization();
+  ltl::ResultsOptions options;
+  options.cell_volume = d.cells().vol;
+  if (pb.contact) options.contact.facets = &pb.mesh.boundary(pb.contact->group);
+  if (d.facets()) {
+    options.contact.centre = d.facets()->centre;
+    options.contact.area = d.facets()->area;
+    options.contact.nodes = d.facets()->nodes;
+  }
+  ltl::RunInfo info;
+  info.name = pb.name;
+  double bytes = 0;
+  {
+    ltl::ResultsFile file = ltl::ResultsFile::create(path, pb.mesh, info, options);
+    const ltl::Discretization::Stresses stress = d.stresses(s);
+    ltl::StepData step;
+    step.state = &s;
+    step.fields = {{"P", stress.P}, {"sigma", stress.sigma}, {"pressure", stress.pressure}};
+    if (stress.sigma33.size()) step.fields["sigma33"] = stress.sigma33;
+    if (d.facets()) {
+      step.fields["contact_pressure"] = d.contact_pressure(s);
+      step.fields["gap"] = d.contact_gap(s);
+    }
+    for (step.p = 1; step.p <= 4; ++step.p) {
+      const std::uint64_t before = ltl::bytes_committed();
+      file.append(step);
+      if (step.p > 1) bytes += static_cast<double>(ltl::bytes_committed() - before) / 3;
+    }
+  }
+  const double size = static_cast<double>(fs::file_size(path));
+  fs::remove_all(dir);
+  return {bytes, size};
+}
+
 int run_case(const Case& c, int iters, int warm) {
   std::map<std::string, std::string> out;
   auto put = [&](const std::string& k, double v) {
@@ -412,6 +459,9 @@ int run_case(const Case& c, int iters, int warm) {
   put("strain_alone_ns", solver.dim() == 2 ? strain_standalone<2>(solver, s, failures)
                                            : strain_standalone<3>(solver, s, failures));
   put("strain_alone_failures", failures);
+  const auto [step_bytes, file_bytes] = write_cost(solver, s);
+  put("write_step", step_bytes);
+  put("write_file", file_bytes);
   put("load1", std::atof(loadavg().c_str()));
   std::printf("RESULT name=%s kind=%s", c.name.c_str(), c.kind.c_str());
   for (const auto& [k, v] : out) std::printf(" %s=%s", k.c_str(), v.c_str());
@@ -607,6 +657,18 @@ int main(int argc, char** argv) {
                 num(r, "nnzL"), num(r, "sv_entries"), floor, num(r, "sv_ours"),
                 num(r, "sv_ours") / floor, num(r, "sv_cholsup"), num(r, "sv_simplicial"));
   }
+  std::printf(
+      "\nTable 6. Results file: bytes written per step appended (lib/results_commit.hpp: the "
+      "journal, then the file in place; about twice the step), mean of steps 2..4 of a 4-step "
+      "file\n");
+  std::printf("%-13s %8s %14s %14s %9s\n", "case", "cells", "file (4 steps)",
+              "bytes written "
+              "per step",
+              "x file/4");
+  for (const auto& r : rows)
+    std::printf("%-13s %8.0f %14.0f %14.0f %9.2f\n", r.at("name").c_str(), num(r, "cells"),
+                num(r, "write_file"), num(r, "write_step"),
+                num(r, "write_step") / (num(r, "write_file") / 4));
   std::printf("\nload average at end: %s\n", loadavg().c_str());
   return 0;
 }

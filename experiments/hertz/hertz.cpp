@@ -140,8 +140,8 @@ void write(const SignoriniSolver& solver, const SignoriniSolution& sol, const Da
   step.t = 0;
   step.state = &s;
   step.report = &sol.report;
-  step.contact_pressure = sol.p;
-  step.gap = sol.gap;
+  step.fields["contact_pressure"] = sol.p;
+  step.fields["gap"] = sol.gap;
   RunInfo info;
   info.name = "signorini";
   info.config_text =
@@ -150,9 +150,13 @@ void write(const SignoriniSolver& solver, const SignoriniSolution& sol, const Da
           ", rho = ", pb.algorithm.rho);
   info.attributes = library_versions();
   std::filesystem::create_directories(dir);
-  ResultsFile f = ResultsFile::create(
-      dir + (uzawa ? "/signorini-uzawa.h5" : "/signorini-bermudez-moreno.h5"), pb.mesh, info,
-      &pb.mesh.boundary(pb.contact_group), &solver.facets().centre, &solver.facets().area);
+  ResultsOptions options;
+  options.contact.facets = &pb.mesh.boundary(pb.contact_group);
+  options.contact.centre = solver.facets().centre;
+  options.contact.area = solver.facets().area;
+  ResultsFile f =
+      ResultsFile::create(dir + (uzawa ? "/signorini-uzawa.h5" : "/signorini-bermudez-moreno.h5"),
+                          pb.mesh, info, options);
   f.append(step);
   f.set_status(sol.report.converged ? "complete" : "diverged: " + sol.report.status);
 }
