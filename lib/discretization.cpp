@@ -263,7 +263,7 @@ Eigen::VectorXd Discretization::pressure(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  return ltl::contact_pressure(problem_, s);  // one definition, lib/measures.cpp
+  return ltl::contact_pressure(problem_, s, facets());  // one definition, lib/measures.cpp
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {
