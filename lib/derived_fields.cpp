@@ -44,7 +44,8 @@ DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volum
   }
   for (int n = 0; n < nn; ++n) {
     if (weight(n) > 0) out.sigma_node.row(n) /= weight(n);
-    const Eigen::Matrix3d S = Eigen::Map<const Eigen::Matrix3d>(out.sigma_node.row(n).data());
+    const Eigen::Matrix<double, 1, 9> row = out.sigma_node.row(n);            // row-major 3x3
+    const Eigen::Matrix3d S = Eigen::Map<const Eigen::Matrix3d>(row.data());  // = sigma^T
     out.von_mises_node(n) = von_mises(S.transpose());
   }
   return out;

@@ -382,7 +382,24 @@ std::pair<std::string, std::string> dataset_meta(const std::string& path, int di
         "the contact facets as indices into the contact points (nodal contact): the topology of "
         "the contact-surface XDMF grid"}},
       {"u", {"m", "m", "displacement of the nodes (#nodes, dim)"}},
-      {"E", {"1", "1", "strain E of each cell (the paper's F, (2.7)); [c][i][j] = E_c(i, j)"}},
+      {"E",
+       {"1", "1",
+        "deformation gradient F = I + grad u of each cell, the paper's strain unknown F of "
+        "(2.7) (named E in the code; the XDMF shows it as F too); [c][i][j] = F_c(i, j)"}},
+      {"detF", {"1", "1", "det F of each cell (lib/derived_fields.hpp)"}},
+      {"stretches",
+       {"1", "1",
+        "principal stretches of each cell, the singular values of F, decreasing (#cells, 3; "
+        "plane strain: with F33 = 1)"}},
+      {"von_mises",
+       {"Pa", "Pa",
+        "von Mises stress sqrt(3/2 s : s) of each cell, s the deviator of sigma "
+        "(with sigma33 in plane strain)"}},
+      {"sigma_node",
+       {"Pa", "Pa",
+        "Cauchy stress recovered at the nodes: volume-weighted mean of the stresses of the "
+        "cells around each node (#nodes, 3, 3; with sigma33 in plane strain)"}},
+      {"von_mises_node", {"Pa", "Pa", "von Mises stress of sigma_node at each node"}},
       {"lambda",
        {"Pa", "Pa", "multiplier of I + grad u = E of each cell (a first Piola-Kirchhoff stress)"}},
       {"P", {"Pa", "Pa", "first Piola-Kirchhoff stress of each cell, P = 2 C1 E - lambda"}},
@@ -1060,6 +1077,13 @@ void ResultsFile::write_step(const std::string& g, const StepData& step, bool co
   }
   if (step.contact_pressure.size()) put("contact_pressure", {un(nf)}, vec(step.contact_pressure));
   if (step.gap.size()) put("gap", {un(nf)}, vec(step.gap));
+  if (const DerivedFields& df = step.derived; df.detF.size() == nc) {  // derived_fields.hpp
+    put("detF", {un(nc)}, vec(df.detF));
+    put("stretches", {un(nc), 3}, rows_of(df.stretches));
+    put("von_mises", {un(nc)}, vec(df.von_mises));
+    put("sigma_node", {un(nn), 3, 3}, rows_of(df.sigma_node));
+    put("von_mises_node", {un(nn)}, vec(df.von_mises_node));
+  }
   if (!step.measures.empty() || step.in_contact.size()) {
     // The step's measures (lib/measures.hpp): scalar datasets with the unit and description
     // given by the measures module, and the contact set per contact point.
@@ -1283,6 +1307,16 @@ std::string ResultsFile::xdmf_text(bool contact) const {
         if (has(g + "/" + S)) attribute(S, "Scalar", "Cell", cat(nc), g + "/" + S);
       for (const char* T : {"E", "P", "sigma"})
         if (has(v + "/" + T)) attribute(T, "Tensor", "Cell", cat(nc, " 3 3"), v + "/" + T);
+      // the deformation gradient under its name F (the dataset keeps the code's name E)
+      if (has(v + "/E")) attribute("F", "Tensor", "Cell", cat(nc, " 3 3"), v + "/E");
+      for (const char* S : {"detF", "von_mises"})
+        if (has(g + "/" + S)) attribute(S, "Scalar", "Cell", cat(nc), g + "/" + S);
+      if (has(g + "/stretches"))
+        attribute("stretches", "Vector", "Cell", cat(nc, " 3"), g + "/stretches");
+      if (has(g + "/sigma_node"))
+        attribute("sigma_node", "Tensor", "Node", cat(nn, " 3 3"), g + "/sigma_node");
+      if (has(g + "/von_mises_node"))
+        attribute("von_mises_node", "Scalar", "Node", cat(nn), g + "/von_mises_node");
     } else {
       for (const char* S : {"beta", "contact_pressure", "gap"})
         if (has(g + "/" + S)) attribute(S, "Scalar", at, cat(nf), g + "/" + S);

@@ -56,6 +56,7 @@
 #include <string>
 #include <vector>
 
+#include "derived_fields.hpp"
 #include "mesh.hpp"
 #include "problem.hpp"
 #include "state.hpp"
@@ -110,6 +111,7 @@ struct StepData {
   Eigen::VectorXd contact_pressure, gap;  ///< #facets (empty without contact)
   std::vector<StoredMeasure> measures;    ///< /steps/N/measures (none: no group)
   Eigen::VectorXi in_contact;             ///< #facets, 1 in the contact set (may be empty)
+  DerivedFields derived;  ///< det F, stretches, von Mises, nodal stresses (each may be empty)
 };
 
 /// A step read back from a file (for resuming, and for tests).

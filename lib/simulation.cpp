@@ -78,6 +78,9 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
       d.pressure(c) = -(d.sigma.block<2, 2>(2 * c, 0).trace() + d.sigma33(c)) / 3;
     }
   }
+  if (state.E.rows() == problem.mesh.dim * nc)  // lib/derived_fields.hpp
+    d.derived = derived_fields(problem.mesh, solver.discretization().cells().vol, state.E, d.sigma,
+                               d.sigma33);
   d.contact_pressure = solver.discretization().contact_pressure(state);
   d.gap = solver.discretization().contact_gap(state);
   // Every measure of the step (lib/measures.hpp), one definition each.
