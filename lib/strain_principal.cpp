@@ -103,8 +103,9 @@ bool minimize_reduced(const ReducedPrincipal<M>& p, Eigen::Vector3d& t) {
   bool found = false;
   double best = kInf;
   for (Vec<M>& s : starts) {
-    double mag;
-    if (!(p.value(s, mag) < kInf)) continue;  // outside the domain (Gent)
+    double mag;  // a start outside the domain (Gent) is moved towards the identity, inside
+    for (int k = 0; k < 60 && !(p.value(s, mag) < kInf); ++k) s *= 0.5;
+    if (!(p.value(s, mag) < kInf)) continue;
     const NewtonResult r = newton<M>(p, s);
     if (r.converged && r.f < best) {
       best = r.f;
