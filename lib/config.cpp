@@ -540,8 +540,27 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     p.material.model = MaterialModel::Compressible;
     p.material.C1 = mat.quantity("C1", "Pa");
     p.material.C3 = mat.quantity("C3", "Pa");
+  } else if (model == "ogden") {  // paper_notes/materials.md
+    mat.only({"model", "mu", "alpha"});
+    const toml::array* mu = mat.node("mu") ? mat.node("mu")->as_array() : nullptr;
+    const toml::array* alpha = mat.node("alpha") ? mat.node("alpha")->as_array() : nullptr;
+    if (!mu || mu->empty()) mat.fail("mu", "expected a list of moduli mu_p (Pa), one per term");
+    if (!alpha || alpha->size() != mu->size())
+      mat.fail("alpha", cat("expected a list of ", mu->size(), " exponents alpha_p, one per mu_p"));
+    std::vector<OgdenTerm> terms(mu->size());
+    for (std::size_t i = 0; i < mu->size(); ++i) {
+      terms[i].mu = mat.quantity_of(*mu->get(i), "mu", "Pa");
+      const auto a = alpha->get(i)->value<double>();
+      if (!a) mat.fail("alpha", "expected numbers", alpha->get(i));
+      terms[i].alpha = mat.real("alpha", *a, alpha->get(i));
+    }
+    p.material = Material::ogden_law(terms);
+  } else if (model == "gent") {  // paper_notes/materials.md
+    mat.only({"model", "mu", "Jm"});
+    p.material = Material::gent(mat.quantity("mu", "Pa"), mat.number("Jm", 0.0));
+    if (!mat.has("Jm")) mat.fail("Jm", "missing value (the locking parameter, dimensionless)");
   } else {
-    mat.fail("model", "expected \"mooney-rivlin\" or \"compressible\"");
+    mat.fail("model", "expected \"mooney-rivlin\", \"compressible\", \"ogden\" or \"gent\"");
   }
 
   // Boundary conditions.

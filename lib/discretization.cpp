@@ -37,7 +37,9 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
   // Mean-det incompressibility (DiscretizationChoice::mean_det): the point gradients at the
   // cell quadrature points (triangles: degree 4, exact for det(delta), quadratic on affine P2
   // triangles; hexahedra: the 2x2x2 Gauss rule of mean dilatation).
-  mean_det_ = problem_.discretization.mean_det && split_.incompressible() && split_.C2 == 0;
+  // (Not for Ogden, Gent: their local energy is not homogeneous of degree 2.)
+  mean_det_ = problem_.discretization.mean_det && split_.model == MaterialModel::MooneyRivlin &&
+              split_.C2 == 0;
   if (mean_det_) {
     std::vector<Eigen::Triplet<double>> g, gt;
     std::vector<double> w;
@@ -275,7 +277,7 @@ Discretization::Stresses Discretization::stresses(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  return ltl::contact_pressure(problem_, s);  // one definition, lib/measures.cpp
+  return ltl::contact_pressure(problem_, s, facets());  // one definition, lib/measures.cpp
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {

@@ -4,13 +4,16 @@
 #include <cmath>
 
 #include "admissibility.hpp"
+#include "derived_fields.hpp"
 #include "error.hpp"
 
 namespace ltl {
 
-Eigen::VectorXd contact_pressure(const Problem& pb, const State& s) {
+Eigen::VectorXd contact_pressure(const Problem& pb, const State& s, const FacetOperators* points) {
   if (!pb.contact) return Eigen::VectorXd(0);
-  return -(s.lambda_c.transpose() * pb.contact->plane_normal.head(pb.mesh.dim));
+  const Eigen::VectorXd p = -(s.lambda_c.transpose() * pb.contact->plane_normal.head(pb.mesh.dim));
+  if (!points || points->nodes.empty()) return p;
+  return consistent_nodal_pressure(pb.mesh, pb.mesh.boundary(pb.contact->group), *points, p);
 }
 
 Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
@@ -27,15 +30,16 @@ ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points
   const int dim = pb.mesh.dim;
   const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
   const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
-  const Eigen::MatrixXd x = pb.mesh.X + s.u;          // deformed nodes
-  const Eigen::MatrixXd xp = points.mean * x;         // deformed contact points
-  const Eigen::VectorXd p = contact_pressure(pb, s);  // nominal contact pressure
+  const Eigen::MatrixXd x = pb.mesh.X + s.u;                   // deformed nodes
+  const Eigen::MatrixXd xp = points.mean * x;                  // deformed contact points
+  const Eigen::VectorXd p = contact_pressure(pb, s, &points);  // nominal contact pressure
+  const Eigen::VectorXd f = points.area.cwiseProduct(contact_pressure(pb, s));  // point forces
   const Eigen::VectorXi in = contact_set(p);
   m.points = points.size();
   m.p_max = p.size() ? p.maxCoeff() : 0.0;
   double M0 = 0, M2 = 0;
   for (int i = 0; i < points.size(); ++i) {
-    m.force += points.area(i) * p(i);
+    m.force += f(i);
     if (!in(i)) continue;
     ++m.in_contact;
     m.area += points.area(i);
@@ -86,7 +90,7 @@ StepMeasures step_measures(const Problem& pb, const FacetOperators* points, cons
   m.max_displacement = s.u.size() ? s.u.rowwise().norm().maxCoeff() : 0.0;
   if (!pb.contact || !points) return m;
   m.contact = contact_measures(pb, *points, s, axis);
-  m.in_contact = contact_set(contact_pressure(pb, s));
+  m.in_contact = contact_set(contact_pressure(pb, s, points));
   if (pb.contact->adhesion.kappa > 0 && s.beta.size() == points->size() && points->size() > 0)
     m.peel = peel_measures(pb, *points, s, axis);
   return m;

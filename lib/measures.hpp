@@ -45,7 +45,10 @@ inline constexpr double kDebondedBeta = 0.5;
 inline constexpr double kDamagedBeta = 0.9;
 
 /// The nominal contact pressure p_i = -lambda_c_i . N of each contact point (Pa; > 0: pressed).
-Eigen::VectorXd contact_pressure(const Problem& problem, const State& s);
+/// With the contact points `points` of a nodal contact on P2 triangle faces, the consistent nodal
+/// pressure of the forces w_i p_i (derived_fields.hpp: consistent_nodal_pressure).
+Eigen::VectorXd contact_pressure(const Problem& problem, const State& s,
+                                 const FacetOperators* points = nullptr);
 /// The contact set: 1 at the points with p_i > kContactThreshold * max_i p_i, else 0.
 Eigen::VectorXi contact_set(const Eigen::VectorXd& p);
 

@@ -145,6 +145,15 @@ void Problem::validate() const {
           cat("= ", material.C2, " Pa: must be >= 0"));
   require(std::isfinite(material.C3) && material.C3 >= 0, "material.C3",
           cat("= ", material.C3, " Pa: must be >= 0"));
+  // Ogden, Gent (paper_notes/materials.md): each term stable (mu_p alpha_p > 0), J_m > 0.
+  for (std::size_t i = 0; i < material.ogden.size(); ++i)
+    require(material.ogden[i].alpha != 0 && material.ogden[i].mu * material.ogden[i].alpha > 0,
+            cat("material.mu[", i, "], material.alpha[", i, "]"),
+            cat("= ", material.ogden[i].mu, " Pa, ", material.ogden[i].alpha,
+                ": each Ogden term needs alpha_p != 0 and mu_p alpha_p > 0"));
+  if (material.model == MaterialModel::Gent)
+    require(std::isfinite(material.Jm) && material.Jm > 0, "material.Jm",
+            cat("= ", material.Jm, ": must be > 0"));
   // Algorithm [LTL87 (3.2)-(3.3), (4.3), (7.10)].
   const AlgorithmParams& a = algorithm;
   require(std::isfinite(a.R) && a.R > 0, "algorithm.R", cat("= ", a.R, ": must be > 0"));

@@ -56,9 +56,24 @@ std::string resolved_configuration(const Problem& p) {
     << "geometry = " << toml_string(p.mesh.source) << "\n"
     << "dim = " << d << "\nnodes = " << p.mesh.num_nodes() << "\ncells = " << p.mesh.num_cells()
     << "\nnodes_per_cell = " << p.mesh.nodes_per_cell() << "\n\n[material]\n"
-    << "model = " << (p.material.incompressible() ? "\"mooney-rivlin\"" : "\"compressible\"")
-    << "\nC1 = " << toml_real(p.material.C1) << "  # Pa\n";
-  if (p.material.incompressible())
+    << "model = "
+    << (p.material.model == MaterialModel::Ogden  ? "\"ogden\""
+        : p.material.model == MaterialModel::Gent ? "\"gent\""
+        : p.material.incompressible()             ? "\"mooney-rivlin\""
+                                                  : "\"compressible\"")
+    << (p.material.principal() ? "\n# C1 = " : "\nC1 = ") << toml_real(p.material.C1)
+    << (p.material.principal() ? "  # Pa: mu / 2, the split (2.5)\n" : "  # Pa\n");
+  if (p.material.model == MaterialModel::Ogden) {
+    for (const char* k : {"mu", "alpha"}) {
+      o << k << " = [";
+      for (std::size_t i = 0; i < p.material.ogden.size(); ++i)
+        o << (i ? ", " : "")
+          << toml_real(k[0] == 'm' ? p.material.ogden[i].mu : p.material.ogden[i].alpha);
+      o << "]" << (k[0] == 'm' ? "  # Pa" : "") << "\n";
+    }
+  } else if (p.material.model == MaterialModel::Gent) {
+    o << "mu = " << toml_real(p.material.mu) << "  # Pa\nJm = " << toml_real(p.material.Jm) << "\n";
+  } else if (p.material.incompressible())
     o << "C2 = " << toml_real(p.material.C2) << "  # Pa\n";
   else
     o << "C3 = " << toml_real(p.material.C3) << "  # Pa\n";

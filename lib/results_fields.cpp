@@ -25,7 +25,7 @@ namespace {
 // Indexed by the enumerators, in their order.
 constexpr const char* kEntities[] = {"", "#nodes", "#cells", "#points", "", "#conditions"};
 constexpr const char* kLocationNames[] = {"mesh", "node", "cell", "point", "step", "support"};
-constexpr const char* kShapeNames[] = {"scalar", "vector", "tensor", "table"};
+constexpr const char* kShapeNames[] = {"scalar", "vector", "tensor", "table", "vector3", "tensor3"};
 
 const char* entities(Location at) {
   return kEntities[static_cast<int>(at)];
@@ -44,6 +44,10 @@ std::string shape_text(const Field& f) {
       return "(" + n + ")";
     case Shape::Vector:
       return "(" + n + ", dim)";
+    case Shape::Vector3:
+      return "(" + n + ", 3)";
+    case Shape::Tensor3:
+      return "(" + n + ", 3, 3)";
     default:
       return "(" + n + ", dim, dim)";
   }

@@ -22,7 +22,9 @@ namespace ltl {
 enum class Location { Mesh, Node, Cell, Point, Step, Support };
 /// Its shape per entity: one number, dim numbers, dim x dim numbers; Table: a mesh table or the
 /// iteration history, written by their own code.
-enum class Shape { Scalar, Vector, Tensor, Table };
+/// Vector3, Tensor3: 3 and 3 x 3 numbers in 2-D too (plane strain: with the out-of-plane
+/// entries), in the solver's layout #entities x 3 and #entities x 9 (row-major).
+enum class Shape { Scalar, Vector, Tensor, Table, Vector3, Tensor3 };
 /// Who provides it: the solver's State (read back for --resume), a computation at the step
 /// (StepData::fields), or the mesh and bookkeeping code (ResultsFile::create, the history and
 /// the measures' contact set).
@@ -66,7 +68,21 @@ inline constexpr Field kFields[] = {
     {"u", Location::Node, Shape::Vector, Source::State, Pad33::Zero, "m", "m",
      "displacement of the nodes (#nodes, dim)"},
     {"E", Location::Cell, Shape::Tensor, Source::State, Pad33::One, "1", "1",
-     "strain E of each cell (the paper's F, (2.7)); [c][i][j] = E_c(i, j)"},
+     "deformation gradient F = I + grad u of each cell, the paper's strain unknown F of (2.7) "
+     "(named E in the code; the XDMF shows it as F too); [c][i][j] = F_c(i, j)"},
+    {"detF", Location::Cell, Shape::Scalar, Source::Derived, Pad33::Zero, "1", "1",
+     "det F of each cell (lib/derived_fields.hpp)"},
+    {"stretches", Location::Cell, Shape::Vector3, Source::Derived, Pad33::Zero, "1", "1",
+     "principal stretches of each cell, the singular values of F, decreasing (plane strain: "
+     "with F33 = 1)"},
+    {"von_mises", Location::Cell, Shape::Scalar, Source::Derived, Pad33::Zero, "Pa", "Pa",
+     "von Mises stress sqrt(3/2 s : s) of each cell, s the deviator of sigma (with sigma33 in "
+     "plane strain)"},
+    {"sigma_node", Location::Node, Shape::Tensor3, Source::Derived, Pad33::Zero, "Pa", "Pa",
+     "Cauchy stress recovered at the nodes: volume-weighted mean of the stresses of the cells "
+     "around each node (with sigma33 in plane strain)"},
+    {"von_mises_node", Location::Node, Shape::Scalar, Source::Derived, Pad33::Zero, "Pa", "Pa",
+     "von Mises stress of sigma_node at each node"},
     {"lambda", Location::Cell, Shape::Tensor, Source::State, Pad33::None, "Pa", "Pa",
      "multiplier of I + grad u = E of each cell (a first Piola-Kirchhoff stress)"},
     {"P", Location::Cell, Shape::Tensor, Source::Derived, Pad33::DetESigma33, "Pa", "Pa",

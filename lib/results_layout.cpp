@@ -88,6 +88,10 @@ std::pair<Eigen::Index, Eigen::Index> layout_size(const Field& f, int n, int dim
       return {n, 1};
     case Shape::Vector:
       return {n, dim};
+    case Shape::Vector3:
+      return {n, 3};
+    case Shape::Tensor3:
+      return {n, 9};
     default:
       return {static_cast<Eigen::Index>(dim) * n, dim};
   }
@@ -104,6 +108,9 @@ std::vector<double> file_data(const Field& f, const Eigen::MatrixXd& v, int dim,
       w.leftCols(dim) = v;
       return rows_of(w);
     }
+    case Shape::Vector3:
+    case Shape::Tensor3:
+      return rows_of(v);
     default:
       return tensors_of(v, dim, pad);
   }
@@ -116,6 +123,10 @@ std::vector<hsize_t> file_shape(const Field& f, int n, int pad) {
       return {h};
     case Shape::Vector:
       return {h, d};
+    case Shape::Vector3:
+      return {h, 3};
+    case Shape::Tensor3:
+      return {h, 3, 3};
     default:
       return {h, d, d};
   }
@@ -436,7 +447,9 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
     const int count = row.at == Location::Support ? static_cast<int>(v->rows()) : n.count(row.at);
     write_doubles(f, g + "/" + row.name, file_shape(row, count, dim), file_data(row, *v, dim, dim),
                   dim, file);
-    if (!padded || row.xdmf == Pad33::None || row.shape == Shape::Scalar) continue;
+    if (!padded || row.xdmf == Pad33::None || row.shape == Shape::Scalar ||
+        row.shape == Shape::Vector3 || row.shape == Shape::Tensor3)
+      continue;  // scalars and 3-component fields are shown as they are
     std::vector<double> data = file_data(row, *v, dim, 3);
     if (row.shape == Shape::Tensor)
       for (int c = 0; c < nc; ++c) {

@@ -169,7 +169,9 @@ std::string xdmf_text(std::int64_t file_id, const std::string& file, bool contac
       if (row.xdmf == Pad33::None || row.source == Source::Other) continue;
       const bool on_body = row.at == Location::Node || row.at == Location::Cell;
       if (on_body == contact || (!on_body && row.at != Location::Point)) continue;
-      const std::string ds = (row.shape == Shape::Scalar ? g : v) + "/" + row.name;
+      const bool as_is = row.shape == Shape::Scalar || row.shape == Shape::Vector3 ||
+                         row.shape == Shape::Tensor3;  // no 3-component copy
+      const std::string ds = (as_is ? g : v) + "/" + row.name;
       if (!has(ds)) continue;
       const int count = n.count(row.at);
       const char* where = row.at == Location::Node   ? "Node"
@@ -177,10 +179,12 @@ std::string xdmf_text(std::int64_t file_id, const std::string& file, bool contac
                                                      : at;
       if (row.shape == Shape::Scalar)
         attribute(row.name, "Scalar", where, cat(count), ds);
-      else if (row.shape == Shape::Vector)
+      else if (row.shape == Shape::Vector || row.shape == Shape::Vector3)
         attribute(row.name, "Vector", where, cat(count, " 3"), ds);
       else
         attribute(row.name, "Tensor", where, cat(count, " 3 3"), ds);
+      // The deformation gradient also under its name F (the dataset keeps the code's name E).
+      if (std::string(row.name) == "E") attribute("F", "Tensor", where, cat(count, " 3 3"), ds);
     }
     o << "      </Grid>\n";
   }

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "derived_fields.hpp"
 #include "error.hpp"
 #include "hash.hpp"
 #include "measures.hpp"
@@ -71,6 +72,15 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   d.fields["sigma"] = std::move(stress.sigma);
   if (stress.sigma33.size()) d.fields["sigma33"] = stress.sigma33;
   d.fields["pressure"] = stress.pressure;
+  if (state.E.rows() == problem.mesh.dim * problem.mesh.num_cells()) {  // derived_fields.hpp
+    const DerivedFields df = derived_fields(problem.mesh, solver.discretization().cells().vol,
+                                            state.E, d.fields["sigma"], stress.sigma33);
+    d.fields["detF"] = df.detF;
+    d.fields["stretches"] = df.stretches;
+    d.fields["von_mises"] = df.von_mises;
+    d.fields["sigma_node"] = df.sigma_node;
+    d.fields["von_mises_node"] = df.von_mises_node;
+  }
   if (solver.discretization().facets()) {
     d.fields["contact_pressure"] = solver.discretization().contact_pressure(state);
     d.fields["gap"] = solver.discretization().contact_gap(state);

@@ -642,10 +642,12 @@ TEST_F(ResultsTest, XdmfDescribesEveryStep) {
   EXPECT_EQ(count(x, "TopologyType=\"Triangle_6\" NumberOfElements=\"2\""), 3);
   EXPECT_EQ(count(x, "GeometryType=\"XY\""), 3);
   EXPECT_EQ(count(x, "AttributeType=\"Vector\" Center=\"Node\""), 3);
-  EXPECT_EQ(count(x, "AttributeType=\"Tensor\" Center=\"Cell\""), 9);
-  EXPECT_EQ(count(x, "Dimensions=\"9 3\""), 3);    // padded u
-  EXPECT_EQ(count(x, "Dimensions=\"2 3 3\""), 9);  // padded E, P, sigma
+  // E, P, sigma and the deformation gradient E shown as F (derived_fields.hpp)
+  EXPECT_EQ(count(x, "AttributeType=\"Tensor\" Center=\"Cell\""), 12);
+  EXPECT_EQ(count(x, "Dimensions=\"9 3\""), 3);     // padded u
+  EXPECT_EQ(count(x, "Dimensions=\"2 3 3\""), 12);  // padded E (twice: E and F), P, sigma
   EXPECT_EQ(count(x, "<Attribute Name=\"E\""), 3);
+  EXPECT_EQ(count(x, "<Attribute Name=\"F\""), 3);
   EXPECT_EQ(count(x, "Dimensions=\"2 6\" NumberType=\"Int\""), 3);
 }
 

@@ -17,6 +17,7 @@
 #include "alg2.hpp"
 #include "error.hpp"
 #include "fe.hpp"
+#include "measures.hpp"
 #include "testing.hpp"
 
 using namespace ltl;
@@ -338,26 +339,38 @@ void expect_pressed_block(bool nodal) {
   }
   EXPECT_LT(worst_P, 1e-6);
 
-  // Contact pressure: on facets p_s = p; at nodes the force area(a) p_a is the consistent load
-  // of the pressure, p integral phi_a (0 at the vertices, p |G|/3 per adjacent face mid-edge),
-  // i.e. p_a = 0 at vertices and 4 p / 3 at mid-edge nodes with the weights |G|/12, |G|/4.
+  // Contact pressure: a uniform pressure reads uniform, p_s = p, on facets and at the nodes. At
+  // the nodes of the P2 faces the forces area(a) p_a are the consistent load of the pressure,
+  // p integral phi_a (0 at the vertices, p |G|/3 per adjacent face at the mid-edge nodes), and
+  // contact_pressure solves the consistent mass matrix for p (derived_fields.hpp): the raw
+  // f_a / area(a) would read 0 at the vertices and 4 p / 3 at the mid-edge nodes.
   const FacetOperators& pts = *solver.discretization().facets();
   const Eigen::VectorXd pc = solver.discretization().contact_pressure(s),
                         gap = solver.discretization().contact_gap(s);
   ASSERT_EQ(pc.size(), pts.size());
-  Eigen::VectorXd expected = Eigen::VectorXd::Constant(pts.size(), p_exact);
+  const Eigen::VectorXd expected = Eigen::VectorXd::Constant(pts.size(), p_exact);
+  const Eigen::VectorXd raw = ltl::contact_pressure(p, s);  // -lambda_c . N per point
   if (nodal) {
     const auto& z0 = mesh.boundary("z0");
     Eigen::VectorXd consistent = Eigen::VectorXd::Zero(mesh.num_nodes());
     const FacetOperators faces = facet_operators(mesh, z0);
     for (int f = 0; f < z0.facets.rows(); ++f)
       for (int a = 3; a < 6; ++a) consistent(z0.facets(f, a)) += faces.area(f) / 3;
+    double worst_raw = 0;
     for (int i = 0; i < pts.size(); ++i)
-      expected(i) = p_exact * consistent(pts.nodes[i]) / pts.area(i);
+      worst_raw = std::max(
+          worst_raw, std::abs(raw(i) - p_exact * consistent(pts.nodes[i]) / pts.area(i)) / p_exact);
+    EXPECT_LT(worst_raw, 1e-6);  // the forces are the consistent load
+    // every point is in the contact set (the raw reading missed every vertex)
+    EXPECT_EQ(ltl::contact_set(pc).sum(), pts.size());
+    const ltl::StepMeasures m = ltl::step_measures(p, &pts, s, 2);
+    ASSERT_TRUE(m.contact.has_value());
+    EXPECT_EQ(m.contact->in_contact, pts.size());
+    EXPECT_NEAR(m.contact->force, p_exact, 1e-6 * p_exact);
   }
   const double worst_p = (pc - expected).cwiseAbs().maxCoeff() / p_exact;
   EXPECT_LT(worst_p, 1e-6);
-  EXPECT_NEAR(pts.area.dot(pc), p_exact, 1e-6 * p_exact);  // the load on the unit top
+  EXPECT_NEAR(pts.area.dot(raw), p_exact, 1e-6 * p_exact);  // the load on the unit top
   EXPECT_GE(gap.minCoeff(), -1e-9);
   EXPECT_LT(gap.cwiseAbs().maxCoeff(), 1e-9);
   const Eigen::VectorXd N = -Eigen::Vector3d::UnitZ();
@@ -372,7 +385,7 @@ void expect_pressed_block(bool nodal) {
       "max |P - P_exact|/p = %.1e, max |p_s - p_s exact|/p = %.1e, contact force %.6g N, "
       "gap in [%.1e, %.1e] m, max |lambda_t|/p = %.1e\n",
       nodal ? "nodal" : "facet-mean", static_cast<int>(pc.size()), p_exact, r.report.iterations,
-      worst_u, worst_P, worst_p, pts.area.dot(pc), gap.minCoeff(), gap.maxCoeff(), worst_t);
+      worst_u, worst_P, worst_p, pts.area.dot(raw), gap.minCoeff(), gap.maxCoeff(), worst_t);
 }
 
 }  // namespace

@@ -1,0 +1,104 @@
+// Derived fields (derived_fields.hpp): one definition of each, for the results files.
+#include "derived_fields.hpp"
+
+#include <Eigen/Sparse>
+#include <algorithm>
+#include <cmath>
+
+#include "error.hpp"
+
+namespace ltl {
+
+double von_mises(const Eigen::Matrix3d& sigma) {
+  const Eigen::Matrix3d s = sigma - (sigma.trace() / 3) * Eigen::Matrix3d::Identity();
+  return std::sqrt(1.5 * s.squaredNorm());
+}
+
+DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
+                             const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma,
+                             const Eigen::VectorXd& sigma33) {
+  const int d = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+  DerivedFields out;
+  out.detF.resize(nc);
+  out.stretches.resize(nc, 3);
+  out.von_mises.resize(nc);
+  out.sigma_node = Eigen::MatrixXd::Zero(nn, 9);
+  out.von_mises_node.resize(nn);
+  Eigen::VectorXd weight = Eigen::VectorXd::Zero(nn);
+  for (int c = 0; c < nc; ++c) {
+    Eigen::Matrix3d Fc = Eigen::Matrix3d::Identity(), Sc = Eigen::Matrix3d::Zero();
+    Fc.topLeftCorner(d, d) = F.block(d * c, 0, d, d).transpose();
+    Sc.topLeftCorner(d, d) = sigma.block(d * c, 0, d, d).transpose();
+    if (d == 2 && sigma33.size()) Sc(2, 2) = sigma33(c);
+    out.detF(c) = Fc.determinant();
+    Eigen::Vector3d t = Eigen::JacobiSVD<Eigen::Matrix3d>(Fc).singularValues();
+    std::sort(t.data(), t.data() + 3, std::greater<double>());
+    out.stretches.row(c) = t.transpose();
+    out.von_mises(c) = von_mises(Sc);
+    for (int a = 0; a < mesh.nodes_per_cell(); ++a) {
+      const int n = mesh.cells(c, a);
+      weight(n) += cell_volume(c);
+      out.sigma_node.row(n) += cell_volume(c) * Eigen::Map<const Eigen::RowVectorXd>(
+                                                    Eigen::Matrix3d(Sc.transpose()).data(), 9);
+    }
+  }
+  for (int n = 0; n < nn; ++n) {
+    if (weight(n) > 0) out.sigma_node.row(n) /= weight(n);
+    const Eigen::Matrix<double, 1, 9> row = out.sigma_node.row(n);            // row-major 3x3
+    const Eigen::Matrix3d S = Eigen::Map<const Eigen::Matrix3d>(row.data());  // = sigma^T
+    out.von_mises_node(n) = von_mises(S.transpose());
+  }
+  return out;
+}
+
+Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
+                                          const FacetOperators& points, const Eigen::VectorXd& p) {
+  if (boundary.facets.cols() != 6 || points.nodes.empty()) return p;
+  const int np = points.size();
+  if (p.size() != np)
+    throw Error(cat("consistent_nodal_pressure: ", p.size(), " pressures for ", np, " points"));
+  std::vector<int> index(mesh.num_nodes(), -1);
+  for (int i = 0; i < np; ++i) index[points.nodes[i]] = i;
+  // The P2 triangle mass matrix of an affine face of area A, times 180 / A: vertices 6 on the
+  // diagonal, -1 between vertices, -4 between a vertex and the opposite mid-edge node (0 to
+  // the adjacent ones), mid-edge nodes 32 on the diagonal, 16 between them. Node order: vertices
+  // 0, 1, 2, then mid-edges 01, 12, 20 (the vertex opposite mid-edge 3 + k is (k + 2) mod 3).
+  double m[6][6];
+  for (int a = 0; a < 6; ++a)
+    for (int b = 0; b < 6; ++b) {
+      if (a < 3 && b < 3)
+        m[a][b] = a == b ? 6 : -1;
+      else if (a >= 3 && b >= 3)
+        m[a][b] = a == b ? 32 : 16;
+      else {
+        const int v = a < 3 ? a : b, e = a < 3 ? b : a;
+        m[a][b] = (e - 3 + 2) % 3 == v ? -4 : 0;
+      }
+    }
+  std::vector<Eigen::Triplet<double>> t;
+  for (int f = 0; f < boundary.facets.rows(); ++f) {
+    const Eigen::Vector3d x0 = mesh.X.row(boundary.facets(f, 0)).transpose(),
+                          x1 = mesh.X.row(boundary.facets(f, 1)).transpose(),
+                          x2 = mesh.X.row(boundary.facets(f, 2)).transpose();
+    const double A = 0.5 * (x1 - x0).cross(x2 - x0).norm();
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) {
+        const int i = index[boundary.facets(f, a)], j = index[boundary.facets(f, b)];
+        if (i < 0 || j < 0)
+          throw Error(cat(mesh.source, ": facet ", f, " of boundary group '", boundary.name,
+                          "' has a node that is not a contact point"));
+        t.emplace_back(i, j, m[a][b] * A / 180);
+      }
+  }
+  Eigen::SparseMatrix<double> M(np, np);
+  M.setFromTriplets(t.begin(), t.end());
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(M);
+  const Eigen::VectorXd f = points.area.cwiseProduct(p);
+  Eigen::VectorXd pc = ldlt.solve(f);
+  if (ldlt.info() != Eigen::Success || !pc.allFinite())
+    throw Error(cat(mesh.source, ": boundary group '", boundary.name,
+                    "': the contact-surface mass matrix is singular"));
+  return pc;
+}
+
+}  // namespace ltl

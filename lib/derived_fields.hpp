@@ -1,0 +1,50 @@
+// Derived fields for the results files, computed in one place: the cell fields users read in
+// ParaView (det F, principal stretches, von Mises), the Cauchy stress recovered at the nodes,
+// and the contact pressure at the nodes of P2 triangle faces read consistently.
+//
+// Symbols: the paper's strain unknown F of (2.7) (F = I + grad u on each cell, written E in the
+// code, the `E` dataset) is the deformation gradient; sigma = P F^T / det F the Cauchy stress.
+#pragma once
+
+#include <Eigen/Dense>
+#include <vector>
+
+#include "fe.hpp"
+#include "mesh.hpp"
+
+namespace ltl {
+
+/// Per-cell and nodal derived fields of one state.
+struct DerivedFields {
+  Eigen::VectorXd detF;        ///< #cells, det F (1)
+  Eigen::MatrixXd stretches;   ///< #cells x 3, principal stretches, decreasing (plane strain:
+                               ///< the in-plane two and F33 = 1, sorted with them)
+  Eigen::VectorXd von_mises;   ///< #cells, sqrt(3/2 s : s), s the deviator of the 3x3 sigma (Pa)
+  Eigen::MatrixXd sigma_node;  ///< #nodes x 9, the 3x3 Cauchy stress at the nodes, row-major (Pa)
+  Eigen::VectorXd von_mises_node;  ///< #nodes, von Mises of sigma_node (Pa)
+};
+
+/// The derived fields of the cell deformation gradients F (State::E layout: dim x dim blocks,
+/// transposed) and Cauchy stresses sigma (same layout; plane strain: sigma33 per cell, else
+/// empty). Nodal stress: the volume-weighted average of the cell stresses of the cells around
+/// each node, sigma_a = sum_c |O_c| sigma_c / sum_c |O_c| (exact for a uniform stress).
+DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
+                             const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma,
+                             const Eigen::VectorXd& sigma33);
+
+/// von Mises stress sqrt(3/2 s : s) of a 3x3 Cauchy stress, s = sigma - tr(sigma)/3 I.
+double von_mises(const Eigen::Matrix3d& sigma);
+
+/// The nodal contact pressure read consistently from the contact forces f_a = w_a p_a (the
+/// lumped weights w_a of nodal_operators, the pressures p_a = -lambda_c . N): on six-node P2
+/// triangle faces the consistent load of a pressure field p_h = sum_b p_b phi_b is
+/// integral p_h phi_a, which for a uniform p is 0 at the vertices and p |G|/3 per face at the
+/// mid-edge nodes, so f_a / w_a reads 0 and 4 p / 3 there. The pressure returned solves
+/// M p = f, M the consistent P2 mass matrix of the contact surface (integral phi_a phi_b), and
+/// reads a uniform pressure as uniform. Other facets (2-node and 3-node edges, 3-node triangles,
+/// quadrilaterals), whose weights are the integrals of the shape functions: p unchanged.
+/// `points` are the nodal contact points (points.nodes in the order of p).
+Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
+                                          const FacetOperators& points, const Eigen::VectorXd& p);
+
+}  // namespace ltl

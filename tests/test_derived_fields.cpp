@@ -1,0 +1,74 @@
+// The derived fields of the results files (lib/derived_fields.hpp): det F and the principal
+// stretches of the deformation gradient F (the paper's strain unknown F of (2.7), E in the
+// code), the von Mises stress, and the nodal stresses recovered by volume-weighted averaging.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "derived_fields.hpp"
+#include "fe.hpp"
+#include "testing.hpp"
+
+namespace {
+
+using ltl::DerivedFields;
+
+TEST(DerivedFields, Eq2_7_DetFStretchesAndVonMisesPerCell) {
+  const ltl::Mesh mesh = ltl::load_mesh(ltl::testing::test_path("geometry/square.geo"));
+  const int nc = mesh.num_cells();
+  const Eigen::VectorXd vol = ltl::cell_operators(mesh).vol;
+  std::mt19937_64 g(4);
+  std::uniform_real_distribution<double> U(0.5, 2.0);
+  Eigen::MatrixXd F(2 * nc, 2), sigma(2 * nc, 2);
+  Eigen::VectorXd s33(nc);
+  std::vector<Eigen::Matrix2d> R(nc);
+  for (int c = 0; c < nc; ++c) {
+    // F = rotation diag(a, b): stretches a, b and 1; sigma = diag(s, 0), sigma33 = s / 2
+    const double a = U(g), b = U(g), th = U(g), s = 1e5 * U(g);
+    Eigen::Matrix2d Q;
+    Q << std::cos(th), -std::sin(th), std::sin(th), std::cos(th);
+    F.block<2, 2>(2 * c, 0) = (Q * Eigen::Vector2d(a, b).asDiagonal()).transpose();
+    sigma.block<2, 2>(2 * c, 0) = Eigen::Vector2d(s, 0).asDiagonal();
+    s33(c) = s / 2;
+  }
+  const DerivedFields d = ltl::derived_fields(mesh, vol, F, sigma, s33);
+  for (int c = 0; c < nc; ++c) {
+    const Eigen::Matrix2d Fc = F.block<2, 2>(2 * c, 0).transpose();
+    Eigen::Vector3d t(Fc.col(0).norm(), Fc.col(1).norm(), 1.0);
+    std::sort(t.data(), t.data() + 3, std::greater<double>());
+    EXPECT_NEAR(d.detF(c), Fc.determinant(), 1e-14);
+    EXPECT_LT((d.stretches.row(c).transpose() - t).norm(), 1e-13);
+    // deviator of diag(s, 0, s/2): (s/2, -s/2, 0), von Mises sqrt(3/2 * s^2/2) = s sqrt(3)/2
+    const double s = sigma(2 * c, 0);
+    EXPECT_NEAR(d.von_mises(c), s * std::sqrt(3.0) / 2, 1e-9 * s);
+  }
+}
+
+TEST(DerivedFields, UniformStressRecoveredExactlyAtTheNodes) {
+  for (const char* geo : {"geometry/square.geo", "geometry/box.geo"}) {
+    const ltl::Mesh mesh = ltl::load_mesh(ltl::testing::test_path(geo));
+    const int d = mesh.dim, nc = mesh.num_cells();
+    const Eigen::VectorXd vol = ltl::cell_operators(mesh).vol;
+    Eigen::Matrix3d S;
+    S << 1, 2, 3, 2, -4, 5, 3, 5, 6;
+    S *= 1e4;
+    Eigen::MatrixXd F(d * nc, d), sigma(d * nc, d);
+    Eigen::VectorXd s33 = Eigen::VectorXd::Constant(d == 2 ? nc : 0, S(2, 2));
+    for (int c = 0; c < nc; ++c) {
+      F.block(d * c, 0, d, d).setIdentity();
+      sigma.block(d * c, 0, d, d) = S.topLeftCorner(d, d).transpose();
+    }
+    if (d == 2) S(0, 2) = S(2, 0) = S(1, 2) = S(2, 1) = 0;  // plane strain: sigma13 = sigma23 = 0
+    const DerivedFields df = ltl::derived_fields(mesh, vol, F, sigma, s33);
+    double worst = 0;
+    for (int n = 0; n < mesh.num_nodes(); ++n) {
+      const Eigen::Matrix<double, 1, 9> row = df.sigma_node.row(n);
+      const Eigen::Matrix3d Sn = Eigen::Map<const Eigen::Matrix3d>(row.data()).transpose();
+      worst = std::max(worst, (Sn - S).norm() / S.norm());
+      EXPECT_NEAR(df.von_mises_node(n), ltl::von_mises(S), 1e-12 * S.norm());
+    }
+    EXPECT_LT(worst, 1e-14) << geo;
+  }
+}
+
+}  // namespace
