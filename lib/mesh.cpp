@@ -185,26 +185,29 @@ void scan(const std::filesystem::path& file, GeometryScan& out, Fingerprint& has
     if (name.size() > prefix.size() && name.compare(0, prefix.size(), prefix) == 0)
       out.parameters.insert(name.substr(prefix.size()));
   chain.push_back(file);
-  for (const std::string& name : quoted_after(code, "Include", true)) {
-    if (name.size() >= PATH_MAX)
-      throw Error(cat(file.string(), ": Include \"", shown(name),
-                      "\": the file name is longer than the system allows (", PATH_MAX, ")"));
-    const fs::path inc = file.parent_path() / name;
-    std::error_code ec;
-    const auto st = fs::status(inc, ec);
-    if (!fs::exists(st)) continue;  // gmsh says so if the Include is reached
-    if (!fs::is_regular_file(st))
-      throw Error(cat(file.string(), ": Include \"", shown(name), "\": ", inc.string(),
-                      " is not a regular file (a directory, FIFO or device)"));
-    for (const fs::path& outer : chain)
-      if (fs::equivalent(inc, outer, ec))
-        throw Error(cat(file.string(), ": Include \"", shown(name), "\" includes ",
-                        outer == chain.front() ? "the geometry file itself"
-                                               : cat(outer.string(), ", which includes it"),
-                        " (an Include cycle: gmsh would include it again and again)"));
-    if (std::find(out.files.begin(), out.files.end(), inc.string()) == out.files.end())
-      scan(inc, out, hash, chain);
-  }
+  // Included and merged files are read as scripts too (a .geo merged is parsed like one).
+  for (const std::string word : {"Include", "Merge"})
+    for (const std::string& name : quoted_after(code, word, true)) {
+      if (name.size() >= PATH_MAX)
+        throw Error(cat(file.string(), ": ", word, " \"", shown(name),
+                        "\": the file name is longer than the system allows (", PATH_MAX, ")"));
+      const fs::path inc = file.parent_path() / name;
+      std::error_code ec;
+      const auto st = fs::status(inc, ec);
+      if (!fs::exists(st)) continue;  // gmsh says so if the statement is reached
+      if (!fs::is_regular_file(st))
+        throw Error(cat(file.string(), ": ", word, " \"", shown(name), "\": ", inc.string(),
+                        " is not a regular file (a directory, FIFO or device)"));
+      for (const fs::path& outer : chain)
+        if (fs::equivalent(inc, outer, ec))
+          throw Error(cat(file.string(), ": ", word, " \"", shown(name), "\" includes ",
+                          outer == chain.front() ? "the geometry file itself"
+                                                 : cat(outer.string(), ", which includes it"),
+                          " (an ", word == "Include" ? "Include" : "Include or Merge",
+                          " cycle: gmsh would read it again and again)"));
+      if (std::find(out.files.begin(), out.files.end(), inc.string()) == out.files.end())
+        scan(inc, out, hash, chain);
+    }
   chain.pop_back();
 }
 

@@ -457,6 +457,17 @@ const std::vector<Case>& catalogue() {
          ltl::testing::write_file(d / "inc.dat",
                                   "/* System \"x\" */\nSystemCall \"touch pwned\";\n");
        }},
+      {"geo_system_merged",
+       "half_disc.geo",
+       "a.geo",
+       o,
+       1,
+       {"m.geo:1: `System` runs a shell command"},
+       [](const fs::path& d) {
+         ltl::testing::write_file(d / "a.geo",
+                                  read_bytes(d / "half_disc.geo") + "Merge \"m.geo\";\n");
+         ltl::testing::write_file(d / "m.geo", "System \"touch pwned\";\n");
+       }},
       {"geo_save",
        "half_disc.geo",
        "save.geo",
