@@ -114,9 +114,10 @@ std::string duration_text(double seconds) {
   return cat(s / 3600, " h ", (s % 3600) / 60, " min");
 }
 
-/// The time left in a step, extrapolated from the decrease of r_G + r_B between the last printed
-/// record `before` and `now` (geometric, as ALG2 converges) down to `tol`: "  ETA ~ 2 min 5 s
-/// (step, at the current rate)", or why there is none.
+/// The time left in a step, extrapolated from the decrease of r_G + r_B between the first printed
+/// record `before` and `now` (geometric, as ALG2 converges; the mean rate, as the residual is
+/// not monotone from one line to the next) down to `tol`: "  ETA ~ 2 min 5 s
+/// (step, at its mean rate)", or why there is none.
 std::string step_eta(const IterationRecord& before, const IterationRecord& now, double tol) {
   const double r0 = before.r_G + before.r_B, r1 = now.r_G + now.r_B;
   const int dn = now.n - before.n;
@@ -125,7 +126,7 @@ std::string step_eta(const IterationRecord& before, const IterationRecord& now, 
   const double rate = std::log(r1 / r0) / dn;  // < 0
   const double left = std::max(std::log(tol / r1) / rate, 0.0);
   return cat("  ETA ~ ", duration_text(left * (now.wall - before.wall) / dn),
-             " (step, at the current rate)");
+             " (step, at its mean rate)");
 }
 
 /// The load factors of LoadRamp at the start and the end of step p (0 before step 1).
@@ -176,16 +177,16 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   check_load_scale(solver, load_scale, p);
   const Eigen::VectorXd beta_prev = state.beta;
-  IterationRecord shown;  // the last record printed (its residual and time give the rate)
+  IterationRecord shown;  // the first record printed: the rate of the step since then
   auto progress = [&](const IterationRecord& r) {
     check_interrupt();  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
     // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
-    // time step of an evolution, with the time left at the rate since the last line.
+    // time step of an evolution, with the time left at the step's mean rate since its first line.
     if (verbosity >= 2 || (verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0)) {
       std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s%s\n", r.n, r.r_G, r.r_B, r.wall,
                   verbosity == 1 ? step_eta(shown, r, problem.algorithm.tol).c_str() : "");
       std::fflush(stdout);
-      shown = r;
+      if (shown.n == 0) shown = r;
     }
   };
   TimeStep step;

@@ -87,7 +87,7 @@ constexpr int kMaxHalvings = 3;
 /// not admissible (check_admissibility: a node inside the obstacle, det F <= 0, a cell on the
 /// rotated branch, a tension without glue, beta outside [0, 1]; status "inadmissible: ..."). Prints
 /// progress (verbosity 2: every iteration; 1: every 50 iterations of a static problem, every 2000
-/// of an evolution, with the step's ETA at the current rate, and one line per converged step).
+/// of an evolution, with the step's ETA at its mean rate, and one line per converged step).
 /// Never throws on divergence: ResultsWriter::append reports it. Ctrl-C or SIGTERM inside an
 /// InterruptScope (lib/interrupt.hpp) throws Interrupted at the next iteration.
 /// With `clock`, the step line ends with the run's ETA: the mean time of the steps computed so
