@@ -13,6 +13,7 @@
 
 #include "config.hpp"
 #include "error.hpp"
+#include "interrupt.hpp"
 
 namespace ltl {
 
@@ -48,8 +49,8 @@ char g_program[256] = "ltl";
   std::_Exit(1);
 }
 
-void usage(const std::string& program, const std::string& default_config) {
-  std::fprintf(stderr,
+void usage(const std::string& program, const std::string& default_config, FILE* to = stderr) {
+  std::fprintf(to,
                "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume] [--stop-after N]"
                " [-v | -q]\n"
                "  -o FILE         results file (default: results/<name>.h5)\n"
@@ -98,7 +99,7 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
     } else if (a == "-q") {
       options.verbosity = 0;
     } else if (a == "-h" || a == "--help") {
-      usage(cmd.program, default_config);
+      usage(cmd.program, default_config, stdout);
       return 0;
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "%s: unknown option '%s'\n", program, a.c_str());
@@ -135,6 +136,10 @@ int guarded_main(int argc, char** argv, const std::string& program,
   const char* prog = program.c_str();
   try {
     body(cmd);
+  } catch (const Interrupted& e) {  // Ctrl-C, SIGTERM: what was kept, and 128 + the signal
+    std::fflush(stdout);
+    std::fprintf(stderr, "%s: %s\n", prog, e.what());
+    return 128 + e.signal();
   } catch (const Error& e) {
     std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
     return 1;

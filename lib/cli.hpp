@@ -4,7 +4,8 @@
 //           [-v | -q]
 //
 // Exit status: 0 when every time step converged, 1 on any error (bad input, failed
-// factorization, divergence), 2 on bad command-line usage.
+// factorization, divergence), 2 on bad command-line usage, 128 + N when stopped by signal N
+// (130: Ctrl-C, 143: SIGTERM; the results file is marked "interrupted" and can be resumed).
 //
 // A driver's main() is guarded_main around its recipe (experiments/fig5/fig5.cpp):
 //   load_problem(cmd) -> run_options(cmd, problem) -> Solver{Discretization(problem)} ->

@@ -16,6 +16,7 @@
 #include <unordered_map>
 
 #include "error.hpp"
+#include "geometry_guard.hpp"
 #include "hash.hpp"
 
 namespace ltl {
@@ -176,34 +177,37 @@ void scan(const std::filesystem::path& file, GeometryScan& out, Fingerprint& has
   const std::string text = read_text(file.string());
   out.files.push_back(file.string());
   hash.add(text);
-  const std::string ext = file.extension().string();
-  if (ext == ".msh") return;
+  if (!read_as_script(file.string())) return;  // a mesh or CAD file, not a script
+  check_geometry_script(file.string(), text);  // no commands, no file writes, bounded loops
   const std::string code = strip_comments(text);
   const std::string prefix = "Parameters/";
   for (const std::string& name : quoted_after(code, "Name", false))
     if (name.size() > prefix.size() && name.compare(0, prefix.size(), prefix) == 0)
       out.parameters.insert(name.substr(prefix.size()));
   chain.push_back(file);
-  for (const std::string& name : quoted_after(code, "Include", true)) {
-    if (name.size() >= PATH_MAX)
-      throw Error(cat(file.string(), ": Include \"", shown(name),
-                      "\": the file name is longer than the system allows (", PATH_MAX, ")"));
-    const fs::path inc = file.parent_path() / name;
-    std::error_code ec;
-    const auto st = fs::status(inc, ec);
-    if (!fs::exists(st)) continue;  // gmsh says so if the Include is reached
-    if (!fs::is_regular_file(st))
-      throw Error(cat(file.string(), ": Include \"", shown(name), "\": ", inc.string(),
-                      " is not a regular file (a directory, FIFO or device)"));
-    for (const fs::path& outer : chain)
-      if (fs::equivalent(inc, outer, ec))
-        throw Error(cat(file.string(), ": Include \"", shown(name), "\" includes ",
-                        outer == chain.front() ? "the geometry file itself"
-                                               : cat(outer.string(), ", which includes it"),
-                        " (an Include cycle: gmsh would include it again and again)"));
-    if (std::find(out.files.begin(), out.files.end(), inc.string()) == out.files.end())
-      scan(inc, out, hash, chain);
-  }
+  // Included and merged files are read as scripts too (a .geo merged is parsed like one).
+  for (const std::string word : {"Include", "Merge"})
+    for (const std::string& name : quoted_after(code, word, true)) {
+      if (name.size() >= PATH_MAX)
+        throw Error(cat(file.string(), ": ", word, " \"", shown(name),
+                        "\": the file name is longer than the system allows (", PATH_MAX, ")"));
+      const fs::path inc = file.parent_path() / name;
+      std::error_code ec;
+      const auto st = fs::status(inc, ec);
+      if (!fs::exists(st)) continue;  // gmsh says so if the statement is reached
+      if (!fs::is_regular_file(st))
+        throw Error(cat(file.string(), ": ", word, " \"", shown(name), "\": ", inc.string(),
+                        " is not a regular file (a directory, FIFO or device)"));
+      for (const fs::path& outer : chain)
+        if (fs::equivalent(inc, outer, ec))
+          throw Error(cat(file.string(), ": ", word, " \"", shown(name), "\" includes ",
+                          outer == chain.front() ? "the geometry file itself"
+                                                 : cat(outer.string(), ", which includes it"),
+                          " (an ", word == "Include" ? "Include" : "Include or Merge",
+                          " cycle: gmsh would read it again and again)"));
+      if (std::find(out.files.begin(), out.files.end(), inc.string()) == out.files.end())
+        scan(inc, out, hash, chain);
+    }
   chain.pop_back();
 }
 
@@ -293,6 +297,7 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
     gmsh::onelab::clear();  // parameters of an earlier load must not leak into this one
     for (const auto& [name, value] : parameters)
       gmsh::onelab::setNumber("Parameters/" + name, {value});
+    GeometryTimeLimit limit(path);  // a script that does not end is stopped with a message
     {
       ReadingGuard guard(path);
       gmsh::open(path);
@@ -306,7 +311,13 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
     // process aborts): errors are logged instead, and read back from the log.
     const std::size_t before = gmsh_log_size();
     gmsh::option::setNumber("General.AbortOnError", 0);
-    if (is_geo) gmsh::model::mesh::generate(dim);
+    if (is_geo) {
+      // The curves first (cheap): their edges give the size of the cells, checked against the
+      // memory this process may use before the cells are made.
+      gmsh::model::mesh::generate(1);
+      if (gmsh_last_error(before).empty()) check_mesh_size(path);
+      gmsh::model::mesh::generate(dim);
+    }
     std::string errors = gmsh_last_error(before);
     if (!errors.empty()) throw Error(cat(path, ": gmsh could not mesh the geometry", errors));
     // The cells the user made (named in messages as such), then made quadratic if linear.
@@ -348,6 +359,7 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
     for (std::size_t i = 0; i < order.size(); ++i)
       for (int k = 0; k < dim; ++k) mesh.X(i, k) = coords[3 * position.at(order[i]) + k];
     if (!mesh.X.allFinite()) throw Error(cat(path, ": the mesh has non-finite node coordinates"));
+    check_coincident_nodes(path, mesh.X);  // a slit, duplicated points
     mesh.cells.resize(ncells, npc);
     for (int c = 0; c < ncells; ++c)
       for (int a = 0; a < npc; ++a) mesh.cells(c, a) = index.at(cell_nodes[c * npc + a]);

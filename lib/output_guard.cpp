@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <sys/file.h>
 #include <sys/stat.h>
+#include <toml++/toml.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -11,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <sstream>
 #include <vector>
 
 #include "error.hpp"
@@ -47,6 +49,23 @@ std::string kind_at(const std::string& path, struct stat* st) {
   if (S_ISDIR(st->st_mode)) return "dir";
   if (S_ISREG(st->st_mode)) return "file";
   return "special";
+}
+
+/// Every value of a TOML tree under its dotted key ("load.traction[0].value[1]").
+void flatten(const toml::node& node, const std::string& key,
+             std::map<std::string, std::string>& out) {
+  if (const toml::table* t = node.as_table()) {
+    for (const auto& [k, v] : *t)
+      flatten(v, key.empty() ? std::string(k.str()) : cat(key, ".", k.str()), out);
+    if (t->empty() && !key.empty()) out[key] = "{}";
+  } else if (const toml::array* a = node.as_array()) {
+    for (std::size_t i = 0; i < a->size(); ++i) flatten((*a)[i], cat(key, "[", i, "]"), out);
+    if (a->empty()) out[key] = "[]";
+  } else {
+    std::ostringstream s;
+    node.visit([&](const auto& v) { s << v; });
+    out[key] = s.str();
+  }
 }
 
 std::string link_target(const std::string& path) {
@@ -178,31 +197,65 @@ std::map<std::string, std::string> identity(const Problem& problem) {
           {"config_hash", fingerprint(problem.config_identity)}};
 }
 
+std::vector<std::string> configuration_changes(const std::string& stored, const std::string& now) {
+  std::map<std::string, std::string> a, b;
+  try {
+    flatten(toml::parse(stored), "", a);
+  } catch (const toml::parse_error&) {
+    return {"(the configuration stored in the file cannot be read)"};
+  }
+  flatten(toml::parse(now), "", b);
+  std::vector<std::string> out;
+  for (const auto& [key, value] : a) {
+    const auto it = b.find(key);
+    if (it == b.end() || it->second != value)
+      out.push_back(cat(key, " (", value, " in the file, ",
+                        it == b.end() ? std::string("not given") : it->second, " now)"));
+  }
+  for (const auto& [key, value] : b)
+    if (!a.count(key)) out.push_back(cat(key, " (not given in the file, ", value, " now)"));
+  return out;
+}
+
+bool may_change_on_resume(const std::string& change) {
+  return change.rfind("time.steps ", 0) == 0 || change.rfind("algorithm.", 0) == 0 ||
+         change.rfind("output.", 0) == 0;
+}
+
 ResumePoint resume_point(const Problem& problem, const std::string& out,
                          const std::map<std::string, std::string>& ids, const State& initial) {
-  // The file must have been written by this problem: same configuration (time.steps may grow),
-  // same geometry file(s), same mesh. Files without the fingerprints are compared on the
-  // configuration text.
-  const bool has_ids = !ResultsFile::read_attribute(out, "config_hash").empty();
-  if (has_ids) {
-    for (const auto& [key, value] : ids) {
-      const std::string stored = ResultsFile::read_attribute(out, key);
-      if (stored != value)
-        throw Error(cat(
-            out, ": cannot resume: ",
-            key == "config_hash" ? "the configuration differs from the one the file was written "
-                                   "with (only time.steps may change)"
-            : key == "geometry_hash" ? cat("the geometry file ", problem.mesh.source,
-                                           " changed since the file was written")
-                                     : cat("the mesh differs from the file's (", key, " ", stored,
-                                           " in the file, ", value, " now)")));
-    }
-  } else if (ResultsFile::read_attribute(out, "config") != problem.config_text) {
-    throw Error(cat(out,
-                    ": cannot resume: the file was written with a different "
-                    "configuration"));
+  // The file must have been written by this problem: same physics (time.steps may grow, the
+  // [algorithm] and [output] keys may change), same geometry file(s), same mesh.
+  ResumePoint r{initial, 1, {}};
+  for (const auto& [key, value] : ids) {
+    const std::string stored = ResultsFile::read_attribute(out, key);
+    if (key == "config_hash" || stored == value || stored.empty()) continue;
+    throw Error(cat(out, ": cannot resume: ",
+                    key == "geometry_hash" ? cat("the geometry file ", problem.mesh.source,
+                                                 " changed since the file was written")
+                                           : cat("the mesh differs from the file's (", key, " ",
+                                                 stored, " in the file, ", value, " now)")));
   }
-  ResumePoint r{initial, 1};
+  const auto hash = ids.find("config_hash");
+  if (hash == ids.end() || ResultsFile::read_attribute(out, "config_hash") != hash->second) {
+    std::string physics;
+    int shown = 0, more = 0;
+    for (const std::string& change :
+         configuration_changes(ResultsFile::read_attribute(out, "config"), problem.config_text)) {
+      if (may_change_on_resume(change))
+        r.changes.push_back(change);
+      else if (shown < 6)
+        physics += cat(shown++ ? "; " : "", change);
+      else
+        ++more;
+    }
+    if (!physics.empty())
+      throw Error(cat(out,
+                      ": cannot resume: the configuration differs from the one the file was "
+                      "written with in ",
+                      physics, more ? cat("; and ", more, " more key(s)") : "",
+                      ". Only time.steps and the [algorithm] and [output] keys may change"));
+  }
   if (auto last = ResultsFile::read_last_step(out)) {
     const State& s = last->state;
     const State& state = initial;

@@ -1,5 +1,5 @@
-// The guard of a run's results file (issue 21: the lock, the path checks and the fingerprints
-// in their own file; issue 25: symlinks, the files beside the results, permissions):
+// The guard of a run's results file: the lock, the path checks (symbolic links, the files beside
+// the results, permissions) and the fingerprints of --resume:
 //  - check_output_path: never over an input of the run, a directory, a special file, a symbolic
 //    link, a read-only results file, a file that is not a results file of this code, or an XDMF
 //    file beside it that this code did not write;
@@ -10,6 +10,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include "problem.hpp"
 #include "state.hpp"
@@ -53,10 +54,18 @@ std::map<std::string, std::string> identity(const Problem& problem);
 struct ResumePoint {
   State state;
   int next_step = 1;
+  /// The keys that changed and may (time.steps, [algorithm], [output]): "algorithm.R (3 in the
+  /// file, 4 now)".
+  std::vector<std::string> changes;
 };
 
-/// Checks that `output` was written by this problem (the fingerprints `ids`, or the
-/// configuration text for files without them; only time.steps may change) and that its last
+/// The keys whose values differ between two configuration texts (TOML), each as
+/// "key (value in the file, value now)"; "not given" for a key on one side only.
+std::vector<std::string> configuration_changes(const std::string& stored, const std::string& now);
+
+/// Checks that `output` was written by this problem (the mesh and geometry fingerprints `ids`;
+/// the configuration key by key, where only time.steps, [algorithm] and [output] may change: the
+/// refusal names the other keys that differ, with both values) and that its last
 /// step has the fields of `initial`'s shapes, within time.steps. Returns the last step's state
 /// (or `initial` and step 1 when the file has no step). Throws Error naming what differs.
 ResumePoint resume_point(const Problem& problem, const std::string& output,

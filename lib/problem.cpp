@@ -134,6 +134,85 @@ std::string describe_algorithm(const AlgorithmParams& a) {
   return s.str();
 }
 
+namespace {
+
+// A symmetry condition u_c = 0 holds on a plane (a straight line in 2-D): on a curved part it is
+// another condition than the user means; on the contact surface it clamps the tangential motion
+// there, as a [[fixed]] group would (refused too). A plane of another direction than x_c = const
+// is allowed: it is a roller support (one component held), not a symmetry.
+void check_symmetry_planes(const Problem& problem) {
+  const Mesh& mesh = problem.mesh;
+  const double size = (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).maxCoeff();
+  for (const auto& d : problem.dirichlet) {
+    if (d.components.size() != 1) continue;  // [[fixed]], [[displacement]]: every component
+    if (problem.contact && d.group == problem.contact->group)
+      throw KeyError(d.origin, cat("group '", d.group,
+                                   "' is both a symmetry plane and the contact surface (a "
+                                   "symmetry condition there clamps the sliding, as [[fixed]] "
+                                   "would)"));
+    // The distance of the nodes from the plane (line) that fits them best: the direction of
+    // least spread of their coordinates.
+    const std::vector<int> nodes = mesh.boundary_nodes(d.group, d.origin);
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(nodes.size()), mesh.dim);
+    for (std::size_t i = 0; i < nodes.size(); ++i) x.row(i) = mesh.X.row(nodes[i]);
+    const Eigen::RowVectorXd mean = x.colwise().mean();
+    x.rowwise() -= mean;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(x.transpose() * x);
+    const double off = (x * es.eigenvectors().col(0)).cwiseAbs().maxCoeff();
+    require(off <= 1e-8 * size, d.origin,
+            cat("group '", d.group, "' is not ", mesh.dim == 2 ? "straight" : "plane",
+                " (its nodes are up to ", off, " m off the best ", mesh.dim == 2 ? "line" : "plane",
+                " through them): a symmetry condition holds on a plane only; for a curved part "
+                "use [[fixed]] or [[displacement]]"));
+  }
+}
+
+/// The global matrix (4.5) K = 2 C1 L + R q Gbar^T |O| Gbar + R q_c M^T |G| M adds terms whose
+/// scales are 2 C1, R q and R q_c h (h the mean contact facet size; per unit area of a cell, the
+/// force of a unit strain). Far apart (C1 = 1e99 Pa, or R = 1e-300), the smaller ones vanish in
+/// round-off beside the larger and the factorization fails as if a rigid motion were free, or
+/// ALG2 cannot converge: refused when a ratio is outside [1e-10, 1e14] (the figures use 0.3..30;
+/// R = 1e12 with q = 1 MPa, 1e12, is still run, and reported not in equilibrium).
+void check_stiffness_balance(const Problem& problem) {
+  const AlgorithmParams& a = problem.algorithm;
+  const double C1 = problem.material.C1;
+  const bool contact = problem.contact && problem.mesh.has_boundary(problem.contact->group);
+  const double h =
+      a.h > 0   ? a.h
+      : contact ? mean_facet_size(problem.mesh, problem.mesh.boundary(problem.contact->group))
+                : 0.0;
+  const auto balanced = [](double ratio) { return ratio >= 1e-10 && ratio <= 1e14; };
+  const auto blame = [&](double of_q) {
+    // The parameter furthest from its own scale: R (about 1..10), or C1 against q.
+    if (std::abs(std::log10(a.R)) >= std::abs(std::log10(of_q))) return "algorithm.R";
+    return a.q_derived || C1 < 1e-3 || C1 > 1e13 ? "material.C1" : "algorithm.q";
+  };
+  const double Rq = a.R * a.q;
+  const std::string values =
+      cat("material.C1 = ", C1, " Pa, algorithm.R = ", a.R, ", algorithm.q = ", a.q, " Pa");
+  const std::string fix =
+      "; leave R, q, q_c out to get the derived values R q = 6 (C1 + C2) (2-D), 8 (C1 + C2) "
+      "(3-D), or check the units of material.C1";
+  require(balanced(Rq / (2 * C1)), blame(a.q / (2 * C1)),
+          cat("the stiffnesses of the global matrix (4.5) are out of balance: R q = ", Rq,
+              " Pa is ", Rq / (2 * C1), " times 2 C1 = ", 2 * C1, " Pa (", values,
+              "); outside [1e-10, 1e14] the smaller term is lost in round-off (an "
+              "ill-conditioned matrix, not a free rigid motion)",
+              fix));
+  if (contact && h > 0)
+    require(balanced(a.R * a.q_c * h / (2 * C1)),
+            a.q_c_derived ? blame(a.q / (2 * C1)) : "algorithm.q_c",
+            cat("the contact term of the global matrix (4.5) is out of balance: R q_c h = ",
+                a.R * a.q_c * h, " Pa (algorithm.q_c = ", a.q_c, " Pa/m, h = ", h,
+                " m the mean contact facet size) is ", a.R * a.q_c * h / (2 * C1),
+                " times 2 C1 = ", 2 * C1, " Pa (", values,
+                "); outside [1e-10, 1e14] the smaller term is lost in round-off (an "
+                "ill-conditioned matrix, not a free rigid motion)",
+                fix));
+}
+
+}  // namespace
+
 void Problem::validate() const {
   const int dim = mesh.dim;
   // Material [LTL87 (1.5), sec. 8].
@@ -160,6 +239,7 @@ void Problem::validate() const {
   require(std::isfinite(a.q) && a.q > 0, "algorithm.q", cat("= ", a.q, " Pa: must be > 0"));
   require(std::isfinite(a.q_c) && a.q_c > 0, "algorithm.q_c",
           cat("= ", a.q_c, " Pa/m: must be > 0"));
+  check_stiffness_balance(*this);
   if (a.update == Update::BermudezMoreno) {
     require(a.rho > 0.5 && a.rho <= 1, "algorithm.rho",
             cat("= ", a.rho, ": the Bermudez-Moreno update (7.10) needs 1/2 < rho <= 1"));
@@ -265,6 +345,7 @@ void Problem::validate() const {
                        cat("group '", d.group, "' is both fixed and the contact surface"));
     check_sliding();
   }
+  check_symmetry_planes(*this);
 }
 
 // A frictionless contact plane blocks only the normal displacement; the global matrix (4.5)

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include "derived_fields.hpp"
 #include "error.hpp"
 #include "hash.hpp"
+#include "interrupt.hpp"
 #include "measures.hpp"
 #include "output_guard.hpp"
 #include "reactions.hpp"
@@ -113,6 +115,33 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
 
 namespace {
 
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+/// A duration for the progress lines: "45 s", "12 min 5 s", "3 h 20 min".
+std::string duration_text(double seconds) {
+  const long s = std::lround(std::max(seconds, 0.0));
+  if (s < 60) return cat(s, " s");
+  if (s < 3600) return cat(s / 60, " min ", s % 60, " s");
+  return cat(s / 3600, " h ", (s % 3600) / 60, " min");
+}
+
+/// The time left in a step, extrapolated from the decrease of r_G + r_B between the first printed
+/// record `before` and `now` (geometric, as ALG2 converges; the mean rate, as the residual is
+/// not monotone from one line to the next) down to `tol`: "  ETA ~ 2 min 5 s
+/// (step, at its mean rate)", or why there is none.
+std::string step_eta(const IterationRecord& before, const IterationRecord& now, double tol) {
+  const double r0 = before.r_G + before.r_B, r1 = now.r_G + now.r_B;
+  const int dn = now.n - before.n;
+  if (before.n == 0 || dn <= 0) return "";
+  if (!(r1 < r0) || !(r1 > 0)) return "  ETA unknown (the residual did not decrease)";
+  const double rate = std::log(r1 / r0) / dn;  // < 0
+  const double left = std::max(std::log(tol / r1) / rate, 0.0);
+  return cat("  ETA ~ ", duration_text(left * (now.wall - before.wall) / dn),
+             " (step, at its mean rate)");
+}
+
 /// The load factors of LoadRamp at the start and the end of step p (0 before step 1).
 struct Increment {
   double f0, f1;
@@ -120,6 +149,31 @@ struct Increment {
 Increment load_increment(const Problem& problem, int p) {
   return {p > 1 ? problem.ramp.factor(p - 1, problem.time.dt) : 0.0,
           problem.ramp.factor(p, problem.time.dt)};
+}
+
+/// A load so small against the stiffness that its response is lost in round-off (a body force of
+/// 1e-300 N/m^3): the largest nodal load against C1 h^(dim-1), h the mean cell size, the force
+/// of a unit strain on a cell. Below 1e-12 (the strain it causes, 1e4 round-offs) the equilibrium
+/// check cannot tell the solution from noise: an Error naming the load, not "not in equilibrium".
+/// Not checked when prescribed displacements drive the step.
+void check_load_scale(const Solver& solver, double load_scale, int p) {
+  const Problem& problem = solver.problem();
+  const int dim = problem.mesh.dim;
+  const Eigen::MatrixXd& displaced = solver.discretization().dirichlet().value;
+  if (!(load_scale > 0) || (displaced.size() > 0 && displaced.cwiseAbs().maxCoeff() > 0)) return;
+  const double h =
+      std::pow(solver.discretization().cells().vol.sum() / problem.mesh.num_cells(), 1.0 / dim);
+  const double unit = problem.material.C1 * std::pow(h, dim - 1);
+  if (load_scale >= 1e-12 * unit) return;
+  throw Error(cat(problem.name, ": the loads at step ", p,
+                  " are below round-off relative to the "
+                  "stiffness: the largest nodal load is ",
+                  load_scale, dim == 2 ? " N/m" : " N",
+                  ", while a strain of 1 on a cell of the mesh (C1 h^", dim - 1, ", h = ", h,
+                  " m) takes ", unit, dim == 2 ? " N/m" : " N",
+                  "; the displacements it causes (a strain of about ", load_scale / unit,
+                  ") are lost in round-off. Check the values and units of load.body_force and "
+                  "load.traction (a load of zero is allowed: leave it out)"));
 }
 
 /// One solve of step p at the load factor `factor` from `state`: ALG2 (then Newton), the
@@ -130,13 +184,19 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   // LoadRamp, or a substep of its increment: the dead loads and the prescribed displacements.
   solver.set_load_factor(factor);
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
+  check_load_scale(solver, load_scale, p);
   const Eigen::VectorXd beta_prev = state.beta;
+  IterationRecord shown;  // the first record printed: the rate of the step since then
   auto progress = [&](const IterationRecord& r) {
+    check_interrupt();  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
     // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
-    // time step of an evolution.
-    if (verbosity >= 2 || (verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0))
-      std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s\n", r.n, r.r_G, r.r_B, r.wall),
-          std::fflush(stdout);
+    // time step of an evolution, with the time left at the step's mean rate since its first line.
+    if (verbosity >= 2 || (verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0)) {
+      std::printf("  it %5d  r_G %.3e  r_B %.3e  %.3f s%s\n", r.n, r.r_G, r.r_B, r.wall,
+                  verbosity == 1 ? step_eta(shown, r, problem.algorithm.tol).c_str() : "");
+      std::fflush(stdout);
+      if (shown.n == 0) shown = r;
+    }
   };
   TimeStep step;
   step.p = p;
@@ -202,7 +262,8 @@ int TimeStep::failed_attempts() const {
   return n;
 }
 
-TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
+TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity,
+                         const RunClock* clock) {
   const Problem& problem = solver.problem();
   const int P = problem.time.steps;
   const auto [f0, f1] = load_increment(problem, p);
@@ -269,7 +330,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
   if (verbosity > 0 && (P > 1 || verbosity == 1))
     std::printf(
         "step %4d/%d  t = %8.2f s  %5d iterations  r_G %.2e  r_B %.2e  force residual %.1e  "
-        "%.3f s%s%s%s%s\n",
+        "%.3f s%s%s%s%s%s\n",
         p, P, p * problem.time.dt, report.iterations, report.history.back().r_G,
         report.history.back().r_B, report.force_residual, report.history.back().wall,
         report.strain_failures
@@ -283,6 +344,11 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
             : "",
         failed
             ? cat("  (last of ", step.substeps, " substeps, ", failed, " failed attempts)").c_str()
+            : "",
+        clock && clock->last > p
+            ? cat("  ETA ", duration_text(seconds_since(clock->start) / (p - clock->first + 1) *
+                                          (clock->last - p)))
+                  .c_str()
             : "");
   std::fflush(stdout);
   return step;
@@ -313,6 +379,10 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
     const ResumePoint resumed = resume_point(problem, out, ids_, start_);
     start_ = resumed.state;
     p0 = resumed.next_step;
+    for (const std::string& change : resumed.changes)
+      if (options.verbosity > 0)
+        std::printf("%s: resumed with a changed setting: %s\n", problem.name.c_str(),
+                    change.c_str());
     file_->results = ResultsFile::open(out);
     file_->results->set_status("running");
   }
@@ -393,12 +463,51 @@ void ResultsWriter::append(const TimeStep& step) {
         unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor(), step)));
   }
   if (!output.empty()) {
-    if (!file) file = create_file();
-    file->append(step_data(solver, step), p == P ? "complete" : "running");
+    const bool existed = file.has_value();
+    try {
+      if (!file) file = create_file();
+      file->append(step_data(solver, step), p == P ? "complete" : "running");
+    } catch (const Error& e) {
+      // A write that fails (a full disk) keeps the previous file whole; its status must not say
+      // "running" for ever: it is rewritten (same size as the file kept) when there is room.
+      if (!existed) throw;
+      const std::string why = cat("failed to write step ", p, ": ", e.what());
+      try {
+        file->set_status(why);
+      } catch (const Error&) {
+        throw Error(cat(e.what(), "; ", output, " keeps steps 1..", p - 1,
+                        ", but its stored status could not be updated either (it still says "
+                        "'running'): free some space, then continue with --resume"));
+      }
+      throw Error(cat(e.what(), "; ", output, " keeps steps 1..", p - 1,
+                      " (status: failed to write step ", p,
+                      "); free some space, then continue with --resume"));
+    }
   }
   summary_.iterations.push_back(report.iterations);
   summary_.substeps.push_back(step.substeps);
   summary_.last_step = p;
+}
+
+void ResultsWriter::interrupted(int p, int signal) {
+  std::optional<ResultsFile>& file = file_->results;
+  const std::string& out = options_.output;
+  std::string kept = out.empty()       ? "nothing was to be written"
+                     : fs::exists(out) ? cat("no step was written; ", out, " is unchanged")
+                                       : cat("no step was written (no ", out, ")");
+  if (file) {
+    kept = cat(out, " keeps steps 1..", p - 1,
+               " (status 'interrupted ...'); continue the run with --resume");
+    try {
+      file->set_status(cat("interrupted by ", signal_name(signal), " during step ", p,
+                           "; steps 1..", p - 1, " are complete (continue with --resume)"));
+    } catch (const Error& e) {
+      kept = cat(out, " keeps steps 1..", p - 1, " (its status could not be updated: ", e.what(),
+                 "); continue with --resume");
+    }
+  }
+  throw Interrupted(signal, cat(problem_.name, ": interrupted by ", signal_name(signal),
+                                " during step ", p, " (t = ", p * problem_.time.dt, " s); ", kept));
 }
 
 RunSummary ResultsWriter::finish(const State& last) {
@@ -413,10 +522,19 @@ RunSummary ResultsWriter::finish(const State& last) {
 
 RunSummary run(Solver& solver, const RunOptions& options,
                const std::function<void(const Solver&, int, const State&)>& on_step) {
+  InterruptScope interrupts;  // Ctrl-C, SIGTERM: a clean stop (lib/interrupt.hpp)
   ResultsWriter results(solver, options);
   State state = results.start_state();
+  const RunClock clock{std::chrono::steady_clock::now(), results.next_step(), results.last_step()};
   for (int p = results.next_step(); p <= results.last_step(); ++p) {  // (2.1)
-    results.append(solve_time_step(solver, p, state, options.verbosity));
+    TimeStep step;
+    try {
+      check_interrupt();
+      step = solve_time_step(solver, p, state, options.verbosity, &clock);
+    } catch (const Interrupted& i) {
+      results.interrupted(p, i.signal());
+    }
+    results.append(step);
     if (on_step) on_step(solver, p, state);
   }
   const RunSummary summary = results.finish(state);

@@ -8,6 +8,7 @@
 //   RunSummary summary = results.finish(s);      // + one summary line
 #pragma once
 
+#include <chrono>
 #include <functional>
 #include <map>
 #include <memory>
@@ -86,9 +87,17 @@ constexpr int kMaxHalvings = 3;
 /// not admissible (check_admissibility: a node inside the obstacle, det F <= 0, a cell on the
 /// rotated branch, a tension without glue, beta outside [0, 1]; status "inadmissible: ..."). Prints
 /// progress (verbosity 2: every iteration; 1: every 50 iterations of a static problem, every 2000
-/// of an evolution, and one line per converged step). Never throws on divergence:
-/// ResultsWriter::append reports it.
-TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity = 1);
+/// of an evolution, with the step's ETA at its mean rate, and one line per converged step).
+/// Never throws on divergence: ResultsWriter::append reports it. Ctrl-C or SIGTERM inside an
+/// InterruptScope (lib/interrupt.hpp) throws Interrupted at the next iteration.
+/// With `clock`, the step line ends with the run's ETA: the mean time of the steps computed so
+/// far times the steps left.
+struct RunClock {
+  std::chrono::steady_clock::time_point start;  ///< when the first step of this run started
+  int first = 1, last = 1;                      ///< the steps this run computes
+};
+TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity = 1,
+                         const RunClock* clock = nullptr);
 
 /// The results file of a run (lib/results.hpp layout) and its bookkeeping:
 ///  - the output path is checked (never over an input of the run, a directory or a file that is
@@ -122,6 +131,11 @@ class ResultsWriter {
   /// to change; its last iterate and history are kept in the file as /unconverged/NNNNNN (never
   /// as a result) and the file keeps steps 1..p-1.
   void append(const TimeStep& step);
+
+  /// Ctrl-C or SIGTERM (lib/interrupt.hpp) during step p: marks the file "interrupted by ...
+  /// during step p" (when this run has one) and throws Interrupted naming what was kept. The
+  /// lock is released when the writer is destroyed, so the file can be resumed at once.
+  [[noreturn]] void interrupted(int p, int signal);
 
   /// Marks a stopped run "stopped after step p" (or a resumed finished run "complete") and
   /// returns the summary, with `last` the last converged state.

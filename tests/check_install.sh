@@ -7,7 +7,7 @@ src=$2
 prefix=$(mktemp -d)
 trap 'rm -rf "$prefix"' EXIT
 cmake --install "$build" --prefix "$prefix" > "$prefix.log"
-cat "$prefix.log"; rm -f "$prefix.log"
+cat "$prefix.log"; mv "$prefix.log" "$prefix/install.log"
 test -x "$prefix/bin/ltl_run" || { echo "no $prefix/bin/ltl_run"; exit 1; }
 test -x "$prefix/bin/ltl-results" || { echo "no $prefix/bin/ltl-results"; exit 1; }
 module=$(find "$prefix/lib" -name ltl_results.py)
@@ -20,6 +20,12 @@ sed -n '/R"(parameters/,/^)";/p' "$src/tests/testing.hpp" | sed '1s/.*R"(//;$d' 
 "$prefix/bin/ltl_run" "$prefix/case.toml" -q -o "$prefix/case.h5"
 "$prefix/bin/ltl-results" "$prefix/case.h5" | tee "$prefix/summary"
 grep -q "status: complete" "$prefix/summary"
+# The prefix is not on Python's path: the install printed the exact line that makes the reader
+# importable; run as printed, it does.
+line=$(grep -- '-- *export PYTHONPATH=' "$prefix/install.log" | sed 's/^-- *//')
+test -n "$line" || { echo "the install did not print the PYTHONPATH line"; exit 1; }
+(eval "$line" && cd / && /usr/bin/python3 -c "import ltl_results") ||
+  { echo "the printed line does not make ltl_results importable: $line"; exit 1; }
 PYTHONPATH=$(dirname "$module") /usr/bin/python3 -c "
 import ltl_results, sys
 assert ltl_results.__file__.startswith('$prefix'), ltl_results.__file__

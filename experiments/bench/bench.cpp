@@ -512,10 +512,11 @@ int main(int argc, char** argv) {
     } else if (a == "--quick") {
       quick = true;
     } else {
+      const bool help = a == "-h" || a == "--help";
       std::fprintf(
-          stderr,
+          help ? stdout : stderr,
           "usage: bench [--quick] [--iters N] [--warm N] [--max-cells N] [--only 2d|3d|NAME]\n");
-      return 2;
+      return help ? 0 : 2;
     }
   }
   const std::vector<Case> cases = all_cases();

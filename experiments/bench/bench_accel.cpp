@@ -169,10 +169,13 @@ int main(int argc, char** argv) try {
       trace = argv[++i];
     else if (std::strchr(argv[i], '='))
       extra.push_back(argv[i]);
-    else
-      throw ltl::Error(ltl::cat("unexpected argument '", argv[i],
-                                "' (usage: bench_accel [--quick] [--depth M] [--cap-seconds S] "
-                                "[--trace CASE] [key=value]...)"));
+    else {  // a usage error: exit status 2, nothing run
+      std::fprintf(stderr,
+                   "bench_accel: unexpected argument '%s' (usage: bench_accel [--quick] [--depth "
+                   "M] [--cap-seconds S] [--trace CASE] [key=value]...)\n",
+                   argv[i]);
+      return 2;
+    }
   }
   const std::string fig5 = "experiments/fig5/fig5.toml", fig6 = "experiments/fig6/fig6.toml";
   std::vector<std::vector<Case>> families(2);

@@ -28,6 +28,7 @@
 //
 // Writes: three tables on stdout (accuracy against Hertz, self-convergence, cost of the two
 // updates); nothing else. The numbers are quoted in paper_notes/section7.md.
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -172,6 +173,15 @@ int main(int argc, char** argv) {
     std::printf("usage: hertz [levels >= 1] [0 < a_over_Rc < 0.5] [1/2 < rho_BM <= 1] [OUTDIR]\n");
     return 0;
   }
+  for (int i = 1; i < argc; ++i)  // no option but --help: an unknown one is a usage error
+    if (argv[i][0] == '-' && !std::isdigit(static_cast<unsigned char>(argv[i][1])) &&
+        argv[i][1] != '.') {
+      std::fprintf(stderr,
+                   "hertz: unknown option '%s'\nusage: hertz [levels >= 1] [0 < a_over_Rc < "
+                   "0.5] [1/2 < rho_BM <= 1] [OUTDIR]\n",
+                   argv[i]);
+      return 2;
+    }
   try {
     Data d;
     const int levels = argc > 1 ? std::atoi(argv[1]) : 4;

@@ -174,11 +174,13 @@ void write_json(const std::string& path, const std::string& figure, const std::v
 
 int main(int argc, char** argv) {
   if (argc < 2 || (std::string(argv[1]) != "fig5" && std::string(argv[1]) != "fig6")) {
-    std::fprintf(stderr,
+    const bool help =
+        argc == 2 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help");
+    std::fprintf(help ? stdout : stderr,
                  "usage: %s fig5|fig6 [levels=L1,L2,...] [json=FILE] [key=value]...\n"
                  "(run from the repository root)\n",
                  argv[0]);
-    return 2;
+    return help ? 0 : 2;
   }
   const std::string figure = argv[1];
   std::vector<std::string> extra;
