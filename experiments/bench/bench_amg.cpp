@@ -17,6 +17,7 @@
 //           of the machine; times do: the load average is printed beside them.
 //           Numbers and discussion: paper_notes/performance.md, "Memory per cell, and CG + AMG".
 
+#include <malloc.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -102,16 +103,20 @@ int run_case(const Gutter& g, const std::string& solver_name, int iters, int war
   const double its = solves > 0 ? double(gs.cg_iterations() - it0) / solves : 0;
   // The peak (VmHWM, reached in the setup: the factorization's workspace, the assembly's
   // triplets) and the resident memory while iterating (VmRSS), both less the base and the
-  // factor / hierarchy, per cell.
+  // factor / hierarchy, per cell; and the bytes live on the heap while iterating (malloc's count:
+  // what the solver holds, the setup's transients freed), less the factor / hierarchy, per cell.
   const double peak = status_mb("VmHWM:"), rss = status_mb("VmRSS:");
+  const struct mallinfo2 mi = mallinfo2();
+  const double live =
+      (static_cast<double>(mi.uordblks) + static_cast<double>(mi.hblkhd)) / 1048576.0;
   auto per_cell = [&](double mb) { return ((mb - base) * 1048576.0 - store_bytes) / g.cells(); };
   std::printf(
       "RESULT %s %s cells=%ld nodes=%d factors=%d setup_s=%.3f store_MB=%.1f solve_ms=%.3f "
       "cg_its_per_solve=%.2f base_MB=%.0f peak_MB=%.0f rss_MB=%.0f peak_rest_B_per_cell=%.0f "
-      "rss_rest_B_per_cell=%.0f load=%s\n",
+      "rss_rest_B_per_cell=%.0f live_rest_B_per_cell=%.0f load=%s\n",
       g.name().c_str(), cg ? "cg-amg" : "cholesky", g.cells(), problem.mesh.num_nodes(),
       gs.num_factors(), setup, store_bytes / 1e6, per_call_ms, its, base, peak, rss, per_cell(peak),
-      per_cell(rss), loadavg().c_str());
+      per_cell(rss), (live * 1048576.0 - store_bytes) / g.cells(), loadavg().c_str());
   return 0;
 }
 
