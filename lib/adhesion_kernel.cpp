@@ -3,9 +3,12 @@
 #include "adhesion_kernel.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 namespace ltl {
@@ -380,63 +383,164 @@ double facet_pair(const Vector3d* P, int np, const Vector3d* Q, int nq, double d
 
 }  // namespace kernel
 
+namespace {
+
+/// The entries of one pair of facets i <= j, (k_ij, k_ji), by the centre-point rule or the exact
+/// Galerkin integral; the constructor checks the vertices the exact rule needs.
+class PairRule {
+ public:
+  PairRule(const ContactSurface& surface, double d0, bool exact)
+      : S_(surface), d0_(d0), exact_(exact) {
+    const int n = S_.size(), dim = S_.dim;
+    if (!exact) return;
+    const int nv = static_cast<int>(S_.vertices.size());
+    if ((dim == 2 && nv != 2) || (dim == 3 && nv != 3 && nv != 4))
+      fail(
+          "the exact kernel needs surface.vertices: 2 (2-D) or 4 (3-D) matrices of size dim x "
+          "#facets, got " +
+          std::to_string(nv));
+    for (int v = 0; v < nv; ++v)
+      if (S_.vertices[v].rows() != dim || S_.vertices[v].cols() != n)
+        fail("surface.vertices[" + std::to_string(v) + "] must be dim x #facets");
+    auto check_measure = [&](int s, double measure, double rel, const char* what) {
+      if (std::abs(measure - S_.area(s)) > rel * S_.area(s))
+        fail("on facet " + std::to_string(s) + " the " + what + " " + std::to_string(measure) +
+             " differs from surface.area " + std::to_string(S_.area(s)) +
+             ": check surface.vertices");
+    };
+    if (dim == 2) {
+      for (int s = 0; s < n; ++s)
+        check_measure(s, (S_.vertices[1].col(s) - S_.vertices[0].col(s)).norm(), 1e-3,
+                      "segment length");
+      return;
+    }
+    facets_.resize(n);
+    for (int s = 0; s < n; ++s) {
+      Vector3d v[4];
+      for (int c = 0; c < nv; ++c) v[c] = S_.vertices[c].col(s);
+      facets_[s] = make_facet3(v, nv);
+      check_measure(s, facets_[s].area, 1e-2, "area of the vertices' triangles (cyclic order?)");
+    }
+  }
+
+  /// Is a pair expensive (3-D exact quadrature: worth a parallel loop)?
+  bool costly() const { return exact_ && S_.dim == 3; }
+
+  std::pair<double, double> operator()(int i, int j) const {
+    if (!exact_) {
+      // [LTL87 (6.4)-(6.5)] centre-point rule: k_ss' = d(x_s - x_s') |G_s'|.
+      const double d = d0_ * std::exp(-d0_ * (S_.centre.col(i) - S_.centre.col(j)).norm());
+      return {d * S_.area(j), d * S_.area(i)};
+    }
+    // Exact Galerkin integral: k_ss' = (1/|G_s|) int_{G_s} int_{G_s'} d(x - y) dy dx.
+    const double I = S_.dim == 2
+                         ? pair_integral_2d(S_.vertices[0].col(i), S_.vertices[1].col(i),
+                                            S_.vertices[0].col(j), S_.vertices[1].col(j), d0_)
+                         : pair_integral_3d(facets_[i], facets_[j], d0_);
+    return {I / S_.area(i), I / S_.area(j)};
+  }
+
+ private:
+  const ContactSurface& S_;
+  double d0_;
+  bool exact_;
+  std::vector<Facet3> facets_;
+};
+
+/// The largest facet diameter D of kernel_cutoff().
+double largest_diameter(const ContactSurface& S) {
+  double D = 0.0;
+  for (int s = 0; s < S.size(); ++s) {
+    double d = S.dim == 2 ? S.area(s) : 2.0 * std::sqrt(S.area(s));
+    if (S.dim == 3 && !S.vertices.empty()) {
+      d = 0.0;
+      for (const Eigen::MatrixXd& v : S.vertices)
+        d = std::max(d, 2.0 * (v.col(s) - S.centre.col(s)).norm());
+    }
+    D = std::max(D, d);
+  }
+  return D;
+}
+
+}  // namespace
+
 Eigen::MatrixXd adhesion_kernel(const ContactSurface& surface, double d0, bool exact) {
-  const int n = surface.size(), dim = surface.dim;
+  const int n = surface.size();
+  const PairRule rule(surface, d0, exact);
   Eigen::MatrixXd k(n, n);
-  if (!exact) {
-    // [LTL87 (6.4)-(6.5)] centre-point rule: k_ss' = d(x_s - x_s') |G_s'|.
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        k(i, j) = d0 * std::exp(-d0 * (surface.centre.col(i) - surface.centre.col(j)).norm()) *
-                  surface.area(j);
-    return k;
-  }
-  // Exact Galerkin integral: k_ss' = (1/|G_s|) int_{G_s} int_{G_s'} d(x - y) dy dx.
-  const int nv = static_cast<int>(surface.vertices.size());
-  if ((dim == 2 && nv != 2) || (dim == 3 && nv != 3 && nv != 4))
-    fail(
-        "the exact kernel needs surface.vertices: 2 (2-D) or 4 (3-D) matrices of size dim x "
-        "#facets, got " +
-        std::to_string(nv));
-  for (int v = 0; v < nv; ++v)
-    if (surface.vertices[v].rows() != dim || surface.vertices[v].cols() != n)
-      fail("surface.vertices[" + std::to_string(v) + "] must be dim x #facets");
-  auto check_measure = [&](int s, double measure, double rel, const char* what) {
-    if (std::abs(measure - surface.area(s)) > rel * surface.area(s))
-      fail("on facet " + std::to_string(s) + " the " + what + " " + std::to_string(measure) +
-           " differs from surface.area " + std::to_string(surface.area(s)) +
-           ": check surface.vertices");
-  };
-  if (dim == 2) {
-    for (int s = 0; s < n; ++s)
-      check_measure(s, (surface.vertices[1].col(s) - surface.vertices[0].col(s)).norm(), 1e-3,
-                    "segment length");
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i <= j; ++i) {
-        const double I =
-            pair_integral_2d(surface.vertices[0].col(i), surface.vertices[1].col(i),
-                             surface.vertices[0].col(j), surface.vertices[1].col(j), d0);
-        k(i, j) = I / surface.area(i);
-        k(j, i) = I / surface.area(j);
-      }
-    return k;
-  }
-  std::vector<Facet3> facets(n);
-  for (int s = 0; s < n; ++s) {
-    Vector3d v[4];
-    for (int c = 0; c < nv; ++c) v[c] = surface.vertices[c].col(s);
-    facets[s] = make_facet3(v, nv);
-    check_measure(s, facets[s].area, 1e-2, "area of the vertices' triangles (cyclic order?)");
-  }
 #if defined(_OPENMP)
-#pragma omp parallel for schedule(dynamic)
+#pragma omp parallel for schedule(dynamic) if (rule.costly())
 #endif
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i <= j; ++i) {  // iteration j writes k(i,j), k(j,i), i <= j: no race
-      const double I = pair_integral_3d(facets[i], facets[j], d0);
-      k(i, j) = I / surface.area(i);
-      k(j, i) = I / surface.area(j);
-    }
+    for (int i = 0; i <= j; ++i)  // iteration j writes k(i,j), k(j,i), i <= j: no race
+      std::tie(k(i, j), k(j, i)) = rule(i, j);
+  return k;
+}
+
+double kernel_cutoff(const ContactSurface& surface, double d0, double rel_tol) {
+  if (!(d0 > 0.0) || !std::isfinite(d0)) fail("d0 must be > 0 for a kernel cutoff");
+  if (!(rel_tol > 0.0 && rel_tol < 1.0)) fail("the cutoff tolerance must be in (0, 1)");
+  const double D = largest_diameter(surface), delta = d0 * D;
+  // Newton on f(x) = delta - x + log(1 + x) - log(rel_tol) = 0 from the right of the root (f is
+  // concave and decreasing there): monotone convergence.
+  double x = delta - std::log(rel_tol) + std::log1p(delta - std::log(rel_tol));
+  for (int it = 0; it < 50; ++it) {
+    const double f = delta - x + std::log1p(x) - std::log(rel_tol);
+    const double dx = f / (1.0 - 1.0 / (1.0 + x));
+    x += dx;
+    if (std::abs(dx) <= 1e-12 * x) break;
+  }
+  return D + x / d0;
+}
+
+Eigen::SparseMatrix<double> adhesion_kernel_sparse(const ContactSurface& surface, double d0,
+                                                   bool exact, double rel_tol) {
+  const int n = surface.size(), dim = surface.dim;
+  const PairRule rule(surface, d0, exact);
+  const double rc = kernel_cutoff(surface, d0, rel_tol);
+  // The centres on a grid of cell size rc: the pairs within rc are in neighbouring cells.
+  using Cell = std::array<long long, 3>;
+  std::vector<std::pair<Cell, int>> binned(n);
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero();
+  if (n > 0) lo.head(dim) = surface.centre.rowwise().minCoeff();
+  for (int s = 0; s < n; ++s) {
+    Cell c{0, 0, 0};
+    for (int a = 0; a < dim; ++a)
+      c[a] = static_cast<long long>(std::floor((surface.centre(a, s) - lo(a)) / rc));
+    binned[s] = {c, s};
+  }
+  std::sort(binned.begin(), binned.end());
+  std::vector<std::pair<int, int>> pairs;  // i <= j within rc
+  for (int s = 0; s < n; ++s) {
+    const Cell& c = binned[s].first;
+    const int i = binned[s].second;
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy)
+        for (long long dz = (dim == 3 ? -1 : 0); dz <= (dim == 3 ? 1 : 0); ++dz) {
+          const Cell nb{c[0] + dx, c[1] + dy, c[2] + dz};
+          auto first = std::lower_bound(binned.begin(), binned.end(), std::make_pair(nb, 0));
+          for (auto it = first; it != binned.end() && it->first == nb; ++it) {
+            const int j = it->second;
+            if (i <= j && (surface.centre.col(i) - surface.centre.col(j)).norm() <= rc)
+              pairs.emplace_back(i, j);
+          }
+        }
+  }
+  std::vector<std::pair<double, double>> value(pairs.size());
+  const long np = static_cast<long>(pairs.size());
+#if defined(_OPENMP)
+#pragma omp parallel for schedule(dynamic) if (rule.costly())
+#endif
+  for (long p = 0; p < np; ++p) value[p] = rule(pairs[p].first, pairs[p].second);
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(2 * pairs.size());
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    const auto [i, j] = pairs[p];
+    t.emplace_back(i, j, value[p].first);
+    if (i != j) t.emplace_back(j, i, value[p].second);
+  }
+  Eigen::SparseMatrix<double> k(n, n);
+  k.setFromTriplets(t.begin(), t.end());
   return k;
 }
 

@@ -70,7 +70,7 @@ void Solver::precompute(double R) {
       global_matrix(disc_.cells(), disc_.facets(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
   const double scale = global_ ? global_->value_scale() : 1.0;  // a substep's, kept
   global_.reset();  // release the old factor before the new one is computed
-  global_ = std::make_unique<GlobalStep>(K, disc_.dirichlet());
+  global_ = std::make_unique<GlobalStep>(K, disc_.dirichlet(), a.global_solver, &problem().mesh.X);
   global_->set_value_scale(scale);
   ++factorizations_;
   strain_ = std::make_unique<StrainStep>(disc_.split(), Rq);

@@ -126,6 +126,23 @@ void super_backward(const SuperView& L, double* Y, double* W) {
   }
 }
 
+/// CHOLMOD's view of the lower triangle `lower` (compressed), without a copy.
+cholmod_sparse lower_view(SpMat& lower) {
+  cholmod_sparse S{};
+  S.nrow = S.ncol = static_cast<size_t>(lower.rows());
+  S.nzmax = static_cast<size_t>(lower.nonZeros());
+  S.p = lower.outerIndexPtr();
+  S.i = lower.innerIndexPtr();
+  S.x = lower.valuePtr();
+  S.stype = -1;  // symmetric, lower triangle stored
+  S.itype = CHOLMOD_INT;
+  S.xtype = CHOLMOD_REAL;
+  S.dtype = CHOLMOD_DOUBLE;
+  S.sorted = 1;
+  S.packed = 1;
+  return S;
+}
+
 }  // namespace
 
 /// CHOLMOD's state and the factor it owns (freed together, also when the constructor throws).
@@ -152,18 +169,7 @@ Cholesky::Cholesky(const SpMat& A, int columns, const std::string& what, const s
     throw Error(cat(what, ": a given order of ", order.size(), " rows for ", n_, " rows"));
   SpMat lower = A.triangularView<Eigen::Lower>();
   lower.makeCompressed();
-  cholmod_sparse S{};
-  S.nrow = S.ncol = static_cast<size_t>(n_);
-  S.nzmax = static_cast<size_t>(lower.nonZeros());
-  S.p = lower.outerIndexPtr();
-  S.i = lower.innerIndexPtr();
-  S.x = lower.valuePtr();
-  S.stype = -1;  // symmetric, lower triangle stored
-  S.itype = CHOLMOD_INT;
-  S.xtype = CHOLMOD_REAL;
-  S.dtype = CHOLMOD_DOUBLE;
-  S.sorted = 1;
-  S.packed = 1;
+  cholmod_sparse S = lower_view(lower);
   cholmod_common& cm = common_->c;
   // Supernodal LL' factorization (BLAS-3, fast for every size), kept as is.
   cm.supernodal = CHOLMOD_SUPERNODAL;
@@ -204,6 +210,19 @@ Cholesky::Cholesky(const SpMat& A, int columns, const std::string& what, const s
 }
 
 Cholesky::~Cholesky() = default;
+
+double Cholesky::predicted_nonzeros(const SpMat& A) {
+  SpMat lower = A.triangularView<Eigen::Lower>();
+  lower.makeCompressed();
+  cholmod_sparse S = lower_view(lower);
+  Common common;
+  common.c.nmethods = 1;
+  common.c.method[0].ordering = CHOLMOD_AMD;
+  common.c.supernodal = CHOLMOD_SIMPLICIAL;  // the count only: no supernodal symbolic pass
+  common.L = cholmod_analyze(&S, &common.c);
+  if (!common.L) throw Error("the analysis of the global matrix (4.5) failed (out of memory?)");
+  return common.c.lnz;
+}
 
 double Cholesky::entries() const {
   return static_cast<double>(L_->xsize);

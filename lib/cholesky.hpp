@@ -37,6 +37,9 @@ class Cholesky {
   Cholesky(const SpMat& A, int columns, const std::string& what, const std::string& hint,
            const std::vector<int>& order = {});
   ~Cholesky();
+  /// nnz(L) of the factor of A (lower triangle read) under the AMD ordering, from CHOLMOD's
+  /// symbolic analysis alone: no numerical factorization, memory O(nnz(A)).
+  static double predicted_nonzeros(const SpMat& A);
   Cholesky(const Cholesky&) = delete;
   Cholesky& operator=(const Cholesky&) = delete;
 

@@ -686,6 +686,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
             "max_refactorizations",
             "R_min",
             "solver",
+            "global_solver",
             "newton_switch",
             "force_tol",
             "newton_max_iter"});
@@ -728,6 +729,12 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
     has_solver = a.has("solver");
     p.algorithm.solver = a.choice<NonlinearSolver>(
         "solver", {{"alg2", NonlinearSolver::Alg2}, {"newton", NonlinearSolver::Newton}}, "alg2");
+    // The global step's linear solver; left out: by the predicted factor size (global_step.hpp).
+    p.algorithm.global_solver = a.choice<GlobalSolver>("global_solver",
+                                                       {{"auto", GlobalSolver::Auto},
+                                                        {"cholesky", GlobalSolver::Cholesky},
+                                                        {"cg-amg", GlobalSolver::CgAmg}},
+                                                       "auto");
     p.algorithm.newton_switch = a.number("newton_switch", p.algorithm.newton_switch);
     if (!(p.algorithm.newton_switch > 0))
       a.fail("newton_switch", cat("= ", p.algorithm.newton_switch, ": must be > 0"));

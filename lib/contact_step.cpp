@@ -267,10 +267,30 @@ ContactStep::ContactStep(const ContactSurface& surface, const Adhesion& adhesion
   N3_.setZero();
   N3_.head(dim) = surface_.N;
 
-  // [LTL87 (6.4)-(6.5)] the kernel k_ss' (adhesion_kernel.hpp); all zero without dissipation.
-  k_ = adhesion_.d0 > 0.0 ? adhesion_kernel(surface_, adhesion_.d0, adhesion_.exact_kernel)
-                          : Eigen::MatrixXd::Zero(n, n);
+  // [LTL87 (6.4)-(6.5)] the kernel k_ss' (adhesion_kernel.hpp), sparse; empty without
+  // dissipation: no #facets^2 buffer in either case.
+  k_ = adhesion_.d0 > 0.0 ? adhesion_kernel_sparse(surface_, adhesion_.d0, adhesion_.exact_kernel)
+                          : Eigen::SparseMatrix<double>(n, n);
+  k_.makeCompressed();
   kt_ = k_.transpose();
+  kdiag_ = k_.diagonal();
+}
+
+double ContactStep::kernel_bytes() const {
+  auto bytes = [](const Eigen::SparseMatrix<double>& m) {
+    return static_cast<double>(m.nonZeros()) * (sizeof(double) + sizeof(int)) +
+           static_cast<double>(m.outerSize() + 1) * sizeof(int);
+  };
+  return bytes(k_) + bytes(kt_) + static_cast<double>(kdiag_.size()) * sizeof(double);
+}
+
+/// sum over s' of k_ss' (beta_s' - beta_prev_s'): row s of k is column s of kt.
+static double kernel_row_dot(const Eigen::SparseMatrix<double>& kt, int s,
+                             const Eigen::VectorXd& beta, const Eigen::VectorXd& beta_prev) {
+  double sum = 0.0;
+  for (Eigen::SparseMatrix<double>::InnerIterator it(kt, s); it; ++it)
+    sum += it.value() * (beta(it.row()) - beta_prev(it.row()));
+  return sum;
 }
 
 void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
@@ -289,10 +309,11 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
       a.head(dim) = Rqc_ * ubar.col(s) - lambda_c.col(s);  // (6.3)
       double aa = 0.0, b = w;
       if (dissipation) {
-        const double kss = k_(s, s);
+        const double kss = kdiag_(s);
         aa = kss / dt;  // (6.4)
         // (6.5), with the newest beta of the other facets (Gauss-Seidel).
-        const double others = kt_.col(s).dot(beta - beta_prev) - kss * (beta(s) - beta_prev(s));
+        const double others =
+            kernel_row_dot(kt_, s, beta, beta_prev) - kss * (beta(s) - beta_prev(s));
         b = w - others / dt + kss * beta_prev(s) / dt;
       }
       const FacetSolution sol =
@@ -319,7 +340,7 @@ double ContactStep::energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta
   if (adhesion_.d0 > 0.0) {
     double D = 0.0;
     for (int s = 0; s < n; ++s)
-      D += surface_.area(s) * (beta(s) - beta_prev(s)) * kt_.col(s).dot(beta - beta_prev);
+      D += surface_.area(s) * (beta(s) - beta_prev(s)) * kernel_row_dot(kt_, s, beta, beta_prev);
     E += D / (2.0 * adhesion_.dt);
   }
   return E;

@@ -18,7 +18,9 @@
 //
 // where k_ss' approximates  integral over G_s' of d(x_s - y) dy  for the kernel
 // d(y) = d0 exp(-d0 |y|) (1.6), by the paper's centre-point rule or the exact Galerkin integral
-// (adhesion_kernel.hpp).
+// (adhesion_kernel.hpp), stored sparse: the pairs within the cutoff of adhesion_kernel.hpp (the
+// dropped mass of a row is below kKernelCutoffTol of the kernel's mass), nothing without
+// dissipation (d0 = 0). Memory is linear in #facets.
 //
 // Eliminating e gives e = projection of a / (R q_c + kappa gamma^2) onto {e.N <= g}  (6.6)-(6.7)
 // and a scalar problem in gamma over [0,1] (6.8), solved by taking the best of the end points and
@@ -26,6 +28,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <Eigen/Sparse>
 
 #include "adhesion.hpp"
 #include "contact_surface.hpp"
@@ -40,7 +43,7 @@ struct FacetSolution {
 
 class ContactStep {
  public:
-  /// Precomputes the kernel matrix k (#facets x #facets, all zero when d0 = 0) and aa.
+  /// Precomputes the sparse kernel matrix k (#facets x #facets, no entries when d0 = 0).
   /// Rqc = R * q_c > 0. N is normalized. Throws std::invalid_argument on inconsistent data.
   ContactStep(const ContactSurface& surface, const Adhesion& adhesion, double Rqc);
 
@@ -75,7 +78,7 @@ class ContactStep {
   ///   lambda_c:  dim x #facets, current multiplier
   ///   beta_prev: #facets, beta at the previous time step (beta_{p-1})
   ///   e, beta:   in: current iterate, out: updated.
-  /// Allocation-free. O(#facets^2) per sweep when d0 > 0, O(#facets) when d0 = 0.
+  /// Allocation-free. O(nnz(k)) per sweep: O(#facets x neighbours within the cutoff).
   void solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
              const Eigen::VectorXd& beta_prev, Eigen::MatrixXd& e, Eigen::VectorXd& beta,
              int sweeps = 1) const;
@@ -97,7 +100,11 @@ class ContactStep {
   /// A new augmentation R q_c > 0 (adaptive R); the kernel does not depend on it.
   void set_Rqc(double Rqc);
 
-  const Eigen::MatrixXd& kernel() const { return k_; }  ///< k_ss'
+  /// [LTL87 (6.4)-(6.5)] The kernel k_ss' (sparse, adhesion_kernel_sparse()): row s holds the
+  /// facets s' within the cutoff of s; |G_s| k_ss' is symmetric. Empty when d0 = 0.
+  const Eigen::SparseMatrix<double>& kernel() const { return k_; }
+  /// Bytes held by the kernel (values and indices of k and its transpose, and the diagonal).
+  double kernel_bytes() const;
   const ContactSurface& surface() const { return surface_; }
   const Adhesion& adhesion() const { return adhesion_; }
 
@@ -105,9 +112,10 @@ class ContactStep {
   ContactSurface surface_;
   Adhesion adhesion_;
   double Rqc_;
-  Eigen::MatrixXd k_;
-  Eigen::MatrixXd kt_;  ///< k_ transposed: column s holds row s of k, contiguous for the sweep
-  Eigen::Vector3d N3_;  ///< N padded to 3 entries
+  Eigen::SparseMatrix<double> k_;
+  Eigen::SparseMatrix<double> kt_;  ///< k_ transposed: column s holds row s of k, for the sweep
+  Eigen::VectorXd kdiag_;           ///< k_ss
+  Eigen::Vector3d N3_;              ///< N padded to 3 entries
 };
 
 }  // namespace ltl

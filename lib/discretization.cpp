@@ -41,30 +41,27 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
   mean_det_ = problem_.discretization.mean_det && split_.model == MaterialModel::MooneyRivlin &&
               split_.C2 == 0;
   if (mean_det_) {
-    std::vector<Eigen::Triplet<double>> g, gt;
-    std::vector<double> w;
+    // The table of point gradients: nodes_per_cell x dim per point, nothing else (the cell's
+    // nodes are the mesh's): 8 x 3 doubles per point, 1.5 KB per H8 cell.
+    const int npc = mesh.nodes_per_cell();
+    if (nc > 0) for_each_quadrature_point(mesh, 0, [&](const Eigen::MatrixXd&, double) { ++nq_; });
+    if (nq_ > kMaxPoints)
+      throw Error(cat(mesh.source, ": ", nq_, " quadrature points per cell, at most ", kMaxPoints));
+    gq_.resize(npc, static_cast<Eigen::Index>(dim) * nq_ * nc);
+    wq_.resize(static_cast<Eigen::Index>(nq_) * nc);
     for (int c = 0; c < nc; ++c) {
       int k = 0;
       for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double wt) {
-        const int q = static_cast<int>(w.size());
-        for (int a = 0; a < grad.rows(); ++a)
-          for (int j = 0; j < dim; ++j) {
-            g.emplace_back(dim * q + j, mesh.cells(c, a), grad(a, j));
-            gt.emplace_back(mesh.cells(c, a), dim * q + j, wt * grad(a, j));
-          }
-        w.push_back(wt);
+        if (k < nq_) {
+          const Eigen::Index q = static_cast<Eigen::Index>(nq_) * c + k;
+          gq_.middleCols(dim * q, dim) = grad;
+          wq_(q) = wt;
+        }
         ++k;
       });
-      if (c == 0) nq_ = k;
       if (k != nq_) throw Error(cat(mesh.source, ": cell ", c, " has ", k, " quadrature points"));
     }
-    const int nq = static_cast<int>(w.size());
-    Gq_.resize(dim * nq, nn);
-    Gq_.setFromTriplets(g.begin(), g.end());
-    GqT_w_.resize(nn, dim * nq);
-    GqT_w_.setFromTriplets(gt.begin(), gt.end());
-    wq_ = Eigen::Map<const Eigen::VectorXd>(w.data(), nq);
-    GQ_.resize(dim * nq, dim);
+    const Eigen::Index nq = wq_.size();
     Sq_.resize(dim * nq, dim);
     fluctuation_laplacian_ = cells_.laplacian - SpMat(cells_.GbarT_vol * cells_.Gbar);
     fluctuation_laplacian_.prune(0.0);
@@ -171,17 +168,24 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
 // det and cof commute with the transpose.
 namespace {
 template <int d>
-void fluctuation_loop(const Eigen::MatrixXd& GQ, const Eigen::VectorXd& wq,
-                      const Eigen::VectorXd& vol, int nq, const Eigen::MatrixXd* lambda,
+void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
+                      const Eigen::VectorXd& wq, const Eigen::VectorXd& vol, int nq,
+                      const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                       const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) {
   using Mat = Eigen::Matrix<double, d, d>;
-  const int nc = static_cast<int>(vol.size());
+  using Nodal = Eigen::Matrix<double, Eigen::Dynamic, d, 0, 10, d>;  // <= 10 nodes: no heap
+  const int nc = static_cast<int>(vol.size()), npc = static_cast<int>(cells.cols());
 #pragma omp parallel for schedule(static)
   for (int e = 0; e < nc; ++e) {
+    Nodal ue(npc, d);
+    for (int a = 0; a < npc; ++a) ue.row(a) = u.row(cells(e, a));
+    // The point gradients, transposed blocks: (grad u)^T at point q = gq_q^T ue.
+    Mat G[Discretization::kMaxPoints];
     Mat Fbar = Mat::Zero();
     for (int k = 0; k < nq; ++k) {
       const int q = nq * e + k;
-      Fbar += wq(q) * GQ.block<d, d>(d * q, 0);
+      G[k].noalias() = gq.middleCols<d>(d * q).transpose() * ue;
+      Fbar += wq(q) * G[k];
     }
     Fbar /= vol(e);
     Fbar.diagonal().array() += 1.0;
@@ -194,7 +198,7 @@ void fluctuation_loop(const Eigen::MatrixXd& GQ, const Eigen::VectorXd& wq,
     double mean_det = 0;
     for (int k = 0; k < nq; ++k) {
       const int q = nq * e + k;
-      Mat F = GQ.block<d, d>(d * q, 0);
+      Mat F = G[k];
       F.diagonal().array() += 1.0;
       if constexpr (d == 2) {  // the linear term cancels exactly: det and cof of delta directly
         mean_det += wq(q) * (F - Fbar).determinant();
@@ -207,24 +211,40 @@ void fluctuation_loop(const Eigen::MatrixXd& GQ, const Eigen::VectorXd& wq,
     if (c) (*c)(e) = d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
   }
 }
+
+/// force(node a of cell e) += sum over the cell's points q of w_q gq_q(a, :) S_q (the transpose
+/// of the point-gradient operator applied to the point blocks S).
+template <int d>
+void scatter_points(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
+                    const Eigen::VectorXd& wq, int nq, const Eigen::MatrixXd& S,
+                    Eigen::MatrixXd& force) {
+  const int nc = static_cast<int>(cells.rows()), npc = static_cast<int>(cells.cols());
+  for (int e = 0; e < nc; ++e)
+    for (int k = 0; k < nq; ++k) {
+      const int q = nq * e + k;
+      const Eigen::Matrix<double, d, d> Sq = wq(q) * S.block<d, d>(d * q, 0);
+      for (int a = 0; a < npc; ++a)
+        force.row(cells(e, a)).noalias() += gq.block<1, d>(a, d * q) * Sq;
+    }
+}
 }  // namespace
 
 void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                                  const Eigen::MatrixXd* E, Eigen::VectorXd* c,
                                  Eigen::MatrixXd* force) const {
-  // The point gradients Gq u, computed once per u: ALG2 asks for them at the end of an iteration
-  // (the targets J, at the new u) and at the start of the next (the lagged force, at the same u
-  // unless the acceleration moved it), so the second product is skipped when u is unchanged.
-  if (!(u_GQ_.rows() == u.rows() && u_GQ_.cols() == u.cols() && u_GQ_ == u)) {
-    GQ_.noalias() = Gq_ * u;
-    u_GQ_ = u;
-  }
+  // The point gradients are recomputed per cell from the table gq_ and the cell's nodal u (no
+  // per-point buffer of them is kept: memory per cell, not speed, limits the 3-D problems).
+  const Eigen::MatrixXi& cells = problem_.mesh.cells;
   Eigen::MatrixXd* S = force ? &Sq_ : nullptr;
   if (dim() == 2)
-    fluctuation_loop<2>(GQ_, wq_, cells_.vol, nq_, lambda, E, c, S);
+    fluctuation_loop<2>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S);
   else
-    fluctuation_loop<3>(GQ_, wq_, cells_.vol, nq_, lambda, E, c, S);
-  if (force) force->noalias() += GqT_w_ * Sq_;
+    fluctuation_loop<3>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S);
+  if (!force) return;
+  if (dim() == 2)
+    scatter_points<2>(cells, gq_, wq_, nq_, Sq_, *force);
+  else
+    scatter_points<3>(cells, gq_, wq_, nq_, Sq_, *force);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {

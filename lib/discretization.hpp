@@ -63,6 +63,7 @@ class Discretization {
   /// (DiscretizationChoice::mean_det: incompressible with no C2 term left in the local step,
   /// i.e. plane strain with the pointwise C2 split, or C2 = 0 in 3-D).
   bool mean_det() const { return mean_det_; }
+  static constexpr int kMaxPoints = 27;  ///< quadrature points per cell (mean-det), at most
   /// L - GbarT_vol Gbar (#nodes x #nodes): the energy of the intra-cell fluctuation of grad u;
   /// mean-det only.
   const SpMat& fluctuation_laplacian() const { return fluctuation_laplacian_; }
@@ -121,15 +122,15 @@ class Discretization {
   Eigen::MatrixXd F_dead_, Id_;
   Eigen::VectorXd vol_rows_;
   double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
-  // Mean-det: point gradients at the cell quadrature points (rows dim*(nq*e + k) + j, like Gbar),
-  // their weighted transpose, the weights, and work buffers.
+  // Mean-det: the physical gradients at the cell quadrature points, nodes_per_cell x dim per
+  // point (point q = nq_ e + k of cell e in columns dim q .. dim q + dim - 1), their weights,
+  // and the work buffer of the per-point force blocks (dim x dim per point).
   bool mean_det_ = false;
   int nq_ = 0;
-  SpMatR Gq_, GqT_w_;
+  Eigen::MatrixXd gq_;
   Eigen::VectorXd wq_;
   SpMat fluctuation_laplacian_;
-  mutable Eigen::MatrixXd GQ_, Sq_;
-  mutable Eigen::MatrixXd u_GQ_;  ///< the u of GQ_ = Gq u (fluctuation computes it once per u)
+  mutable Eigen::MatrixXd Sq_;
 };
 
 }  // namespace ltl

@@ -13,6 +13,14 @@
 // AMD, METIS and nested-dissection orderings is computed once and induced on the other Dirichlet
 // sets. Several factors (3-D with symmetry planes) are solved concurrently on the OpenMP threads
 // when they are large (paper_notes/performance.md).
+//
+// Or iteratively (cg_amg.hpp): conjugate gradients preconditioned by AMG set up once per
+// Dirichlet set, warm-started from the previous iterate, for meshes whose factor does not fit.
+// algorithm.global_solver chooses; left out (GlobalSolver::Auto) CG + AMG is taken only when
+// PETSc is built in, the matrix has more than kAutoMinRows rows, and the factor predicted by
+// CHOLMOD's AMD analysis (one symbolic pass, before any factorization) needs more than
+// kAutoFactorBytes: far beyond every test, figure and benchmark of the package, which all
+// factorize as before.
 #pragma once
 
 #include <Eigen/Sparse>
@@ -21,6 +29,7 @@
 
 #include "cholesky.hpp"
 #include "fe.hpp"
+#include "problem.hpp"
 
 namespace ltl {
 
@@ -41,7 +50,10 @@ class GlobalStep {
   /// Groups the components by Dirichlet set, and analyzes and factorizes K restricted to each
   /// set's free nodes once. Throws a clear Error if a restricted matrix is not positive
   /// definite (a rigid motion not removed by fixed parts, symmetry planes or contact).
-  GlobalStep(const SpMat& K, const DirichletData& bc);
+  /// `solver`: Cholesky, CG + AMG (then X, the #nodes x dim reference coordinates, gives the
+  /// AMG's near-null space and is required), or Auto (the rule above).
+  GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
+             const Eigen::MatrixXd* X = nullptr);
   ~GlobalStep();
   GlobalStep(const GlobalStep&) = delete;
   GlobalStep& operator=(const GlobalStep&) = delete;
@@ -57,6 +69,22 @@ class GlobalStep {
   double value_scale() const { return scale_; }
 
   int num_factors() const { return static_cast<int>(groups_.size()); }
+  /// The solver in use: Cholesky or CgAmg (never Auto).
+  GlobalSolver solver() const { return solver_; }
+  /// CG + AMG: CG iterations and solves (one per component and call) since construction, AMG
+  /// setup seconds and the hierarchies' nonzeros and bytes (0 with Cholesky).
+  long cg_iterations() const;
+  long cg_solves() const;
+  double amg_setup_seconds() const;
+  double amg_nonzeros() const;
+  double amg_bytes() const;
+  /// Auto: CG + AMG above both (and only when CgAmg::available()).
+  static constexpr int kAutoMinRows = 200000;
+  static constexpr double kAutoFactorBytes = 4e9;
+  /// The factors' nnz(L) predicted from CHOLMOD's symbolic analysis alone (AMD ordering, no
+  /// factorization): #distinct Dirichlet sets x the count of the largest set's matrix; the
+  /// constructor's best-of-three ordering gives about as much or less.
+  static double predicted_factor_nonzeros(const SpMat& K, const DirichletData& bc);
   double analyze_seconds() const { return analyze_seconds_; }
   double factorize_seconds() const { return factorize_seconds_; }
   double factor_nonzeros() const { return factor_nnz_; }  ///< sum over the factors of nnz(L)
@@ -64,7 +92,7 @@ class GlobalStep {
   /// Factor k: number of rows (free nodes), of right-hand-side columns, and the factor itself.
   int factor_rows(int k) const;
   int factor_columns(int k) const;
-  const Cholesky& factor(int k) const;
+  const Cholesky& factor(int k) const;  ///< Cholesky only (an Error with CG + AMG)
   /// Wall time spent in solve() since construction, and the number of calls (benchmarks).
   double solve_seconds() const { return solve_seconds_; }
   long solve_calls() const { return solve_calls_; }
@@ -73,9 +101,13 @@ class GlobalStep {
   static constexpr double kParallelMinNnz = 200000;
 
  private:
-  struct Group;  // one distinct Dirichlet set: its factor and its rows
+  struct Group;  // one distinct Dirichlet set: its factor (or CG + AMG) and its rows
+  void iterate(Group& g, const Eigen::MatrixXd& b, Eigen::MatrixXd& u) const;
+  template <class F>
+  double amg_sum(const F& f) const;  ///< sum of f(CgAmg) over the CG + AMG groups
   std::vector<std::unique_ptr<Group>> groups_;
   const DirichletData bc_;
+  GlobalSolver solver_ = GlobalSolver::Cholesky;
   double analyze_seconds_ = 0, factorize_seconds_ = 0, factor_nnz_ = 0, min_rcond_ = 1;
   double solve_seconds_ = 0;
   long solve_calls_ = 0;

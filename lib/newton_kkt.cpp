@@ -173,7 +173,7 @@ void Newton::set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_pr
   if (!glued_) return;
   const int np = disc_.facets()->size();
   glue_.kappa = ad.kappa, glue_.w = ad.w, glue_.dt = ad.dt;
-  if (glue_.k.rows() != np) glue_.k = contact.kernel().sparseView();
+  if (glue_.k.rows() != np) glue_.k = contact.kernel();
   glue_.beta_prev = beta_prev;
   // The scale of the box NCP: the beta-stiffness of the dissipation and the Dupre energy, or
   // (neither) that of the glue's spring at a thousandth of the mesh size.

@@ -65,6 +65,9 @@ enum class Accelerated {
 /// How a time step is solved: the paper's ALG2 alone, or ALG2 from the previous step's state into
 /// the basin of Newton's method on the same discrete problem (newton.hpp).
 enum class NonlinearSolver { Alg2, Newton };
+/// The linear solver of the global step (4.5): sparse Cholesky, CG + AMG (PETSc), or chosen by
+/// the predicted factor size (global_step.hpp).
+enum class GlobalSolver { Auto, Cholesky, CgAmg };
 
 /// Parameters of ALG2 [LTL87 sec. 3-4, 7].
 struct AlgorithmParams {
@@ -103,6 +106,7 @@ struct AlgorithmParams {
   bool R_derived = false, q_derived = false, q_c_derived = false;
   double h = 0;
   NonlinearSolver solver = NonlinearSolver::Alg2;
+  GlobalSolver global_solver = GlobalSolver::Auto;  ///< "cholesky" | "cg-amg" (global_step.hpp)
   /// Newton: ALG2 runs until r_G + r_B < newton_switch, then Newton; a Newton phase that fails
   /// returns to ALG2's iterate, which goes on to a switch 10 times smaller (at most 3 starts).
   double newton_switch = 1e-2;

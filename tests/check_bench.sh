@@ -12,5 +12,7 @@ out=$("$build/experiments/bench_accel" --trace "fig5 K=7" --cap-seconds 60)
 echo "$out"
 echo "$out" | grep -q "^fig5 K=7 " || { echo "bench_accel printed no row for fig5 K=7"; exit 1; }
 if echo "$out" | grep -qE "^ +Newton: "; then echo "bench_accel: the Newton run did not converge"; exit 1; fi
+out=$("$build/experiments/bench_amg" --iters 2 --case gutter-270 cholesky)
+echo "$out" | grep -q "^RESULT gutter-270 cholesky " || { echo "bench_amg printed no RESULT line: $out"; exit 1; }
 "$py" experiments/peer/bench_peer.py --help > /dev/null
 echo "benchmarks: smoke test passed"

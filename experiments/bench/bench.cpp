@@ -11,7 +11,8 @@
 //             2 sweeps x 8 bytes x nnz(L) / (read bandwidth of this machine),
 //           the bandwidth being measured here by a STREAM-like loop; Table 5 compares our
 //           supernodal sweeps with CHOLMOD's supernodal and simplicial solves on the same factor.
-//           Table 6: the bytes written to append a step to a results file of each case.
+//           Table 7: the bytes written to append a step to a results file of each case.
+//           Table 6: memory, the peak and what is not the factor, per cell and per contact point.
 //           Discussion of the numbers: paper_notes/performance.md.
 //
 // Run:      make bench               (all sizes up to 2e5 cells, ~5 min on 2 cores, 5.5 GB peak)
@@ -53,6 +54,7 @@
 
 #include "alg2.hpp"
 #include "config.hpp"
+#include "contact_step.hpp"
 #include "global_step.hpp"
 #include "results.hpp"
 #include "results_commit.hpp"
@@ -403,6 +405,17 @@ int run_case(const Case& c, int iters, int warm) {
   put("t_analyze", gs.analyze_seconds());
   put("t_factorize", gs.factorize_seconds());
   put("peak_setup", peak_rss_mb());
+  {  // Memory: the factors as stored, and the contact kernel per contact point (sparse).
+    double factor_bytes = 0;
+    for (int k = 0; k < gs.num_factors(); ++k) factor_bytes += 8.0 * gs.factor(k).entries();
+    put("factor_bytes", factor_bytes);
+    if (problem.contact) {
+      ltl::Adhesion adhesion = problem.contact->adhesion;
+      adhesion.dt = problem.time.dt;
+      const ltl::ContactStep cs(solver.discretization().surface(), adhesion, 1.0);
+      put("kernel_bytes", cs.kernel_bytes());
+    }
+  }
 
   ltl::State s;
   for (int threads : {1, 2}) {
@@ -659,7 +672,21 @@ int main(int argc, char** argv) {
                 num(r, "sv_ours") / floor, num(r, "sv_cholsup"), num(r, "sv_simplicial"));
   }
   std::printf(
-      "\nTable 6. Results file: bytes written per step appended (lib/results_commit.hpp: the "
+      "\nTable 6. Memory: peak resident memory (VmHWM) after the setup and at the end, the "
+      "factors as stored, the rest per cell = (end peak - factors) / cells (the discretization, "
+      "the state, the work arrays, Anderson's history when on, the runtime), and the contact "
+      "kernel (sparse, adhesion_kernel.hpp) per contact point\n");
+  std::printf("%-13s %8s %7s %10s %10s %8s %13s %12s\n", "case", "cells", "facets", "setup MB",
+              "peak MB", "L MB", "rest B/cell", "kernel B/pt");
+  for (const auto& r : rows) {
+    const double rest = (num(r, "peak") * 1048576.0 - num(r, "factor_bytes")) / num(r, "cells");
+    std::printf("%-13s %8.0f %7.0f %10.0f %10.0f %8.1f %13.0f %12.1f\n", r.at("name").c_str(),
+                num(r, "cells"), num(r, "facets"), num(r, "peak_setup"), num(r, "peak"),
+                num(r, "factor_bytes") / 1e6, rest,
+                num(r, "facets") > 0 ? num(r, "kernel_bytes") / num(r, "facets") : 0.0);
+  }
+  std::printf(
+      "\nTable 7. Results file: bytes written per step appended (lib/results_commit.hpp: the "
       "journal, then the file in place; about twice the step), mean of steps 2..4 of a 4-step "
       "file\n");
   std::printf("%-13s %8s %14s %14s %9s\n", "case", "cells", "file (4 steps)",

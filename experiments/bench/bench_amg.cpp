@@ -1,0 +1,201 @@
+//                 The global step (4.5): Cholesky factor against CG + AMG (make bench-amg)
+//
+// What:     on the Fig 6 gutter refined through its mesh parameters (nt x na x nl H8, the sizes of
+//           `make bench`), the two global solvers of algorithm.global_solver, in real ALG2
+//           iterations: the setup (analysis + factorization, or the AMG hierarchy), the bytes of
+//           the factor or of the hierarchy, the cost of the global solve per ALG2 iteration (one
+//           triangular solve per factor, or CG to the inexact tolerance of lib/cg_amg.hpp,
+//           warm-started), the CG iterations per solve, and the peak resident memory with the
+//           bytes per cell outside the factor / hierarchy. --predict also prints, without
+//           factorizing, CHOLMOD's AMD count of nnz(L) for larger gutters (the memory a factor
+//           would need), from the matrix alone.
+//
+// Run:      build/experiments/bench_amg [--iters N] [--max-cells N] [--predict MAX_CELLS]
+//           Every (size, solver) runs in a child process (--case NAME SOLVER), so that its peak
+//           memory (VmHWM) is its own. Needs a build with PETSc for the CG + AMG rows (they are
+//           reported as not run otherwise). Counts (bytes, iterations) do not depend on the load
+//           of the machine; times do: the load average is printed beside them.
+//           Numbers and discussion: paper_notes/performance.md, "Memory per cell, and CG + AMG".
+
+#include <malloc.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "alg2.hpp"
+#include "cg_amg.hpp"
+#include "config.hpp"
+#include "global_step.hpp"
+
+namespace {
+
+struct Gutter {
+  int nt, na, nl;
+  long cells() const { return 1L * nt * na * nl; }
+  std::string name() const { return "gutter-" + std::to_string(cells()); }
+  std::vector<std::string> overrides() const {
+    return {"mesh.parameters.nt=" + std::to_string(nt), "mesh.parameters.na=" + std::to_string(na),
+            "mesh.parameters.nl=" + std::to_string(nl)};
+  }
+};
+
+/// The gutters of `make bench`, and larger ones for the prediction alone.
+const std::vector<Gutter> kGutters = {{2, 9, 15},     {2, 18, 30},    {3, 30, 50},
+                                      {4, 40, 75},    {6, 60, 110},   {8, 80, 160},
+                                      {10, 100, 200}, {12, 120, 280}, {16, 160, 390}};
+
+/// A line of /proc/self/status, in MB.
+double status_mb(const char* key) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind(key, 0) == 0) return std::atof(line.c_str() + std::string(key).size()) / 1024.0;
+  return -1;
+}
+
+std::string loadavg() {
+  std::ifstream f("/proc/loadavg");
+  std::string a;
+  f >> a;
+  return a;
+}
+
+std::string source(const std::string& rel) {
+  return std::string(LTL_SOURCE_DIR) + "/" + rel;
+}
+
+/// One gutter with one global solver: warm + iters ALG2 iterations from the initial state.
+int run_case(const Gutter& g, const std::string& solver_name, int iters, int warm) {
+  const double base = status_mb("VmRSS:");  // the libraries and the runtime, before the problem
+  std::vector<std::string> ov = g.overrides();
+  for (const char* o : {"algorithm.tol=1e-300", "algorithm.blowup=1e100", "algorithm.sweeps=1",
+                        "algorithm.solver=alg2"})
+    ov.push_back(o);
+  ov.push_back("algorithm.max_iter=" + std::to_string(iters + warm));
+  ov.push_back("algorithm.global_solver=\"" + solver_name + "\"");
+  const ltl::Problem problem = ltl::load_problem(source("experiments/fig6/fig6.toml"), ov);
+  ltl::Solver solver(problem);
+  const ltl::GlobalStep& gs = solver.global_step();
+  const bool cg = gs.solver() == ltl::GlobalSolver::CgAmg;
+  double factor_bytes = 0;
+  for (int k = 0; !cg && k < gs.num_factors(); ++k) factor_bytes += 8.0 * gs.factor(k).entries();
+  const double store_bytes = cg ? gs.amg_bytes() : factor_bytes;
+  const double setup = cg ? gs.amg_setup_seconds() : gs.analyze_seconds() + gs.factorize_seconds();
+  ltl::State s = solver.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  double t0 = 0;
+  long it0 = 0, calls0 = 0, solves0 = 0;
+  int n = 0;
+  solver.solve_step(s, beta_prev, [&](const ltl::IterationRecord&) {
+    if (++n != warm) return;
+    t0 = gs.solve_seconds();
+    calls0 = gs.solve_calls();
+    it0 = gs.cg_iterations();
+    solves0 = gs.cg_solves();
+  });
+  const long calls = gs.solve_calls() - calls0;
+  const double per_call_ms = calls > 0 ? 1e3 * (gs.solve_seconds() - t0) / calls : 0;
+  const long solves = gs.cg_solves() - solves0;
+  const double its = solves > 0 ? double(gs.cg_iterations() - it0) / solves : 0;
+  // The peak (VmHWM, reached in the setup: the factorization's workspace, the assembly's
+  // triplets) and the resident memory while iterating (VmRSS), both less the base and the
+  // factor / hierarchy, per cell; and the bytes live on the heap while iterating (malloc's count:
+  // what the solver holds, the setup's transients freed), less the factor / hierarchy, per cell.
+  const double peak = status_mb("VmHWM:"), rss = status_mb("VmRSS:");
+  const struct mallinfo2 mi = mallinfo2();
+  const double live =
+      (static_cast<double>(mi.uordblks) + static_cast<double>(mi.hblkhd)) / 1048576.0;
+  auto per_cell = [&](double mb) { return ((mb - base) * 1048576.0 - store_bytes) / g.cells(); };
+  std::printf(
+      "RESULT %s %s cells=%ld nodes=%d factors=%d setup_s=%.3f store_MB=%.1f solve_ms=%.3f "
+      "cg_its_per_solve=%.2f base_MB=%.0f peak_MB=%.0f rss_MB=%.0f peak_rest_B_per_cell=%.0f "
+      "rss_rest_B_per_cell=%.0f live_rest_B_per_cell=%.0f load=%s\n",
+      g.name().c_str(), cg ? "cg-amg" : "cholesky", g.cells(), problem.mesh.num_nodes(),
+      gs.num_factors(), setup, store_bytes / 1e6, per_call_ms, its, base, peak, rss, per_cell(peak),
+      per_cell(rss), (live * 1048576.0 - store_bytes) / g.cells(), loadavg().c_str());
+  return 0;
+}
+
+/// CHOLMOD's AMD count of nnz(L) of the largest Dirichlet set's matrix, without factorizing.
+int predict(const Gutter& g) {
+  std::vector<std::string> ov = g.overrides();
+  const ltl::Problem problem = ltl::load_problem(source("experiments/fig6/fig6.toml"), ov);
+  const ltl::Discretization disc(problem);
+  // The sparsity pattern is all the symbolic analysis reads: unit weights will do.
+  const ltl::SpMat K = ltl::global_matrix(disc.cells(), disc.facets(), 1.0, 1.0, 1.0);
+  const double lnz = ltl::GlobalStep::predicted_factor_nonzeros(K, disc.dirichlet());
+  std::printf("PREDICT %s cells=%ld nodes=%d nnzL_amd_all_factors=%.0f peak_MB=%.0f\n",
+              g.name().c_str(), g.cells(), problem.mesh.num_nodes(), lnz, status_mb("VmHWM:"));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int iters = 20, warm = 5;
+  long max_cells = 40000, predict_cells = 0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "bench_amg: %s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--case" || a == "--predict-case") {
+      const std::string name = next();
+      const std::string solver = a == "--case" ? next() : "";
+      for (const Gutter& g : kGutters)
+        if (g.name() == name) {
+          try {
+            return a == "--case" ? run_case(g, solver, iters, warm) : predict(g);
+          } catch (const std::exception& e) {
+            std::fprintf(stderr, "bench_amg: %s: %s\n", name.c_str(), e.what());
+            return 1;
+          }
+        }
+      std::fprintf(stderr, "bench_amg: no case %s\n", name.c_str());
+      return 2;
+    } else if (a == "--iters") {
+      iters = std::atoi(next().c_str());
+    } else if (a == "--max-cells") {
+      max_cells = std::atol(next().c_str());
+    } else if (a == "--predict") {
+      predict_cells = std::atol(next().c_str());
+    } else {
+      std::fprintf(stderr,
+                   "usage: bench_amg [--iters N] [--max-cells N] [--predict MAX_CELLS]\n"
+                   "       bench_amg --case gutter-CELLS cholesky|cg-amg | --predict-case "
+                   "gutter-CELLS\n");
+      return a == "--help" ? 0 : 2;
+    }
+  }
+  char exe[4096] = {0};
+  const ssize_t len = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  const std::string self = len > 0 ? std::string(exe, len) : std::string(argv[0]);
+  std::printf("bench_amg: %d timed ALG2 iterations after %d, PETSc %s; load average %s\n", iters,
+              warm, ltl::CgAmg::available() ? "built in" : "absent (no cg-amg rows)",
+              loadavg().c_str());
+  std::fflush(stdout);
+  for (const Gutter& g : kGutters) {
+    if (g.cells() <= max_cells)
+      for (const char* solver : {"cholesky", "cg-amg"}) {
+        if (std::string(solver) == "cg-amg" && !ltl::CgAmg::available()) continue;
+        const std::string cmd = "'" + self + "' --iters " + std::to_string(iters) + " --case " +
+                                g.name() + " " + solver;
+        if (std::system(cmd.c_str()) != 0) std::printf("%s %s: failed\n", g.name().c_str(), solver);
+        std::fflush(stdout);
+      }
+    if (g.cells() <= predict_cells) {
+      const std::string cmd = "'" + self + "' --predict-case " + g.name();
+      if (std::system(cmd.c_str()) != 0) std::printf("%s predict: failed\n", g.name().c_str());
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}

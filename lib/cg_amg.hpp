@@ -1,0 +1,74 @@
+// The iterative global step [LTL87 (4.1), (4.5)] for meshes whose Cholesky factor does not fit:
+// conjugate gradients preconditioned by algebraic multigrid (PETSc's smoothed-aggregation GAMG),
+// the hierarchy set up once per matrix, like the factor it replaces (global_step.hpp).
+//
+// The matrix is the SCALAR K of (4.5) restricted to one Dirichlet set's free nodes (the global
+// matrix is K (x) I_dim: the displacement components are decoupled), so the hierarchy is built
+// once and serves every component of the set, one CG solve per component. Its near-null space is
+// what the rigid-body modes of the vector problem are, component by component: the constants and
+// the coordinates x, y (, z) (a rotation W x has linear components), orthonormalized.
+//
+// Each solve is warm-started from the previous iterate (ALG2 calls it once per iteration with
+// a right-hand side that changes less and less) and is INEXACT, with a tolerance that tightens as
+// ALG2 converges: it stops when
+//     ||b - K x|| <= max(kEta ||b - K x0||, kFloor ||b||),
+// x0 the warm start. At a fixed point of ALG2 the warm start solves the system already, so the
+// inexactness vanishes there: the converged state is the one of the exact (Cholesky) step, which
+// the PETSc tests check (tests/test_cg_amg.cpp).
+//
+// PETSc is optional at build time (CMake defines LTL_HAVE_PETSC when pkg-config finds it):
+// without it available() is false and the constructor throws a clear Error.
+#pragma once
+
+#include <Eigen/Dense>
+#include <memory>
+#include <string>
+
+#include "fe.hpp"
+
+namespace ltl {
+
+class CgAmg {
+ public:
+  /// Relative reduction of the warm start's residual asked of each solve (the inexactness).
+  static constexpr double kEta = 1e-3;
+  /// The floor: residual at most kFloor ||b|| whatever the warm start.
+  static constexpr double kFloor = 1e-12;
+  /// CG iterations per solve before the solve is an Error (a preconditioner that fails).
+  static constexpr int kMaxIterations = 2000;
+
+  /// Built with PETSc?
+  static bool available();
+
+  /// Sets up the AMG hierarchy of the symmetric positive definite A (both triangles stored) with
+  /// the near-null space of the coordinates X (#rows x dim; the rows' nodes). `what` names the
+  /// matrix in errors. Throws Error without PETSc or when PETSc fails.
+  CgAmg(const SpMat& A, const Eigen::MatrixXd& X, const std::string& what);
+  ~CgAmg();
+  CgAmg(const CgAmg&) = delete;
+  CgAmg& operator=(const CgAmg&) = delete;
+
+  /// [LTL87 (4.5)] A x = b, x in: the warm start, out: the solution to the tolerance above.
+  /// Returns the CG iterations taken (0 when the warm start already meets it).
+  int solve(const double* b, double* x);
+
+  int rows() const { return n_; }
+  double setup_seconds() const { return setup_seconds_; }
+  /// Nonzeros of the hierarchy (every level's operator and interpolation, the finest operator
+  /// included) and their bytes as stored (AIJ: a double and an index per nonzero, an index per
+  /// row).
+  double hierarchy_nonzeros() const { return hierarchy_nnz_; }
+  double hierarchy_bytes() const { return hierarchy_bytes_; }
+  int levels() const { return levels_; }
+  long iterations() const { return iterations_; }  ///< CG iterations since construction
+  long solves() const { return solves_; }
+
+ private:
+  struct Impl;  // PETSc's objects
+  std::unique_ptr<Impl> impl_;
+  int n_ = 0, levels_ = 0;
+  double setup_seconds_ = 0, hierarchy_nnz_ = 0, hierarchy_bytes_ = 0;
+  long iterations_ = 0, solves_ = 0;
+};
+
+}  // namespace ltl
