@@ -6,7 +6,6 @@
 
 #include "cofactor.hpp"
 #include "error.hpp"
-#include "measures.hpp"
 
 namespace ltl {
 
@@ -261,7 +260,8 @@ Eigen::VectorXd Discretization::pressure(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  return ltl::contact_pressure(problem_, s);  // one definition, lib/measures.cpp
+  if (!problem_.contact) return Eigen::VectorXd(0);
+  return -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim()));
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {

@@ -90,7 +90,8 @@ class Discretization {
   Eigen::MatrixXd cauchy(const State& s) const;
   /// Pressure per cell, -tr(sigma)/dim (in plane strain the mean in-plane stress).
   Eigen::VectorXd pressure(const State& s) const;
-  /// Contact pressure per contact point, p_c = -lambda_c . N >= 0 where the body presses.
+  /// Nominal contact pressure per contact point, p_c = -lambda_c . N (Pa; > 0 where the body
+  /// presses): the one definition, which the measures (lib/measures.hpp) use.
   Eigen::VectorXd contact_pressure(const State& s) const;
   /// Gap to the plane after deformation per contact point: g_s - e_s . N (>= 0 when admissible).
   Eigen::VectorXd contact_gap(const State& s) const;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -161,6 +162,7 @@ struct TimeStepping {
 struct Problem {
   std::string name;  ///< experiment name (for messages and outputs)
   Mesh mesh;
+  std::map<std::string, double> mesh_parameters;  ///< [mesh] parameters: ONELAB numbers of the .geo
   Material material;
   std::vector<DirichletCondition> dirichlet;
   std::vector<Traction> tractions;

@@ -6,8 +6,9 @@
 // every dataset carries string attributes "unit" and "description"):
 //   /                    attributes: format_version (int), name, config (the configuration text
 //                        as given, with --set applied), config_resolved (TOML: every value in SI
-//                        with every default filled in, resolved_configuration()), config_path,
-//                        code_version, git_version, library versions, identity hashes, status
+//                        with every default filled in, resolved_configuration(), config.hpp),
+//                        config_path, code_version, git_version, library versions, identity hashes,
+//                        status
 //   /mesh/X, cells, cell_volume (from the discretization, lib/fe), and with a contact surface
 //   /mesh/contact_facets, contact_centre, contact_area, and with nodal contact contact_nodes,
 //   contact_topology (the facets numbered by contact point)
@@ -59,6 +60,7 @@
 #include "mesh.hpp"
 #include "problem.hpp"
 #include "state.hpp"
+#include "stored_measure.hpp"
 
 namespace ltl {
 
@@ -76,26 +78,13 @@ std::string contact_xdmf_path_of(const std::string& path);
 /// results file are replaced only when they are (check_output_path).
 bool is_xdmf_of(const std::string& xdmf, const std::string& path);
 
-/// [issue 9] The resolved configuration of a problem as TOML text: every value in SI (units in
-/// comments), every default filled in, in the sections of the configuration file. Written into
-/// results files as the root attribute config_resolved beside the text as given.
-std::string resolved_configuration(const Problem& problem);
-
 /// What is written once per run.
 struct RunInfo {
   std::string name;
   std::string config_text;      ///< as given (with --set applied)
-  std::string config_resolved;  ///< resolved_configuration() (may be empty)
+  std::string config_resolved;  ///< resolved_configuration(), config.hpp (may be empty)
   std::string config_path;
   std::map<std::string, std::string> attributes;  ///< extra string attributes (versions, ...)
-};
-
-/// One scalar measure of a step (lib/measures.hpp: stored_measures), written as the scalar
-/// dataset /steps/N/measures/<name> with its "unit" and "description" attributes.
-struct StoredMeasure {
-  std::string name;
-  double value = 0;
-  std::string unit, description;
 };
 
 /// Everything written for one completed time step.

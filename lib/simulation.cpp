@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "config.hpp"
 #include "error.hpp"
 #include "hash.hpp"
 #include "measures.hpp"
@@ -81,7 +82,7 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   d.contact_pressure = solver.discretization().contact_pressure(state);
   d.gap = solver.discretization().contact_gap(state);
   // Every measure of the step (lib/measures.hpp), one definition each.
-  const StepMeasures m = step_measures(solver, state);
+  const StepMeasures m = step_measures(solver.discretization(), state);
   d.measures = stored_measures(m, problem.mesh.dim);
   if (step.admissibility.h > 0)
     for (StoredMeasure& a : stored_measures(step.admissibility)) d.measures.push_back(a);
