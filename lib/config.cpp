@@ -177,16 +177,19 @@ std::string resolved_configuration(const Problem& p) {
   for (const Section& sec : config::configuration_schema().sections) {
     const int n = sec.count ? sec.count(p) : 1;
     for (int i = 0; i < n; ++i) {
-      if (!sec.path.empty())
-        o << (sec.array ? "\n[[" : "\n[") << sec.path << (sec.array ? "]]\n" : "]\n");
+      std::ostringstream lines;
       for (const Key* k : keys_of(sec)) {
         if (!applies(sec, *k, p, i)) continue;
         const std::string v = k->write(p, i);
         if (v.empty()) continue;
-        o << k->name << " = " << v;
-        if (!k->unit.empty() && v.front() != '"') o << "  # " << k->unit;
-        o << "\n";
+        lines << k->name << " = " << v;
+        if (!k->unit.empty() && v.front() != '"') lines << "  # " << k->unit;
+        lines << "\n";
       }
+      if (lines.str().empty() && !sec.array) continue;  // e.g. [output], left out
+      if (!sec.path.empty())
+        o << (sec.array ? "\n[[" : "\n[") << sec.path << (sec.array ? "]]\n" : "]\n");
+      o << lines.str();
     }
   }
   return o.str();

@@ -370,9 +370,9 @@ Schema build() {
     if (file.empty()) o.fail("file", "must not be empty");
     p.output_file = (fs::path(o.file()).parent_path() / file).lexically_normal().string();
   };
-  output.k.write = [](const Problem& p, int) {
-    return toml_string(fs::absolute(p.output_file).lexically_normal().string());
-  };
+  // Not in the resolved configuration: a rerun of the record must not write over the run it
+  // repeats (it writes results/<name>.h5, or -o).
+  output.k.write = [](const Problem&, int) { return std::string(); };
   output.k.default_doc = "`results/<name>.h5`";
 
   const auto A = [](Problem& p) -> AlgorithmParams& { return p.algorithm; };
@@ -620,7 +620,8 @@ Schema build() {
           .doc("time step of the backward Euler scheme (2.1)"),
       integer("time", "steps", 1, 999999, [](Problem& p, int) -> int& { return p.time.steps; })
           .doc("number of steps P"),
-      output.doc("results file when `-o` is not given, relative to the configuration file"),
+      output.doc("results file when `-o` is not given, relative to the configuration file (left "
+                 "out of the resolved configuration, whose rerun must not write over it)"),
   };
   return s;
 }

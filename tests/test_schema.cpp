@@ -120,7 +120,8 @@ TEST(Schema, ResolvedConfigurationRepeatsTheKeysFiguresLeaveOut) {
 // The resolved configuration states every key that applies: no default is left implicit, and
 // nothing is written that the reader would refuse (it is read back above).
 TEST(Schema, ResolvedConfigurationStatesEveryApplicableKey) {
-  const Problem p = load_problem(figure("fig5/fig5.toml"));
+  const Problem p = load_problem(figure("fig5/fig5.toml"), {"output.file=\"fig5_out.h5\""});
+  ASSERT_FALSE(p.output_file.empty());
   const std::string text = resolved_configuration(p);
   int stated = 0;
   for (const config::Key& k : config::configuration_schema().keys) {
@@ -132,7 +133,8 @@ TEST(Schema, ResolvedConfigurationStatesEveryApplicableKey) {
     ++stated;
   }
   EXPECT_GE(stated, 45);
-  for (const char* absent : {"\ndim = ", "\nnodes = ", "[[dirichlet]]", "\neps = "})
+  // Nor [output] file: a rerun of the record must not write over the run it repeats.
+  for (const char* absent : {"\ndim = ", "\nnodes = ", "[[dirichlet]]", "\neps = ", "[output]"})
     EXPECT_EQ(text.find(absent), std::string::npos) << absent;
 }
 
