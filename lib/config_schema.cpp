@@ -3,9 +3,9 @@
 // the table of experiments/README.md.
 #include "config_schema.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <set>
 #include <sstream>
 
 #include "config_toml.hpp"
@@ -58,12 +58,10 @@ Row row(std::string section, std::string name, std::string type, std::string uni
   return r;
 }
 
-/// Fails when a given value is not > 0: "= 5 s: must be > 0<note>".
-void check_positive(const Reader& r, const std::string& name, double v, const std::string& unit,
-                    const std::string& note) {
+/// Fails when a given value is not > 0: "= -5 s: must be > 0".
+void check_positive(const Reader& r, const std::string& name, double v, const std::string& unit) {
   if (r.has(name) && !(v > 0))
-    r.fail(name,
-           cat("= ", v, unit.empty() || unit == "1" ? "" : " " + unit, ": must be > 0", note));
+    r.fail(name, cat("= ", v, unit.empty() || unit == "1" ? "" : " " + unit, ": must be > 0"));
 }
 
 /// Flags of a value: required (no default), and checked > 0 when given.
@@ -71,12 +69,12 @@ enum Need { Optional = 0, Required = 1, Positive = 2 };
 
 /// A physical value: a number in SI or a string "<number> <unit>".
 Row quantity(std::string s, std::string name, std::string unit, Field<double> f,
-             int need = Optional, std::string note = "") {
+             int need = Optional) {
   Row r = row(s, name, "quantity", unit);
-  r.k.read = [name, unit, f, need, note](const Reader& t, Problem& p, int i) {
+  r.k.read = [name, unit, f, need](const Reader& t, Problem& p, int i) {
     double& v = f(p, i);
     v = need & Required ? t.quantity(name, unit) : t.quantity(name, unit, v);
-    if (need & Positive) check_positive(t, name, v, unit, note);
+    if (need & Positive) check_positive(t, name, v, unit);
   };
   r.k.write = [f](const Problem& p, int i) { return toml_real(f(writable(p), i)); };
   if (need & Required) r.k.default_doc = "required";
@@ -90,7 +88,7 @@ Row number(std::string s, std::string name, Field<double> f, int need = Optional
   r.k.read = [name, f, need](const Reader& t, Problem& p, int i) {
     double& v = f(p, i);
     v = t.number(name, v);
-    if (need & Positive) check_positive(t, name, v, "1", "");
+    if (need & Positive) check_positive(t, name, v, "1");
   };
   r.k.write = [f](const Problem& p, int i) { return toml_real(f(writable(p), i)); };
   if (need & Positive) r.k.range = "> 0";
@@ -140,20 +138,7 @@ Row choice(std::string s, std::string name, std::vector<std::pair<std::string, T
   r.k.read = [name, options, f, error, need](const Reader& t, Problem& p, int i) {
     T& v = f(p, i);
     if (need & Required) t.string(name);  // "missing value"
-    if (!t.has(name)) return;
-    const std::string text = t.string(name);
-    for (const auto& [o, x] : options)
-      if (o == text) {
-        v = x;
-        return;
-      }
-    std::string expected = "expected ";
-    for (std::size_t j = 0; j < options.size(); ++j)
-      expected += cat(j == 0                    ? ""
-                      : j + 1 == options.size() ? " or "
-                                                : ", ",
-                      "\"", options[j].first, "\"");
-    t.fail(name, error.empty() ? expected : error);
+    if (t.has(name)) v = t.choice<T>(name, options, "", error);
   };
   r.k.write = [options, f](const Problem& p, int i) {
     for (const auto& [o, x] : options)
@@ -206,8 +191,8 @@ int count_of(const Problem& p, const std::string& kind) {
 }
 
 /// A [[fixed]]/[[symmetry]]/[[displacement]] array: appends a condition on every component.
-Section dirichlet_section(const std::string& kind, std::string doc) {
-  Section s{kind, true, false, std::move(doc), nullptr, nullptr, nullptr};
+Section dirichlet_section(const std::string& kind) {
+  Section s{kind, true, false, nullptr, nullptr, nullptr};
   s.count = [kind](const Problem& p) { return count_of(p, kind); };
   s.add = [](Problem& p, const std::string& origin) {
     DirichletCondition d{"", {}, {}, origin + ".group"};
@@ -230,32 +215,31 @@ Schema build() {
   Schema s;
   const auto one = [](const Problem&) { return 1; };
   s.sections = {
-      {"", false, true, "", nullptr, nullptr, nullptr},
-      {"mesh", false, true, "the mesh", nullptr, nullptr,
+      {"", false, true, nullptr, nullptr, nullptr},
+      {"mesh", false, true, nullptr, nullptr,
        [](const Reader&, Problem& p) { p.mesh = load_mesh(p.mesh.source, p.mesh_parameters); }},
-      {"material", false, true, "the material law", nullptr, nullptr, nullptr},
-      dirichlet_section("fixed", "Gamma_1: every displacement component zero"),
-      dirichlet_section("symmetry", "a symmetry plane: one component zero"),
-      dirichlet_section("displacement", "a prescribed affine displacement"),
-      {"load", false, false, "dead loads", one, nullptr, nullptr},
-      {"load.traction", true, false, "a dead traction on a boundary group",
+      {"material", false, true, nullptr, nullptr, nullptr},
+      dirichlet_section("fixed"),
+      dirichlet_section("symmetry"),
+      dirichlet_section("displacement"),
+      {"load", false, false, one, nullptr, nullptr},
+      {"load.traction", true, false,
        [](const Problem& p) { return static_cast<int>(p.tractions.size()); },
        [](Problem& p, const std::string& origin) {
          p.tractions.push_back({"", {}, origin + ".group"});
        },
        nullptr},
-      {"contact", false, false, "the rigid plane and the glue",
-       [](const Problem& p) { return p.contact ? 1 : 0; },
+      {"contact", false, false, [](const Problem& p) { return p.contact ? 1 : 0; },
        [](Problem& p, const std::string&) {
          p.contact.emplace();
          p.contact->origin = "contact.group";
        },
        nullptr},
-      {"algorithm", false, false, "ALG2 and the Newton phase", one, nullptr, nullptr},
-      {"discretization", false, false, "discrete choices", one, nullptr, nullptr},
-      {"time", false, false, "time stepping", one, nullptr, nullptr},
-      {"output", false, false, "the results file",
-       [](const Problem& p) { return p.output_file.empty() ? 0 : 1; }, nullptr, nullptr},
+      {"algorithm", false, false, one, nullptr, nullptr},
+      {"discretization", false, false, one, nullptr, nullptr},
+      {"time", false, false, one, nullptr, nullptr},
+      {"output", false, false, [](const Problem& p) { return p.output_file.empty() ? 0 : 1; },
+       nullptr, nullptr},
   };
   // [mesh]: read by hand (paths relative to the configuration file; the parameters' names are
   // those the .geo defines).

@@ -47,7 +47,8 @@ struct Key {
   std::string default_doc;
   When when;
   /// Reads the key from the table `r` into element `i` of the section (0 for a table); an
-  /// absent key leaves the default (or fails if it is required). `dim` is the mesh's.
+  /// absent key leaves the default (or fails if it is required). Vectors and matrices have
+  /// p.mesh.dim components ([mesh] is read first).
   std::function<void(const Reader& r, Problem& p, int i)> read;
   /// The TOML value of element `i` in the resolved configuration; "" leaves the key out.
   std::function<std::string(const Problem& p, int i)> write;
@@ -58,7 +59,6 @@ struct Section {
   std::string path;  ///< "" (top level), "mesh", "load.traction"
   bool array = false;
   bool required = false;
-  std::string doc;  ///< what the table is, for the README
   /// Arrays: the number of elements a Problem has, and appending a new (default) one before its
   /// keys are read; `origin` names it in messages ("fixed[0].group").
   std::function<int(const Problem&)> count;

@@ -135,11 +135,11 @@ class Reader {
   std::string string(const std::string& k, const std::string& fallback) const {
     return has(k) ? string(k) : fallback;
   }
-  /// One of the named options (the default when absent); otherwise an error listing them:
-  /// expected "a", "b" or "c".
+  /// One of the named options (the default when absent); otherwise the error `error`, or by
+  /// default one listing them: expected "a", "b" or "c".
   template <class T>
   T choice(const std::string& k, const std::vector<std::pair<std::string, T>>& options,
-           const std::string& fallback) const {
+           const std::string& fallback, const std::string& error = "") const {
     const std::string v = string(k, fallback);
     std::string expected = "expected ";
     for (size_t i = 0; i < options.size(); ++i) {
@@ -149,7 +149,7 @@ class Reader {
                                                 : ", ",
                       "\"", options[i].first, "\"");
     }
-    fail(k, expected);
+    fail(k, error.empty() ? expected : error);
   }
   /// An integer in [lo, hi] (checked before narrowing: 2^32 + 1 is not 1).
   int integer(const std::string& k, int fallback, int lo, int hi) const {
