@@ -5,6 +5,7 @@
 // table of experiments/README.md is the one the schema generates.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -115,6 +116,28 @@ TEST(Schema, ResolvedConfigurationRepeatsTheKeysFiguresLeaveOut) {
       block, {"load.ramp=\"linear\"", "load.ramp_time=\"2 s\"", "time.steps=2", "contact.eps=1e-9",
               "contact.w=\"1 J/m^2\"", "contact.d0=10", "discretization.contact=\"facet-mean\"",
               "contact.kernel=\"exact\""});
+}
+
+// The command line accepts the record too: ltl_run on the first problem, then ltl_run on the
+// resolved configuration its results file stores, give the same displacement, bit for bit.
+TEST(Schema, LtlRunAcceptsTheResolvedConfigurationItStored) {
+  const fs::path dir = ltl::testing::temp_dir("schema_ltl_run");
+  const std::string ltl_run = ltl::testing::binary_path("experiments/ltl_run");
+  const auto run_cli = [&](const std::string& config, const fs::path& out) {
+    return std::system((ltl_run + " '" + config + "' -o '" + out.string() + "' -q").c_str());
+  };
+  ASSERT_EQ(run_cli(figure("first_problem/block.toml"), dir / "first.h5"), 0);
+  ltl::testing::write_file(
+      dir / "resolved.toml",
+      ResultsFile::read_attribute((dir / "first.h5").string(), "config_resolved"));
+  ASSERT_EQ(run_cli((dir / "resolved.toml").string(), dir / "second.h5"), 0);
+  const auto a = ResultsFile::read_last_step((dir / "first.h5").string()),
+             b = ResultsFile::read_last_step((dir / "second.h5").string());
+  ASSERT_TRUE(a && b);
+  EXPECT_GT(a->state.u.cwiseAbs().maxCoeff(), 0.0);
+  expect_same(a->state.u, b->state.u, "u");
+  expect_same(a->state.lambda_c, b->state.lambda_c, "lambda_c");
+  fs::remove_all(dir);
 }
 
 // The resolved configuration states every key that applies: no default is left implicit, and
