@@ -7,7 +7,8 @@ JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
 .PHONY: all figures test sanitize bench deps build fig3 fig4 fig5 fig6 compare hertz readings \
-        reference keys format clean verify verify-fig6 peer-deps peer-reference bench-peer install
+        reference keys format clean verify verify-fig6 peer-deps peer-reference bench-peer install \
+        paper-vs-package peel
 
 all: figures
 
@@ -47,7 +48,28 @@ sanitize: deps
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 OMP_NUM_THREADS=2 \
 	  ctest --output-on-failure -j $(JOBS) $(SANITIZE_CTEST)
 
-figures: fig3 fig4 fig5 fig6
+figures: fig3 fig4 fig5 fig6 paper-vs-package
+
+# The paper's stated iterations and CPU beside ours (results/paper_vs_package.png): plain ALG2
+# from the figure runs above (results/figN.h5), and the same configurations with Anderson
+# acceleration and with the Newton phase, in results/paper_vs_package/.
+# Needs results/figN.h5 (`make figures` makes them first); about a minute on 2 shared cores.
+PVP := $(RESULTS)/paper_vs_package
+paper-vs-package: build
+	@mkdir -p $(PVP)
+	for f in fig3 fig4 fig5 fig6; do $(RUN)/ltl_run experiments/$$f/$$f.toml -q \
+	  -o $(PVP)/$$f-anderson.h5 --set algorithm.acceleration=anderson || exit 1; done
+	for f in fig3 fig4 fig5 fig6; do $(RUN)/ltl_run experiments/$$f/$$f.toml -q \
+	  -o $(PVP)/$$f-newton.h5 --set algorithm.solver=newton || exit 1; done
+	$(PYTHON) figures/paper_vs_package.py $(RESULTS) $(RESULTS)/paper_vs_package.png
+
+# A displacement-controlled peel (experiments/peel/): the free end of a glued strip lifted by a
+# ramped prescribed displacement, then `ltl-results plot` of the run (results/peel.png: the
+# reaction against the lift, the convergence, beta over time).
+peel: build
+	@mkdir -p $(RESULTS)
+	$(RUN)/ltl_run experiments/peel/peel.toml -o $(RESULTS)/peel.h5
+	$(PYTHON) figures/ltl_results.py plot $(RESULTS)/peel.h5 -o $(RESULTS)/peel.png
 
 # One target per paper figure: run the driver (HDF5 in results/), then plot from the HDF5 only.
 # Figs 3 and 4 draw two readings of the paper's data: figN.png the one the readings study finds

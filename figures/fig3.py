@@ -15,6 +15,8 @@ import sys
 import numpy as np
 
 import style  # noqa: F401  (Agg backend and rc parameters, before pyplot)
+import matplotlib  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 
 import ltl_results as lr  # noqa: E402
@@ -102,6 +104,39 @@ def time_axis(ax, t, labels=True):
         ax.set_xlabel("t (s)   (linear up to 50 s, logarithmic beyond)")
 
 
+def opening_panel(ax, t, opening):
+    """The largest opening against time: on a log axis when the bar lifts off (with the runaway
+    threshold of panel (a) drawn and named), in mm on a linear axis when it stays pressed
+    (opening <= 0 at every step: a log axis would be empty)."""
+    if np.any(opening > 0):
+        ax.semilogy(t, np.where(opening > 0, opening, np.nan), color=style.BODY, marker="o",
+                    ms=2.5, label="max e.(-N)")
+        ax.axhline(RUNAWAY_OPENING, color=style.REFERENCE, ls=":", lw=1,
+                   label="%g mm: runaway threshold (panel a)" % (RUNAWAY_OPENING * 1e3))
+        ax.set_ylabel("largest opening\nmax e.(-N) (m)")
+        ax.legend(loc="center right")
+    else:
+        ax.plot(t, opening * 1e3, color=style.BODY, marker="o", ms=2.5)
+        ax.axhline(0, color=style.REFERENCE, lw=0.8)
+        ax.set_ylabel("largest opening\nmax e.(-N) (mm)")
+        ax.text(0.02, 0.92, "pressed: the contact surface never lifts off (opening <= 0)",
+                transform=ax.transAxes, va="top", fontsize=8)
+
+
+def count_axis(ax, t, counts):
+    """Counts per step: a log axis with labelled ticks at 1, 2, 5 x 10^k when they span more
+    than a decade, else a linear axis (a log axis over less than a decade has one tick label)."""
+    lo, hi = max(counts.min(), 1), max(counts.max(), 1)
+    ax.plot(t, counts, color="k", marker="o", ms=2.5, drawstyle="steps-mid")
+    if hi / lo >= 10:
+        ax.set_yscale("log")
+        ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(base=10, subs=(1, 2, 5)))
+        ax.yaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.yaxis.set_minor_locator(plt.NullLocator())
+    else:
+        ax.set_ylim(0, hi * 1.1 + 1)
+
+
 def main(h5, png):
     r = lr.load(h5)
     if not r.steps:
@@ -167,9 +202,7 @@ def main(h5, png):
     # axis is linear up to 50 s (the steps before and at the runaway) and logarithmic beyond.
     sub = gs[2, 0].subgridspec(2, 1, height_ratios=[1.6, 1.0], hspace=0.08)
     ax = fig.add_subplot(sub[0])
-    ax.semilogy(t, opening, color=style.BODY, marker="o", ms=2.5)
-    ax.axhline(RUNAWAY_OPENING, color=style.REFERENCE, ls=":", lw=1)
-    ax.set_ylabel("largest opening\nmax e.(-N) (m)")
+    opening_panel(ax, t, opening)
     ax.set_title("(d) largest opening and debonding front against time")
     time_axis(ax, t, labels=False)
     ax = fig.add_subplot(sub[1])
@@ -182,7 +215,7 @@ def main(h5, png):
     time_axis(ax, t)
 
     ax = fig.add_subplot(gs[2, 1])
-    ax.semilogy(t, iterations, color="k", marker="o", ms=2.5, drawstyle="steps-mid")
+    count_axis(ax, t, iterations)
     time_axis(ax, t)
     ax.set_ylabel("iterations of (4.1)-(4.4)")
     ax.set_title("(e) iterations per time step (dt = %g s)" % (t[1] - t[0] if len(t) > 1 else t[0]))

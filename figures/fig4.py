@@ -11,6 +11,7 @@ panel (d) the state at t = 800 s at true scale. Prints the numbers it plots.
 """
 
 import sys
+import textwrap
 
 import numpy as np
 
@@ -22,6 +23,36 @@ from fig3 import (RUNAWAY_OPENING, contact_normal, draw_state,  # noqa: E402
                   front_and_opening, pre_runaway, reading)
 
 RAPPORT = 50  # the paper's magnification
+
+
+def state_height(X, step, scale, width=8.6):
+    """Inches of a panel `width` inches wide (the full row of an 11-inch figure) drawing the
+    state at equal aspect, framed as draw_state frames it."""
+    x = lr.deformed(X, step.fields["u"], scale)
+    lo, hi = min(X[:, 0].min(), x[:, 0].min()), max(X[:, 0].max(), x[:, 0].max())
+    top = max(X[:, 1].max(), x[:, 1].max())
+    return float(np.clip(width * (top + 0.11) / (hi - lo + 0.1), 0.5, 6.0))
+
+
+def below_plane_note(r, X1, u2, xc, e2):
+    """A sentence on the contact nodes below the plane x2 = 0 (u2 < 0 at a node of the contact
+    surface, which starts on the plane), or "" when none is: how far, where, and why the
+    discretization allows it."""
+    k = int(np.argmin(u2))
+    tiny = 1e-3 * np.abs(u2).max()  # below it: round-off of a node resting on the plane
+    if u2[k] >= -tiny:
+        return ""
+    res = lr.resolved_config(r) or {}
+    rule = res.get("discretization", {}).get("contact", "")
+    why = ("non-penetration is imposed on the facet means (contact = \"facet-mean\", the "
+           "paper's P0 unknowns): the facet mean e2 there is %.1e m, and a P2 node may dip "
+           "between them (paper_notes/discretization.md)"
+           % e2[np.argmin(np.abs(xc - X1[k]))] if rule == "facet-mean"
+           else "within the iteration's tolerance on the nodal constraint")
+    text = ("%d contact node(s) below the plane; the lowest, at x1 = %.3g m, %.2g mm below "
+            "(the dip under the free end in (c), x%d): %s"
+            % (int(np.sum(u2 < -tiny)), X1[k], -1e3 * u2[k], RAPPORT, why))
+    return "\n".join(textwrap.wrap(text, 75))
 
 
 def main(h5, png):
@@ -48,12 +79,18 @@ def main(h5, png):
     lift = last.fields["e"] @ -N          # e . (-N) = e2: vertical displacement, facet means
     u2 = last.fields["u"][nodes] @ -N     # the same at the contact nodes
 
-    fig = plt.figure(figsize=(11.0, 9.0))
-    gs = fig.add_gridspec(2, 2, height_ratios=[0.55, 1.5], hspace=0.3, wspace=0.22, top=0.91)
+    # Three rows, each as tall as its content: (c) and (d) are drawn at equal aspect, so their
+    # heights follow the drawn bar (a thin bar pressed down is a thin strip; peeled off, it
+    # stands up to 1.4 m); (a) and (b) side by side below.
+    ran_away = pre is not last
+    h_c, h_d, h_ab = state_height(m.X, pre, RAPPORT), state_height(m.X, last, 1.0), 3.2
+    height = (h_c + h_d + h_ab) * 1.25 + 1.0
+    fig = plt.figure(figsize=(11.0, height))
+    gs = fig.add_gridspec(3, 2, height_ratios=[h_c, h_d, h_ab], hspace=0.4, wspace=0.22,
+                          top=1 - 0.9 / height, bottom=0.5 / height)
 
     # (c) the paper's x50 view, at t = 800 s, or at the last step before the runaway if there is
     # one.
-    ran_away = pre is not last
     ax = fig.add_subplot(gs[0, :])
     draw_state(ax, r, pre, RAPPORT,
                "(c) RAPPORT = %d: deformed configuration, displacements x%d, at t = %g s (step %d%s)"
@@ -61,13 +98,12 @@ def main(h5, png):
                   else ", as the caption"))
 
     # (d) the state at t = 800 s, true scale.
-    ax = fig.add_subplot(gs[1, 0])
+    ax = fig.add_subplot(gs[1, :])
     draw_state(ax, r, last, 1.0, "(d) deformed configuration at t = %g s, true scale (x1)" % last.t,
                legend_loc="upper left")
 
-    sub = gs[1, 1].subgridspec(2, 1, hspace=0.35)
     # (a) beta along x1.
-    ax = fig.add_subplot(sub[0])
+    ax = fig.add_subplot(gs[2, 0])
     ax.plot(xc, last.fields["beta"], color="k", marker="o", ms=3, label="t = %g s" % last.t)
     if ran_away:
         ax.plot(xc, pre.fields["beta"], color=style.REFERENCE, ls="--", marker=".", ms=3,
@@ -80,7 +116,7 @@ def main(h5, png):
     ax.legend(loc="center right")
 
     # (b) vertical displacement of the contact surface.
-    ax = fig.add_subplot(sub[1])
+    ax = fig.add_subplot(gs[2, 1])
     ax.plot(m.X[nodes, 0], u2, color=style.BODY, lw=1.2, label="u2 at the contact nodes")
     ax.plot(xc, lift, ls="none", marker="o", ms=3.5, color=style.CONTACT,
             label="e2 per facet (facet centres)")
@@ -88,6 +124,11 @@ def main(h5, png):
     ax.set_xlabel("x1 (reference, m)")
     ax.set_ylabel("vertical displacement (m)")
     ax.set_title("(b) vertical displacement of the contact surface, t = %g s" % last.t)
+    dip = below_plane_note(r, m.X[nodes, 0], u2, xc, lift)
+    if dip:
+        ax.text(0.98, 0.04, dip, transform=ax.transAxes, fontsize=6.5, va="bottom", ha="right",
+                bbox=dict(facecolor="white", alpha=0.85, lw=0))
+        print("panel (b): " + dip.replace("\n", " "))
     ax.legend(loc="upper right")
 
     umax = np.linalg.norm(last.fields["u"], axis=1).max()

@@ -19,8 +19,10 @@ recompute a definition or threshold. r.steps holds results only: the last
 iterate of a step that did not converge (/unconverged) is in r.unconverged, apart, for diagnosis.
 Nothing here plots; figure scripts print what they plot with print_table().
 
-As a program it prints a summary of a file (steps, iterations, equilibrium measure):
+As a program it prints a summary of a file (steps, iterations, equilibrium measure), or with
+`plot` draws its load-displacement curve, convergence and contact fields (ltl_plot.py):
     /usr/bin/python3 ltl_results.py run.h5
+    /usr/bin/python3 ltl_results.py plot run.h5 [-o run.png]
 
 Use /usr/bin/python3 (it has h5py and numpy).
 """
@@ -277,7 +279,10 @@ def summary(results, file=None):
 
 
 if __name__ == "__main__":
+    if sys.argv[1:2] == ["plot"]:  # ltl-results plot FILE: the pictures of a run (ltl_plot.py)
+        import ltl_plot
+        sys.exit(ltl_plot.main(sys.argv[2:]))
     if len(sys.argv) < 2:
-        sys.exit("usage: ltl_results.py RESULTS.h5 ...")
+        sys.exit("usage: ltl_results.py RESULTS.h5 ...  |  ltl_results.py plot RESULTS.h5 [-o PNG]")
     for path in sys.argv[1:]:
         summary(load(path))

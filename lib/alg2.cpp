@@ -388,7 +388,15 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
           report.newton_attempts >= 3)
         break;
       ++report.newton_attempts;
-      const Newton::Result r = newton_->solve(s, F_ext_, a, report, progress);
+      if (contact_) newton_->set_glue(*contact_, beta_prev);
+      const bool glued = contact_ && contact_->adhesion().glued();
+      const State before = glued ? s : State();
+      Newton::Result r = newton_->solve(s, F_ext_, a, report, progress);
+      if (r.converged && glued && !local_contact_step_holds(s, beta_prev)) {
+        s = before;
+        r.converged = false;
+        r.status = "Newton: a state the local contact step leaves (another branch of the glue)";
+      }
       if (r.converged) {
         report.converged = true;
         report.status = r.status;
@@ -408,6 +416,16 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   report.R = R_;
   report.R_changes = map.R_changes;
   return report;
+}
+
+bool Solver::local_contact_step_holds(const State& s, const Eigen::VectorXd& beta_prev) const {
+  const Eigen::MatrixXd ubar = (disc_.facets()->mean * s.u).transpose();
+  Eigen::MatrixXd e = s.e;
+  Eigen::VectorXd beta = s.beta;
+  contact_->solve(ubar, s.lambda_c, beta_prev, e, beta, 1);
+  const double scale = std::max(ubar.cwiseAbs().maxCoeff(), 1e-300);
+  return (beta - s.beta).cwiseAbs().maxCoeff() <= 1e-6 &&
+         (e - s.e).cwiseAbs().maxCoeff() <= 1e-6 * scale;
 }
 
 // Residual balancing [Boyd et al. 2011, sec. 3.4.1, for ADMM]: r_B is the primal residual and
@@ -464,6 +482,7 @@ void Solver::set_load_factor(double factor) {
   if (!std::isfinite(factor)) throw Error(cat("load factor ", factor, ": must be finite"));
   load_factor_ = factor;
   F_ext_ = factor * disc_.dead_load();  // same size: no allocation
+  set_displacement_factor(factor);      // prescribed displacements follow the same factor
 }
 
 void Solver::set_displacement_factor(double factor) {

@@ -69,10 +69,11 @@ class Solver {
   const GlobalStep& global_step() const { return *global_; }
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
-  /// external_load() = factor x the assembled dead loads f, g. K is unchanged.
+  /// external_load() = factor x the assembled dead loads f, g, and the prescribed displacements
+  /// at factor x their values (set_displacement_factor(factor)). K is unchanged.
   void set_load_factor(double factor);
-  /// The prescribed displacements at `factor` x their values (1 by default): the load
-  /// subdivision of lib/simulation.cpp ramps them over a failed step's substeps. K is unchanged.
+  /// The prescribed displacements alone at `factor` x their values (1 by default). K is
+  /// unchanged.
   void set_displacement_factor(double factor);
   double load_factor() const { return load_factor_; }
   /// The augmentation parameter R in use (the configuration's, or the last one chosen by the
@@ -137,6 +138,12 @@ class Solver {
   /// R by balanced_R, or undoes a lowering that stalled (restoring the best iterate since, s);
   /// true when R changed (K re-factorized).
   bool adapt_R(const IterationRecord& rec, State& s);
+
+  /// [LTL87 (4.7), (6.1)-(6.8)] Is s (a converged Newton state, e = ubar) a fixed point of the
+  /// local contact step: does each point's global minimizer over (e, gamma) give back s's e and
+  /// beta? No when Newton met the first-order conditions on another branch of the glue (a
+  /// stationary point the local step would leave, of higher energy).
+  bool local_contact_step_holds(const State& s, const Eigen::VectorXd& beta_prev) const;
 
   const AlgorithmParams& alg() const { return disc_.problem().algorithm; }
 

@@ -46,10 +46,10 @@ Problem load_problem(const CommandLine& cmd);
 /// a regular file is an Error).
 RunOptions run_options(const CommandLine& cmd, const Problem& problem);
 
-/// For a figure computed with the paper's ALG2 (one static step): the same step solved with
-/// algorithm.solver = "newton" from rest (lib/newton.hpp), printed on one line beside ALG2's
-/// count: its iterations (ALG2 + Newton), force residual and max |u_Newton - u_ALG2| / max |u|.
-/// Prints why not for a problem the Newton phase does not treat (glue) or a multi-step run.
+/// For a figure computed with the paper's ALG2 from step 1: the same steps solved with
+/// algorithm.solver = "newton" (lib/newton.hpp), printed on one line beside ALG2's count: the
+/// iterations (ALG2 + Newton, every step), the largest force residual and, at the last step,
+/// max |u_Newton - u_ALG2| / max |u|. Nothing for a resumed run.
 void print_newton_beside(const Problem& problem, const RunSummary& run);
 
 }  // namespace ltl

@@ -302,6 +302,36 @@ Schema build() {
   };
   component.k.range = "`\"x\"`, `\"y\"`, `\"z\"` (3-D)";
   component.k.default_doc = "required";
+  // [[fixed]] component and value: every component (value a vector, 0 by default), or one
+  // (value a scalar); the value follows the load factor of the step (Solver::set_load_factor).
+  Row fixed_component = row("fixed", "component", "choice", "");
+  fixed_component.k.read = [](const Reader& f, Problem& p, int i) {
+    if (f.has("component"))
+      nth(p, "fixed", i).components = {component_index(f, "component", p.mesh.dim)};
+  };
+  fixed_component.k.write = [](const Problem& p, int i) {
+    const DirichletCondition& d = nth(writable(p), "fixed", i);
+    if (static_cast<int>(d.components.size()) == p.mesh.dim) return std::string();
+    return toml_string(std::string(1, "xyz"[d.components.at(0)]));
+  };
+  fixed_component.k.range = "`\"x\"`, `\"y\"`, `\"z\"` (3-D)";
+  fixed_component.k.default_doc = "all components";
+  Row fixed_value = row("fixed", "value", "vector, or quantity with component", "m");
+  fixed_value.k.read = [](const Reader& f, Problem& p, int i) {
+    DirichletCondition& d = nth(p, "fixed", i);
+    if (static_cast<int>(d.components.size()) < p.mesh.dim)
+      d.field.value(d.components[0]) = f.quantity("value", "m", 0.0);
+    else if (f.has("value"))
+      d.field.value = f.vector("value", "m", p.mesh.dim);
+  };
+  fixed_value.k.write = [](const Problem& p, int i) {
+    const DirichletCondition& d = nth(writable(p), "fixed", i);
+    if (static_cast<int>(d.components.size()) < p.mesh.dim)
+      return toml_real(d.field.value(d.components[0]));
+    return toml_vector(d.field.value, p.mesh.dim);
+  };
+  fixed_value.k.range = "dim components, or one";
+  fixed_value.k.default_doc = "0";
   Row factor = row("load", "factor", "array of numbers", "1");
   factor.k.read = [](const Reader& l, Problem& p, int) {
     const toml::node* n = l.node("factor");
@@ -393,12 +423,20 @@ Schema build() {
           Required)
           .when("model", {"compressible"})
           .doc("compressible law `C1(|F|^2-3) + C3 J^2 - C3 - 2(C1+C3) ln J`"),
-      dirichlet_group("fixed", "Gamma_1: all displacement components zero on this boundary group"),
+      dirichlet_group("fixed", "Gamma_1: the boundary group of a support"),
+      fixed_component.doc("one component only, the others free (a support that slides); left out: "
+                          "every component"),
+      fixed_value.doc(
+          "a prescribed displacement instead of zero: `dim` components, or a scalar with "
+          "`component` (`component = \"y\"`, `value = \"-2 mm\"`); multiplied by the load "
+          "factor of the step (`[load] ramp`), like the tractions: with `ramp = \"linear\"` the "
+          "support moves `value` in `ramp_time`, a displacement-controlled test"),
       dirichlet_group("symmetry", "the boundary group (a plane) of a symmetry condition"),
       component.doc("the component that is zero on it"),
       dirichlet_group("displacement",
                       "the boundary group of a prescribed affine displacement `u = value + "
-                      "gradient x`"),
+                      "gradient x`, multiplied by the load factor of the step like `[[fixed]] "
+                      "value`"),
       vector(
           "displacement", "value", "m",
           [](Problem& p, int i) -> V& { return nth(p, "displacement", i).field.value; }, Required)
@@ -417,8 +455,10 @@ Schema build() {
            {"table", LoadRamp::Kind::Table}},
           [](Problem& p, int) -> LoadRamp::Kind& { return p.ramp.kind; },
           "expected \"constant\" (default), \"linear\" or \"table\"")
-          .doc("load factor per time step, multiplying the body force and every traction (not "
-               "prescribed displacements): `\"constant\"` (1 at every step, the paper's dead "
+          .doc("load factor per time step, multiplying the body force, every traction and every "
+               "prescribed displacement (`[[fixed]] value`, `[[displacement]]`; stored with each "
+               "step as the measure `load_factor`): `\"constant\"` (1 at every step, the paper's "
+               "dead "
                "loads), `\"linear\"` (`min(t_p / ramp_time, 1)`, `t_p = p dt`) or `\"table\"` "
                "(`factor[p - 1]`, the last entry holding after the table). The factor depends on "
                "the step only, so a run extended by `--resume --set time.steps=...` repeats the "
@@ -558,13 +598,14 @@ Schema build() {
           "algorithm", "solver",
           {{"alg2", NonlinearSolver::Alg2}, {"newton", NonlinearSolver::Newton}},
           [A](Problem& p, int) -> NonlinearSolver& { return A(p).solver; })
-          .by_default("`\"newton\"` without glue (`w = kappa = 0`), else `\"alg2\"`")
+          .by_default("`\"newton\"`; the figure configurations state `\"alg2\"`")
           .doc("how each time step is solved: `\"alg2\"`, the paper's iteration (4.1)-(4.4) "
                "alone, or `\"newton\"`: ALG2 from the previous step's state until `r_G + r_B < "
                "newton_switch`, then semismooth Newton on the same discrete problem "
                "([paper_notes/newton.md](../paper_notes/newton.md)); a Newton phase that fails "
                "returns to ALG2's iterate, which goes on to a switch 10 times smaller (at most 3 "
-               "starts, then ALG2 to `tol`). The Newton phase does not treat the glue"),
+               "starts, then ALG2 to `tol`). With glue, `beta` is an unknown of the Newton phase "
+               "too"),
       number(
           "algorithm", "newton_switch",
           [A](Problem& p, int) -> double& { return A(p).newton_switch; }, Positive)

@@ -1,12 +1,9 @@
 // Newton's method on ALG2's discrete problem (newton.hpp).
 #include "newton.hpp"
 
-#include <Eigen/CholmodSupport>
-#include <Eigen/UmfPackSupport>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 
 #include "cofactor.hpp"
@@ -19,30 +16,12 @@ using Triplets = std::vector<Eigen::Triplet<double>>;
 template <int d>
 using Mat = Eigen::Matrix<double, d, d>;
 
-using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
-
-/// [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (r1, r2, r3), the KKT system of a Newton
-/// step as triplets (u free dofs first, then the pressures and the active contact forces), by
-/// UMFPACK's sparse LU: the fall-back of Newton::augmented_step when the augmented tangent is
-/// not positive definite. False when singular.
-bool solve_kkt_lu(const Triplets& kkt, const Eigen::VectorXd& rhs, Eigen::VectorXd& dx) {
-  SpMat A(rhs.size(), rhs.size());
-  A.setFromTriplets(kkt.begin(), kkt.end());
-  Eigen::UmfPackLU<SpMat> lu;
-  lu.compute(A);
-  if (lu.info() != Eigen::Success) return false;
-  dx = lu.solve(rhs);
-  return dx.allFinite();
-}
-
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 }  // namespace
 
-std::string Newton::unsupported(const Problem& problem) {
-  if (problem.contact && problem.contact->adhesion.glued())
-    return "the glue (contact.w, contact.kappa > 0) is not treated by the Newton phase";
+std::string Newton::unsupported(const Problem&) {
   return "";
 }
 
@@ -181,7 +160,13 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
   }
   if (const FacetOperators* pts = disc_.facets()) {
     const Eigen::VectorXd N = disc_.surface().N;
-    x.mu = pts->area.cwiseProduct((-(s.lambda_c.transpose() * N)).cwiseMax(0.0));
+    Eigen::MatrixXd lc = s.lambda_c;  // dim x #points; with glue, less the glue's force
+    if (glued_) {
+      x.beta = s.beta;
+      for (int k = 0; k < pts->size(); ++k)
+        lc.col(k) += glue_.kappa * s.beta(k) * s.beta(k) * s.e.col(k);
+    }
+    x.mu = pts->area.cwiseProduct((-(lc.transpose() * N)).cwiseMax(0.0));
   }
   return x;
 }
@@ -209,6 +194,11 @@ void Newton::to_state(const Unknowns& x, State& s) const {
     s.e = (pts->mean * x.u).transpose();
     const Eigen::VectorXd N = disc_.surface().N;
     for (int k = 0; k < pts->size(); ++k) s.lambda_c.col(k) = -(x.mu(k) / pts->area(k)) * N;
+    if (glued_) {
+      s.beta = x.beta;
+      for (int k = 0; k < pts->size(); ++k)
+        s.lambda_c.col(k) -= glue_.kappa * x.beta(k) * x.beta(k) * s.e.col(k);
+    }
   }
 }
 
@@ -307,137 +297,6 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
   }
 }
 
-// The work of augmented_step kept across Newton iterations: the matrix (pattern_'s), its
-// factor (analyzed once), the cells' constraint gradients.
-struct Newton::Scatter {
-  SpMat A;
-  Factor llt;
-  bool analyzed = false;
-  std::vector<Eigen::VectorXd> be;  ///< per cell, dG_e/du on the cell's local dofs
-};
-
-// [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
-// K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_.
-bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
-                            const Eigen::VectorXd& G, const Eigen::VectorXd& gap,
-                            const std::vector<int>& active, double damping, Scatter& w,
-                            Eigen::VectorXd& dx) const {
-  const int d = dim_, nc = disc_.num_cells(), dn = d * npc_;
-  const int np = incompressible_ ? nc : 0, npts = static_cast<int>(active.size());
-  if (w.A.size() == 0) w.A = pattern_;
-  double* A = w.A.valuePtr();
-  std::fill(A, A + w.A.nonZeros(), 0.0);
-  w.be.resize(np);
-  auto fdof = [&](int e, int r) { return free_[d * nodes_[e * npc_ + r / d] + r % d]; };
-  const CellSink sink = [&](int e, const Eigen::MatrixXd& Ke, const Eigen::VectorXd& be) {
-    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
-    for (int r = 0; r < dn; ++r)
-      for (int c = 0; c < dn; ++c)
-        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += Ke(r, c);
-    if (np) w.be[e] = be;
-  };
-  if (d == 2)
-    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink);
-  else
-    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink);
-  for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
-  Eigen::VectorXd diag(nfree_);
-  for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
-  const double kappa = 1e4 * (nfree_ ? diag.cwiseAbs().mean() : 1.0);
-  // The constraint rows: W_e = 1 / |B_e|^2 over the free dofs, their outer products.
-  Eigen::VectorXd W(np);
-  for (int e = 0; e < np; ++e) {
-    double b2 = 0;
-    for (int r = 0; r < dn; ++r)
-      if (fdof(e, r) >= 0) b2 += w.be[e](r) * w.be[e](r);
-    W(e) = 1 / std::max(b2, 1e-300);
-    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
-    for (int r = 0; r < dn; ++r)
-      for (int c = 0; c < dn; ++c)
-        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += kappa * W(e) * w.be[e](r) * w.be[e](c);
-  }
-  std::vector<int> act;
-  Eigen::VectorXd Wc(npts);
-  for (int k = 0; k < npts; ++k) {
-    if (!active[k] || point_dofs_[k].empty()) continue;
-    act.push_back(k);
-    const std::vector<double>& cf = point_coef_[k];
-    double c2 = 0;
-    for (double v : cf) c2 += v * v;
-    Wc(k) = 1 / c2;
-    const int m = static_cast<int>(cf.size());
-    for (int a = 0; a < m; ++a)
-      for (int b = 0; b < m; ++b)
-        if (point_pos_[k][a * m + b] >= 0)
-          A[point_pos_[k][a * m + b]] += kappa * Wc(k) * cf[a] * cf[b];
-  }
-  if (damping > 0)
-    for (int k = 0; k < nfree_; ++k) A[diag_pos_[k]] += damping * std::abs(diag(k));
-  if (!w.analyzed) {
-    w.llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
-    w.llt.analyzePattern(w.A);
-    w.analyzed = true;
-  }
-  w.llt.factorize(w.A);
-  if (w.llt.info() != Eigen::Success) return false;
-  // The multiplier sweeps: B du = sum over the cell's free dofs, B^T dp scattered back.
-  Eigen::VectorXd r1(nfree_), du, rhs(nfree_);
-  for (int k = 0; k < static_cast<int>(free_.size()); ++k)
-    if (free_[k] >= 0) r1(free_[k]) = -Ru(k);
-  Eigen::VectorXd dp = Eigen::VectorXd::Zero(np);
-  std::vector<double> dmu(npts, 0.0);
-  auto Bdu = [&](int e, const Eigen::VectorXd& v) {
-    double s = 0;
-    for (int r = 0; r < dn; ++r)
-      if (fdof(e, r) >= 0) s += w.be[e](r) * v(fdof(e, r));
-    return s;
-  };
-  auto Cdu = [&](int k, const Eigen::VectorXd& v) {
-    double s = 0;
-    for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
-      s += point_coef_[k][a] * v(point_dofs_[k][a]);
-    return s;
-  };
-  for (int sweep = 0; sweep < 100; ++sweep) {
-    // rhs = r1 + B^T (dp - kappa W r2) - C^T (dmu - kappa_c Wc r3), r2 = G, r3 = -gap.
-    rhs = r1;
-    for (int e = 0; e < np; ++e) {
-      const double y = dp(e) - kappa * W(e) * G(e);
-      for (int r = 0; r < dn; ++r)
-        if (fdof(e, r) >= 0) rhs(fdof(e, r)) += w.be[e](r) * y;
-    }
-    for (int k : act) {
-      const double y = dmu[k] - kappa * Wc(k) * (-gap(k));
-      for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
-        rhs(point_dofs_[k][a]) -= point_coef_[k][a] * y;
-    }
-    du = w.llt.solve(rhs);
-    double worst = 0;
-    for (int e = 0; e < np; ++e) {
-      const double c1 = Bdu(e, du) + G(e);
-      dp(e) -= kappa * W(e) * c1;
-      worst = std::max(worst, std::abs(c1) * std::sqrt(W(e)));
-    }
-    for (int k : act) {
-      const double c2 = Cdu(k, du) + gap(k);
-      dmu[k] += kappa * Wc(k) * c2;
-      worst = std::max(worst, std::abs(c2) * std::sqrt(Wc(k)));
-    }
-    // Converged when the constraints hold to round-off of the step.
-    if (worst <= 1e-13 * std::max(du.cwiseAbs().maxCoeff(), 1e-300)) break;
-  }
-  if (!du.allFinite()) return false;
-  // dx in the layout of the KKT system: du, dp, then the active points' dmu in order.
-  int nA = 0;
-  for (int k = 0; k < npts; ++k) nA += active[k];
-  dx.resize(nfree_ + np + nA);
-  dx.head(nfree_) = du;
-  dx.segment(nfree_, np) = dp;
-  for (int k = 0, a = 0; k < npts; ++k)
-    if (active[k]) dx(nfree_ + np + a++) = dmu[k];
-  return true;
-}
-
 void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::VectorXd& Ru,
                       Eigen::VectorXd& G) const {
   const int d = dim_, nn = disc_.num_nodes();
@@ -458,6 +317,7 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
       for (SpMatR::InnerIterator it(pts->mean, s); it; ++it)
         for (int i = 0; i < d; ++i) Ru(d * it.col() + i) += x.mu(s) * it.value() * N(i);
   }
+  add_glue_force(x, Ru);
 }
 
 Eigen::SparseMatrix<double> Newton::tangent(const Unknowns& x) const {
@@ -466,6 +326,7 @@ Eigen::SparseMatrix<double> Newton::tangent(const Unknowns& x) const {
     assemble<2>(x, nullptr, nullptr, &t, nullptr);
   else
     assemble<3>(x, nullptr, nullptr, &t, nullptr);
+  add_glue_tangent(x, t);
   SpMat K(fluct_.rows(), fluct_.cols());
   K.setFromTriplets(t.begin(), t.end());
   return K + fluct_;
@@ -533,7 +394,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   struct Measures {
     double merit = 0, force = 0, constraint = 0;
   };
-  Eigen::VectorXd gapv(np), comp(np);
+  Eigen::VectorXd gapv(np), comp(np), gb;
   // (score: of a residual already evaluated at y; measure: evaluates it first.)
   auto score = [&](const Unknowns& y, const Eigen::VectorXd& ru, const Eigen::VectorXd& g) {
     Measures mm;
@@ -559,6 +420,14 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
         mm.force = std::max(mm.force, std::abs(comp(k)) / Fs);
       }
     }
+    if (glued_) {  // the box NCP of beta: phi_s = beta_s - clamp(beta_s - g_s / a_s, 0, 1)
+      gb = glue_gradient(y);
+      for (int k = 0; k < np; ++k) {
+        const double phi = y.beta(k) - std::clamp(y.beta(k) - gb(k) / glue_.a(k), 0.0, 1.0);
+        g2 += phi * phi;
+        mm.constraint = std::max(mm.constraint, std::abs(phi));
+      }
+    }
     mm.merit = std::sqrt((f2 + c2) / (Fs * Fs) + g2);
     return mm;
   };
@@ -573,15 +442,16 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   Measures cur = score(x, Ru, G);  // Ru, G at x: evaluated above for the load scale
   Unknowns trial;
   Eigen::VectorXd Ru_t, G_t;
-  std::vector<int> active(np), prev_active;
-  Scatter scatter;
+  bool residual_at_x = true;  // Ru, G hold x's residual (not a base's with forces released)
+  std::vector<int> active(np), prev_active, bstate(glued_ ? np : 0), prev_bstate;
+  const ScatterPtr scatter = new_scatter();
   const int max_newton = std::max(1, alg.newton_max_iter);
   double damping = 0;
   for (int it = 1;; ++it) {
     // Converged: forces and complementarity at force_tol, constraints at constraint_tol, and
     // the active set of the last step unchanged.
     if (it > 1 && cur.force <= alg.force_tol && cur.constraint <= constraint_tol &&
-        active == prev_active) {
+        active == prev_active && bstate == prev_bstate) {
       result.converged = true;
       result.status = cat("converged (Newton, ", result.iterations, " iterations)");
       break;
@@ -600,6 +470,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     IterationRecord rec;
     auto t0 = clock_type::now();
     // The active set of the semismooth step: mu_s + c_s (N . ubar_s - g_s) > 0.
+    if (pts) gapv = (pts->mean * x.u) * N - disc_.surface().gap;
+    if (glued_) gb = glue_gradient(x);
     prev_active = active;
     int nA = 0;
     std::vector<int> aidx(np, -1);
@@ -607,70 +479,34 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       active[k] = x.mu(k) + c_(k) * gapv(k) > 0;
       if (active[k]) aidx[k] = nA++;
     }
-    // The inactive forces vanish: set them, and the residual follows (linear in mu).
+    // The betas at a bound: beta_s - g_s / a_s outside [0, 1].
+    prev_bstate = bstate;
+    for (int k = 0; k < static_cast<int>(bstate.size()); ++k) {
+      const double t = x.beta(k) - gb(k) / glue_.a(k);
+      bstate[k] = t <= 0 ? -1 : (t >= 1 ? 1 : 0);
+    }
+    // The inactive forces vanish and the betas at a bound take it: set them, and the residual
+    // follows.
     Unknowns base = x;
     bool released = false;
     for (int k = 0; k < np; ++k)
       if (!active[k] && base.mu(k) != 0) base.mu(k) = 0, released = true;
-    if (released) residual(base, F, Ru, G);  // else Ru, G are x's, from the last evaluation
+    for (int k = 0; k < static_cast<int>(bstate.size()); ++k) {
+      const double bound = bstate[k] < 0 ? 0.0 : 1.0;
+      if (bstate[k] != 0 && base.beta(k) != bound) base.beta(k) = bound, released = true;
+    }
+    if (released || !residual_at_x) residual(base, F, Ru, G);  // else Ru, G are x's already
+    residual_at_x = !released;
     // [K, -B^T, C_A^T; -B, 0, 0; C_A, 0, 0] (du, dp, dmu_A) = (-R_u, G, g_A - N . ubar_A).
     const int np_ = incompressible_ ? nc : 0;
     if (pts) gapv = (pts->mean * base.u) * N - disc_.surface().gap;
     rec.t_strain = seconds_since(t0);
     t0 = clock_type::now();
     Eigen::VectorXd dx;
-    bool solved = augmented_step(base, Ru, G, gapv, active, damping, scatter, dx);
-    if (!solved) {
-      // The augmented tangent is not positive definite (a saddle of the energy on the
-      // constraints, e.g. a compressed block under a dead load): the KKT system itself.
-      Triplets t, tb;
-      if (d == 2)
-        assemble<2>(base, nullptr, nullptr, &t, &tb);
-      else
-        assemble<3>(base, nullptr, nullptr, &t, &tb);
-      for (int k = 0; k < fluct_.outerSize(); ++k)
-        for (SpMat::InnerIterator i(fluct_, k); i; ++i) t.emplace_back(i.row(), i.col(), i.value());
-      const int n = nfree_ + np_ + nA;
-      Triplets kkt;
-      kkt.reserve(t.size() + 2 * tb.size() + 2 * d * nA);
-      Eigen::VectorXd diag = Eigen::VectorXd::Zero(nfree_);
-      for (const auto& e : t)
-        if (free_[e.row()] >= 0 && free_[e.col()] >= 0) {
-          kkt.emplace_back(free_[e.row()], free_[e.col()], e.value());
-          if (e.row() == e.col()) diag(free_[e.row()]) += e.value();
-        }
-      // Levenberg-Marquardt damping of the u block (0: Newton's step), see below.
-      if (damping > 0)
-        for (int k = 0; k < nfree_; ++k) kkt.emplace_back(k, k, damping * std::abs(diag(k)));
-      for (const auto& e : tb)
-        if (free_[e.col()] >= 0) {
-          kkt.emplace_back(free_[e.col()], nfree_ + e.row(), -e.value());
-          kkt.emplace_back(nfree_ + e.row(), free_[e.col()], -e.value());
-        }
-      Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
-      for (int k = 0; k < Ru.size(); ++k)
-        if (free_[k] >= 0) rhs(free_[k]) = -Ru(k);
-      for (int e = 0; e < np_; ++e) rhs(nfree_ + e) = G(e);
-      if (pts) {
-        for (int k = 0; k < np; ++k) {
-          if (!active[k]) continue;
-          const int r = nfree_ + np_ + aidx[k];
-          bool any = false;
-          for (SpMatR::InnerIterator i(pts->mean, k); i; ++i)
-            for (int j = 0; j < d; ++j)
-              if (free_[d * i.col() + j] >= 0 && N(j) != 0) {
-                kkt.emplace_back(free_[d * i.col() + j], r, i.value() * N(j));
-                kkt.emplace_back(r, free_[d * i.col() + j], i.value() * N(j));
-                any = true;
-              }
-          if (any)
-            rhs(r) = -gapv(k);
-          else
-            kkt.emplace_back(r, r, 1.0);  // a point whose normal motion is prescribed: mu stays
-        }
-      }
-      solved = solve_kkt_lu(kkt, rhs, dx);
-    }
+    // The glued system is solved by LU (newton.hpp); so is an indefinite augmented tangent (a
+    // saddle of the energy on the constraints, e.g. a compressed block under a dead load).
+    bool solved = !glued_ && augmented_step(base, Ru, G, gapv, active, damping, *scatter, dx);
+    if (!solved) solved = lu_step(base, Ru, G, gapv, active, bstate, damping, dx);
     rec.t_global = seconds_since(t0);
     if (!solved) {  // singular: damp more, same point
       ++result.iterations;
@@ -688,6 +524,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
         break;
       }
       active = prev_active;
+      bstate = prev_bstate;
       continue;
     }
     // Backtracking on the merit, keeping det F > 0 at every point: alpha = 1, 1/2, ... 1/8. No
@@ -704,6 +541,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       for (int e = 0; e < np_; ++e) trial.p(e) += alpha * dx(nfree_ + e);
       for (int k = 0; k < np; ++k)
         if (active[k]) trial.mu(k) += alpha * dx(nfree_ + np_ + aidx[k]);
+      for (int k = 0; k < static_cast<int>(bstate.size()); ++k)
+        trial.beta(k) += alpha * dx(nfree_ + np_ + nA + k);
       if (!admissible(trial)) continue;
       next = measure(trial, Ru_t, G_t);
       if (std::isfinite(next.merit) && next.merit <= (1 - 1e-4 * alpha) * cur.merit) {
@@ -721,14 +560,14 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       rec.accelerated = -1;
       report.history.push_back(rec);
       if (progress) progress(report.history.back());
-      damping = damping > 0 ? 10 * damping
-                            : (std::getenv("LTL_D0") ? std::atof(std::getenv("LTL_D0")) : 1e-4);
+      damping = damping > 0 ? 10 * damping : 1e-4;
       if (damping > 1e6) {
         result.status =
             cat("Newton: no decrease of the residual (", cur.merit, ") even along a damped step");
         break;
       }
       active = prev_active;
+      bstate = prev_bstate;
       continue;
     }
     if (alpha == 1) damping = damping / 4 < 1e-8 ? 0.0 : damping / 4;
@@ -736,6 +575,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     cur = next;
     std::swap(Ru, Ru_t);
     std::swap(G, G_t);
+    residual_at_x = true;
     rec.r_G = cur.force;
     rec.r_B = cur.constraint;
     report.history.push_back(rec);

@@ -19,16 +19,26 @@
 // factorization of the tangent plus 1e4 times the constraints' projections, and a few sweeps of
 // multiplier updates. When that factorization fails (the tangent is not positive on the
 // constraints' kernel: a saddle, e.g. a compressed block under a dead load) the KKT system itself
-// is solved by UMFPACK's sparse LU. Not treated: the glue (w, kappa > 0), whose
-// problems keep ALG2.
+// is solved by UMFPACK's sparse LU.
+//
+// The glue adds a variable beta_s in [0, 1] per contact point and, to Pi, the adhesion part of
+// the time-discrete functional (2.2) at e_s = ubar_s:
+//   sum_s |G_s| [(kappa/2) beta_s^2 |ubar_s|^2 - w beta_s]
+//   + (1/(2 dt)) sum_s sum_s' |G_s| k_ss' (beta_s - beta_prev_s)(beta_s' - beta_prev_s'),
+// whose beta-derivative over |G_s| is g_s (glue_gradient); the box 0 <= beta_s <= 1 is a second
+// min-NCP, beta_s = clamp(beta_s - g_s / a_s, 0, 1), treated by the same active-set Newton. The
+// glued KKT system (u, p, mu, beta) is not symmetric positive on a kernel, so it is solved by LU
+// (newton_kkt.cpp).
 #pragma once
 
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "contact_step.hpp"
 #include "discretization.hpp"
 #include "problem.hpp"
 #include "state.hpp"
@@ -37,7 +47,7 @@ namespace ltl {
 
 class Newton {
  public:
-  /// Why the Newton phase cannot treat this discrete problem (the glue), or empty.
+  /// Why the Newton phase cannot treat this discrete problem, or empty (today always empty).
   static std::string unsupported(const Problem& problem);
 
   /// The per-cell data (nodes, mean gradients, the points of the incompressibility constraint)
@@ -45,26 +55,36 @@ class Newton {
   explicit Newton(const Discretization& disc);
 
   /// The unknowns of the discrete problem: u (#nodes x dim), a pressure per cell (empty for the
-  /// compressible law), a force per contact point (N in 3-D, N/m in plane strain).
+  /// compressible law), a force per contact point (N in 3-D, N/m in plane strain), and with glue
+  /// the adhesion intensity beta per contact point (else empty).
   struct Unknowns {
     Eigen::MatrixXd u;
-    Eigen::VectorXd p, mu;
+    Eigen::VectorXd p, mu, beta;
   };
+  /// The glue of this time step (kappa, w, dt, the kernel k_ss' of the local step (6.4)-(6.5))
+  /// and beta at the previous step: to be set before unknowns(), residual() and solve() on a
+  /// glued problem (the Solver does it at every step).
+  void set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_prev);
+  /// [(2.2)] The beta-derivative of the discrete functional over |G_s|, at e_s = ubar_s:
+  ///   g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - beta_prev_s'),
+  /// the stationarity of the local step's facet problem (6.1)-(6.5) in gamma. Empty without glue.
+  Eigen::VectorXd glue_gradient(const Unknowns& x) const;
   /// From an ALG2 state: u; p_e from lambda_e = 2 C1 E_e - dW(E_e) + p_e cof E_e (least
-  /// squares); mu_s = |G_s| max(0, -lambda_c_s . N).
+  /// squares); mu_s = |G_s| max(0, -(lambda_c_s + kappa beta_s^2 e_s) . N); beta.
   Unknowns unknowns(const State& s) const;
   /// The ALG2 state of the unknowns: E_e = Fbar_e, lambda_e = 2 C1 Fbar_e - dW(Fbar_e) +
-  /// p_e cof Fbar_e, e_s = ubar_s, lambda_c_s = -(mu_s / |G_s|) N; beta unchanged. At a solution
-  /// it is a fixed point of ALG2 (r_B = 0) for every R.
+  /// p_e cof Fbar_e, e_s = ubar_s, lambda_c_s = -(mu_s / |G_s|) N - kappa beta_s^2 ubar_s, beta
+  /// (unchanged without glue). At a solution it is a fixed point of ALG2 (r_B = 0) for every R.
   void to_state(const Unknowns& x, State& s) const;
 
   /// [(2.2), (2.7), (1.1)] R_u (dim * #nodes, interleaved, fixed dofs included) at x under the
-  /// load F (#nodes x dim), and G_e (#cells; empty for the compressible law).
+  /// load F (#nodes x dim), and G_e (#cells; empty for the compressible law). With glue, R_u
+  /// holds the glue's force sum_s |G_s| kappa beta_s^2 ubar_s (x) mean_s.
   void residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::VectorXd& Ru,
                 Eigen::VectorXd& G) const;
   /// The tangent dR_u/du at x (dim * #nodes square, all dofs): the Hessian of Pi minus
-  /// sum_e p_e times the Hessian of G_e. Its columns are the directional derivatives of
-  /// residual() (tests: central differences).
+  /// sum_e p_e times the Hessian of G_e (plus the glue's |G_s| kappa beta_s^2 mean_s (x) mean_s).
+  /// Its columns are the directional derivatives of residual() (tests: central differences).
   Eigen::SparseMatrix<double> tangent(const Unknowns& x) const;
   /// dG/du (#cells x dim * #nodes) at u.
   Eigen::SparseMatrix<double> constraint_gradient(const Eigen::MatrixXd& u) const;
@@ -96,9 +116,28 @@ class Newton {
   /// with the matrix scattered into the fixed pattern_ (no triplets). False when the augmented
   /// tangent is not positive definite.
   struct Scatter;
+  struct ScatterDeleter {
+    void operator()(Scatter* w) const;
+  };
+  using ScatterPtr = std::unique_ptr<Scatter, ScatterDeleter>;
+  static ScatterPtr new_scatter();
   bool augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
                       const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
                       Scatter& work, Eigen::VectorXd& dx) const;
+  /// The KKT system of a Newton step assembled in full (u free dofs, p, the active contact
+  /// forces, and with glue every beta; bstate: -1/+1 beta at its bound 0/1, 0 free) and solved by
+  /// UMFPACK's LU (newton_kkt.cpp): the glued step, and the fall-back of augmented_step. dx in
+  /// the same layout, beta last. False when singular.
+  bool lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
+               const Eigen::VectorXd& gap, const std::vector<int>& active,
+               const std::vector<int>& bstate, double damping, Eigen::VectorXd& dx) const;
+  /// The glue's terms of the KKT system (newton_kkt.cpp): the u-u block, the u-beta coupling,
+  /// the beta rows (ob: the first beta row), their right-hand side -|G_s| g_s.
+  void add_glue_kkt(const Unknowns& x, const std::vector<int>& bstate, int ob,
+                    std::vector<Eigen::Triplet<double>>& kkt, Eigen::VectorXd& rhs) const;
+  /// The glue's force into R_u and its u-u block (dof numbering) into t; nothing without glue.
+  void add_glue_force(const Unknowns& x, Eigen::VectorXd& Ru) const;
+  void add_glue_tangent(const Unknowns& x, std::vector<Eigen::Triplet<double>>& t) const;
   /// Smallest det F over the constraint points (+inf without them) and over the cell means.
   template <int d>
   double min_det(const Eigen::MatrixXd& u) const;
@@ -127,6 +166,15 @@ class Newton {
   std::vector<std::pair<int, double>> fluct_pos_;
   std::vector<std::vector<int>> point_dofs_, point_pos_;
   std::vector<std::vector<double>> point_coef_;
+  /// The glue (set_glue): kappa, w, dt, the kernel k_ss', beta_prev, and the scale a_s of the
+  /// box NCP (w + k_ss / dt, or a small multiple of kappa h^2 without them).
+  struct Glue {
+    double kappa = 0, w = 0, dt = 1;
+    Eigen::SparseMatrix<double> k;
+    Eigen::VectorXd beta_prev, a;
+  };
+  bool glued_ = false;
+  Glue glue_;
 };
 
 }  // namespace ltl

@@ -142,11 +142,11 @@ struct DiscretizationChoice {
   bool mean_det = true;
 };
 
-/// A load factor per time step multiplying the body force and the tractions (not the prescribed
-/// displacements): constant 1 (the paper's dead loads, applied in full at the first step), a
-/// linear ramp factor(t_p) = min(t_p / ramp_time, 1), or a table factor(p) = table[p - 1], the
-/// last entry holding beyond the table. The factor of a step depends on the step only (not on
-/// time.steps), so a run extended to a later horizon repeats the shorter run's steps.
+/// A load factor per time step multiplying the body force, the tractions and the prescribed
+/// displacements (Solver::set_load_factor): constant 1 (the paper's dead loads, applied in full
+/// at the first step), a linear ramp factor(t_p) = min(t_p / ramp_time, 1), or a table factor(p) =
+/// table[p - 1], the last entry holding beyond the table. The factor of a step depends on the step
+/// only (not on time.steps), so a run extended to a later horizon repeats the shorter run's steps.
 struct LoadRamp {
   enum class Kind { Constant, Linear, Table } kind = Kind::Constant;
   double ramp_time = 0;       ///< Linear: the time (s) at which the factor reaches 1

@@ -402,6 +402,13 @@ std::pair<std::string, std::string> dataset_meta(const std::string& path, int di
       {"contact_pressure",
        {"Pa", "Pa", "contact pressure of each contact point, -lambda_c . N (> 0: pressed)"}},
       {"gap", {"m", "m", "gap of each contact point to the obstacle plane, g - e . N"}},
+      {"reactions",
+       {"N/m", "N",
+        "force each Dirichlet condition's support exerts on the body (#conditions, dim; plane "
+        "strain: per metre of depth), in the order of the step's attribute `conditions` "
+        "(lib/reactions.hpp)"}},
+      {"support_u",
+       {"m", "m", "mean displacement of the nodes of each Dirichlet condition (#conditions, dim)"}},
       {"in_contact",
        {"1", "1",
         "1 at the contact points in the contact set, p > kContactThreshold * max p "
@@ -1029,6 +1036,8 @@ void ResultsFile::write_step(const std::string& g, const StepData& step, bool co
                       "det_min: 1 (min of det F over the quadrature points, > 0: no cell "
                       "inverted)",
                       file, g);
+    if (!step.conditions.empty())
+      write_string_attr(group.get(), "conditions", step.conditions, file, g);
     if (!converged) {
       write_scalar_attr<int>(group.get(), "unconverged", 1, file, g);
       write_string_attr(group.get(), "note",
@@ -1060,6 +1069,10 @@ void ResultsFile::write_step(const std::string& g, const StepData& step, bool co
   }
   if (step.contact_pressure.size()) put("contact_pressure", {un(nf)}, vec(step.contact_pressure));
   if (step.gap.size()) put("gap", {un(nf)}, vec(step.gap));
+  if (step.reactions.size()) {  // per Dirichlet condition (lib/reactions.hpp)
+    put("reactions", {un(step.reactions.rows()), un(dim)}, rows_of(step.reactions));
+    put("support_u", {un(step.support_u.rows()), un(dim)}, rows_of(step.support_u));
+  }
   if (!step.measures.empty() || step.in_contact.size()) {
     // The step's measures (lib/measures.hpp): scalar datasets with the unit and description
     // given by the measures module, and the contact set per contact point.

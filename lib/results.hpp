@@ -99,6 +99,11 @@ struct StepData {
   Eigen::VectorXd contact_pressure, gap;  ///< #facets (empty without contact)
   std::vector<StoredMeasure> measures;    ///< /steps/N/measures (none: no group)
   Eigen::VectorXi in_contact;             ///< #facets, 1 in the contact set (may be empty)
+  /// Per Dirichlet condition (lib/reactions.hpp; none: not written): the support's reaction
+  /// force and the mean displacement of its nodes (#conditions x dim), and their labels
+  /// ("fixed[0]:left; symmetry[0]:bottom", the step's attribute `conditions`).
+  Eigen::MatrixXd reactions, support_u;
+  std::string conditions;
 };
 
 /// A step read back from a file (for resuming, and for tests).

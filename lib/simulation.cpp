@@ -16,6 +16,7 @@
 #include "hash.hpp"
 #include "measures.hpp"
 #include "output_guard.hpp"
+#include "reactions.hpp"
 #include "results.hpp"
 #include "version.hpp"
 
@@ -48,8 +49,8 @@ std::string divergence_hint(const Problem& problem, double factor, const TimeSte
                 " failed attempts, the smallest substep 1/", 1 << kMaxHalvings,
                 " of the increment): a finer load ramp alone is unlikely to help")
       : step.not_subdivided.find("no dead load") != std::string::npos
-          ? "; nothing changes the loading at this step (no dead load, no prescribed "
-            "displacement increment), so the step could not be subdivided"
+          ? "; nothing loads the problem (no dead load, no prescribed displacement), so the "
+            "step could not be subdivided"
           : "; a load too large for one step needs a load ramp ([load] ramp = \"linear\", "
             "ramp_time, more time.steps)",
       " (experiments/README.md, \"Choosing R, q, q_c\").");
@@ -94,6 +95,15 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
                         "solves of this step that failed before it was done in substeps (the "
                         "step's status lists them)"});
   d.in_contact = m.in_contact;
+  // The load factor of the step (LoadRamp; the last substep's) and the supports' reactions.
+  d.measures.push_back({"load_factor", solver.load_factor(), "1",
+                        "load factor of the step ([load] ramp): multiplies the body force, the "
+                        "tractions and the prescribed displacements"});
+  const SupportReactions r =
+      support_reactions(solver.discretization(), solver.external_load(), state);
+  d.reactions = r.force;
+  d.support_u = r.u;
+  d.conditions = joined_labels(r);
   return d;
 }
 
@@ -115,12 +125,8 @@ Increment load_increment(const Problem& problem, int p) {
 TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int verbosity) {
   const Problem& problem = solver.problem();
   const int P = problem.time.steps;
-  solver.set_load_factor(factor);  // LoadRamp, or a substep of its increment
-  // Prescribed displacements: in full from step 1 on; a substep of a failed step takes the same
-  // fraction theta of their increment (0 -> 1 at step 1, none later).
-  const auto [f0, f1] = load_increment(problem, p);
-  const double theta = f1 != f0 ? (factor - f0) / (f1 - f0) : 1.0;
-  solver.set_displacement_factor(p > 1 ? 1.0 : theta);
+  // LoadRamp, or a substep of its increment: the dead loads and the prescribed displacements.
+  solver.set_load_factor(factor);
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   const Eigen::VectorXd beta_prev = state.beta;
   auto progress = [&](const IterationRecord& r) {
@@ -159,9 +165,9 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   return step;
 }
 
-/// Why a failed step p, whose load factor goes from f0 to f1, cannot be subdivided (empty: it
+/// Why a failed step, whose load factor goes from f0 to f1, cannot be subdivided (empty: it
 /// can).
-std::string subdivision_refused(const Solver& solver, int p, double f0, double f1) {
+std::string subdivision_refused(const Solver& solver, double f0, double f1) {
   const Problem& problem = solver.problem();
   if (problem.contact && problem.contact->adhesion.d0 > 0 && problem.contact->adhesion.glued())
     return "not subdivided: glue with dissipation (contact.d0 > 0), whose term (6.4)-(6.5) "
@@ -170,11 +176,9 @@ std::string subdivision_refused(const Solver& solver, int p, double f0, double f
   if (f1 == f0)
     return cat("not subdivided: the load factor does not change at this step (", f1,
                "); nothing to subdivide");
-  const bool displaced =
-      p == 1 && solver.discretization().dirichlet().value.cwiseAbs().maxCoeff() > 0;
+  const bool displaced = solver.discretization().dirichlet().value.cwiseAbs().maxCoeff() > 0;
   if (!(solver.external_load().cwiseAbs().maxCoeff() > 0) && !displaced)
-    return "not subdivided: no dead load, and no prescribed displacement increment (prescribed "
-           "displacements are applied in full from step 1 on)";
+    return "not subdivided: no dead load and no prescribed displacement";
   return "";
 }
 
@@ -230,7 +234,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity) {
                       step.report.status});
   std::string refused;
   if (!step.report.converged) {
-    refused = subdivision_refused(solver, p, f0, f1);
+    refused = subdivision_refused(solver, f0, f1);
     if (refused.empty()) {
       if (verbosity > 0)
         std::printf(

@@ -77,8 +77,8 @@ constexpr int kMaxHalvings = 3;
 /// p-1's state with its load increment (the LoadRamp factor from step p-1's to step p's; 0 before
 /// step 1) halved, the failing half halved again, at most kMaxHalvings times; only the last
 /// substep's state is the step's. Not subdivided: a step whose load factor does not change (a
-/// constant load after step 1, a problem without dead loads: prescribed displacements are not
-/// ramped and the solver applies them in full), and glue with dissipation (contact.d0 > 0: its
+/// constant load after step 1, a problem without dead loads or prescribed displacements, which
+/// follow the same factor), and glue with dissipation (contact.d0 > 0: its
 /// term (6.4)-(6.5) divides by the solver's dt, fixed at the precompute, so a substep would
 /// dissipate as over the whole dt). Every attempt is in TimeStep::attempts and in the status. A
 /// step converged by the iterate residuals but not in equilibrium (force residual above

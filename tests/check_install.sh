@@ -12,6 +12,7 @@ test -x "$prefix/bin/ltl_run" || { echo "no $prefix/bin/ltl_run"; exit 1; }
 test -x "$prefix/bin/ltl-results" || { echo "no $prefix/bin/ltl-results"; exit 1; }
 module=$(find "$prefix/lib" -name ltl_results.py)
 test -n "$module" || { echo "ltl_results.py not installed"; exit 1; }
+test -f "$(dirname "$module")/ltl_plot.py" || { echo "ltl_plot.py (ltl-results plot) not installed"; exit 1; }
 # A small run with the installed runner, read by the installed reader.
 sed -n '/R"(parameters/,/^)";/p' "$src/tests/testing.hpp" | sed '1s/.*R"(//;$d' > "$prefix/body"
 { printf 'name = "case"\n[mesh]\ngeometry = "%s"\n' "$src/experiments/fig5/half_disc.geo"

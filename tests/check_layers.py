@@ -10,7 +10,7 @@ steps up to the solver, from the solver up to the time loop, ...). The layers, l
                matrix, Anderson's extrapolation
   problem      the problem as stated, the configuration (schema, reading, resolved TOML)
   discretization  the discrete operators of one problem
-  measures     what is measured on a state: measures, admissibility
+  measures     what is measured on a state: measures, admissibility, reactions
   solver       ALG2, the Newton phase, the fixed-point driver, the Signorini solver
   results      the results file (HDF5, XDMF)
   simulation   the time loop and the guard of its output
@@ -32,8 +32,8 @@ LAYERS = [
     ("steps", "strain_step contact_step adhesion_kernel global_step anderson"),
     ("problem", "problem config config_toml config_schema"),
     ("discretization", "discretization"),
-    ("measures", "measures admissibility"),
-    ("solver", "alg2 newton fixed_point iteration signorini"),
+    ("measures", "measures admissibility reactions"),
+    ("solver", "alg2 newton newton_kkt fixed_point iteration signorini"),
     ("results", "results"),
     ("simulation", "simulation output_guard"),
     ("cli", "cli"),

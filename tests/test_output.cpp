@@ -385,6 +385,8 @@ TEST(Output, StoredMeasuresEqualTheInMemoryOnes) {
     // ... and the load subdivision of the step (lib/simulation.cpp): the full increment.
     expected.push_back({"substeps", 1.0, "1", ""});
     expected.push_back({"failed_attempts", 0.0, "1", ""});
+    // ... and the load factor of the step ([load] ramp).
+    expected.push_back({"load_factor", p.ramp.factor(stored->p, p.time.dt), "1", ""});
     EXPECT_TRUE(stored->measures.count("det_F_min") && stored->measures.count("rotation_jump"));
     EXPECT_EQ(stored->measures.size(), expected.size());
     for (const StoredMeasure& m : expected) {

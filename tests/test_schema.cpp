@@ -99,9 +99,9 @@ TEST(Schema, ResolvedConfigurationRepeatsFigs5And6) {
       {"mesh.parameters.na=4", "mesh.parameters.nl=4", "algorithm.tol=1e-5"});
 }
 
-// The first problem (Newton by default, a traction) and the keys the figures leave at their
-// defaults: a table and a linear load ramp, adaptive R, Anderson, a prescribed displacement with
-// a gradient, eps instead of kappa, the exact kernel on facet-mean contact, d0, w.
+// The first problem (Newton by default, a traction), the peel, and the keys the figures leave at
+// their defaults: a table and a linear load ramp, adaptive R, Anderson, a prescribed displacement
+// with a gradient, eps instead of kappa, the exact kernel on facet-mean contact, d0, w.
 TEST(Schema, ResolvedConfigurationRepeatsTheKeysFiguresLeaveOut) {
   const std::string block = figure("first_problem/block.toml");
   expect_resolved_repeats_the_run(block, {});
@@ -112,6 +112,11 @@ TEST(Schema, ResolvedConfigurationRepeatsTheKeysFiguresLeaveOut) {
               "algorithm.solver=\"alg2\"", "algorithm.adaptive_R=true", "algorithm.adapt_every=5",
               "algorithm.R_min=0.5", "algorithm.max_refactorizations=2",
               "algorithm.acceleration=\"anderson\"", "algorithm.depth=3"});
+  // The peel (a ramped [[fixed]] value lifting a glued strip), and a support on one component.
+  expect_resolved_repeats_the_run(figure("peel/peel.toml"), {"time.steps=2"});
+  expect_resolved_repeats_the_run(
+      figure("peel/peel.toml"),
+      {"fixed=[{group = \"right\", component = \"y\", value = \"2 mm\"}]", "time.steps=2"});
   expect_resolved_repeats_the_run(
       block, {"load.ramp=\"linear\"", "load.ramp_time=\"2 s\"", "time.steps=2", "contact.eps=1e-9",
               "contact.w=\"1 J/m^2\"", "contact.d0=10", "discretization.contact=\"facet-mean\"",

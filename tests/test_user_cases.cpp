@@ -353,7 +353,7 @@ TEST(UserCases, FailedStepIsRetriedInSubstepsAndOnlyTheLastIsWritten) {
 
 TEST(UserCases, PrescribedDisplacementsAreSubdividedDissipativeGlueIsNot) {
   // A failed first step of a problem loaded by prescribed displacements is retried in substeps
-  // of their increment (Solver::set_displacement_factor): the O-ring at 35 % (see
+  // of their increment (Solver::set_load_factor): the O-ring at 35 % (see
   // ORingTwentyPercentConvergesAndThirtyFiveIsAClearRefusal below) reaches 87.5 % of the
   // squeeze and then fails, clearly.
   const Outcome o = run_case("oring35", oring_config(0.35, 6));

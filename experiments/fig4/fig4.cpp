@@ -85,6 +85,7 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   ltl::Solver solver{ltl::Discretization(problem)};  // discretize; K with R q factorized once (4.5)
   const ltl::RunSummary run = ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
   report(solver, run);                                    // the figure's numbers
+  ltl::print_newton_beside(problem, run);  // the same steps by Newton, its iterations
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2.

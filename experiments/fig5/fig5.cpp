@@ -95,9 +95,8 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::RunOptions options = ltl::run_options(cmd, problem);  // -o or results/fig5.h5
   ltl::Solver solver{ltl::Discretization(problem)};  // discretize; K with R q factorized once (4.5)
   const ltl::RunSummary run = ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
-  report(solver, run);
-  ltl::print_newton_beside(
-      problem, run);  // the same state by Newton, its iterations // the figure's numbers
+  report(solver, run);                                    // the figure's numbers
+  ltl::print_newton_beside(problem, run);  // the same state by Newton, its iterations
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2.

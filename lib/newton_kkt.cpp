@@ -1,0 +1,320 @@
+// Newton's method on ALG2's discrete problem (newton.hpp): the linear system of a step, by the
+// augmented Lagrangian (CHOLMOD) or in full by sparse LU, and the glue's terms [LTL87 (2.2)].
+#include <Eigen/CholmodSupport>
+#include <Eigen/UmfPackSupport>
+
+#include "error.hpp"
+#include "newton.hpp"
+
+namespace ltl {
+
+namespace {
+using Triplets = std::vector<Eigen::Triplet<double>>;
+using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
+
+/// Calls emit(dof_a, dof_b, v) for the glue's block of the tangent in u, dof numbering d a + i:
+///   sum_s |G_s| kappa beta_s^2 (mean_s (x) mean_s) (x) I_dim,
+/// the Hessian in u of sum_s |G_s| (kappa/2) beta_s^2 |ubar_s|^2 (2.2).
+template <class Emit>
+void for_each_glue_uu(const FacetOperators& pts, const Eigen::VectorXd& beta, double kappa, int d,
+                      Emit emit) {
+  for (int s = 0; s < pts.size(); ++s) {
+    const double c = pts.area(s) * kappa * beta(s) * beta(s);
+    if (c == 0) continue;
+    for (SpMatR::InnerIterator a(pts.mean, s); a; ++a)
+      for (SpMatR::InnerIterator b(pts.mean, s); b; ++b)
+        for (int i = 0; i < d; ++i)
+          emit(d * a.col() + i, d * b.col() + i, c * a.value() * b.value());
+  }
+}
+}  // namespace
+
+// The work of augmented_step kept across Newton iterations: the matrix (pattern_'s), its
+// factor (analyzed once), the cells' constraint gradients.
+struct Newton::Scatter {
+  SpMat A;
+  Factor llt;
+  bool analyzed = false;
+  std::vector<Eigen::VectorXd> be;  ///< per cell, dG_e/du on the cell's local dofs
+};
+
+// [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
+// K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_.
+bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
+                            const Eigen::VectorXd& G, const Eigen::VectorXd& gap,
+                            const std::vector<int>& active, double damping, Scatter& w,
+                            Eigen::VectorXd& dx) const {
+  const int d = dim_, nc = disc_.num_cells(), dn = d * npc_;
+  const int np = incompressible_ ? nc : 0, npts = static_cast<int>(active.size());
+  if (w.A.size() == 0) w.A = pattern_;
+  double* A = w.A.valuePtr();
+  std::fill(A, A + w.A.nonZeros(), 0.0);
+  w.be.resize(np);
+  auto fdof = [&](int e, int r) { return free_[d * nodes_[e * npc_ + r / d] + r % d]; };
+  const CellSink sink = [&](int e, const Eigen::MatrixXd& Ke, const Eigen::VectorXd& be) {
+    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
+    for (int r = 0; r < dn; ++r)
+      for (int c = 0; c < dn; ++c)
+        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += Ke(r, c);
+    if (np) w.be[e] = be;
+  };
+  if (d == 2)
+    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+  else
+    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+  for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
+  Eigen::VectorXd diag(nfree_);
+  for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
+  const double kappa = 1e4 * (nfree_ ? diag.cwiseAbs().mean() : 1.0);
+  // The constraint rows: W_e = 1 / |B_e|^2 over the free dofs, their outer products.
+  Eigen::VectorXd W(np);
+  for (int e = 0; e < np; ++e) {
+    double b2 = 0;
+    for (int r = 0; r < dn; ++r)
+      if (fdof(e, r) >= 0) b2 += w.be[e](r) * w.be[e](r);
+    W(e) = 1 / std::max(b2, 1e-300);
+    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
+    for (int r = 0; r < dn; ++r)
+      for (int c = 0; c < dn; ++c)
+        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += kappa * W(e) * w.be[e](r) * w.be[e](c);
+  }
+  std::vector<int> act;
+  Eigen::VectorXd Wc(npts);
+  for (int k = 0; k < npts; ++k) {
+    if (!active[k] || point_dofs_[k].empty()) continue;
+    act.push_back(k);
+    const std::vector<double>& cf = point_coef_[k];
+    double c2 = 0;
+    for (double v : cf) c2 += v * v;
+    Wc(k) = 1 / c2;
+    const int m = static_cast<int>(cf.size());
+    for (int a = 0; a < m; ++a)
+      for (int b = 0; b < m; ++b)
+        if (point_pos_[k][a * m + b] >= 0)
+          A[point_pos_[k][a * m + b]] += kappa * Wc(k) * cf[a] * cf[b];
+  }
+  if (damping > 0)
+    for (int k = 0; k < nfree_; ++k) A[diag_pos_[k]] += damping * std::abs(diag(k));
+  if (!w.analyzed) {
+    w.llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
+    w.llt.analyzePattern(w.A);
+    w.analyzed = true;
+  }
+  w.llt.factorize(w.A);
+  if (w.llt.info() != Eigen::Success) return false;
+  // The multiplier sweeps: B du = sum over the cell's free dofs, B^T dp scattered back.
+  Eigen::VectorXd r1(nfree_), du, rhs(nfree_);
+  for (int k = 0; k < static_cast<int>(free_.size()); ++k)
+    if (free_[k] >= 0) r1(free_[k]) = -Ru(k);
+  Eigen::VectorXd dp = Eigen::VectorXd::Zero(np);
+  std::vector<double> dmu(npts, 0.0);
+  auto Bdu = [&](int e, const Eigen::VectorXd& v) {
+    double s = 0;
+    for (int r = 0; r < dn; ++r)
+      if (fdof(e, r) >= 0) s += w.be[e](r) * v(fdof(e, r));
+    return s;
+  };
+  auto Cdu = [&](int k, const Eigen::VectorXd& v) {
+    double s = 0;
+    for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
+      s += point_coef_[k][a] * v(point_dofs_[k][a]);
+    return s;
+  };
+  for (int sweep = 0; sweep < 100; ++sweep) {
+    // rhs = r1 + B^T (dp - kappa W r2) - C^T (dmu - kappa_c Wc r3), r2 = G, r3 = -gap.
+    rhs = r1;
+    for (int e = 0; e < np; ++e) {
+      const double y = dp(e) - kappa * W(e) * G(e);
+      for (int r = 0; r < dn; ++r)
+        if (fdof(e, r) >= 0) rhs(fdof(e, r)) += w.be[e](r) * y;
+    }
+    for (int k : act) {
+      const double y = dmu[k] - kappa * Wc(k) * (-gap(k));
+      for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
+        rhs(point_dofs_[k][a]) -= point_coef_[k][a] * y;
+    }
+    du = w.llt.solve(rhs);
+    double worst = 0;
+    for (int e = 0; e < np; ++e) {
+      const double c1 = Bdu(e, du) + G(e);
+      dp(e) -= kappa * W(e) * c1;
+      worst = std::max(worst, std::abs(c1) * std::sqrt(W(e)));
+    }
+    for (int k : act) {
+      const double c2 = Cdu(k, du) + gap(k);
+      dmu[k] += kappa * Wc(k) * c2;
+      worst = std::max(worst, std::abs(c2) * std::sqrt(Wc(k)));
+    }
+    // Converged when the constraints hold to round-off of the step.
+    if (worst <= 1e-13 * std::max(du.cwiseAbs().maxCoeff(), 1e-300)) break;
+  }
+  if (!du.allFinite()) return false;
+  // dx in the layout of the KKT system: du, dp, then the active points' dmu in order.
+  int nA = 0;
+  for (int k = 0; k < npts; ++k) nA += active[k];
+  dx.resize(nfree_ + np + nA);
+  dx.head(nfree_) = du;
+  dx.segment(nfree_, np) = dp;
+  for (int k = 0, a = 0; k < npts; ++k)
+    if (active[k]) dx(nfree_ + np + a++) = dmu[k];
+  return true;
+}
+
+void Newton::ScatterDeleter::operator()(Scatter* w) const {
+  delete w;
+}
+Newton::ScatterPtr Newton::new_scatter() {
+  return ScatterPtr(new Scatter);
+}
+
+void Newton::set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_prev) {
+  const Adhesion& ad = contact.adhesion();
+  glued_ = ad.glued();
+  if (!glued_) return;
+  const int np = disc_.facets()->size();
+  glue_.kappa = ad.kappa, glue_.w = ad.w, glue_.dt = ad.dt;
+  if (glue_.k.rows() != np) glue_.k = contact.kernel().sparseView();
+  glue_.beta_prev = beta_prev;
+  // The scale of the box NCP: the beta-stiffness of the dissipation and the Dupre energy, or
+  // (neither) that of the glue's spring at a thousandth of the mesh size.
+  const double h = std::pow(disc_.volume() / disc_.num_cells(), 1.0 / dim_);
+  glue_.a.resize(np);
+  for (int s = 0; s < np; ++s) {
+    glue_.a(s) = glue_.w + glue_.k.coeff(s, s) / glue_.dt;
+    if (!(glue_.a(s) > 0)) glue_.a(s) = 1e-6 * glue_.kappa * h * h;
+  }
+}
+
+// [(2.2), (6.1)-(6.5)] g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - bp_s').
+Eigen::VectorXd Newton::glue_gradient(const Unknowns& x) const {
+  if (!glued_) return Eigen::VectorXd();
+  const Eigen::MatrixXd ubar = disc_.facets()->mean * x.u;  // #points x dim
+  return glue_.kappa * x.beta.cwiseProduct(ubar.rowwise().squaredNorm()) -
+         Eigen::VectorXd::Constant(x.beta.size(), glue_.w) +
+         glue_.k * (x.beta - glue_.beta_prev) / glue_.dt;
+}
+
+void Newton::add_glue_kkt(const Unknowns& x, const std::vector<int>& bstate, int ob, Triplets& kkt,
+                          Eigen::VectorXd& rhs) const {
+  const FacetOperators& pts = *disc_.facets();
+  const int d = dim_, np = pts.size();
+  for_each_glue_uu(pts, x.beta, glue_.kappa, d, [&](int r, int c, double v) {
+    if (free_[r] >= 0 && free_[c] >= 0) kkt.emplace_back(free_[r], free_[c], v);
+  });
+  const Eigen::MatrixXd ubar = pts.mean * x.u;
+  const Eigen::VectorXd g = glue_gradient(x);
+  for (int s = 0; s < np; ++s) {
+    // d(force on u)/d beta_s = 2 |G_s| kappa beta_s ubar_s (x) mean_s; the free beta's row is
+    // |G_s| dg_s, its transpose in u (the Hessian of (2.2) in (u, beta) is symmetric).
+    const double c = 2 * pts.area(s) * glue_.kappa * x.beta(s);
+    for (SpMatR::InnerIterator a(pts.mean, s); a; ++a)
+      for (int i = 0; i < d; ++i) {
+        const int f = free_[d * a.col() + i];
+        if (f < 0) continue;
+        const double v = c * ubar(s, i) * a.value();
+        kkt.emplace_back(f, ob + s, v);
+        if (bstate[s] == 0) kkt.emplace_back(ob + s, f, v);
+      }
+    if (bstate[s] != 0) {  // at its bound: d beta_s = 0 (base holds the bound)
+      kkt.emplace_back(ob + s, ob + s, 1.0);
+      rhs(ob + s) = 0;
+      continue;
+    }
+    kkt.emplace_back(ob + s, ob + s, pts.area(s) * glue_.kappa * ubar.row(s).squaredNorm());
+    rhs(ob + s) = -pts.area(s) * g(s);
+  }
+  // (|G_s| / dt) k_ss' on the free betas' rows: k is stored by columns, so walk them.
+  for (int c = 0; c < np; ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator k(glue_.k, c); k; ++k)
+      if (bstate[k.row()] == 0)
+        kkt.emplace_back(ob + k.row(), ob + c, pts.area(k.row()) * k.value() / glue_.dt);
+}
+
+// [K, -B^T, C_A^T, Kub; -B, 0, 0, 0; C_A, 0, 0, 0; Kbu, 0, 0, Kbb] (du, dp, dmu_A, dbeta) =
+// (-R_u, G, g_A - N . ubar_A, -|G| g) with the rows of the betas at a bound replaced by
+// dbeta_s = 0.
+bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
+                     const Eigen::VectorXd& gap, const std::vector<int>& active,
+                     const std::vector<int>& bstate, double damping, Eigen::VectorXd& dx) const {
+  const int d = dim_, np_ = incompressible_ ? disc_.num_cells() : 0;
+  const FacetOperators* pts = disc_.facets();
+  const int npts = static_cast<int>(active.size());
+  int nA = 0;
+  for (int a : active) nA += a;
+  const int nb = glued_ ? npts : 0;
+  const int n = nfree_ + np_ + nA + nb;
+  Triplets t, tb;
+  if (d == 2)
+    assemble<2>(base, nullptr, nullptr, &t, &tb);
+  else
+    assemble<3>(base, nullptr, nullptr, &t, &tb);
+  for (int k = 0; k < fluct_.outerSize(); ++k)
+    for (SpMat::InnerIterator i(fluct_, k); i; ++i) t.emplace_back(i.row(), i.col(), i.value());
+  Triplets kkt;
+  kkt.reserve(t.size() + 2 * tb.size() + 2 * d * nA);
+  Eigen::VectorXd diag = Eigen::VectorXd::Zero(nfree_);
+  for (const auto& e : t)
+    if (free_[e.row()] >= 0 && free_[e.col()] >= 0) {
+      kkt.emplace_back(free_[e.row()], free_[e.col()], e.value());
+      if (e.row() == e.col()) diag(free_[e.row()]) += e.value();
+    }
+  // Levenberg-Marquardt damping of the u block (0: Newton's step), see Newton::solve.
+  if (damping > 0)
+    for (int k = 0; k < nfree_; ++k) kkt.emplace_back(k, k, damping * std::abs(diag(k)));
+  for (const auto& e : tb)
+    if (free_[e.col()] >= 0) {
+      kkt.emplace_back(free_[e.col()], nfree_ + e.row(), -e.value());
+      kkt.emplace_back(nfree_ + e.row(), free_[e.col()], -e.value());
+    }
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
+  for (int k = 0; k < Ru.size(); ++k)
+    if (free_[k] >= 0) rhs(free_[k]) = -Ru(k);
+  for (int e = 0; e < np_; ++e) rhs(nfree_ + e) = G(e);
+  if (pts) {
+    const Eigen::VectorXd& N = disc_.surface().N;
+    for (int k = 0, a = 0; k < npts; ++k) {
+      if (!active[k]) continue;
+      const int r = nfree_ + np_ + a++;
+      bool any = false;
+      for (SpMatR::InnerIterator i(pts->mean, k); i; ++i)
+        for (int j = 0; j < d; ++j)
+          if (free_[d * i.col() + j] >= 0 && N(j) != 0) {
+            kkt.emplace_back(free_[d * i.col() + j], r, i.value() * N(j));
+            kkt.emplace_back(r, free_[d * i.col() + j], i.value() * N(j));
+            any = true;
+          }
+      if (any)
+        rhs(r) = -gap(k);
+      else
+        kkt.emplace_back(r, r, 1.0);  // a point whose normal motion is prescribed: mu stays
+    }
+  }
+  if (nb) add_glue_kkt(base, bstate, nfree_ + np_ + nA, kkt, rhs);
+  SpMat A(n, n);
+  A.setFromTriplets(kkt.begin(), kkt.end());
+  Eigen::UmfPackLU<SpMat> lu;
+  lu.compute(A);
+  if (lu.info() != Eigen::Success) return false;
+  dx = lu.solve(rhs);
+  return dx.allFinite();
+}
+
+// The glue's share of residual() and tangent() (newton.cpp).
+void Newton::add_glue_force(const Unknowns& x, Eigen::VectorXd& Ru) const {
+  if (!glued_) return;
+  const FacetOperators& pts = *disc_.facets();
+  const Eigen::MatrixXd ubar = pts.mean * x.u;
+  for (int s = 0; s < pts.size(); ++s) {
+    const double c = pts.area(s) * glue_.kappa * x.beta(s) * x.beta(s);
+    for (SpMatR::InnerIterator a(pts.mean, s); a; ++a)
+      for (int i = 0; i < dim_; ++i) Ru(dim_ * a.col() + i) += c * a.value() * ubar(s, i);
+  }
+}
+
+void Newton::add_glue_tangent(const Unknowns& x, Triplets& t) const {
+  if (!glued_) return;
+  for_each_glue_uu(*disc_.facets(), x.beta, glue_.kappa, dim_,
+                   [&](int r, int c, double v) { t.emplace_back(r, c, v); });
+}
+
+}  // namespace ltl
