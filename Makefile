@@ -7,7 +7,7 @@ JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
 .PHONY: all figures test test-petsc sanitize bench bench-amg deps build fig3 fig4 fig5 fig6 \
-        compare hertz readings reference format clean verify verify-fig6 peer-deps \
+        compare hertz readings reference keys format clean verify verify-fig6 peer-deps \
         peer-reference bench-peer install paper-vs-package peel
 
 all: figures
@@ -193,6 +193,10 @@ bench-amg: build
 # Regenerate the stored reference data of the regression tests (review the diff).
 reference: build
 	$(BUILD)/tests/make_reference tests/reference/regression.toml
+
+# Rewrites the key table of experiments/README.md from the configuration schema.
+keys: build
+	$(BUILD)/tests/key_table experiments/README.md
 
 format:
 	clang-format -i lib/*.cpp lib/*.hpp tests/*.cpp tests/*.hpp experiments/*.cpp experiments/*/*.cpp

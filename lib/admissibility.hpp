@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "discretization.hpp"
-#include "results.hpp"
 #include "state.hpp"
+#include "stored_measure.hpp"
 
 namespace ltl {
 

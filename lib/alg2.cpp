@@ -408,7 +408,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       if (!stalled) to_switch /= 10;
     }
   }
-  const EquilibriumMeasure eq = equilibrium_measure(*this, s);
+  const EquilibriumMeasure eq = equilibrium_measure(discretization(), external_load(), s);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;
   report.det_min = eq.det_min;

@@ -4,13 +4,12 @@
 //   gamma = argmin || f_k - dF gamma ||,   x_{k+1} = G(x_k) - dG gamma.
 // The history is a preallocated ring of m columns: no allocation after construction.
 //
-// Two choices measured on ALG2 (paper_notes/performance.md, "Anderson acceleration"):
+// Two choices (their measurements on ALG2: paper_notes/performance.md, "Anderson acceleration"):
 // - extrapolate only once the history holds m differences (after a start or a restart the plain
 //   iterates refill it): a one- or two-column secant step on a map contracting at 0.999 per
 //   iteration jumps ~1/(1 - 0.999) times the residual and is rejected;
-// - bound the extrapolation, ||x_{k+1} - G(x_k)|| <= cap ||f_k|| (gamma scaled down): on the
-//   Fig 6 gutter (nl = 10, na = 6) cap = 10 takes 1 565 iterations, no bound 7 575 (the safeguard
-//   rejects most unbounded tries).
+// - bound the extrapolation, ||x_{k+1} - G(x_k)|| <= cap ||f_k|| (gamma scaled down): unbounded,
+//   the safeguard rejects most tries.
 #pragma once
 
 #include <Eigen/Dense>

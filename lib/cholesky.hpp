@@ -24,6 +24,10 @@ struct cholmod_factor_struct;
 
 namespace ltl {
 
+/// The linear solver of the global step (4.5): sparse Cholesky, CG + AMG (PETSc), or chosen by
+/// the predicted factor size (global_step.hpp); algorithm.global_solver.
+enum class GlobalSolver { Auto, Cholesky, CgAmg };
+
 class Cholesky {
  public:
   /// Factors whose reciprocal condition estimate is below this are refused as singular.

@@ -5,8 +5,8 @@
 #include <cmath>
 
 #include "cofactor.hpp"
+#include "derived_fields.hpp"
 #include "error.hpp"
-#include "measures.hpp"
 
 namespace ltl {
 
@@ -297,7 +297,19 @@ Discretization::Stresses Discretization::stresses(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  return ltl::contact_pressure(problem_, s, facets());  // one definition, lib/measures.cpp
+  if (!problem_.contact) return Eigen::VectorXd(0);
+  const Eigen::VectorXd p = -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim()));
+  const FacetOperators* points = facets();
+  if (!points || points->nodes.empty()) return p;
+  // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp).
+  return consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contact->group),
+                                   *points, p);
+}
+
+Eigen::VectorXd Discretization::contact_forces(const State& s) const {
+  if (!problem_.contact || !facets()) return Eigen::VectorXd(0);
+  return facets()->area.cwiseProduct(
+      -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim())));
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {

@@ -99,8 +99,13 @@ class Discretization {
     Eigen::VectorXd sigma33, pressure;
   };
   Stresses stresses(const State& s) const;
-  /// Contact pressure per contact point, p_c = -lambda_c . N >= 0 where the body presses.
+  /// Nominal contact pressure per contact point, p_c = -lambda_c . N (Pa; > 0 where the body
+  /// presses): the one definition, which the measures (lib/measures.hpp) use. With nodal contact
+  /// on P2 triangle faces, read consistently from the point forces (derived_fields.hpp:
+  /// consistent_nodal_pressure), so that a uniform pressure reads uniform.
   Eigen::VectorXd contact_pressure(const State& s) const;
+  /// The force of each contact point, |G_s| (-lambda_c_s . N) (N/m in 2-D, N).
+  Eigen::VectorXd contact_forces(const State& s) const;
   /// Gap to the plane after deformation per contact point: g_s - e_s . N (>= 0 when admissible).
   Eigen::VectorXd contact_gap(const State& s) const;
   /// Gradient (#nodes x dim, zero on fixed components) of the reduced discrete energy

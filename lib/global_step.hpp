@@ -29,7 +29,6 @@
 
 #include "cholesky.hpp"
 #include "fe.hpp"
-#include "problem.hpp"
 
 namespace ltl {
 

@@ -4,17 +4,9 @@
 #include <cmath>
 
 #include "admissibility.hpp"
-#include "derived_fields.hpp"
 #include "error.hpp"
 
 namespace ltl {
-
-Eigen::VectorXd contact_pressure(const Problem& pb, const State& s, const FacetOperators* points) {
-  if (!pb.contact) return Eigen::VectorXd(0);
-  const Eigen::VectorXd p = -(s.lambda_c.transpose() * pb.contact->plane_normal.head(pb.mesh.dim));
-  if (!points || points->nodes.empty()) return p;
-  return consistent_nodal_pressure(pb.mesh, pb.mesh.boundary(pb.contact->group), *points, p);
-}
 
 Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
   const double p_max = p.size() ? p.maxCoeff() : 0.0;
@@ -23,17 +15,18 @@ Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
   return in;
 }
 
-ContactMeasures contact_measures(const Problem& pb, const FacetOperators& points, const State& s,
-                                 int axis) {
+ContactMeasures contact_measures(const Discretization& d, const State& s, int axis) {
   ContactMeasures m;
-  if (!pb.contact) return m;
+  const Problem& pb = d.problem();
+  if (!pb.contact || !d.facets()) return m;
+  const FacetOperators& points = *d.facets();
   const int dim = pb.mesh.dim;
   const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
   const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
-  const Eigen::MatrixXd x = pb.mesh.X + s.u;                   // deformed nodes
-  const Eigen::MatrixXd xp = points.mean * x;                  // deformed contact points
-  const Eigen::VectorXd p = contact_pressure(pb, s, &points);  // nominal contact pressure
-  const Eigen::VectorXd f = points.area.cwiseProduct(contact_pressure(pb, s));  // point forces
+  const Eigen::MatrixXd x = pb.mesh.X + s.u;        // deformed nodes
+  const Eigen::MatrixXd xp = points.mean * x;       // deformed contact points
+  const Eigen::VectorXd p = d.contact_pressure(s);  // nominal contact pressure
+  const Eigen::VectorXd f = d.contact_forces(s);    // point forces
   const Eigen::VectorXi in = contact_set(p);
   m.points = points.size();
   m.p_max = p.size() ? p.maxCoeff() : 0.0;
@@ -84,13 +77,14 @@ PeelMeasures peel_measures(const Problem& pb, const FacetOperators& points, cons
   return m;
 }
 
-StepMeasures step_measures(const Problem& pb, const FacetOperators* points, const State& s,
-                           int axis) {
+StepMeasures step_measures(const Discretization& d, const State& s, int axis) {
   StepMeasures m;
+  const Problem& pb = d.problem();
+  const FacetOperators* points = d.facets();
   m.max_displacement = s.u.size() ? s.u.rowwise().norm().maxCoeff() : 0.0;
   if (!pb.contact || !points) return m;
-  m.contact = contact_measures(pb, *points, s, axis);
-  m.in_contact = contact_set(contact_pressure(pb, s, points));
+  m.contact = contact_measures(d, s, axis);
+  m.in_contact = contact_set(d.contact_pressure(s));
   if (pb.contact->adhesion.kappa > 0 && s.beta.size() == points->size() && points->size() > 0)
     m.peel = peel_measures(pb, *points, s, axis);
   return m;
@@ -149,41 +143,40 @@ int node_at(const Mesh& mesh, const Eigen::VectorXd& X) {
   throw Error(cat(mesh.source, ": no mesh node at X = (", X.transpose(), ")"));
 }
 
-double load_along_normal(const Solver& solver) {
-  const Problem& pb = solver.problem();
+double load_along_normal(const Problem& pb, const Eigen::MatrixXd& f_ext) {
   if (!pb.contact) return 0;
-  return (solver.external_load() * pb.contact->plane_normal.head(pb.mesh.dim)).sum();
+  return (f_ext * pb.contact->plane_normal.head(pb.mesh.dim)).sum();
 }
 
-Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s) {
-  const CellOperators& c = solver.discretization().cells();
-  const double C1 = solver.discretization().split().C1;
+Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                     const State& s) {
+  const CellOperators& c = d.cells();
+  const double C1 = d.split().C1;
   const Eigen::MatrixXd GU = c.Gbar * s.u;
-  Eigen::MatrixXd r = c.GbarT_vol * solver.discretization().piola(s) +
-                      2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - solver.external_load();
-  if (solver.discretization().facets())
-    r -= solver.discretization().facets()->meanT_area * s.lambda_c.transpose();
-  if (solver.discretization().mean_det()) r -= solver.discretization().fluctuation_force(s);
+  Eigen::MatrixXd r =
+      c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - f_ext;
+  if (d.facets()) r -= d.facets()->meanT_area * s.lambda_c.transpose();
+  if (d.mean_det()) r -= d.fluctuation_force(s);
   return r;
 }
 
-EquilibriumMeasure equilibrium_measure(const Solver& solver, const State& s) {
+EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                       const State& s) {
   EquilibriumMeasure m;
-  Eigen::MatrixXd r = equilibrium_residual(solver, s);
-  const auto& fixed = solver.discretization().dirichlet().fixed;
-  for (int c = 0; c < solver.dim(); ++c)
+  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
+  const auto& fixed = d.dirichlet().fixed;
+  for (int c = 0; c < d.dim(); ++c)
     for (int i : fixed[c]) r(i, c) = 0;
-  const double load = solver.external_load().cwiseAbs().maxCoeff();
+  const double load = f_ext.cwiseAbs().maxCoeff();
   m.force_residual = r.cwiseAbs().maxCoeff() / (load > 0 ? load : 1.0);
-  if (solver.problem().material.incompressible()) {
+  if (d.problem().material.incompressible()) {
     // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
-    const Eigen::VectorXd c = solver.discretization().fluctuation_det(s.u);
-    for (int e = 0; e < solver.problem().mesh.num_cells(); ++e)
+    const Eigen::VectorXd c = d.fluctuation_det(s.u);
+    for (int e = 0; e < d.num_cells(); ++e)
       m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
   }
-  if (solver.discretization().facets())
-    m.penetration = std::max(0.0, contact_measures(solver, s).penetration);
-  m.det_min = min_det_F(solver.discretization(), s.u);
+  if (d.facets()) m.penetration = std::max(0.0, contact_measures(d, s).penetration);
+  m.det_min = min_det_F(d, s.u);
   return m;
 }
 

@@ -1,6 +1,10 @@
 // The numbers the figures report, each with one definition (computed here and nowhere else).
 //
-// Contact measures are taken over the solver's contact points (facets with
+// Every measure takes the discretization (the problem and its contact points), the loads where it
+// needs them and the state: nothing here reads the solver, so that the solver, the time loop, the
+// drivers and the tests measure the same way.
+//
+// Contact measures are taken over the discretization's contact points (facets with
 // discretization.contact = "facet-mean", nodes with "nodal"): p_i = -lambda_c_i . N is the
 // nominal contact pressure (per reference length/area) at point i with weight w_i; a point is in
 // contact where p_i > kContactThreshold * max_i p_i.
@@ -27,8 +31,10 @@
 #include <string>
 #include <vector>
 
-#include "alg2.hpp"
-#include "results.hpp"
+#include "discretization.hpp"
+#include "problem.hpp"
+#include "state.hpp"
+#include "stored_measure.hpp"
 
 namespace ltl {
 
@@ -44,12 +50,8 @@ inline constexpr double kDebondedBeta = 0.5;
 /// the peel runs away, where nothing is debonded yet.
 inline constexpr double kDamagedBeta = 0.9;
 
-/// The nominal contact pressure p_i = -lambda_c_i . N of each contact point (Pa; > 0: pressed).
-/// With the contact points `points` of a nodal contact on P2 triangle faces, the consistent nodal
-/// pressure of the forces w_i p_i (derived_fields.hpp: consistent_nodal_pressure).
-Eigen::VectorXd contact_pressure(const Problem& problem, const State& s,
-                                 const FacetOperators* points = nullptr);
-/// The contact set: 1 at the points with p_i > kContactThreshold * max_i p_i, else 0.
+/// The contact set of the nominal contact pressures p (Discretization::contact_pressure): 1 at the
+/// points with p_i > kContactThreshold * max_i p_i, else 0.
 Eigen::VectorXi contact_set(const Eigen::VectorXd& p);
 
 struct ContactMeasures {
@@ -65,16 +67,10 @@ struct ContactMeasures {
   double penetration = 0;  ///< max over the contact surface's nodes of (x - p0) . N (> 0: inside)
 };
 
-/// [LTL87 (1.1), (4.11)] The contact measures at a state; `points` are the problem's contact
-/// points (contact_points(problem) = Solver::facets()); `axis` is the coordinate along which the
-/// contact zone's half-width is measured (x1 for Figs 5-6).
-ContactMeasures contact_measures(const Problem& problem, const FacetOperators& points,
-                                 const State& s, int axis = 0);
-inline ContactMeasures contact_measures(const Solver& solver, const State& s, int axis = 0) {
-  return solver.discretization().facets()
-             ? contact_measures(solver.problem(), *solver.discretization().facets(), s, axis)
-             : ContactMeasures{};
-}
+/// [LTL87 (1.1), (4.11)] The contact measures at a state over the discretization's contact
+/// points (none without a contact surface); `axis` is the coordinate along which the contact
+/// zone's half-width is measured (x1 for Figs 5-6).
+ContactMeasures contact_measures(const Discretization& d, const State& s, int axis = 0);
 
 /// [LTL87 (4.11)] The opening of each contact point, -e_i . N (m): the contact displacement
 /// away from the support (e . N <= 0 is the non-penetration of (1.1); > 0: lifted off).
@@ -109,11 +105,7 @@ struct StepMeasures {
   Eigen::VectorXi in_contact;   ///< contact_set() per contact point (empty without contact)
   double max_displacement = 0;  ///< max over nodes of |u| (m)
 };
-StepMeasures step_measures(const Problem& problem, const FacetOperators* points, const State& s,
-                           int axis = 0);
-inline StepMeasures step_measures(const Solver& solver, const State& s, int axis = 0) {
-  return step_measures(solver.problem(), solver.discretization().facets(), s, axis);
-}
+StepMeasures step_measures(const Discretization& d, const State& s, int axis = 0);
 
 /// The measures as written to results files (/steps/N/measures): name, value, unit,
 /// description; one list, so that the file and this header cannot disagree. `dim` selects the
@@ -125,22 +117,25 @@ std::vector<StoredMeasure> stored_measures(const StepMeasures& m, int dim);
 int node_at(const Mesh& mesh, const Eigen::VectorXd& X);
 
 /// The applied load along the contact plane's normal N: sum over nodes of f_ext . N (what the
-/// plane carries when nothing else holds the body). 0 without contact.
-double load_along_normal(const Solver& solver);
+/// plane carries when nothing else holds the body), f_ext the assembled loads (#nodes x dim,
+/// Solver::external_load). 0 without contact.
+double load_along_normal(const Problem& problem, const Eigen::MatrixXd& f_ext);
 
 /// Residual of the discrete equilibrium, #nodes x dim:
 ///   r = GbarT_vol P + 2 C1 (L u - GbarT_vol Gbar u) - f_ext - meanT_area lambda_c^T
-///       - Solver::fluctuation_force (mean-det incompressibility only),
-///   P = 2 C1 E - lambda (C1 of Solver::split()).
+///       - Discretization::fluctuation_force (mean-det incompressibility only),
+///   P = 2 C1 E - lambda (C1 of Discretization::split()), f_ext the assembled loads (#nodes x
+///   dim, Solver::external_load).
 /// Zero on every free degree of freedom at a fixed point of (4.1)-(4.3); on a fixed one it is the
 /// reaction of the support.
-Eigen::MatrixXd equilibrium_residual(const Solver& solver, const State& s);
+Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                     const State& s);
 
 struct EquilibriumMeasure {
   double force_residual = 0;  ///< max |r| over free dofs / max |f_ext| (largest nodal load)
   /// max over cells of |det E + c_e - 1|, the incompressibility constraint as discretized
-  /// (c_e = 0 for det-mean, Solver::fluctuation_det for mean-det); 0 for a compressible law.
-  /// It is NOT the pointwise det F: under mean-det only the cell mean of det F is 1 and det F
+  /// (c_e = 0 for det-mean, Discretization::fluctuation_det for mean-det); 0 for a compressible
+  /// law. It is NOT the pointwise det F: under mean-det only the cell mean of det F is 1 and det F
   /// varies inside a cell legitimately (and so does det E_e = 1 - c_e); see det_min.
   double det_error = 0;
   double penetration = 0;  ///< ContactMeasures::penetration (0 without contact)
@@ -150,7 +145,8 @@ struct EquilibriumMeasure {
   double det_min = 0;
 };
 
-/// The equilibrium measure of a state (reported with every converged step).
-EquilibriumMeasure equilibrium_measure(const Solver& solver, const State& s);
+/// The equilibrium measure of a state under the loads f_ext (reported with every converged step).
+EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                       const State& s);
 
 }  // namespace ltl

@@ -267,6 +267,14 @@ std::vector<int> Mesh::boundary_nodes(const std::string& name, const std::string
   return nodes;
 }
 
+std::string undefined_parameter(const GeometryScan& scan, const std::string& name) {
+  if (scan.parameters.count(name)) return "";
+  std::string names;
+  for (const auto& n : scan.parameters) names += (names.empty() ? "" : ", ") + n;
+  return cat("defines no parameter '", name, "' (DefineConstant[... Name \"Parameters/", name,
+             "\"]); it defines: ", names.empty() ? "none" : names);
+}
+
 Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters) {
   if (std::filesystem::exists(path) && !std::filesystem::is_directory(path) &&
       !std::filesystem::is_regular_file(path))
@@ -281,13 +289,8 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
   const GeometryScan declared = scan_geometry(path);
   mesh.source_hash = declared.hash;
   for (const auto& [name, value] : parameters) {
-    if (!declared.parameters.count(name)) {
-      std::string names;
-      for (const auto& n : declared.parameters) names += (names.empty() ? "" : ", ") + n;
-      throw Error(cat(path, ": parameter '", name,
-                      "' is not defined by this file (DefineConstant[... Name \"Parameters/", name,
-                      "\"]); it defines: ", names.empty() ? "none" : names));
-    }
+    const std::string undefined = undefined_parameter(declared, name);
+    if (!undefined.empty()) throw Error(cat("'", path, "' ", undefined));
     if (!std::isfinite(value))
       throw Error(cat(path, ": parameter '", name, "' = ", value, " is not finite"));
   }

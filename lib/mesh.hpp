@@ -66,5 +66,10 @@ struct GeometryScan {
   std::string hash;
 };
 GeometryScan scan_geometry(const std::string& path);
+/// "" if the geometry defines the parameter `name`, else why not: "defines no parameter 'nn'
+/// (DefineConstant[... Name "Parameters/nn"]); it defines: n, nd" (gmsh would ignore it silently,
+/// and a misspelled name would give another mesh). The one check, for load_mesh and the
+/// configuration.
+std::string undefined_parameter(const GeometryScan& scan, const std::string& name);
 
 }  // namespace ltl

@@ -1,5 +1,5 @@
-// The guard of a run's results file: the lock, the path checks (symbolic links, the files beside
-// the results, permissions) and the fingerprints of --resume:
+// The guard of a run's results file (the lock, the path checks and the fingerprints, in their own
+// file; symbolic links, the files beside the results, permissions):
 //  - check_output_path: never over an input of the run, a directory, a special file, a symbolic
 //    link, a read-only results file, a file that is not a results file of this code, or an XDMF
 //    file beside it that this code did not write;

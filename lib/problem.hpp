@@ -5,11 +5,13 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "adhesion.hpp"
+#include "cholesky.hpp"  // GlobalSolver
 #include "fe.hpp"
 #include "material.hpp"
 #include "mesh.hpp"
@@ -65,9 +67,6 @@ enum class Accelerated {
 /// How a time step is solved: the paper's ALG2 alone, or ALG2 from the previous step's state into
 /// the basin of Newton's method on the same discrete problem (newton.hpp).
 enum class NonlinearSolver { Alg2, Newton };
-/// The linear solver of the global step (4.5): sparse Cholesky, CG + AMG (PETSc), or chosen by
-/// the predicted factor size (global_step.hpp).
-enum class GlobalSolver { Auto, Cholesky, CgAmg };
 
 /// Parameters of ALG2 [LTL87 sec. 3-4, 7].
 struct AlgorithmParams {
@@ -165,6 +164,7 @@ struct TimeStepping {
 struct Problem {
   std::string name;  ///< experiment name (for messages and outputs)
   Mesh mesh;
+  std::map<std::string, double> mesh_parameters;  ///< [mesh] parameters: ONELAB numbers of the .geo
   Material material;
   std::vector<DirichletCondition> dirichlet;
   std::vector<Traction> tractions;

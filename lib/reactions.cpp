@@ -4,25 +4,26 @@
 
 namespace ltl {
 
-SupportReactions support_reactions(const Solver& solver, const State& s) {
-  const Problem& pb = solver.problem();
+SupportReactions support_reactions(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                   const State& s) {
+  const Problem& pb = d.problem();
   const int dim = pb.mesh.dim, nn = pb.mesh.num_nodes();
   const int nd = static_cast<int>(pb.dirichlet.size());
-  const Eigen::MatrixXd r = equilibrium_residual(solver, s);
+  const Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
   SupportReactions out;
   out.force = Eigen::MatrixXd::Zero(nd, dim);
   out.u = Eigen::MatrixXd::Zero(nd, dim);
   // owner(node, c): the first condition that fixes the degree of freedom.
   Eigen::MatrixXi owner = Eigen::MatrixXi::Constant(nn, dim, -1);
   for (int k = 0; k < nd; ++k) {
-    const DirichletCondition& d = pb.dirichlet[k];
-    std::string key = d.origin.empty() ? "dirichlet[" + std::to_string(k) + "]" : d.origin;
+    const DirichletCondition& dc = pb.dirichlet[k];
+    std::string key = dc.origin.empty() ? "dirichlet[" + std::to_string(k) + "]" : dc.origin;
     if (key.size() > 6 && key.compare(key.size() - 6, 6, ".group") == 0) key.resize(key.size() - 6);
-    out.labels.push_back(key + ":" + d.group);
-    const std::vector<int> nodes = pb.mesh.boundary_nodes(d.group, d.origin);
+    out.labels.push_back(key + ":" + dc.group);
+    const std::vector<int> nodes = pb.mesh.boundary_nodes(dc.group, dc.origin);
     for (int a : nodes) {
       out.u.row(k) += s.u.row(a);
-      for (int c : d.components)
+      for (int c : dc.components)
         if (owner(a, c) < 0) {
           owner(a, c) = k;
           out.force(k, c) += r(a, c);

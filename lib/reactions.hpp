@@ -17,7 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "alg2.hpp"
+#include "discretization.hpp"
+#include "state.hpp"
 
 namespace ltl {
 
@@ -33,8 +34,10 @@ struct SupportReactions {
   Eigen::MatrixXd u;
 };
 
-/// [LTL87 (1.2), (4.5)] The reactions and support displacements at a converged state.
-SupportReactions support_reactions(const Solver& solver, const State& s);
+/// [LTL87 (1.2), (4.5)] The reactions and support displacements at a converged state under the
+/// loads f_ext (#nodes x dim, Solver::external_load: the step's load factor applied).
+SupportReactions support_reactions(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                   const State& s);
 
 /// The labels joined by "; " (the attribute `conditions` of the datasets).
 std::string joined_labels(const SupportReactions& r);

@@ -6,8 +6,9 @@
 // every dataset carries string attributes "unit" and "description"):
 //   /                    attributes: format_version (int), name, config (the configuration text
 //                        as given, with --set applied), config_resolved (TOML: every value in SI
-//                        with every default filled in, resolved_configuration()), config_path,
-//                        code_version, git_version, library versions, identity hashes, status
+//                        with every default filled in, resolved_configuration(), config.hpp),
+//                        config_path, code_version, git_version, library versions, identity hashes,
+//                        status
 //   /mesh/X, cells, cell_volume (from the discretization, lib/fe), and with a contact surface
 //   /mesh/contact_facets, contact_centre, contact_area, and with nodal contact contact_nodes,
 //   contact_topology (the facets numbered by contact point)
@@ -33,8 +34,9 @@
 // (the crash-safe commit: the whole file replaced by a rename, or only what changed written in
 // place after a redo journal), lib/results_fields.hpp (the one field table: every dataset's
 // location, shape, unit and description), lib/results_layout.hpp (what the groups of the mesh and
-// of a step hold), lib/results_xdmf.hpp (the XDMF files), lib/results_info.hpp (library versions)
-// and lib/results_config.hpp (the resolved configuration). This class puts them together.
+// of a step hold), lib/results_xdmf.hpp (the XDMF files) and lib/results_info.hpp (library versions); the
+// resolved configuration comes from the configuration layer (config.hpp). This class puts them
+// together.
 //
 // XDMF (updated after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
 // sigma) and, with a contact surface, contact_xdmf_path_of(path) (beta, contact_pressure, gap, e,
@@ -55,10 +57,10 @@
 
 #include "mesh.hpp"
 #include "problem.hpp"
-#include "results_config.hpp"
 #include "results_info.hpp"
 #include "results_xdmf.hpp"
 #include "state.hpp"
+#include "stored_measure.hpp"
 
 namespace ltl {
 
@@ -72,17 +74,9 @@ inline constexpr int kFormatVersion = 2;
 struct RunInfo {
   std::string name;
   std::string config_text;      ///< as given (with --set applied)
-  std::string config_resolved;  ///< resolved_configuration() (may be empty)
+  std::string config_resolved;  ///< resolved_configuration(), config.hpp (may be empty)
   std::string config_path;
   std::map<std::string, std::string> attributes;  ///< extra string attributes (versions, ...)
-};
-
-/// One scalar measure of a step (lib/measures.hpp: stored_measures), written as the scalar
-/// dataset /steps/N/measures/<name> with its "unit" and "description" attributes.
-struct StoredMeasure {
-  std::string name;
-  double value = 0;
-  std::string unit, description;
 };
 
 /// Everything written for one completed time step.

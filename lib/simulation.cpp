@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "config.hpp"
 #include "derived_fields.hpp"
 #include "error.hpp"
 #include "hash.hpp"
@@ -88,7 +89,7 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
     d.fields["gap"] = solver.discretization().contact_gap(state);
   }
   // Every measure of the step (lib/measures.hpp), one definition each.
-  const StepMeasures m = step_measures(solver, state);
+  const StepMeasures m = step_measures(solver.discretization(), state);
   d.measures = stored_measures(m, problem.mesh.dim);
   if (step.admissibility.h > 0)
     for (StoredMeasure& a : stored_measures(step.admissibility)) d.measures.push_back(a);
@@ -104,7 +105,8 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
   d.measures.push_back({"load_factor", solver.load_factor(), "1",
                         "load factor of the step ([load] ramp): multiplies the body force, the "
                         "tractions and the prescribed displacements"});
-  const SupportReactions r = support_reactions(solver, state);
+  const SupportReactions r =
+      support_reactions(solver.discretization(), solver.external_load(), state);
   d.fields["reactions"] = r.force;
   d.fields["support_u"] = r.u;
   d.conditions = joined_labels(r);

@@ -101,12 +101,12 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
       last.push_back(quantity("front_beta_below_0.9", front, 1.0));
       last.push_back(quantity("max_opening", opening, std::max(opening, 1e-6)));  // tol >= 0.1 nm
       // The readings criterion: the largest displacement (mm under R3, metres under R1).
-      const double umax = step_measures(solver, s).max_displacement;
+      const double umax = step_measures(solver.discretization(), s).max_displacement;
       last.push_back(quantity("max_displacement_norm", umax, umax));
     } else {
       // Pure contact: the measures of lib/measures.hpp (contact set, peak pressure, force),
       // the largest displacement and the equilibrium measure's penetration.
-      const ContactMeasures cm = contact_measures(solver, s);
+      const ContactMeasures cm = contact_measures(solver.discretization(), s);
       last.push_back({"contact_points", double(cm.in_contact), 0.5});
       last.push_back(quantity("peak_contact_pressure", cm.p_max, cm.p_max));
       last.push_back(quantity("total_contact_force", cm.force, std::abs(cm.force)));

@@ -150,9 +150,10 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   EXPECT_NEAR(force, exact.p * solver.discretization().facets()->area.sum(), 1e-6 * force);
   // The same through the measures (lib/measures.hpp): every point in the contact set, the
   // contact force equal to the applied load along N, the peak pressure p.
-  const ContactMeasures cm = contact_measures(solver, s);
+  const ContactMeasures cm = contact_measures(solver.discretization(), s);
   EXPECT_EQ(cm.in_contact, cm.points);
-  EXPECT_NEAR(cm.force, load_along_normal(solver), 1e-6 * cm.force);
+  EXPECT_NEAR(cm.force, load_along_normal(solver.problem(), solver.external_load()),
+              1e-6 * cm.force);
   EXPECT_NEAR(cm.force, exact.p * solver.discretization().facets()->area.sum(), 1e-6 * cm.force);
   EXPECT_NEAR(cm.p_max, exact.p, 1e-6 * exact.p);
   EXPECT_NEAR(cm.area, solver.discretization().facets()->area.sum(), 1e-12);
@@ -313,7 +314,8 @@ TEST(Fig5, CylinderOnPlane_SignoriniConditionsAndContactForceEqualsWeight) {
 
   // Global equilibrium (4.5) at the fixed point: zero residual on every free dof; no node is
   // fixed vertically, so the vertical sum of the residual is the force balance again.
-  const Eigen::MatrixXd res = equilibrium_residual(solver, s);
+  const Eigen::MatrixXd res =
+      equilibrium_residual(solver.discretization(), solver.external_load(), s);
   const double scale = solver.external_load().cwiseAbs().maxCoeff();
   const std::vector<char> fixed_x = fixed_mask(problem, 0);
   double worst = res.col(1).cwiseAbs().maxCoeff();
@@ -379,7 +381,8 @@ TEST(Fig6, GutterOverPlane_SignoriniConditionsAndVerticalBalanceWithClampReactio
   const Eigen::VectorXd p = solver.discretization().contact_pressure(s);
   const double contact = solver.discretization().facets()->area.dot(p);  // upward, N = -e2
 
-  const Eigen::MatrixXd res = equilibrium_residual(solver, s);
+  const Eigen::MatrixXd res =
+      equilibrium_residual(solver.discretization(), solver.external_load(), s);
   const double scale = solver.external_load().cwiseAbs().maxCoeff();
   double worst = 0;
   for (int k = 0; k < 3; ++k) {

@@ -403,7 +403,7 @@ TEST(Output, StoredMeasuresEqualTheInMemoryOnes) {
     StepMeasures last;
     AdmissibilityReport admissibility;
     run(p, o, [&](const Solver& solver, int, const State& s) {
-      last = step_measures(solver, s);
+      last = step_measures(solver.discretization(), s);
       admissibility = check_admissibility(solver.discretization(), s);
     });
     ASSERT_TRUE(last.contact) << config;

@@ -29,10 +29,10 @@ Answer solve(const std::string& figure, std::vector<std::string> overrides) {
   const ltl::StepReport report = solver.solve_step(s, s.beta);
   Answer a;
   a.converged = report.converged;
-  const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
+  const ltl::ContactMeasures m = ltl::contact_measures(solver.discretization(), s, 0);
   a.a_moment = m.a_moment;
   a.p_max = m.p_max;
-  a.force_ratio = m.force / ltl::load_along_normal(solver);
+  a.force_ratio = m.force / ltl::load_along_normal(solver.problem(), solver.external_load());
   a.drop = figure == "fig5" ? -s.u(ltl::node_at(problem.mesh, Eigen::Vector2d(0, 1)), 1)
                             : (-s.u.col(1)).maxCoeff();
   return a;

@@ -94,7 +94,7 @@ Outcome run_case(const std::string& name, const std::string& config,
     o.summary = run(problem, options, [&](const Solver& solver, int, const State& s) {
       o.u = s.u;
       o.beta = s.beta;
-      o.reaction = equilibrium_residual(solver, s);
+      o.reaction = equilibrium_residual(solver.discretization(), solver.external_load(), s);
     });
     o.ok = true;
     for (int p = 1; p <= o.summary.last_step; ++p) {

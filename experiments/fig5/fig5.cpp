@@ -63,7 +63,7 @@ void report(const ltl::Solver& solver, const ltl::RunSummary& run) {
   const ltl::Mesh& mesh = problem.mesh;
   // The measures (lib/measures.hpp, one definition each) over the solver's contact points: the
   // nodes of the contact surface (default) or its facets (discretization.contact = "facet-mean").
-  const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
+  const ltl::ContactMeasures m = ltl::contact_measures(solver.discretization(), s, 0);
 
   // The weight of the half cylinder (per unit length): |f| |Omega|.
   const double weight = problem.body_force.head(mesh.dim).norm() * solver.discretization().volume();

@@ -62,8 +62,8 @@ void report(const ltl::Solver& solver, const ltl::RunSummary& run) {
   const ltl::Mesh& mesh = problem.mesh;
   // The measures (lib/measures.hpp) over the solver's contact points, and the applied load
   // along the plane's normal N (downward): the consistent nodal loads summed.
-  const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
-  const double load = ltl::load_along_normal(solver);
+  const ltl::ContactMeasures m = ltl::contact_measures(solver.discretization(), s, 0);
+  const double load = ltl::load_along_normal(solver.problem(), solver.external_load());
 
   // The sag: the largest downward displacement, and where it happens.
   int n_sag = 0;

@@ -104,7 +104,7 @@ Row run(const std::string& figure, int level, const std::vector<std::string>& ex
   row.residual = report.force_residual;
 
   // 4. The observables (lib/measures.hpp), the contact quantities along x1.
-  const ltl::ContactMeasures m = ltl::contact_measures(solver, s, 0);
+  const ltl::ContactMeasures m = ltl::contact_measures(solver.discretization(), s, 0);
   row.points = m.points;
   row.in_contact = m.in_contact;
   row.p_max = m.p_max;
@@ -113,7 +113,7 @@ Row run(const std::string& figure, int level, const std::vector<std::string>& ex
   row.area = m.area;
   row.penetration = m.penetration;
   // The load carried by the plane: the body force (fig5) or the tractions (fig6), along N.
-  row.force_ratio = m.force / ltl::load_along_normal(solver);
+  row.force_ratio = m.force / ltl::load_along_normal(solver.problem(), solver.external_load());
   row.drop = figure == "fig5" ? -s.u(ltl::node_at(mesh, Eigen::Vector2d(0, 1)), 1)
                               : (-s.u.col(1)).maxCoeff();
   return row;
