@@ -6,7 +6,7 @@ RESULTS := results
 JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
-.PHONY: all figures test test-petsc sanitize bench bench-amg deps build fig3 fig4 fig5 fig6 \
+.PHONY: all figures test test-petsc petsc-build sanitize bench bench-amg deps build fig3 fig4 fig5 fig6 \
         compare hertz readings reference keys format clean verify verify-fig6 peer-deps \
         peer-reference bench-peer install paper-vs-package peel
 
@@ -31,13 +31,18 @@ test: build
 # petsc-dev (as root; otherwise prints the command), builds with it and runs them; a PETSc that
 # is still missing fails them (LTL_REQUIRE_PETSC). `make test` never needs PETSc: there these
 # tests report themselves skipped. .ci/deps.sh does not install it.
-test-petsc:
+# The CG + AMG global step (PETSc, optional): its own build in build-petsc/ (installs petsc-dev
+# as root, else prints the command), then its tests.
+PETSC_BUILD := build-petsc
+petsc-build:
 	@pkg-config --exists PETSc || { if [ "$$(id -u)" = 0 ]; then apt-get update && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y petsc-dev; else \
 	  echo "run as root: apt-get install -y petsc-dev"; exit 1; fi; }
-	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DLTL_WITH_PETSC=ON > /dev/null
-	@cmake --build $(BUILD) -j $(JOBS) --target test_cg_amg
-	cd $(BUILD) && LTL_REQUIRE_PETSC=1 OMP_NUM_THREADS=2 ctest --output-on-failure -j $(JOBS) -R CgAmg
+	@cmake -S . -B $(PETSC_BUILD) -DCMAKE_BUILD_TYPE=Release -DLTL_WITH_PETSC=ON > /dev/null
+	@cmake --build $(PETSC_BUILD) -j $(JOBS) --target test_cg_amg bench_amg
+
+test-petsc: petsc-build
+	cd $(PETSC_BUILD) && LTL_REQUIRE_PETSC=1 OMP_NUM_THREADS=2 ctest --output-on-failure -j $(JOBS) -R CgAmg
 
 # The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer, in build-sanitize.
 # EIGEN_MALLOC_ALREADY_ALIGNED=1: Eigen then allocates with plain malloc/free, as libgmsh's own
@@ -187,8 +192,8 @@ bench: build
 # bytes, cost per ALG2 iteration, CG iterations, peak memory; and CHOLMOD's predicted factor of
 # larger gutters without factorizing (paper_notes/performance.md, "Memory per cell, and CG + AMG").
 BENCH_AMG_ARGS ?= --max-cells 40000 --predict 1000000
-bench-amg: build
-	$(RUN)/bench_amg $(BENCH_AMG_ARGS)
+bench-amg: petsc-build
+	$(PETSC_BUILD)/experiments/bench_amg $(BENCH_AMG_ARGS)
 
 # Regenerate the stored reference data of the regression tests (review the diff).
 reference: build

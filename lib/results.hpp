@@ -34,9 +34,9 @@
 // (the crash-safe commit: the whole file replaced by a rename, or only what changed written in
 // place after a redo journal), lib/results_fields.hpp (the one field table: every dataset's
 // location, shape, unit and description), lib/results_layout.hpp (what the groups of the mesh and
-// of a step hold), lib/results_xdmf.hpp (the XDMF files) and lib/results_info.hpp (library versions); the
-// resolved configuration comes from the configuration layer (config.hpp). This class puts them
-// together.
+// of a step hold), lib/results_xdmf.hpp (the XDMF files) and lib/results_info.hpp (library
+// versions); the resolved configuration comes from the configuration layer (config.hpp). This class
+// puts them together.
 //
 // XDMF (updated after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
 // sigma) and, with a contact surface, contact_xdmf_path_of(path) (beta, contact_pressure, gap, e,

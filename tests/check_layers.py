@@ -30,7 +30,7 @@ LAYERS = [
              "stored_measure log_newton interrupt geometry_guard hdf5_io results_info"),
     ("fe/mesh", "mesh fe cholesky cg_amg derived_fields"),
     ("steps", "strain_step strain_principal contact_step adhesion_kernel global_step anderson"),
-    ("problem", "problem config config_toml config_schema"),
+    ("problem", "problem config config_toml config_rows config_schema"),
     ("discretization", "discretization"),
     ("measures", "measures admissibility reactions"),
     ("solver", "alg2 adaptive_r newton newton_kkt fixed_point iteration signorini"),
