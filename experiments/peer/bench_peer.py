@@ -190,6 +190,8 @@ def run_package(fig, level, tol, variant, threads):
             f"json={path}", f"algorithm.tol={tol:g}", "algorithm.max_iter=100000"]
     if variant == "anderson":
         args.append('algorithm.acceleration="anderson"')
+    if variant == "newton":  # ALG2 into Newton's method on the same discrete problem
+        args.append('algorithm.solver="newton"')
     t0 = time.time()
     p = subprocess.Popen(args, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, ru = os.wait4(p.pid, 0)
@@ -246,7 +248,8 @@ def main():
     ap.add_argument("--cases", nargs="+", default=None,
                     help="e.g. fig5:7 fig5:28 fig5:56 fig6:1 fig6:2 (the default)")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--variants", nargs="+", default=["none", "anderson"], choices=["none", "anderson"])
+    ap.add_argument("--variants", nargs="+", default=["none", "anderson", "newton"],
+                    choices=["none", "anderson", "newton"])
     ap.add_argument("--full", action="store_true",
                     help="every variant and thread count on the large cases too (~45 min idle); "
                          "by default fig5:56 and fig6:2 run Anderson on 1 thread only (~10 min)")
@@ -279,7 +282,8 @@ def main():
         level = int(level)
         large = case in LARGE and not a.full
         for th in (a.threads[:1] if large else a.threads):
-            variants = ["anderson"] if large and "anderson" in a.variants else a.variants
+            variants = ([v for v in ("anderson", "newton") if v in a.variants] if large
+                        else a.variants)
             print(f"== {fig} level {level}, {th} thread(s)", flush=True)
             pd = run_peer(fig, level, th)
             ref = pd["final"]
