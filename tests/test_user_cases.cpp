@@ -405,8 +405,8 @@ TEST(UserCases, Eq1_1_ORingTwentyPercentConvergesAndThirtyFiveIsAClearRefusal) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(UserCases, Eq1_2_Eq4_7_PeelStripDoesNotDependOnR) {
-  // Issue 20: R = 3 and R = 6 gave different states at step 5. Here (ALG2: glued problems keep
-  // it) the defaults (R = 3, q_c = kappa / R) and R = 6 give the same state at every step: the
+  // R = 3 and R = 6 once gave different states at step 5. Here (the default solver: ALG2, then
+  // Newton) the defaults (R = 3, q_c = kappa / R) and R = 6 give the same state at every step: the
   // right end's corner point debonds at step 4 (beta = 0.101), then 0.0629 at step 5.
   const Outcome a = run_case("strip3", strip_config("10 kPa"));
   const Outcome b = run_case("strip6", strip_config("10 kPa"), {"algorithm.R=6"});
