@@ -195,11 +195,6 @@ void print_newton_beside(const Problem& problem, const RunSummary& run) {
   if (run.iterations.empty() || run.first_step != 1) return;
   Problem q = problem;
   q.algorithm.solver = NonlinearSolver::Newton;
-  const std::string why = Newton::unsupported(q);
-  if (!why.empty()) {
-    std::printf("  Newton on the same discrete problem: not run (%s)\n", why.c_str());
-    return;
-  }
   Solver solver(q);
   State s = solver.initial_state();
   int total = 0, newton = 0;

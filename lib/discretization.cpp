@@ -296,9 +296,16 @@ Discretization::Stresses Discretization::stresses(const State& s) const {
   return out;
 }
 
+namespace {
+/// -lambda_c . N per contact point: the nominal contact pressure (Pa), before any reading.
+Eigen::VectorXd nominal_pressure(const Problem& problem, const State& s) {
+  if (!problem.contact) return Eigen::VectorXd(0);
+  return -(s.lambda_c.transpose() * problem.contact->plane_normal.head(problem.mesh.dim));
+}
+}  // namespace
+
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  if (!problem_.contact) return Eigen::VectorXd(0);
-  const Eigen::VectorXd p = -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim()));
+  const Eigen::VectorXd p = nominal_pressure(problem_, s);
   const FacetOperators* points = facets();
   if (!points || points->nodes.empty()) return p;
   // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp).
@@ -308,8 +315,7 @@ Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
 
 Eigen::VectorXd Discretization::contact_forces(const State& s) const {
   if (!problem_.contact || !facets()) return Eigen::VectorXd(0);
-  return facets()->area.cwiseProduct(
-      -(s.lambda_c.transpose() * problem_.contact->plane_normal.head(dim())));
+  return facets()->area.cwiseProduct(nominal_pressure(problem_, s));
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {

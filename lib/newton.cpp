@@ -21,13 +21,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-std::string Newton::unsupported(const Problem&) {
-  return "";
-}
-
 Newton::Newton(const Discretization& disc) : disc_(disc) {
-  const std::string why = unsupported(disc.problem());
-  if (!why.empty()) throw Error(cat("algorithm.solver = \"newton\": ", why, "; use \"alg2\""));
   const Mesh& mesh = disc.problem().mesh;
   dim_ = disc.dim();
   const int d = dim_, nc = disc.num_cells(), nn = disc.num_nodes();
@@ -497,9 +491,9 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     }
     if (released || !residual_at_x) residual(base, F, Ru, G);  // else Ru, G are x's already
     residual_at_x = !released;
-    // [K, -B^T, C_A^T; -B, 0, 0; C_A, 0, 0] (du, dp, dmu_A) = (-R_u, G, g_A - N . ubar_A).
+    // [K, -B^T, C_A^T; -B, 0, 0; C_A, 0, 0] (du, dp, dmu_A) = (-R_u, G, g_A - N . ubar_A), gapv
+    // (x's) being base's too: base differs from x in mu and beta only.
     const int np_ = incompressible_ ? nc : 0;
-    if (pts) gapv = (pts->mean * base.u) * N - disc_.surface().gap;
     rec.t_strain = seconds_since(t0);
     t0 = clock_type::now();
     Eigen::VectorXd dx;

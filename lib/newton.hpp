@@ -47,9 +47,6 @@ namespace ltl {
 
 class Newton {
  public:
-  /// Why the Newton phase cannot treat this discrete problem, or empty (today always empty).
-  static std::string unsupported(const Problem& problem);
-
   /// The per-cell data (nodes, mean gradients, the points of the incompressibility constraint)
   /// and the constant part of the tangent. disc must outlive the object.
   explicit Newton(const Discretization& disc);

@@ -120,6 +120,12 @@ inline constexpr Field kFields[] = {
 };
 // clang-format on
 
+/// Whether the field is shown in ParaView as stored: scalars, and the 3-component shapes (the
+/// others get a 3-vector / 3x3 copy in 2-D, under /xdmf/).
+inline bool shown_as_stored(const Field& f) {
+  return f.shape == Shape::Scalar || f.shape == Shape::Vector3 || f.shape == Shape::Tensor3;
+}
+
 /// The row named `name`, or null.
 const Field* find_field(std::string_view name);
 /// The row named `name`; an Error naming it (and `file`) when the table has none.

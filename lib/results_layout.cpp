@@ -384,7 +384,7 @@ void check_step(const StepData& step, const Sizes& n, const std::string& file) {
     if (name == "sigma33" && dim != 2)
       fail(file, cat("step ", step.p, ": sigma33 is for plane strain (2-D) only"));
     // Support fields: one row per Dirichlet condition, as many as given.
-    const int count = f.at == Location::Support ? static_cast<int>(value.rows()) : n.count(f.at);
+    const int count = n.count(f, value);
     const auto [r, c] = layout_size(f, count, dim);
     if (value.size()) expect(name, value.rows(), value.cols(), r, c);
   }
@@ -444,12 +444,10 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
     if (!per_step(row) || (row.at == Location::Point && !n.contact)) continue;
     const Eigen::MatrixXd* v = given(step, row, buffer);
     if (!v || v->size() == 0) continue;
-    const int count = row.at == Location::Support ? static_cast<int>(v->rows()) : n.count(row.at);
+    const int count = n.count(row, *v);
     write_doubles(f, g + "/" + row.name, file_shape(row, count, dim), file_data(row, *v, dim, dim),
                   dim, file);
-    if (!padded || row.xdmf == Pad33::None || row.shape == Shape::Scalar ||
-        row.shape == Shape::Vector3 || row.shape == Shape::Tensor3)
-      continue;  // scalars and 3-component fields are shown as they are
+    if (!padded || row.xdmf == Pad33::None || shown_as_stored(row)) continue;
     std::vector<double> data = file_data(row, *v, dim, 3);
     if (row.shape == Shape::Tensor)
       for (int c = 0; c < nc; ++c) {

@@ -19,6 +19,11 @@ struct Sizes {
   bool contact = false;  ///< the file has /mesh/contact_facets
   /// The number of entities at `at` (nodes, cells, contact points; 1 for a step).
   int count(Location at) const;
+  /// The number of entities of field f given as `value`: count(f.at), or for the per-condition
+  /// (support) fields the rows given, one per Dirichlet condition.
+  int count(const Field& f, const Eigen::MatrixXd& value) const {
+    return f.at == Location::Support ? static_cast<int>(value.rows()) : count(f.at);
+  }
 };
 
 /// The XDMF topology of a mesh cell, or null when it cannot be stored.

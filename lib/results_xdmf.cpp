@@ -169,9 +169,7 @@ std::string xdmf_text(std::int64_t file_id, const std::string& file, bool contac
       if (row.xdmf == Pad33::None || row.source == Source::Other) continue;
       const bool on_body = row.at == Location::Node || row.at == Location::Cell;
       if (on_body == contact || (!on_body && row.at != Location::Point)) continue;
-      const bool as_is = row.shape == Shape::Scalar || row.shape == Shape::Vector3 ||
-                         row.shape == Shape::Tensor3;  // no 3-component copy
-      const std::string ds = (as_is ? g : v) + "/" + row.name;
+      const std::string ds = (shown_as_stored(row) ? g : v) + "/" + row.name;
       if (!has(ds)) continue;
       const int count = n.count(row.at);
       const char* where = row.at == Location::Node   ? "Node"

@@ -255,9 +255,6 @@ TEST(Newton, DefaultSolverIsNewtonAndTheFiguresKeepAlg2) {
       NonlinearSolver::Newton);
   for (const char* fig : {"fig3", "fig4", "fig5", "fig6"})
     EXPECT_EQ(figure(fig).algorithm.solver, NonlinearSolver::Alg2) << fig;
-  Problem glued = figure("fig3");
-  glued.algorithm.solver = NonlinearSolver::Newton;
-  EXPECT_NO_THROW(Solver{glued});
 }
 
 // [LTL87 (2.2)] The glue's terms are derivatives of the discrete functional: on Fig 3 (glue with
