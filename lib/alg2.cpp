@@ -350,6 +350,9 @@ class Solver::Alg2Map final : public FixedPointMap {
     ++R_changes;
     return true;
   }
+  double equilibrium_error() const override {
+    return ltl::equilibrium_error(solver_.discretization(), solver_.external_load(), s_);
+  }
   int R_changes = 0;
 
  private:
@@ -377,6 +380,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     for (;;) {
       const bool last = report.newton_attempts >= 3 || to_switch <= a.tol;
       phase.tol = last ? a.tol : to_switch;
+      if (!last) phase.stopping = Stopping::Paper;  // the switch to Newton is on r_G + r_B
       // ALG2 stalled above the switch (e.g. R too small for the stresses) hands over too.
       phase.stagnation_window = last ? a.stagnation_window : 100;
       report.converged = false;

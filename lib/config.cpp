@@ -146,6 +146,9 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   // [choice] solver left out: Newton after ALG2 (newton.hpp), glue or not; the figures ask for
   // the paper's ALG2.
   if (!root.at_path("algorithm.solver")) p.algorithm.solver = NonlinearSolver::Newton;
+  // [choice] stopping left out: a step is converged in equilibrium (measures.hpp); the figures
+  // ask for the paper's test r_G + r_B < tol.
+  if (!root.at_path("algorithm.stopping")) p.algorithm.stopping = Stopping::Equilibrium;
   // R, q, q_c left out: derived from the moduli and the mesh (derive_algorithm_defaults).
   derive_algorithm_defaults(p, !!root.at_path("algorithm.R"), !!root.at_path("algorithm.q"),
                             !!root.at_path("algorithm.q_c"));

@@ -466,8 +466,19 @@ Schema build() {
           .doc("Gauss-Seidel sweeps over the contact points in one local step"),
       number("algorithm", "tol", [A](Problem& p, int) -> double& { return A(p).tol; })
           .range("0 < tol < 1")
-          .doc("stop when `r_G + r_B < tol` (both scaled, see "
-               "[paper_notes/section3-4.md](../paper_notes/section3-4.md))"),
+          .doc("`stopping = \"paper\"`: stop when `r_G + r_B < tol` (both scaled, see "
+               "[paper_notes/section3-4.md](../paper_notes/section3-4.md)); with `solver = "
+               "\"newton\"` the last ALG2 phase's test, after three failed Newton starts"),
+      choice<Stopping>("algorithm", "stopping",
+                       {{"equilibrium", Stopping::Equilibrium}, {"paper", Stopping::Paper}},
+                       [A](Problem& p, int) -> Stopping& { return A(p).stopping; })
+          .by_default("`\"equilibrium\"`; the figure configurations state `\"paper\"`")
+          .doc("when an ALG2 step is converged: `\"equilibrium\"`, the force residual of (4.5) "
+               "(max nodal force on free dofs / max nodal load, or / max reaction without "
+               "loads) and the penetration / body size at most `force_tol`, checked every "
+               "iteration; `\"paper\"`, `r_G + r_B < tol` (4.4), a test on the changes of the "
+               "iterate that can stop far from equilibrium when ALG2 creeps "
+               "([paper_notes/newton.md](../paper_notes/newton.md))"),
       integer("algorithm", "max_iter", 1, 1000000000,
               [A](Problem& p, int) -> int& { return A(p).max_iter; })
           .doc("iteration cap; reaching it is divergence"),
@@ -546,9 +557,10 @@ Schema build() {
       number(
           "algorithm", "force_tol", [A](Problem& p, int) -> double& { return A(p).force_tol; },
           Positive)
-          .doc("`solver = \"newton\"`: Newton's stopping test, the force residual (max nodal "
-               "force / max nodal load) and the complementarity of the contact, with `|G_e| / "
-               "|O_e| <= 1e-10` for incompressibility"),
+          .doc("the stopping test of Newton and of ALG2 with `stopping = \"equilibrium\"`: the "
+               "force residual (max nodal force / max nodal load) and, for Newton, the "
+               "complementarity of the contact, with `|G_e| / |O_e| <= 1e-10` for "
+               "incompressibility"),
       integer("algorithm", "newton_max_iter", 1, 1000000,
               [A](Problem& p, int) -> int& { return A(p).newton_max_iter; })
           .doc("`solver = \"newton\"`: Newton iterations per start (damped and rejected ones "

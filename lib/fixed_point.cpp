@@ -11,6 +11,7 @@ namespace ltl {
 void drive(FixedPointMap& map, const AlgorithmParams& alg, StepReport& report,
            const std::function<void(const IterationRecord&)>& progress) {
   IterationPolicy policy(alg, report, progress);
+  const auto in_equilibrium = [&map] { return map.equilibrium_error(); };
   // Anderson with the safeguard that can only help (anderson.hpp, SafeguardedAnderson).
   std::optional<SafeguardedAnderson> anderson;
   Eigen::VectorXd x, g;
@@ -35,7 +36,7 @@ void drive(FixedPointMap& map, const AlgorithmParams& alg, StepReport& report,
       if (policy.capped(n)) break;
       continue;
     }
-    if (policy.stop(rec, map.finite())) break;
+    if (policy.stop(rec, map.finite(), in_equilibrium)) break;
     if (map.after_iteration(rec)) {
       if (anderson) anderson->restart();
       continue;

@@ -5,7 +5,8 @@
 //   for n = 1, 2, ...
 //     x = pack(iterate);  apply the map once;  rec = its residuals r_G, r_B      (4.4)
 //     Anderson's safeguard: an accelerated iterate whose successor is worse is undone
-//     stop on NaN, blow-up, r_G + r_B < tol, or the cap                         (IterationPolicy)
+//     stop on NaN, blow-up, stagnation, the cap, or convergence: r_G + r_B < tol (4.4), or
+//     with stopping = "equilibrium" the map's equilibrium error at most force_tol (IterationPolicy)
 //     the map's own check (adaptive R): a changed map restarts the acceleration
 //     Anderson: g = pack(iterate); the accelerated iterate replaces the plain one
 //
@@ -16,6 +17,7 @@
 
 #include <Eigen/Dense>
 #include <functional>
+#include <limits>
 
 #include "problem.hpp"
 #include "state.hpp"
@@ -42,6 +44,9 @@ class FixedPointMap {
   /// After an iteration that was kept and did not stop: true when the map itself changed (e.g.
   /// adaptive R re-factorized K); the acceleration history then restarts.
   virtual bool after_iteration(const IterationRecord&) { return false; }
+  /// The equilibrium error of the current iterate (measures.hpp, equilibrium_error), the test of
+  /// stopping = "equilibrium"; NaN for a map that has none (it then stops on r_G + r_B < tol).
+  virtual double equilibrium_error() const { return std::numeric_limits<double>::quiet_NaN(); }
 };
 
 /// Iterates `map` from its current iterate under alg's policy (tol, blowup, max_iter,

@@ -21,12 +21,16 @@ void IterationPolicy::record(IterationRecord& rec) {
 
 bool IterationPolicy::capped(int n) {
   if (n < alg_.max_iter) return false;
-  report_.status =
-      cat("iteration cap reached (", alg_.max_iter, " iterations) without convergence");
+  report_.status = cat(
+      "iteration cap reached (", alg_.max_iter, " iterations) without convergence",
+      std::isnan(equilibrium_error_)
+          ? ""
+          : cat(" (equilibrium error ", equilibrium_error_, " > force_tol ", alg_.force_tol, ")"));
   return true;
 }
 
-bool IterationPolicy::stop(const IterationRecord& rec, bool finite) {
+bool IterationPolicy::stop(const IterationRecord& rec, bool finite,
+                           const std::function<double()>& equilibrium) {
   const double r = rec.r_G + rec.r_B;
   if (!std::isfinite(r) || !finite) {
     report_.status = "NaN in the iterate";
@@ -38,7 +42,18 @@ bool IterationPolicy::stop(const IterationRecord& rec, bool finite) {
                          " x the first residual ", first_, ")");
     return true;
   }
-  if (r < alg_.tol) {
+  // (4.4) the paper's test on the iterate's changes, or (4.5) the state in equilibrium.
+  bool converged = r < alg_.tol;
+  if (alg_.stopping == Stopping::Equilibrium && equilibrium) {
+    const bool due = r < kEquilibriumGate && (rec.n % kEquilibriumEvery == 0 || r < alg_.tol);
+    const double e = due ? equilibrium() : NAN;
+    if (!std::isnan(e)) equilibrium_error_ = e;
+    if (!due)
+      converged = false;
+    else if (!std::isnan(e))  // NaN: a map without the measure keeps the paper's test
+      converged = e <= alg_.force_tol;
+  }
+  if (converged) {
     report_.converged = true;
     report_.status = "converged";
     return true;

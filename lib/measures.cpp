@@ -42,9 +42,7 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
     M2 += points.area(i) * p(i) * xp(i, axis) * xp(i, axis);
   }
   m.a_moment = M0 > 0 ? 2 * std::sqrt(M2 / M0) : 0.0;
-  m.penetration = -INFINITY;
-  for (int n : pb.mesh.boundary_nodes(pb.contact->group))
-    m.penetration = std::max(m.penetration, (x.row(n).transpose() - p0).dot(N));
+  m.penetration = max_penetration(d, s);
   return m;
 }
 
@@ -178,6 +176,46 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
   if (d.facets()) m.penetration = std::max(0.0, contact_measures(d, s).penetration);
   m.det_min = min_det_F(d, s.u);
   return m;
+}
+
+double max_penetration(const Discretization& d, const State& s) {
+  const Problem& pb = d.problem();
+  double pen = -INFINITY;
+  if (!pb.contact) return pen;
+  const int dim = pb.mesh.dim;
+  const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
+  const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
+  for (int n : pb.mesh.boundary_nodes(pb.contact->group))
+    pen = std::max(pen, (pb.mesh.X.row(n) + s.u.row(n) - p0.transpose()).dot(N));
+  return pen;
+}
+
+double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s) {
+  const int dim = d.dim();
+  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
+  double reaction = 0;
+  const auto& fixed = d.dirichlet().fixed;
+  for (int c = 0; c < dim; ++c)
+    for (int i : fixed[c]) reaction = std::max(reaction, std::abs(r(i, c))), r(i, c) = 0;
+  const double h = std::pow(d.volume() / d.num_cells(), 1.0 / dim);
+  double scale = f_ext.cwiseAbs().maxCoeff();
+  if (!(scale > 0)) scale = reaction;
+  if (!(scale > 0)) scale = d.split().C1 * std::pow(h, dim - 1);
+  double err = r.cwiseAbs().maxCoeff() / scale;
+  // The strains of the stress above are those of u: E_e = I + Gbar_e u (the constraint B = 0 of
+  // (3.2)), and for an incompressible law det(I + Gbar_e u) + c_e(u) = 1 on u itself.
+  const Eigen::MatrixXd GU = d.cells().Gbar * s.u;
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;  // no heap
+  const Small I = Small::Identity(dim, dim);
+  const bool incompressible = d.problem().material.incompressible();
+  const Eigen::VectorXd c =
+      incompressible ? d.fluctuation_det(s.u) : Eigen::VectorXd::Zero(d.num_cells());
+  for (int e = 0; e < d.num_cells(); ++e) {
+    const Small F = I + GU.middleRows(dim * e, dim);
+    err = std::max(err, (F - s.E.middleRows(dim * e, dim)).cwiseAbs().maxCoeff());
+    if (incompressible) err = std::max(err, std::abs(F.determinant() + c(e) - 1));
+  }
+  return std::max(err, max_penetration(d, s) / std::pow(d.volume(), 1.0 / dim));
 }
 
 }  // namespace ltl

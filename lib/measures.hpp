@@ -149,4 +149,18 @@ struct EquilibriumMeasure {
 EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
                                        const State& s);
 
+/// Max over the contact group's nodes of (x - x_0) . N, the deformed node's distance behind the
+/// obstacle plane (m; > 0: penetration); -inf without contact.
+double max_penetration(const Discretization& d, const State& s);
+
+/// The stopping test of `algorithm.stopping = "equilibrium"` (4.5): the largest of
+/// - the force residual on the free dofs (equilibrium_residual) relative to a force scale: the
+///   largest nodal load, else (a problem driven by prescribed displacements) the largest reaction,
+///   else C1 h^(d-1) (a problem at rest);
+/// - the strains' compatibility with u, max |E_e - (I + Gbar_e u)| (B = 0 of (3.2)), and for an
+///   incompressible law the constraint on u itself, max |det(I + Gbar_e u) + c_e(u) - 1|;
+/// - the penetration (max_penetration, when positive) relative to the body's size |Omega|^(1/d).
+/// A step is converged when this is at most `algorithm.force_tol`, whatever the iteration.
+double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s);
+
 }  // namespace ltl

@@ -400,6 +400,9 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
     write_scalar_attr<int>(group.get(), "p", step.p, file, g);
     write_scalar_attr<double>(group.get(), "t", step.t, file, g);
     write_scalar_attr<int>(group.get(), "iterations", rep ? rep->iterations : 0, file, g);
+    // (algorithm.solver = "newton") the Newton iterations among them; 0 for ALG2 alone.
+    write_scalar_attr<int>(group.get(), "newton_iterations", rep ? rep->newton_iterations : 0, file,
+                           g);
     write_string_attr(group.get(), "status", rep ? rep->status : "", file, g);
     write_scalar_attr<int>(group.get(), "converged", rep && rep->converged ? 1 : 0, file, g);
     write_scalar_attr<int>(group.get(), "strain_failures", rep ? rep->strain_failures : 0, file, g);

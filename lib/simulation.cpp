@@ -36,11 +36,17 @@ std::string divergence_hint(const Problem& problem, double factor, const TimeSte
   const Material& m = problem.material;
   const double C = m.C1 + (m.incompressible() ? m.C2 : 0.0);
   const int dim = problem.mesh.dim;
+  // R q far above the default rule's: ALG2's steps are tiny (r_G + r_B small) far from equilibrium.
+  const double huge = a.R * a.q / ((dim == 3 ? 8 : 6) * C);
   return cat(
       " Parameters used: ", describe_algorithm(a), "; R q = ", a.R * a.q,
-      " Pa = ", a.R * a.q / m.C1, " C1 (load factor ", factor,
-      "). What to change: R q must be at least ",
-      dim == 3 ? "4 C1 in 3-D" : "2.6 C1 in plane strain",
+      " Pa = ", a.R * a.q / m.C1, " C1 (load factor ", factor, "). What to change: ",
+      huge > 100 ? cat("R q is ", huge,
+                       " x the default rule's: ALG2 then creeps (its iterate residuals are "
+                       "small far from equilibrium), lower algorithm.R or use algorithm.solver = "
+                       "\"newton\"; otherwise ")
+                 : "",
+      "R q must be at least ", dim == 3 ? "4 C1 in 3-D" : "2.6 C1 in plane strain",
       " and larger under contact pressures or stresses above 2 C1: raise algorithm.R (x2); ",
       "leave R, q, q_c out to get the defaults q = 2 (C1 + C2) = ", 2 * C,
       " Pa, R q = ", dim == 3 ? 8 : 6,

@@ -7,6 +7,8 @@
 
 #include "config.hpp"
 #include "error.hpp"
+#include "iteration.hpp"
+#include "measures.hpp"
 #include "newton.hpp"
 #include "simulation.hpp"
 #include "testing.hpp"
@@ -255,6 +257,78 @@ TEST(Newton, DefaultSolverIsNewtonAndTheFiguresKeepAlg2) {
       NonlinearSolver::Newton);
   for (const char* fig : {"fig3", "fig4", "fig5", "fig6"})
     EXPECT_EQ(figure(fig).algorithm.solver, NonlinearSolver::Alg2) << fig;
+}
+
+// [LTL87 (4.4), (4.5)] A configuration that leaves `stopping` out converges in equilibrium; the
+// figures keep the paper's test on the changes of the iterate.
+TEST(Stopping, Eq4_5_DefaultIsEquilibriumAndTheFiguresKeepThePapersTest) {
+  EXPECT_EQ(
+      load_problem(testing::source_path("experiments/first_problem/block.toml")).algorithm.stopping,
+      Stopping::Equilibrium);
+  for (const char* fig : {"fig3", "fig4", "fig5", "fig6"})
+    EXPECT_EQ(figure(fig).algorithm.stopping, Stopping::Paper) << fig;
+}
+
+// [LTL87 (4.4), (4.5)] ALG2 alone on Fig 5: the paper's test r_G + r_B < tol stops with a force
+// residual of about 5e-7 (the figure's tol 1e-9); stopping = "equilibrium" goes on until the
+// equilibrium error is at most force_tol, and the step's equilibrium measure says so.
+TEST(Stopping, Eq4_5_Alg2StopsInEquilibrium) {
+  Problem p = figure("fig5", {"algorithm.max_iter=20000"});
+  const Solved paper = solve(p, NonlinearSolver::Alg2);
+  ASSERT_TRUE(paper.report.converged) << paper.report.status;
+  p.algorithm.stopping = Stopping::Equilibrium;
+  const Solved eq = solve(p, NonlinearSolver::Alg2);
+  ASSERT_TRUE(eq.report.converged) << eq.report.status;
+  const Discretization disc(p);
+  const Eigen::MatrixXd F = p.ramp.factor(1, p.time.dt) * disc.dead_load();
+  EXPECT_GT(equilibrium_error(disc, F, paper.state), 10 * p.algorithm.force_tol);
+  EXPECT_LE(equilibrium_error(disc, F, eq.state), p.algorithm.force_tol);
+  EXPECT_LE(eq.report.force_residual, p.algorithm.force_tol);
+  EXPECT_GT(eq.report.iterations, paper.report.iterations);
+  // The test is evaluated every kEquilibriumEvery iterations: it stops within that many of the
+  // first iteration in equilibrium.
+  p.algorithm.max_iter = eq.report.iterations - kEquilibriumEvery;
+  const Solved shorter = solve(p, NonlinearSolver::Alg2);
+  EXPECT_FALSE(shorter.report.converged);
+  EXPECT_GT(equilibrium_error(disc, F, shorter.state), 0.0);
+}
+
+// [LTL87 (4.4), (4.5)] With R = 1e6 (R q about 2e5 x the default rule's) ALG2's iterate barely
+// moves: the paper's test stops far from equilibrium (the run refuses it: "not in equilibrium",
+// the hostile-input catalogue's R_1e6), and stopping = "equilibrium" does not stop; the cap's
+// status says how far from equilibrium it is.
+TEST(Stopping, Eq4_5_HugeRCreepsAndIsNotConverged) {
+  Problem p = load_problem(testing::source_path("experiments/first_problem/block.toml"),
+                           {"algorithm.R=1e6", "algorithm.solver=alg2", "algorithm.max_iter=300"});
+  ASSERT_EQ(p.algorithm.stopping, Stopping::Equilibrium);
+  const Solved eq = solve(p, NonlinearSolver::Alg2);
+  EXPECT_FALSE(eq.report.converged);
+  EXPECT_NE(eq.report.status.find("equilibrium error"), std::string::npos) << eq.report.status;
+  EXPECT_GT(eq.report.force_residual, 1e-3);
+}
+
+// [LTL87 (3.2), (4.5)] The equilibrium error sees what the force residual alone would not: strains
+// that are not u's (B != 0), and a node behind the obstacle.
+TEST(Stopping, Eq3_2_EquilibriumErrorSeesIncompatibleStrainsAndPenetration) {
+  Problem p = figure("fig5", {"algorithm.max_iter=20000"});
+  p.algorithm.stopping = Stopping::Equilibrium;
+  const Solved eq = solve(p, NonlinearSolver::Alg2);
+  ASSERT_TRUE(eq.report.converged) << eq.report.status;
+  const Discretization disc(p);
+  const Eigen::MatrixXd F = p.ramp.factor(1, p.time.dt) * disc.dead_load();
+  State s = eq.state;
+  s.E(0, 1) += 1e-5;  // one cell's strain off u's by 1e-5
+  EXPECT_GE(equilibrium_error(disc, F, s), 1e-5 * (1 - 1e-6));
+  s = eq.state;
+  const double L = std::pow(disc.volume(), 1.0 / disc.dim());
+  const Eigen::VectorXd N = p.contact->plane_normal.head(disc.dim());
+  int n = -1;  // the contact node nearest the plane (in contact)
+  for (int a : p.mesh.boundary_nodes(p.contact->group))
+    if (n < 0 || (p.mesh.X.row(a) + s.u.row(a)).dot(N) > (p.mesh.X.row(n) + s.u.row(n)).dot(N))
+      n = a;
+  s.u.row(n) += 1e-4 * L * N.transpose();
+  EXPECT_NEAR(max_penetration(disc, s), 1e-4 * L, 1e-6 * L);
+  EXPECT_GE(equilibrium_error(disc, F, s), 1e-4 * (1 - 1e-6));
 }
 
 // [LTL87 (2.2)] The glue's terms are derivatives of the discrete functional: on Fig 3 (glue with

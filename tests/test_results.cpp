@@ -142,6 +142,7 @@ StepReport make_report(int p) {
   r.status = "converged";
   r.iterations = 3 + p;
   r.strain_failures = p - 1;
+  r.newton_iterations = p + 1;
   for (int n = 1; n <= r.iterations; ++n) {
     IterationRecord h;
     h.n = n;
@@ -516,6 +517,7 @@ TEST_F(ResultsTest, TwoDimensionalLayoutAndRoundTrip) {
   EXPECT_EQ(raw_attr(path, g, "iterations"), "6");
   EXPECT_EQ(raw_attr(path, g, "status"), "converged");
   EXPECT_EQ(raw_attr(path, g, "strain_failures"), "2");
+  EXPECT_EQ(raw_attr(path, g, "newton_iterations"), "4");
   EXPECT_EQ(raw_attr(path, "/steps/000001", "t"), "0.5");
   EXPECT_EQ(count_steps(path), 3);
 
