@@ -3,6 +3,7 @@
 // on the same discrete problem.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "config.hpp"
@@ -163,6 +164,25 @@ TEST(Newton, Eq4_1to4_3_CoarseGutterNewtonReachesAlg2sState) {
                       "algorithm.max_iter=40000", "algorithm.acceleration=anderson"}),
       1e-7);
   EXPECT_LT(r.newton.report.iterations, r.alg2.report.iterations / 10);
+}
+
+// Iterations flat under refinement: a half disc pressed onto the plane by a traction on the part
+// of its top within 30 degrees of the axis (experiments/bench/pressed.toml), n = 8, 16, 32 edges
+// per quarter circle. ALG2 alone (the paper's test, tol 1e-8) takes 253, 423, 726 iterations;
+// ALG2 + Newton 8 at each size (and 8, 10 at n = 64, 128: paper_notes/newton.md).
+TEST(Newton, Eq4_1to4_3_IterationsFlatOnAPressedHalfDisc) {
+  std::vector<int> its;
+  for (int n : {8, 16, 32}) {
+    const Problem p = load_problem(testing::source_path("experiments/bench/pressed.toml"),
+                                   {"mesh.parameters.n=" + std::to_string(n)});
+    const Solved r = solve(p, NonlinearSolver::Newton);
+    ASSERT_TRUE(r.report.converged) << r.report.status;
+    EXPECT_LE(r.report.force_residual, p.algorithm.force_tol);
+    EXPECT_LE(r.report.iterations, 12) << "n = " << n;
+    its.push_back(r.report.iterations);
+  }
+  EXPECT_LE(*std::max_element(its.begin(), its.end()) - *std::min_element(its.begin(), its.end()),
+            2);
 }
 
 // [LTL87 (1.5)] The closed form of planar tension: Newton's answer is ALG2's and the exact one.
