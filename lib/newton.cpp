@@ -502,7 +502,10 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     bool solved = !glued_ && augmented_step(base, Ru, G, gapv, active, damping, *scatter, dx);
     if (!solved) solved = lu_step(base, Ru, G, gapv, active, bstate, damping, dx);
     rec.t_global = seconds_since(t0);
-    if (!solved) {  // singular: damp more, same point
+    // A step not taken (singular system, or no decrease of the merit): recorded with the
+    // residuals of the point it stays at, which is tried again with 10 times the damping; false
+    // when the damping exceeds 1e6 (the phase fails).
+    auto stay = [&]() {
       ++result.iterations;
       ++report.newton_iterations;
       rec.n = ++report.iterations;
@@ -513,13 +516,14 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       report.history.push_back(rec);
       if (progress) progress(report.history.back());
       damping = damping > 0 ? 10 * damping : 1e-4;
-      if (damping > 1e6) {
-        result.status = "Newton: the tangent stays singular even with damping";
-        break;
-      }
       active = prev_active;
       bstate = prev_bstate;
-      continue;
+      return damping <= 1e6;
+    };
+    if (!solved) {  // singular: damp more, same point
+      if (stay()) continue;
+      result.status = "Newton: the tangent stays singular even with damping";
+      break;
     }
     // Backtracking on the merit, keeping det F > 0 at every point: alpha = 1, 1/2, ... 1/8. No
     // decrease: the same point again with 10 times the damping (Levenberg-Marquardt, which turns
@@ -544,26 +548,16 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
         break;
       }
     }
+    if (!accepted) {
+      if (stay()) continue;
+      result.status =
+          cat("Newton: no decrease of the residual (", cur.merit, ") even along a damped step");
+      break;
+    }
     ++result.iterations;
     ++report.newton_iterations;
     rec.n = ++report.iterations;
     rec.wall = wall0 + seconds_since(t_start);
-    if (!accepted) {  // recorded with the residuals of the point it stays at
-      rec.r_G = cur.force;
-      rec.r_B = cur.constraint;
-      rec.accelerated = -1;
-      report.history.push_back(rec);
-      if (progress) progress(report.history.back());
-      damping = damping > 0 ? 10 * damping : 1e-4;
-      if (damping > 1e6) {
-        result.status =
-            cat("Newton: no decrease of the residual (", cur.merit, ") even along a damped step");
-        break;
-      }
-      active = prev_active;
-      bstate = prev_bstate;
-      continue;
-    }
     if (alpha == 1) damping = damping / 4 < 1e-8 ? 0.0 : damping / 4;
     x = trial;
     cur = next;
