@@ -397,11 +397,11 @@ class PairRule {
     if ((dim == 2 && nv != 2) || (dim == 3 && nv != 3 && nv != 4))
       fail(
           "the exact kernel needs surface.vertices: 2 (2-D) or 4 (3-D) matrices of size dim x "
-          "#facets, got " +
+          "#points, got " +
           std::to_string(nv));
     for (int v = 0; v < nv; ++v)
       if (S_.vertices[v].rows() != dim || S_.vertices[v].cols() != n)
-        fail("surface.vertices[" + std::to_string(v) + "] must be dim x #facets");
+        fail("surface.vertices[" + std::to_string(v) + "] must be dim x #points");
     auto check_measure = [&](int s, double measure, double rel, const char* what) {
       if (std::abs(measure - S_.area(s)) > rel * S_.area(s))
         fail("on facet " + std::to_string(s) + " the " + what + " " + std::to_string(measure) +

@@ -23,11 +23,11 @@
 
 namespace ltl {
 
-/// [LTL87 (1.3), (1.6), (6.4)-(6.5)] The kernel matrix k (#facets x #facets) of the surface for
+/// [LTL87 (1.3), (1.6), (6.4)-(6.5)] The kernel matrix k (#points x #points) of the surface for
 /// d(y) = d0 exp(-d0 |y|), d0 > 0: the centre-point rule, or the exact Galerkin integral when
 /// `exact` (then surface.vertices is required and checked against surface.area). Throws
 /// std::invalid_argument naming the facet on inconsistent vertices.
-/// The dense reference: every pair (#facets^2 doubles). The solver uses the sparse kernel below.
+/// The dense reference: every pair (#points^2 doubles). The solver uses the sparse kernel below.
 Eigen::MatrixXd adhesion_kernel(const ContactSurface& surface, double d0, bool exact);
 
 /// The relative tolerance of the sparse kernel's cutoff: the mass dropped from any row is below
@@ -46,8 +46,8 @@ double kernel_cutoff(const ContactSurface& surface, double d0, double rel_tol);
 
 /// [LTL87 (1.3), (1.6), (6.4)-(6.5)] The same kernel, sparse: the entries of adhesion_kernel()
 /// for the pairs within kernel_cutoff() (bitwise the same values), the others dropped. Pairs
-/// are found on a grid of cell size r_c: O(#facets x neighbours) time and memory, no
-/// #facets^2 buffer. Throws like adhesion_kernel().
+/// are found on a grid of cell size r_c: O(#points x neighbours) time and memory, no
+/// #points^2 buffer. Throws like adhesion_kernel().
 Eigen::SparseMatrix<double> adhesion_kernel_sparse(const ContactSurface& surface, double d0,
                                                    bool exact, double rel_tol = kKernelCutoffTol);
 

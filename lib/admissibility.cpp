@@ -99,7 +99,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
     const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
     r.inside_tol = kInsideTolerance * r.h;
     std::vector<char> on_surface(nn, 0);
-    const FacetOperators* pts = d.facets();
+    const ContactPoints* pts = d.points();
     const bool points = pts && s.e.cols() == pts->size();
     if (points)
       for (int n : mesh.boundary_nodes(pb.contact->group)) on_surface[n] = 1;
@@ -218,7 +218,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
   }
 
   // 4. Contact: no tension where there is no glue, 0 <= beta <= 1.
-  if (const FacetOperators* pts = d.facets();
+  if (const ContactPoints* pts = d.points();
       pb.contact && pts && pts->size() > 0 && s.lambda_c.cols() == pts->size()) {
     const Eigen::VectorXd p = d.contact_pressure(s);
     const double kappa = pb.contact->adhesion.kappa;

@@ -46,7 +46,7 @@ inline constexpr double kPressureTolerance = 1e-3;
 inline constexpr double kBetaTolerance = 1e-9;
 
 /// What check_admissibility found. Indices are 0-based (nodes and cells of the mesh, contact
-/// points of Discretization::facets()); -1 where there is nothing to report.
+/// points of Discretization::points()); -1 where there is nothing to report.
 struct AdmissibilityReport {
   double h = 0;  ///< mean cell size (m), the length scale of the obstacle tolerance
 

@@ -22,8 +22,8 @@ Solver::Solver(const Problem& problem) : Solver(Discretization(problem)) {}
 Solver::Solver(Discretization discretization) : disc_(std::move(discretization)) {
   const auto t0 = clock_type::now();
   const int dim = disc_.dim(), nc = disc_.num_cells(), nn = disc_.num_nodes();
-  const FacetOperators* facets = disc_.facets();
-  const int nf = facets ? facets->size() : 0;
+  const ContactPoints* points = disc_.points();
+  const int n_points = points ? points->size() : 0;
   const AlgorithmParams& a = alg();
   F_ext_ = disc_.dead_load();
   norm_I_ = std::sqrt(a.q * disc_.volume() * dim);
@@ -31,13 +31,13 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
 
   // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per facet.
   w_cell_ = (a.q * disc_.volume_rows()).cwiseSqrt() / norm_I_;
-  if (facets) w_facet_ = (a.q_c * facets->area).cwiseSqrt() / norm_I_;
+  if (points) w_point_ = (a.q_c * points->area).cwiseSqrt() / norm_I_;
   // The packed iterate: lambda, lambda_c; E, e unless only the multipliers are accelerated; beta
   // with "all". Mean-det: the lagged fluctuation terms make u part of the state the map acts on,
   // so u is extrapolated with the rest, weighted like a gradient, sqrt(q |Omega| / #nodes) / h.
-  packed_size_ = dim * dim * nc + dim * nf;
+  packed_size_ = dim * dim * nc + dim * n_points;
   if (a.accelerate != Accelerated::Multipliers) packed_size_ *= 2;
-  if (a.accelerate == Accelerated::All) packed_size_ += nf;
+  if (a.accelerate == Accelerated::All) packed_size_ += n_points;
   if (disc_.mean_det()) {
     packed_size_ += dim * nn;
     const double h = std::pow(disc_.volume() / nc, 1.0 / dim);
@@ -48,10 +48,10 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
   T_.resize(dim * nc, dim);
   global_out_.GU.resize(dim * nc, dim);
   global_out_.J = Eigen::VectorXd::Ones(nc);
-  if (facets) {
-    global_out_.ubar_rows.resize(nf, dim);
-    global_out_.ubar.resize(dim, nf);
-    c_rows_.resize(nf, dim);
+  if (points) {
+    global_out_.ubar_rows.resize(n_points, dim);
+    global_out_.ubar.resize(dim, n_points);
+    c_rows_.resize(n_points, dim);
   }
   if (a.solver == NonlinearSolver::Newton) newton_ = std::make_unique<Newton>(disc_);
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
@@ -67,14 +67,14 @@ void Solver::precompute(double R) {
   R_ = R;
   gamma_ = disc_.mean_det() ? 2 * Rq : 0.0;
   const SpMat K =
-      global_matrix(disc_.cells(), disc_.facets(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
+      global_matrix(disc_.cells(), disc_.points(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
   const double scale = global_ ? global_->value_scale() : 1.0;  // a substep's, kept
   global_.reset();  // release the old factor before the new one is computed
   global_ = std::make_unique<GlobalStep>(K, disc_.dirichlet(), a.global_solver, &problem().mesh.X);
   global_->set_value_scale(scale);
   ++factorizations_;
   strain_ = std::make_unique<StrainStep>(disc_.split(), Rq);
-  if (disc_.facets()) {
+  if (disc_.points()) {
     if (contact_) {
       contact_->set_Rqc(Rqc);  // the adhesion kernel does not depend on R
     } else {
@@ -87,14 +87,14 @@ void Solver::precompute(double R) {
 
 State Solver::initial_state() const {
   const int dim = this->dim();
-  const int nf = disc_.facets() ? disc_.facets()->size() : 0;
+  const int n_points = disc_.points() ? disc_.points()->size() : 0;
   State s;
   s.u = disc_.dirichlet().value;
   s.E = disc_.identity();
   s.lambda = 2 * disc_.split().C1 * disc_.identity();
-  s.e = Eigen::MatrixXd::Zero(dim, nf);
-  s.lambda_c = Eigen::MatrixXd::Zero(dim, nf);
-  s.beta = Eigen::VectorXd::Constant(nf, problem().contact ? problem().contact->beta0 : 0.0);
+  s.e = Eigen::MatrixXd::Zero(dim, n_points);
+  s.lambda_c = Eigen::MatrixXd::Zero(dim, n_points);
+  s.beta = Eigen::VectorXd::Constant(n_points, problem().contact ? problem().contact->beta0 : 0.0);
   return s;
 }
 
@@ -107,7 +107,7 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q;
   const CellOperators& cells = disc_.cells();
-  const FacetOperators* facets = disc_.facets();
+  const ContactPoints* points = disc_.points();
   T_ = Rq * (s.E - disc_.identity()) + s.lambda - 2 * disc_.split().C1 * disc_.identity();
   rhs_.noalias() = cells.GbarT_vol * T_;
   rhs_ += F_ext_;
@@ -115,9 +115,9 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
     rhs_.noalias() += gamma_ * (disc_.fluctuation_laplacian() * s.u);
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_);
   }
-  if (facets) {
+  if (points) {
     c_rows_ = (R_ * a.q_c * s.e + s.lambda_c).transpose();
-    rhs_.noalias() += facets->meanT_area * c_rows_;
+    rhs_.noalias() += points->meanT_area * c_rows_;
   }
   global_->solve(rhs_, s.u);
 
@@ -126,8 +126,8 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
     disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr);
     g.J = 1.0 - g.J.array();
   }
-  if (facets) {
-    g.ubar_rows.noalias() = facets->mean * s.u;
+  if (points) {
+    g.ubar_rows.noalias() = points->mean * s.u;
     g.ubar = g.ubar_rows.transpose();
   }
 }
@@ -257,9 +257,9 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   }
   B2 *= a.q;
   G2 *= a.q;
-  if (const FacetOperators* facets = disc_.facets()) {
-    for (int f = 0; f < facets->size(); ++f) {
-      const double w = facets->area(f);
+  if (const ContactPoints* points = disc_.points()) {
+    for (int f = 0; f < points->size(); ++f) {
+      const double w = points->area(f);
       B2 += a.q_c * w * (g.ubar.col(f) - s.e.col(f)).squaredNorm();
       G2 += a.q_c * w * (s.e.col(f) - prev.e.col(f)).squaredNorm();
       beta2 += w * std::pow(s.beta(f) - prev.beta(f), 2);
@@ -267,25 +267,25 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   }
   rec.r_B = std::sqrt(B2) / norm_I_;
   rec.r_G =
-      std::sqrt(G2) / norm_I_ + (disc_.facets() ? std::sqrt(beta2 / disc_.contact_area()) : 0.0);
+      std::sqrt(G2) / norm_I_ + (disc_.points() ? std::sqrt(beta2 / disc_.contact_area()) : 0.0);
 }
 
 namespace {
-// z[k .. k + size) <-> a matrix scaled by a weight per row (cells) or per column (facets).
+// z[k .. k + size) <-> a matrix scaled by a weight per row (cells) or per column (points).
 using Map = Eigen::Map<Eigen::MatrixXd>;
 using ConstMap = Eigen::Map<const Eigen::MatrixXd>;
 }  // namespace
 
-template <class S, class Cells, class Facets, class Beta, class U>
-void Solver::for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const {
+template <class S, class Cells, class Points, class Beta, class U>
+void Solver::for_each_packed(S& s, Cells&& cells, Points&& points, Beta&& beta, U&& u) const {
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q, Rqc = R_ * a.q_c;
   const bool G = a.accelerate != Accelerated::Multipliers;
   if (G) cells(s.E, 1.0);
   cells(s.lambda, 1 / Rq);
-  if (const FacetOperators* f = disc_.facets()) {
-    if (G) facets(s.e, 1.0);
-    facets(s.lambda_c, 1 / Rqc);
+  if (const ContactPoints* f = disc_.points()) {
+    if (G) points(s.e, 1.0);
+    points(s.lambda_c, 1 / Rqc);
     if (a.accelerate == Accelerated::All)
       for (int k = 0; k < f->size(); ++k)
         beta(s.beta(k), std::sqrt(f->area(k) / disc_.contact_area()));
@@ -303,7 +303,7 @@ void Solver::pack(const State& s, Eigen::VectorXd& z) const {
       },
       [&](const Eigen::MatrixXd& A, double c) {
         Map(p, A.rows(), A.cols()) =
-            c * (A.array().rowwise() * w_facet_.transpose().array()).matrix();
+            c * (A.array().rowwise() * w_point_.transpose().array()).matrix();
         p += A.size();
       },
       [&](double b, double w) { *p++ = w * b; },
@@ -319,7 +319,7 @@ void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
         p += A.size();
       },
       [&](Eigen::MatrixXd& A, double c) {
-        A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_facet_.transpose().array()))
+        A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_point_.transpose().array()))
                 .matrix();
         p += A.size();
       },
@@ -423,7 +423,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
 }
 
 bool Solver::local_contact_step_holds(const State& s, const Eigen::VectorXd& beta_prev) const {
-  const Eigen::MatrixXd ubar = (disc_.facets()->mean * s.u).transpose();
+  const Eigen::MatrixXd ubar = (disc_.points()->mean * s.u).transpose();
   Eigen::MatrixXd e = s.e;
   Eigen::VectorXd beta = s.beta;
   contact_->solve(ubar, s.lambda_c, beta_prev, e, beta, 1);

@@ -127,10 +127,10 @@ class Solver {
   void pack(const State& s, Eigen::VectorXd& z) const;
   void unpack(const Eigen::VectorXd& z, State& s) const;
   /// The blocks of the packed vector in their order, one definition for pack and unpack:
-  /// cells(A, c) and facets(A, c) for the cell and facet fields with their scale c, beta(b, w)
+  /// cells(A, c) and points(A, c) for the cell and facet fields with their scale c, beta(b, w)
   /// for each beta_s with its weight, u(A) for the displacement (mean-det).
-  template <class S, class Cells, class Facets, class Beta, class U>
-  void for_each_packed(S& s, Cells&& cells, Facets&& facets, Beta&& beta, U&& u) const;
+  template <class S, class Cells, class Points, class Beta, class U>
+  void for_each_packed(S& s, Cells&& cells, Points&& points, Beta&& beta, U&& u) const;
   /// Adaptive R at the check after iteration rec (every adapt_every iterations): the R that
   /// adaptive_R_ (adaptive_r.hpp) asks for; true when it changed (K re-factorized; s may have
   /// been restored to the best iterate since a lowering that stalled).
@@ -165,7 +165,7 @@ class Solver {
   State prev_;
   // The packed iterate of Anderson acceleration: its length and weights.
   Eigen::Index packed_size_ = 0;
-  Eigen::VectorXd w_cell_, w_facet_;
+  Eigen::VectorXd w_cell_, w_point_;
   double w_u_ = 0;  ///< weight of u in the accelerated vector (mean-det only)
   /// ALG2 as the fixed-point map of the driver (fixed_point.hpp), in alg2.cpp.
   class Alg2Map;

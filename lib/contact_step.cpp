@@ -120,7 +120,7 @@ void regime_poly(double A, double b, double r, double m, double p[6]) {
   p[5] = r * r * A;
 }
 
-std::string facet_str(int s) {
+std::string point_str(int s) {
   return "facet " + std::to_string(s);
 }
 
@@ -144,7 +144,7 @@ Vector3d ContactStep::project(const Vector3d& x, const Vector3d& N, double gap) 
   return e;
 }
 
-double ContactStep::facet_objective(const Vector3d& a, double aa, double b, double Rqc,
+double ContactStep::point_objective(const Vector3d& a, double aa, double b, double Rqc,
                                     double kappa, const Vector3d& e, double gamma) {
   const double c = Rqc + kappa * gamma * gamma;
   return 0.5 * c * e.squaredNorm() - a.dot(e) + 0.5 * aa * gamma * gamma - b * gamma;
@@ -156,16 +156,16 @@ double ContactStep::reduced_objective(const Vector3d& a_in, double aa, double b,
   Vector3d a = a_in, N = N_in;
   if (dim == 2) a(2) = N(2) = 0.0;
   const double c = Rqc + kappa * gamma * gamma;
-  return facet_objective(a, aa, b, Rqc, kappa, project(a / c, N, gap), gamma);
+  return point_objective(a, aa, b, Rqc, kappa, project(a / c, N, gap), gamma);
 }
 
-FacetSolution ContactStep::solve_facet(const Vector3d& a_in, double aa, double b, double Rqc,
+PointSolution ContactStep::solve_point(const Vector3d& a_in, double aa, double b, double Rqc,
                                        double kappa, const Vector3d& N_in, double gap, int dim,
                                        double beta_current) {
   Vector3d a = a_in, N = N_in;
   if (dim == 2) a(2) = N(2) = 0.0;
   const double beta_keep = std::clamp(beta_current, 0.0, 1.0);
-  FacetSolution sol;
+  PointSolution sol;
 
   // No glue: e does not depend on gamma, and (6.8) is the quadratic (aa/2) g^2 - b g.
   if (kappa == 0.0) {
@@ -239,11 +239,11 @@ ContactStep::ContactStep(const ContactSurface& surface, const Adhesion& adhesion
   const int n = surface_.size();
   if (surface_.centre.rows() != dim || surface_.centre.cols() != n)
     fail("surface.centre is " + std::to_string(surface_.centre.rows()) + " x " +
-         std::to_string(surface_.centre.cols()) + ", expected dim x #facets = " +
-         std::to_string(dim) + " x " + std::to_string(n) + " (#facets = surface.area.size())");
+         std::to_string(surface_.centre.cols()) + ", expected dim x #points = " +
+         std::to_string(dim) + " x " + std::to_string(n) + " (#points = surface.area.size())");
   if (surface_.gap.size() != n)
     fail("surface.gap has " + std::to_string(surface_.gap.size()) +
-         " entries, expected #facets = " + std::to_string(n));
+         " entries, expected #points = " + std::to_string(n));
   if (surface_.N.size() != dim)
     fail("surface.N has " + std::to_string(surface_.N.size()) +
          " entries, expected dim = " + std::to_string(dim));
@@ -253,8 +253,8 @@ ContactStep::ContactStep(const ContactSurface& surface, const Adhesion& adhesion
   for (int s = 0; s < n; ++s) {
     if (!(surface_.area(s) > 0.0) || !std::isfinite(surface_.area(s)))
       fail("surface.area(" + std::to_string(s) + ") = " + std::to_string(surface_.area(s)) +
-           " on " + facet_str(s) + ", must be > 0");
-    if (!std::isfinite(surface_.gap(s))) fail("surface.gap is not finite on " + facet_str(s));
+           " on " + point_str(s) + ", must be > 0");
+    if (!std::isfinite(surface_.gap(s))) fail("surface.gap is not finite on " + point_str(s));
   }
   if (!(Rqc > 0.0) || !std::isfinite(Rqc)) fail("Rqc = R q_c must be > 0");
   if (!(adhesion_.kappa >= 0.0) || !std::isfinite(adhesion_.kappa))
@@ -268,7 +268,7 @@ ContactStep::ContactStep(const ContactSurface& surface, const Adhesion& adhesion
   N3_.head(dim) = surface_.N;
 
   // [LTL87 (6.4)-(6.5)] the kernel k_ss' (adhesion_kernel.hpp), sparse; empty without
-  // dissipation: no #facets^2 buffer in either case.
+  // dissipation: no #points^2 buffer in either case.
   k_ = adhesion_.d0 > 0.0 ? adhesion_kernel_sparse(surface_, adhesion_.d0, adhesion_.exact_kernel)
                           : Eigen::SparseMatrix<double>(n, n);
   k_.makeCompressed();
@@ -299,8 +299,8 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
   const int n = surface_.size(), dim = surface_.dim;
   if (ubar.rows() != dim || ubar.cols() != n || lambda_c.rows() != dim || lambda_c.cols() != n ||
       e.rows() != dim || e.cols() != n || beta_prev.size() != n || beta.size() != n)
-    fail("solve(): ubar, lambda_c, e must be dim x #facets and beta_prev, beta #facets (dim = " +
-         std::to_string(dim) + ", #facets = " + std::to_string(n) + ")");
+    fail("solve(): ubar, lambda_c, e must be dim x #points and beta_prev, beta #points (dim = " +
+         std::to_string(dim) + ", #points = " + std::to_string(n) + ")");
   const double dt = adhesion_.dt, w = adhesion_.w, kappa = adhesion_.kappa;
   const bool dissipation = adhesion_.d0 > 0.0;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
@@ -316,8 +316,8 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
             kernel_row_dot(kt_, s, beta, beta_prev) - kss * (beta(s) - beta_prev(s));
         b = w - others / dt + kss * beta_prev(s) / dt;
       }
-      const FacetSolution sol =
-          solve_facet(a, aa, b, Rqc_, kappa, N3_, surface_.gap(s), dim, beta(s));
+      const PointSolution sol =
+          solve_point(a, aa, b, Rqc_, kappa, N3_, surface_.gap(s), dim, beta(s));
       e.col(s) = sol.e.head(dim);
       beta(s) = sol.beta;
     }
@@ -328,7 +328,7 @@ double ContactStep::energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta
                            const Eigen::VectorXd& beta_prev) const {
   const int n = surface_.size(), dim = surface_.dim;
   if (e.rows() != dim || e.cols() != n || beta.size() != n || beta_prev.size() != n)
-    fail("energy(): e must be dim x #facets and beta, beta_prev #facets");
+    fail("energy(): e must be dim x #points and beta, beta_prev #points");
   double E = 0.0;
   for (int s = 0; s < n; ++s) {
     if (!(beta(s) >= 0.0 && beta(s) <= 1.0)) return kInf;
@@ -351,7 +351,7 @@ double ContactStep::local_objective(const Eigen::MatrixXd& ubar, const Eigen::Ma
                                     const Eigen::VectorXd& beta) const {
   const int n = surface_.size(), dim = surface_.dim;
   if (ubar.rows() != dim || ubar.cols() != n || lambda_c.rows() != dim || lambda_c.cols() != n)
-    fail("local_objective(): ubar and lambda_c must be dim x #facets");
+    fail("local_objective(): ubar and lambda_c must be dim x #points");
   double J = energy(e, beta, beta_prev);
   for (int s = 0; s < n; ++s)
     J += surface_.area(s) * (0.5 * Rqc_ * e.col(s).squaredNorm() -

@@ -20,7 +20,7 @@
 // d(y) = d0 exp(-d0 |y|) (1.6), by the paper's centre-point rule or the exact Galerkin integral
 // (adhesion_kernel.hpp), stored sparse: the pairs within the cutoff of adhesion_kernel.hpp (the
 // dropped mass of a row is below kKernelCutoffTol of the kernel's mass), nothing without
-// dissipation (d0 = 0). Memory is linear in #facets.
+// dissipation (d0 = 0). Memory is linear in #points.
 //
 // Eliminating e gives e = projection of a / (R q_c + kappa gamma^2) onto {e.N <= g}  (6.6)-(6.7)
 // and a scalar problem in gamma over [0,1] (6.8), solved by taking the best of the end points and
@@ -36,14 +36,14 @@
 namespace ltl {
 
 /// Result of one facet problem (6.1).
-struct FacetSolution {
+struct PointSolution {
   Eigen::Vector3d e = Eigen::Vector3d::Zero();  ///< only the first dim entries are used
   double beta = 1.0;
 };
 
 class ContactStep {
  public:
-  /// Precomputes the sparse kernel matrix k (#facets x #facets, no entries when d0 = 0).
+  /// Precomputes the sparse kernel matrix k (#points x #points, no entries when d0 = 0).
   /// Rqc = R * q_c > 0. N is normalized. Throws std::invalid_argument on inconsistent data.
   ContactStep(const ContactSurface& surface, const Adhesion& adhesion, double Rqc);
 
@@ -53,7 +53,7 @@ class ContactStep {
   /// reduced objective (6.8) does not depend on gamma at all (e.g. kappa = 0 and aa = b = 0, the
   /// pure contact case), beta is arbitrary and beta_current (the facet's current beta) is
   /// returned unchanged.
-  static FacetSolution solve_facet(const Eigen::Vector3d& a, double aa, double b, double Rqc,
+  static PointSolution solve_point(const Eigen::Vector3d& a, double aa, double b, double Rqc,
                                    double kappa, const Eigen::Vector3d& N, double gap, int dim,
                                    double beta_current = 1.0);
 
@@ -64,7 +64,7 @@ class ContactStep {
 
   /// [LTL87 (6.2)] J_c(e, gamma) = (Rqc/2)|e|^2 - a.e + (kappa/2) gamma^2 |e|^2
   ///                               + (aa/2) gamma^2 - b gamma  (no constraint check).
-  static double facet_objective(const Eigen::Vector3d& a, double aa, double b, double Rqc,
+  static double point_objective(const Eigen::Vector3d& a, double aa, double b, double Rqc,
                                 double kappa, const Eigen::Vector3d& e, double gamma);
 
   /// [LTL87 (6.8)] min over e.N <= gap of J_c(e, gamma), i.e. J_c at e from (6.6)-(6.7). This is
@@ -74,11 +74,11 @@ class ContactStep {
                                   double gamma);
 
   /// [LTL87 (4.7), sec. 6] `sweeps` Gauss-Seidel sweeps over the facets in order.
-  ///   ubar:      dim x #facets, facet means of the current displacement u^n
-  ///   lambda_c:  dim x #facets, current multiplier
-  ///   beta_prev: #facets, beta at the previous time step (beta_{p-1})
+  ///   ubar:      dim x #points, facet means of the current displacement u^n
+  ///   lambda_c:  dim x #points, current multiplier
+  ///   beta_prev: #points, beta at the previous time step (beta_{p-1})
   ///   e, beta:   in: current iterate, out: updated.
-  /// Allocation-free. O(nnz(k)) per sweep: O(#facets x neighbours within the cutoff).
+  /// Allocation-free. O(nnz(k)) per sweep: O(#points x neighbours within the cutoff).
   void solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
              const Eigen::VectorXd& beta_prev, Eigen::MatrixXd& e, Eigen::VectorXd& beta,
              int sweeps = 1) const;

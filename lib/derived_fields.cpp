@@ -52,7 +52,7 @@ DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volum
 }
 
 Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
-                                          const FacetOperators& points, const Eigen::VectorXd& p) {
+                                          const ContactPoints& points, const Eigen::VectorXd& p) {
   if (boundary.facets.cols() != 6 || points.nodes.empty()) return p;
   const int np = points.size();
   if (p.size() != np)

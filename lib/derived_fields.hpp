@@ -36,7 +36,7 @@ DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volum
 double von_mises(const Eigen::Matrix3d& sigma);
 
 /// The nodal contact pressure read consistently from the contact forces f_a = w_a p_a (the
-/// lumped weights w_a of nodal_operators, the pressures p_a = -lambda_c . N): on six-node P2
+/// lumped weights w_a of nodal_points, the pressures p_a = -lambda_c . N): on six-node P2
 /// triangle faces the consistent load of a pressure field p_h = sum_b p_b phi_b is
 /// integral p_h phi_a, which for a uniform p is 0 at the vertices and p |G|/3 per face at the
 /// mid-edge nodes, so f_a / w_a reads 0 and 4 p / 3 there. The pressure returned solves
@@ -45,6 +45,6 @@ double von_mises(const Eigen::Matrix3d& sigma);
 /// quadrilaterals), whose weights are the integrals of the shape functions: p unchanged.
 /// `points` are the nodal contact points (points.nodes in the order of p).
 Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
-                                          const FacetOperators& points, const Eigen::VectorXd& p);
+                                          const ContactPoints& points, const Eigen::VectorXd& p);
 
 }  // namespace ltl

@@ -71,16 +71,16 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
   if (problem_.contact) {
     const ContactCondition& cc = *problem_.contact;
     const Mesh::Boundary& boundary = mesh.boundary(cc.group, "contact.group");
-    facets_ = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
+    points_ = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
     surface_.dim = dim;
-    surface_.area = facets_->area;
-    surface_.centre = facets_->centre;
+    surface_.area = points_->area;
+    surface_.centre = points_->centre;
     surface_.N = cc.plane_normal.head(dim);
     // Initial gap g_s = (p0 - x_s) . N at each facet centre or node (paper_notes/section6.md).
-    surface_.gap.resize(facets_->size());
-    for (int f = 0; f < facets_->size(); ++f)
-      surface_.gap(f) = (cc.plane_point.head(dim) - facets_->centre.col(f)).dot(surface_.N);
-    surface_.vertices = facets_->vertices;
+    surface_.gap.resize(points_->size());
+    for (int f = 0; f < points_->size(); ++f)
+      surface_.gap(f) = (cc.plane_point.head(dim) - points_->centre.col(f)).dot(surface_.N);
+    surface_.vertices = points_->vertices;
     const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
     // The body must start on the admissible side of the plane: its centroid (cell centres
     // weighted by volume) on the side N points away from. With the normal reversed the
@@ -114,7 +114,7 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
                         reversed, "]) or check contact.plane_point"));
       }
     }
-    for (int f = 0; f < facets_->size(); ++f)
+    for (int f = 0; f < points_->size(); ++f)
       if (surface_.gap(f) < -1e-10 * scale)
         throw Error(cat(mesh.source, ": contact ",
                         problem_.discretization.nodal_contact ? "node " : "facet ", f, " of '",
@@ -131,7 +131,7 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
                         " m beyond the contact plane: check contact.plane_point and "
                         "contact.plane_normal (the normal points into the obstacle)"));
     }
-    contact_area_ = facets_->area.sum();
+    contact_area_ = points_->area.sum();
   }
 
   // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
@@ -306,7 +306,7 @@ Eigen::VectorXd nominal_pressure(const Problem& problem, const State& s) {
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
   const Eigen::VectorXd p = nominal_pressure(problem_, s);
-  const FacetOperators* points = facets();
+  const ContactPoints* points = this->points();
   if (!points || points->nodes.empty()) return p;
   // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp).
   return consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contact->group),
@@ -314,12 +314,12 @@ Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::contact_forces(const State& s) const {
-  if (!problem_.contact || !facets()) return Eigen::VectorXd(0);
-  return facets()->area.cwiseProduct(nominal_pressure(problem_, s));
+  if (!problem_.contact || !points()) return Eigen::VectorXd(0);
+  return points()->area.cwiseProduct(nominal_pressure(problem_, s));
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {
-  if (!facets_) return {};
+  if (!points_) return {};
   return surface_.gap - s.e.transpose() * surface_.N;
 }
 

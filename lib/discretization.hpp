@@ -43,7 +43,7 @@ class Discretization {
   /// The contact points: facets (discretization.contact = "facet-mean") or the nodes of the
   /// contact surface ("nodal"), with their weights, positions and the map from nodal values
   /// (mean); null without contact.
-  const FacetOperators* facets() const { return facets_ ? &*facets_ : nullptr; }
+  const ContactPoints* points() const { return points_ ? &*points_ : nullptr; }
   /// The contact surface as the local contact step (4.7) sees it, with the initial gap
   /// g_s = (p0 - x_s) . N >= 0 of every contact point (section 6); empty without contact.
   const ContactSurface& surface() const { return surface_; }
@@ -121,7 +121,7 @@ class Discretization {
   Problem problem_;
   Material split_;
   CellOperators cells_;
-  std::optional<FacetOperators> facets_;
+  std::optional<ContactPoints> points_;
   ContactSurface surface_;
   DirichletData bc_;
   Eigen::MatrixXd F_dead_, Id_;

@@ -229,10 +229,10 @@ CellOperators cell_operators(const Mesh& mesh) {
   return ops;
 }
 
-FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary) {
+ContactPoints facet_mean_points(const Mesh& mesh, const Mesh::Boundary& boundary) {
   const int dim = mesh.dim, nf = static_cast<int>(boundary.facets.rows());
   const int npf = mesh.nodes_per_facet();
-  FacetOperators ops;
+  ContactPoints ops;
   ops.area.resize(nf);
   ops.centre.resize(dim, nf);
   const int ncorner = dim == 2 ? 2 : npf == 6 ? 3 : 4;
@@ -266,8 +266,8 @@ FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary)
   return ops;
 }
 
-FacetOperators nodal_operators(const Mesh& mesh, const Mesh::Boundary& boundary) {
-  const FacetOperators facets = facet_operators(mesh, boundary);
+ContactPoints nodal_points(const Mesh& mesh, const Mesh::Boundary& boundary) {
+  const ContactPoints facets = facet_mean_points(mesh, boundary);
   // integral of phi_a over the part = column sums of meanT_area's transpose (sum_s |G_s| mean_sa).
   Eigen::VectorXd weight_all = facets.meanT_area * Eigen::VectorXd::Ones(facets.size());
   if (boundary.facets.cols() == 6) {
@@ -285,7 +285,7 @@ FacetOperators nodal_operators(const Mesh& mesh, const Mesh::Boundary& boundary)
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
   const int np = static_cast<int>(nodes.size());
-  FacetOperators ops;
+  ContactPoints ops;
   ops.area.resize(np);
   ops.centre.resize(mesh.dim, np);
   std::vector<Eigen::Triplet<double>> sel;

@@ -35,15 +35,15 @@ struct CellOperators {
 };
 
 /// Facet operators of one boundary part.
-struct FacetOperators {
-  Eigen::VectorXd area;    ///< #facets, |G_s|
-  Eigen::MatrixXd centre;  ///< dim x #facets, x_s = mean of x over the facet
-  SpMatR mean;             ///< #facets x #nodes, (mean * U).row(s) = vbar_s
-  SpMatR meanT_area;       ///< #nodes x #facets, transpose of mean weighted by |G_s|
+struct ContactPoints {
+  Eigen::VectorXd area;    ///< #points, |G_s|
+  Eigen::MatrixXd centre;  ///< dim x #points, x_s = mean of x over the facet
+  SpMatR mean;             ///< #points x #nodes, (mean * U).row(s) = vbar_s
+  SpMatR meanT_area;       ///< #nodes x #points, transpose of mean weighted by |G_s|
   /// Corner vertices (2 in 2-D, 3 (triangle faces) or 4 (quadrilateral faces) in 3-D), each
-  /// dim x #facets.
+  /// dim x #points.
   std::vector<Eigen::MatrixXd> vertices;
-  /// Nodal contact points only (nodal_operators): the mesh node of each point; empty for facets.
+  /// Nodal contact points only (nodal_points): the mesh node of each point; empty for facets.
   std::vector<int> nodes;
   int size() const { return static_cast<int>(area.size()); }
 };
@@ -57,7 +57,7 @@ CellOperators cell_operators(const Mesh& mesh);
 /// the elasticity matrix of section 7.
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit);
-FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
+ContactPoints facet_mean_points(const Mesh& mesh, const Mesh::Boundary& boundary);
 
 /// The contact "points" of a nodal (collocation) contact condition on a boundary part: one point
 /// per node of the part, weight area(a) = integral over the part of phi_a (> 0 for P2 edges:
@@ -67,11 +67,11 @@ FacetOperators facet_operators(const Mesh& mesh, const Mesh::Boundary& boundary)
 /// centre = the node's reference position, mean = the selection u -> u_a (so that "vbar_s" is the
 /// nodal value and meanT_area assembles sum_a area(a) c_a . v_a). No vertices: the exact kernel
 /// integral is defined on facets only. Throws if a weight is not positive.
-FacetOperators nodal_operators(const Mesh& mesh, const Mesh::Boundary& boundary);
+ContactPoints nodal_points(const Mesh& mesh, const Mesh::Boundary& boundary);
 
-/// The contact points of a contact surface: nodal_operators when `nodal`, else facet_operators.
-inline FacetOperators contact_points(const Mesh& mesh, const Mesh::Boundary& boundary, bool nodal) {
-  return nodal ? nodal_operators(mesh, boundary) : facet_operators(mesh, boundary);
+/// The contact points of a contact surface: nodal_points when `nodal`, else facet_mean_points.
+inline ContactPoints contact_points(const Mesh& mesh, const Mesh::Boundary& boundary, bool nodal) {
+  return nodal ? nodal_points(mesh, boundary) : facet_mean_points(mesh, boundary);
 }
 
 /// A vector field affine in the reference position: g(x) = value + gradient * x (first dim

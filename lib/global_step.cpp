@@ -12,13 +12,13 @@
 
 namespace ltl {
 
-SpMat global_matrix(const CellOperators& cells, const FacetOperators* facets, double C1, double Rq,
+SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, double C1, double Rq,
                     double Rqc) {
   SpMat K = 2 * C1 * cells.laplacian;
   SpMat mean_grad = SpMat(cells.GbarT_vol * cells.Gbar);
   K += Rq * mean_grad;
-  if (facets && facets->size() > 0) {
-    SpMat mean = SpMat(facets->meanT_area * facets->mean);
+  if (points && points->size() > 0) {
+    SpMat mean = SpMat(points->meanT_area * points->mean);
     K += Rqc * mean;
   }
   K.prune(0.0);

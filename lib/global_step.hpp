@@ -41,7 +41,7 @@ struct DirichletData {
 
 /// [LTL87 (4.5)] K = 2 C1 L + R q Gbar^T diag(|O|) Gbar + R q_c M^T diag(|G|) M, with L the
 /// Laplacian, Gbar the mean gradient, M the facet mean (pass nullptr when there is no contact).
-SpMat global_matrix(const CellOperators& cells, const FacetOperators* facets, double C1, double Rq,
+SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, double C1, double Rq,
                     double Rqc);
 
 class GlobalStep {

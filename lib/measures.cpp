@@ -18,8 +18,8 @@ Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
 ContactMeasures contact_measures(const Discretization& d, const State& s, int axis) {
   ContactMeasures m;
   const Problem& pb = d.problem();
-  if (!pb.contact || !d.facets()) return m;
-  const FacetOperators& points = *d.facets();
+  if (!pb.contact || !d.points()) return m;
+  const ContactPoints& points = *d.points();
   const int dim = pb.mesh.dim;
   const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
   const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
@@ -52,7 +52,7 @@ Eigen::VectorXd opening(const Problem& pb, const State& s) {
   return -(s.e.transpose() * N);
 }
 
-PeelMeasures peel_measures(const Problem& pb, const FacetOperators& points, const State& s,
+PeelMeasures peel_measures(const Problem& pb, const ContactPoints& points, const State& s,
                            int axis) {
   PeelMeasures m;
   m.points = points.size();
@@ -78,7 +78,7 @@ PeelMeasures peel_measures(const Problem& pb, const FacetOperators& points, cons
 StepMeasures step_measures(const Discretization& d, const State& s, int axis) {
   StepMeasures m;
   const Problem& pb = d.problem();
-  const FacetOperators* points = d.facets();
+  const ContactPoints* points = d.points();
   m.max_displacement = s.u.size() ? s.u.rowwise().norm().maxCoeff() : 0.0;
   if (!pb.contact || !points) return m;
   m.contact = contact_measures(d, s, axis);
@@ -153,7 +153,7 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   const Eigen::MatrixXd GU = c.Gbar * s.u;
   Eigen::MatrixXd r =
       c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - f_ext;
-  if (d.facets()) r -= d.facets()->meanT_area * s.lambda_c.transpose();
+  if (d.points()) r -= d.points()->meanT_area * s.lambda_c.transpose();
   if (d.mean_det()) r -= d.fluctuation_force(s);
   return r;
 }
@@ -173,7 +173,7 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
     for (int e = 0; e < d.num_cells(); ++e)
       m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
   }
-  if (d.facets()) m.penetration = std::max(0.0, contact_measures(d, s).penetration);
+  if (d.points()) m.penetration = std::max(0.0, contact_measures(d, s).penetration);
   m.det_min = min_det_F(d, s.u);
   return m;
 }

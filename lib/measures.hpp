@@ -93,7 +93,7 @@ struct PeelMeasures {
 
 /// [LTL87 (1.2)-(1.3), (4.11)] The peel measures at a state over the contact points `points`
 /// (which carry s.beta); `axis` is the coordinate along which the front is measured (x1).
-PeelMeasures peel_measures(const Problem& problem, const FacetOperators& points, const State& s,
+PeelMeasures peel_measures(const Problem& problem, const ContactPoints& points, const State& s,
                            int axis = 0);
 
 /// Every measure of a step: contact measures when the problem has a contact surface, peel

@@ -28,7 +28,7 @@ struct Mesh {
   /// A named boundary part (gmsh physical group of dimension dim-1).
   struct Boundary {
     std::string name;
-    /// #facets x nodes_per_facet (3: P2 edge, 6: P2 triangle (vertices, then mid-edges 01, 12,
+    /// #points x nodes_per_facet (3: P2 edge, 6: P2 triangle (vertices, then mid-edges 01, 12,
     /// 20), 4: quadrilateral), gmsh node order.
     Eigen::MatrixXi facets;
   };

@@ -74,7 +74,7 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
     for (int a : disc.dirichlet().fixed[i]) free_[d * a + i] = -1;
   for (int& f : free_)
     if (f >= 0) f = nfree_++;
-  if (const FacetOperators* pts = disc.facets()) {
+  if (const ContactPoints* pts = disc.points()) {
     const double h = std::pow(disc.volume() / nc, 1.0 / d);
     c_ = 0.02 * C1 * pts->area / h;
   }
@@ -114,7 +114,7 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
       const int r = free_[it.row()], c = free_[it.col()];
       if (r >= 0 && c >= 0 && r >= c) fluct_pos_.emplace_back(position(r, c), it.value());
     }
-  if (const FacetOperators* pts = disc.facets()) {
+  if (const ContactPoints* pts = disc.points()) {
     const Eigen::VectorXd& N = disc.surface().N;
     const int np = pts->size();
     point_dofs_.resize(np), point_coef_.resize(np), point_pos_.resize(np);
@@ -152,7 +152,7 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
       x.p(e) = (L - 2 * m.C1 * E + dW).cwiseProduct(C).sum() / C.squaredNorm();
     }
   }
-  if (const FacetOperators* pts = disc_.facets()) {
+  if (const ContactPoints* pts = disc_.points()) {
     const Eigen::VectorXd N = disc_.surface().N;
     Eigen::MatrixXd lc = s.lambda_c;  // dim x #points; with glue, less the glue's force
     if (glued_) {
@@ -184,7 +184,7 @@ void Newton::to_state(const Unknowns& x, State& s) const {
     s.E.block(d * e, 0, d, d) = F.transpose();
     s.lambda.block(d * e, 0, d, d) = L.transpose();
   }
-  if (const FacetOperators* pts = disc_.facets()) {
+  if (const ContactPoints* pts = disc_.points()) {
     s.e = (pts->mean * x.u).transpose();
     const Eigen::VectorXd N = disc_.surface().N;
     for (int k = 0; k < pts->size(); ++k) s.lambda_c.col(k) = -(x.mu(k) / pts->area(k)) * N;
@@ -305,7 +305,7 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
     for (int i = 0; i < d; ++i) uflat(d * a + i) = x.u(a, i), Fflat(d * a + i) = F(a, i);
   Ru += fluct_ * uflat - Fflat;
   // The contact forces: mu_s N (x) mean_s, the reaction of the plane (1.1).
-  if (const FacetOperators* pts = disc_.facets()) {
+  if (const ContactPoints* pts = disc_.points()) {
     const Eigen::VectorXd& N = disc_.surface().N;
     for (int s = 0; s < pts->size(); ++s)
       for (SpMatR::InnerIterator it(pts->mean, s); it; ++it)
@@ -365,7 +365,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   using clock_type = std::chrono::steady_clock;
   const auto t_start = clock_type::now();
   const int d = dim_, nc = disc_.num_cells();
-  const FacetOperators* pts = disc_.facets();
+  const ContactPoints* pts = disc_.points();
   const int np = pts ? pts->size() : 0;
   const Eigen::VectorXd N = pts ? disc_.surface().N : Eigen::VectorXd();
   const Eigen::VectorXd& vol = disc_.cells().vol;

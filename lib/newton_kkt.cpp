@@ -16,7 +16,7 @@ using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
 ///   sum_s |G_s| kappa beta_s^2 (mean_s (x) mean_s) (x) I_dim,
 /// the Hessian in u of sum_s |G_s| (kappa/2) beta_s^2 |ubar_s|^2 (2.2).
 template <class Emit>
-void for_each_glue_uu(const FacetOperators& pts, const Eigen::VectorXd& beta, double kappa, int d,
+void for_each_glue_uu(const ContactPoints& pts, const Eigen::VectorXd& beta, double kappa, int d,
                       Emit emit) {
   for (int s = 0; s < pts.size(); ++s) {
     const double c = pts.area(s) * kappa * beta(s) * beta(s);
@@ -171,7 +171,7 @@ void Newton::set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_pr
   const Adhesion& ad = contact.adhesion();
   glued_ = ad.glued();
   if (!glued_) return;
-  const int np = disc_.facets()->size();
+  const int np = disc_.points()->size();
   glue_.kappa = ad.kappa, glue_.w = ad.w, glue_.dt = ad.dt;
   if (glue_.k.rows() != np) glue_.k = contact.kernel();
   glue_.beta_prev = beta_prev;
@@ -188,7 +188,7 @@ void Newton::set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_pr
 // [(2.2), (6.1)-(6.5)] g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - bp_s').
 Eigen::VectorXd Newton::glue_gradient(const Unknowns& x) const {
   if (!glued_) return Eigen::VectorXd();
-  const Eigen::MatrixXd ubar = disc_.facets()->mean * x.u;  // #points x dim
+  const Eigen::MatrixXd ubar = disc_.points()->mean * x.u;  // #points x dim
   return glue_.kappa * x.beta.cwiseProduct(ubar.rowwise().squaredNorm()) -
          Eigen::VectorXd::Constant(x.beta.size(), glue_.w) +
          glue_.k * (x.beta - glue_.beta_prev) / glue_.dt;
@@ -196,7 +196,7 @@ Eigen::VectorXd Newton::glue_gradient(const Unknowns& x) const {
 
 void Newton::add_glue_kkt(const Unknowns& x, const std::vector<int>& bstate, int ob, Triplets& kkt,
                           Eigen::VectorXd& rhs) const {
-  const FacetOperators& pts = *disc_.facets();
+  const ContactPoints& pts = *disc_.points();
   const int d = dim_, np = pts.size();
   for_each_glue_uu(pts, x.beta, glue_.kappa, d, [&](int r, int c, double v) {
     if (free_[r] >= 0 && free_[c] >= 0) kkt.emplace_back(free_[r], free_[c], v);
@@ -237,7 +237,7 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
                      const Eigen::VectorXd& gap, const std::vector<int>& active,
                      const std::vector<int>& bstate, double damping, Eigen::VectorXd& dx) const {
   const int d = dim_, np_ = incompressible_ ? disc_.num_cells() : 0;
-  const FacetOperators* pts = disc_.facets();
+  const ContactPoints* pts = disc_.points();
   const int npts = static_cast<int>(active.size());
   int nA = 0;
   for (int a : active) nA += a;
@@ -302,7 +302,7 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
 // The glue's share of residual() and tangent() (newton.cpp).
 void Newton::add_glue_force(const Unknowns& x, Eigen::VectorXd& Ru) const {
   if (!glued_) return;
-  const FacetOperators& pts = *disc_.facets();
+  const ContactPoints& pts = *disc_.points();
   const Eigen::MatrixXd ubar = pts.mean * x.u;
   for (int s = 0; s < pts.size(); ++s) {
     const double c = pts.area(s) * glue_.kappa * x.beta(s) * x.beta(s);
@@ -313,7 +313,7 @@ void Newton::add_glue_force(const Unknowns& x, Eigen::VectorXd& Ru) const {
 
 void Newton::add_glue_tangent(const Unknowns& x, Triplets& t) const {
   if (!glued_) return;
-  for_each_glue_uu(*disc_.facets(), x.beta, glue_.kappa, dim_,
+  for_each_glue_uu(*disc_.points(), x.beta, glue_.kappa, dim_,
                    [&](int r, int c, double v) { t.emplace_back(r, c, v); });
 }
 

@@ -104,7 +104,7 @@ struct ContactOutput {
   /// mesh nodes, in that order.
   std::vector<int> nodes;
   /// Reference position of each contact point, dim x #points (the layout of
-  /// FacetOperators::centre; #points x dim is accepted when not square). Empty: with nodes, the
+  /// ContactPoints::centre; #points x dim is accepted when not square). Empty: with nodes, the
   /// nodes' positions; without, not written.
   Eigen::MatrixXd centre;
   Eigen::VectorXd area;  ///< weight of each contact point (empty: not written)

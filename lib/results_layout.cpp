@@ -265,31 +265,31 @@ Sizes write_mesh(hid_t f, const Mesh& mesh, const RunInfo& info, const ResultsOp
   // Contact fields live on the contact points: the facets, or the nodes of a nodal contact.
   const ContactOutput& contact = options.contact;
   const std::vector<int>& nodes = contact.nodes;
-  const int nf = !contact.facets  ? 0
-                 : !nodes.empty() ? static_cast<int>(nodes.size())
-                                  : static_cast<int>(contact.facets->facets.rows());
+  const int n_points = !contact.facets  ? 0
+                       : !nodes.empty() ? static_cast<int>(nodes.size())
+                                        : static_cast<int>(contact.facets->facets.rows());
   if (!nodes.empty() && !contact.facets) fail(path, "contact nodes given without contact facets");
   Eigen::MatrixXd centre;  // #points x dim
-  if (!nodes.empty() && contact.centre.size() == 0) centre.resize(nf, dim);
+  if (!nodes.empty() && contact.centre.size() == 0) centre.resize(n_points, dim);
   if (contact.facets) {
     const auto& F = contact.facets->facets;
     if (F.cols() != mesh.nodes_per_facet())
       fail(path,
            cat("contact facets have ", F.cols(), " nodes, expected ", mesh.nodes_per_facet()));
-    if (nf > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= nn))
+    if (n_points > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= nn))
       fail(path, "contact facets refer to nodes that do not exist");
     const Eigen::MatrixXd& c = contact.centre;
     if (c.size()) {
-      if (c.rows() == dim && c.cols() == nf)
+      if (c.rows() == dim && c.cols() == n_points)
         centre = c.transpose();
-      else if (c.rows() == nf && c.cols() == dim)
+      else if (c.rows() == n_points && c.cols() == dim)
         centre = c;
       else
-        fail(path,
-             cat("contact centres are ", c.rows(), " x ", c.cols(), ", expected ", dim, " x ", nf));
+        fail(path, cat("contact centres are ", c.rows(), " x ", c.cols(), ", expected ", dim, " x ",
+                       n_points));
     }
-    if (contact.area.size() && contact.area.size() != nf)
-      fail(path, cat("contact areas have ", contact.area.size(), " entries, expected ", nf));
+    if (contact.area.size() && contact.area.size() != n_points)
+      fail(path, cat("contact areas have ", contact.area.size(), " entries, expected ", n_points));
   }
 
   {
@@ -322,10 +322,10 @@ Sizes write_mesh(hid_t f, const Mesh& mesh, const RunInfo& info, const ResultsOp
     const auto& F = contact.facets->facets;
     write_ints(f, "/mesh/contact_facets", {un(F.rows()), un(F.cols())}, rows_of(F), dim, path);
     if (!nodes.empty()) {
-      write_ints(f, "/mesh/contact_nodes", {un(nf)}, nodes, dim, path);
+      write_ints(f, "/mesh/contact_nodes", {un(n_points)}, nodes, dim, path);
       // The facets in the numbering of the contact points: the contact grid of the XDMF files.
       std::vector<int> local(F.size(), -1), index(nn, -1);
-      for (int k = 0; k < nf; ++k) {
+      for (int k = 0; k < n_points; ++k) {
         const int node = nodes[k];
         if (node < 0 || node >= nn) fail(path, cat("contact node ", node, " does not exist"));
         index[node] = k;
@@ -338,25 +338,25 @@ Sizes write_mesh(hid_t f, const Mesh& mesh, const RunInfo& info, const ResultsOp
         }
       write_ints(f, "/mesh/contact_topology", {un(F.rows()), un(F.cols())}, local, dim, path);
       if (contact.centre.size() == 0)  // the contact points' positions: the contact grid's geometry
-        for (int k = 0; k < nf; ++k) centre.row(k) = mesh.X.row(nodes[k]);
+        for (int k = 0; k < n_points; ++k) centre.row(k) = mesh.X.row(nodes[k]);
     }
     Handle set = checked(H5Dopen2(f, "/mesh/contact_facets", H5P_DEFAULT), H5Dclose, path,
                          "cannot open dataset /mesh/contact_facets");
     write_string_attr(set.get(), "boundary", contact.facets->name, path, "/mesh/contact_facets");
-    if (centre.rows() == nf && nf > 0)
-      write_doubles(f, "/mesh/contact_centre", {un(nf), un(dim)}, rows_of(centre), dim, path);
+    if (centre.rows() == n_points && n_points > 0)
+      write_doubles(f, "/mesh/contact_centre", {un(n_points), un(dim)}, rows_of(centre), dim, path);
     if (contact.area.size())
-      write_doubles(f, "/mesh/contact_area", {un(nf)}, vec(contact.area), dim, path);
+      write_doubles(f, "/mesh/contact_area", {un(n_points)}, vec(contact.area), dim, path);
   }
   create_group(f, "/steps", path);
-  return {dim, nn, nc, nf, contact.facets != nullptr};
+  return {dim, nn, nc, n_points, contact.facets != nullptr};
 }
 
 void check_step(const StepData& step, const Sizes& n, const std::string& file) {
   if (!step.state) fail(file, cat("step ", step.p, ": no state to write"));
   if (step.p < 0 || step.p > 999999) fail(file, cat("step number ", step.p, " out of 0..999999"));
   const State& s = *step.state;
-  const int dim = n.dim, nc = n.cells, nf = n.points;
+  const int dim = n.dim, nc = n.cells, n_points = n.points;
   auto expect = [&](const std::string& what, Eigen::Index rows, Eigen::Index cols, Eigen::Index r,
                     Eigen::Index c) {
     if (rows != r || cols != c)
@@ -371,9 +371,9 @@ void check_step(const StepData& step, const Sizes& n, const std::string& file) {
     expect("lambda", s.lambda.rows(), s.lambda.cols(), dim * nc, dim);
   }
   if (n.contact) {
-    expect("e", s.e.rows(), s.e.cols(), dim, nf);
-    expect("lambda_c", s.lambda_c.rows(), s.lambda_c.cols(), dim, nf);
-    if (s.beta.size()) expect("beta", s.beta.size(), 1, nf, 1);
+    expect("e", s.e.rows(), s.e.cols(), dim, n_points);
+    expect("lambda_c", s.lambda_c.rows(), s.lambda_c.cols(), dim, n_points);
+    if (s.beta.size()) expect("beta", s.beta.size(), 1, n_points, 1);
   }
   for (const auto& [name, value] : step.fields) {
     const Field& f = field(name, file);

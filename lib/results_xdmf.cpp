@@ -87,7 +87,7 @@ std::string xdmf_text(std::int64_t file_id, const std::string& file, bool contac
   const hid_t file_ = file_id;
   const std::string h5 = xml_escape(std::filesystem::path(file).filename().string());
   const layout::Sizes n = layout::sizes_of(file_, file);
-  const int dim = n.dim, nn = n.nodes, nc = n.cells, nf = n.points;
+  const int dim = n.dim, nn = n.nodes, nc = n.cells, n_points = n.points;
   const auto npc = dataset_shape(file_, "/mesh/cells", file).at(1);
   const bool nodal = exists(file_, "/mesh/contact_nodes", file);
   // The grid: cells of the body, or facets of the contact surface.
@@ -109,7 +109,7 @@ std::string xdmf_text(std::int64_t file_id, const std::string& file, bool contac
     if (topo.empty()) fail(file, cat("no XDMF topology for ", per, "-node contact facets"));
     cells_ds = nodal ? "/mesh/contact_topology" : "/mesh/contact_facets";
     geometry_ds = nodal ? "/mesh/contact_centre" : "/mesh/X";
-    points = nodal ? nf : nn;
+    points = nodal ? n_points : nn;
     if (!exists(file_, geometry_ds, file) || !exists(file_, cells_ds, file)) return "";
   }
   const char* at = contact && !nodal ? "Cell" : "Node";  // where the contact fields live

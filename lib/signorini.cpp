@@ -133,32 +133,32 @@ SignoriniSolver::SignoriniSolver(const SignoriniProblem& problem) : problem_(pro
   const double Rqc = alg.R * alg.q_c;
 
   // Gamma_c: facet means, areas, initial gaps g_s = (x_plane - x_s) . N at the facet centres.
-  facets_ = facet_operators(mesh, mesh.boundary(problem_.contact_group, "contact_group"));
-  const int nf = facets_.size();
+  points_ = facet_mean_points(mesh, mesh.boundary(problem_.contact_group, "contact_group"));
+  const int n_points = points_.size();
   N_ = problem_.plane_normal.head(dim);
-  g_.resize(nf);
+  g_.resize(n_points);
   const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
-  for (int s = 0; s < nf; ++s) {
-    g_(s) = (problem_.plane_point.head(dim) - facets_.centre.col(s)).dot(N_);
+  for (int s = 0; s < n_points; ++s) {
+    g_(s) = (problem_.plane_point.head(dim) - points_.centre.col(s)).dot(N_);
     if (g_(s) < -1e-10 * scale)
       throw Error(cat(mesh.source, ": contact facet ", s, " of '", problem_.contact_group,
-                      "' (centre ", facets_.centre.col(s).transpose(),
+                      "' (centre ", points_.centre.col(s).transpose(),
                       ") starts inside the obstacle (gap ", g_(s),
                       " m): check plane_point and plane_normal (the normal points into the "
                       "obstacle)"));
   }
-  area_c_ = facets_.area.sum();
+  area_c_ = points_.area.sum();
 
   // [LTL87 (7.4)] M_N: row s holds N . vbar_s as a functional of the interleaved dofs.
   {
     std::vector<Eigen::Triplet<double>> t;
-    for (int s = 0; s < nf; ++s)
-      for (SpMatR::InnerIterator it(facets_.mean, s); it; ++it)
+    for (int s = 0; s < n_points; ++s)
+      for (SpMatR::InnerIterator it(points_.mean, s); it; ++it)
         for (int i = 0; i < dim; ++i)
           if (N_(i) != 0) t.emplace_back(s, dim * it.col() + i, it.value() * N_(i));
-    MN_.resize(nf, ndof);
+    MN_.resize(n_points, ndof);
     MN_.setFromTriplets(t.begin(), t.end());
-    MNT_W_ = SpMatR(MN_.transpose()) * facets_.area.asDiagonal();
+    MNT_W_ = SpMatR(MN_.transpose()) * points_.area.asDiagonal();
   }
 
   // Loads f, g (consistent nodal forces), flattened later.
@@ -191,7 +191,7 @@ SignoriniSolver::SignoriniSolver(const SignoriniProblem& problem) : problem_(pro
   // [LTL87 (4.5), (7.7)] K = A + R q_c M_N^T W M_N, restricted to the free dofs; the columns of
   // the fixed dofs go to the right-hand side once (shift = K_fd u_d).
   A_ = elasticity_matrix(mesh, problem_.E, problem_.nu);
-  const SpMat C = SpMat(MN_.transpose()) * facets_.area.asDiagonal() * SpMat(MN_);
+  const SpMat C = SpMat(MN_.transpose()) * points_.area.asDiagonal() * SpMat(MN_);
   const SpMat K = A_ + Rqc * C;
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(K.nonZeros());
@@ -254,8 +254,8 @@ void SignoriniSolver::global_solve(const Eigen::VectorXd& H, const Eigen::Vector
 
 SignoriniSolution SignoriniSolver::solve(
     const std::function<void(const IterationRecord&)>& progress) {
-  const int nf = facets_.size();
-  return solve(g_.cwiseMin(0.0), Eigen::VectorXd::Zero(nf), progress);
+  const int n_points = points_.size();
+  return solve(g_.cwiseMin(0.0), Eigen::VectorXd::Zero(n_points), progress);
 }
 
 // The Signorini iteration (4.1)-(4.3) / (7.7)-(7.10) on (H, lambda_c) as a fixed-point map of
@@ -266,9 +266,9 @@ class SignoriniSolver::Map final : public FixedPointMap {
   Map(SignoriniSolver& solver, SignoriniSolution& sol)
       : S_(solver),
         sol_(sol),
-        nf_(solver.facets_.size()),
+        nf_(solver.points_.size()),
         Rqc_(solver.problem_.algorithm.R * solver.problem_.algorithm.q_c),
-        w_(solver.facets_.area.cwiseSqrt().array()),
+        w_(solver.points_.area.cwiseSqrt().array()),
         H_prev_(nf_),
         lambda_half_(nf_),
         B_(nf_) {}
@@ -329,7 +329,7 @@ class SignoriniSolver::Map final : public FixedPointMap {
 
  private:
   double rms(const Eigen::VectorXd& x) const {
-    return std::sqrt(S_.facets_.area.dot(x.cwiseAbs2()) / S_.area_c_);
+    return std::sqrt(S_.points_.area.dot(x.cwiseAbs2()) / S_.area_c_);
   }
   SignoriniSolver& S_;
   SignoriniSolution& sol_;
@@ -343,12 +343,12 @@ SignoriniSolution SignoriniSolver::solve(
     const Eigen::VectorXd& H0, const Eigen::VectorXd& lambda_c0,
     const std::function<void(const IterationRecord&)>& progress) {
   const AlgorithmParams& alg = problem_.algorithm;
-  const int nf = facets_.size();
-  if (H0.size() != nf || lambda_c0.size() != nf)
+  const int n_points = points_.size();
+  if (H0.size() != n_points || lambda_c0.size() != n_points)
     throw Error(
         cat("SignoriniSolver::solve: H0 and lambda_c0 must have one entry per contact "
             "facet (",
-            nf, "); got ", H0.size(), " and ", lambda_c0.size()));
+            n_points, "); got ", H0.size(), " and ", lambda_c0.size()));
   SignoriniSolution sol;
   sol.H = H0;
   sol.lambda_c = lambda_c0;
@@ -362,15 +362,16 @@ SignoriniSolution SignoriniSolver::solve(
 ContactZone contact_zone(const Eigen::VectorXd& s_lo, const Eigen::VectorXd& s_hi,
                          const Eigen::VectorXd& p, const Eigen::VectorXd& gap,
                          const Eigen::VectorXd& area, double rel_threshold) {
-  const int nf = static_cast<int>(p.size());
-  if (s_lo.size() != nf || s_hi.size() != nf || gap.size() != nf || area.size() != nf)
+  const int n_points = static_cast<int>(p.size());
+  if (s_lo.size() != n_points || s_hi.size() != n_points || gap.size() != n_points ||
+      area.size() != n_points)
     throw Error("contact_zone: s_lo, s_hi, p, gap and area must have one entry per facet");
-  std::vector<int> order(nf);
+  std::vector<int> order(n_points);
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(),
             [&](int a, int b) { return s_lo(a) + s_hi(a) < s_lo(b) + s_hi(b); });
   ContactZone z;
-  if (nf == 0) return z;
+  if (n_points == 0) return z;
   auto l = [&](int k) { return s_lo(order[k]); };
   auto r = [&](int k) { return s_hi(order[k]); };
   auto centre = [&](int k) { return 0.5 * (l(k) + r(k)); };
@@ -382,7 +383,7 @@ ContactZone contact_zone(const Eigen::VectorXd& s_lo, const Eigen::VectorXd& s_h
   const double threshold = rel_threshold * z.peak_max;
   int last = -1;
   double m2 = 0;
-  for (int k = 0; k < nf; ++k)
+  for (int k = 0; k < n_points; ++k)
     if (P(k) > threshold) {
       ++z.active;
       last = k;
@@ -398,7 +399,7 @@ ContactZone contact_zone(const Eigen::VectorXd& s_lo, const Eigen::VectorXd& s_h
   // a = root of gbar_k1(a) / gbar_k2(a) = gap_k1 / gap_k2 (decreasing in a), by bisection in
   // [l_last, r_k1].
   const int k1 = last + 1, k2 = last + 2;
-  if (k2 < nf && G(k1) > 0 && G(k2) > G(k1)) {
+  if (k2 < n_points && G(k1) > 0 && G(k2) > G(k1)) {
     auto mean = [&](int j, double a) {
       return (std::pow(std::max(r(j) - a, 0.0), 2.5) - std::pow(std::max(l(j) - a, 0.0), 2.5)) /
              (r(j) - l(j));

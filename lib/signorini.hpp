@@ -76,11 +76,11 @@ struct SignoriniProblem {
 /// The converged (or last) iterate and its record.
 struct SignoriniSolution {
   Eigen::MatrixXd u;         ///< #nodes x dim, displacement
-  Eigen::VectorXd H;         ///< #facets, normal displacement of Gamma_c (P0), H <= g
-  Eigen::VectorXd lambda_c;  ///< #facets, multiplier of vbar.N = H: normal traction along N
-  Eigen::VectorXd p;         ///< #facets, contact pressure p_s = -lambda_c_s (>= 0)
-  Eigen::VectorXd uN;        ///< #facets, vbar_s . N of u (equals H at convergence)
-  Eigen::VectorXd gap;       ///< #facets, deformed gap g_s - vbar_s . N (>= 0 when admissible)
+  Eigen::VectorXd H;         ///< #points, normal displacement of Gamma_c (P0), H <= g
+  Eigen::VectorXd lambda_c;  ///< #points, multiplier of vbar.N = H: normal traction along N
+  Eigen::VectorXd p;         ///< #points, contact pressure p_s = -lambda_c_s (>= 0)
+  Eigen::VectorXd uN;        ///< #points, vbar_s . N of u (equals H at convergence)
+  Eigen::VectorXd gap;       ///< #points, deformed gap g_s - vbar_s . N (>= 0 when admissible)
   StepReport report;         ///< history of r_G, r_B, times; status
 };
 
@@ -110,17 +110,17 @@ class SignoriniSolver {
   /// r_G + r_B < tol. `progress` (may be null) is called after every iteration. Never throws on
   /// divergence: report.status says what happened.
   SignoriniSolution solve(const std::function<void(const IterationRecord&)>& progress = {});
-  /// The same from a given start (H, lambda_c: #facets each).
+  /// The same from a given start (H, lambda_c: #points each).
   SignoriniSolution solve(const Eigen::VectorXd& H0, const Eigen::VectorXd& lambda_c0,
                           const std::function<void(const IterationRecord&)>& progress = {});
 
   const SignoriniProblem& problem() const { return problem_; }
-  const FacetOperators& facets() const { return facets_; }
-  const Eigen::VectorXd& initial_gap() const { return g_; }        ///< g_s, #facets
+  const ContactPoints& points() const { return points_; }
+  const Eigen::VectorXd& initial_gap() const { return g_; }        ///< g_s, #points
   const Eigen::VectorXd& normal() const { return N_; }             ///< N, dim entries
   const SpMat& stiffness() const { return A_; }                    ///< A, without the contact term
   const Eigen::MatrixXd& external_load() const { return F_ext_; }  ///< #nodes x dim, f + g
-  /// Facet means of the normal component, vbar_s . N (#facets), of u (#nodes x dim).
+  /// Facet means of the normal component, vbar_s . N (#points), of u (#nodes x dim).
   Eigen::VectorXd normal_mean(const Eigen::MatrixXd& u) const;
   int dim() const { return problem_.mesh.dim; }
   int num_free_dofs() const { return static_cast<int>(free_.size()); }
@@ -134,10 +134,10 @@ class SignoriniSolver {
   class Map;
 
   SignoriniProblem problem_;
-  FacetOperators facets_;
+  ContactPoints points_;
   SpMat A_;       ///< elasticity stiffness, all dofs
-  SpMatR MN_;     ///< #facets x (dim * #nodes), row s: N . vbar_s
-  SpMatR MNT_W_;  ///< (dim * #nodes) x #facets, M_N^T W
+  SpMatR MN_;     ///< #points x (dim * #nodes), row s: N . vbar_s
+  SpMatR MNT_W_;  ///< (dim * #nodes) x #points, M_N^T W
   Eigen::VectorXd N_, g_;
   Eigen::MatrixXd F_ext_;
   std::vector<int> free_;    ///< free dofs
@@ -171,7 +171,7 @@ struct ContactZone {
 /// bracketed by [start of the last active facet, end of the first free one]; without two free
 /// facets a_h is the end of the last active facet. The peak is the value at s = 0 of the
 /// parabola p^2 = p0^2 - c s^2 through the first two facet centres (exact for Hertz's ellipse).
-/// s_lo, s_hi: #facets, the facet's extent in s (s_lo < s_hi); p, gap, area: #facets.
+/// s_lo, s_hi: #points, the facet's extent in s (s_lo < s_hi); p, gap, area: #points.
 ContactZone contact_zone(const Eigen::VectorXd& s_lo, const Eigen::VectorXd& s_hi,
                          const Eigen::VectorXd& p, const Eigen::VectorXd& gap,
                          const Eigen::VectorXd& area, double rel_threshold = 1e-6);

@@ -90,7 +90,7 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
     d.fields["sigma_node"] = df.sigma_node;
     d.fields["von_mises_node"] = df.von_mises_node;
   }
-  if (solver.discretization().facets()) {
+  if (solver.discretization().points()) {
     d.fields["contact_pressure"] = solver.discretization().contact_pressure(state);
     d.fields["gap"] = solver.discretization().contact_gap(state);
   }
@@ -402,7 +402,7 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
   if (options.verbosity > 0)
     std::printf("%s: %d cells, %d nodes, %d contact points, %d factor(s), setup %.3f s\n",
                 problem.name.c_str(), problem.mesh.num_cells(), problem.mesh.num_nodes(),
-                solver.discretization().facets() ? solver.discretization().facets()->size() : 0,
+                solver.discretization().points() ? solver.discretization().points()->size() : 0,
                 solver.global_step().num_factors(), solver.setup_seconds());
   if (options.verbosity > 0)
     std::printf("%s: algorithm %s\n", problem.name.c_str(),
@@ -429,7 +429,7 @@ void ResultsWriter::append(const TimeStep& step) {
     options.commit = false;
     options.cell_volume = solver.discretization().cells().vol;
     if (problem.contact) options.contact.facets = &problem.mesh.boundary(problem.contact->group);
-    if (const FacetOperators* points = solver.discretization().facets()) {
+    if (const ContactPoints* points = solver.discretization().points()) {
       options.contact.centre = points->centre;
       options.contact.area = points->area;
       options.contact.nodes = points->nodes;

@@ -93,7 +93,7 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
       // Adhesion: the peel measures of lib/measures.hpp (beta profile, the damage front at
       // beta < kDamagedBeta, the opening of the contact surface); the stored keys floor the
       // front (none: 0) and the opening at 0.
-      const PeelMeasures pm = peel_measures(p, *solver.discretization().facets(), s);
+      const PeelMeasures pm = peel_measures(p, *solver.discretization().points(), s);
       const double front = std::isnan(pm.damage_front) ? 0.0 : std::max(0.0, pm.damage_front);
       const double opening = std::max(0.0, pm.max_opening);
       last.push_back(quantity("beta_min", pm.beta_min, 1.0));

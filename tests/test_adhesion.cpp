@@ -43,7 +43,7 @@ TEST(Adhesion, BetaStaysInUnitIntervalDecreasesAndStaysOneWhereUnloaded) {
   const Problem p = fig3(6);
   Solver solver(p);
   State s = solver.initial_state();
-  const Eigen::MatrixXd& centre = solver.discretization().facets()->centre;
+  const Eigen::MatrixXd& centre = solver.discretization().points()->centre;
   for (int step = 1; step <= 6; ++step) {
     const Eigen::VectorXd beta_prev = s.beta;
     ASSERT_TRUE(solver.solve_step(s, beta_prev).converged);

@@ -45,7 +45,7 @@ ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& 
 // convergence they agree up to the tolerance, and this one is what the body actually does.
 Eigen::VectorXd mean_gap(const Solver& solver, const State& s) {
   const Eigen::VectorXd N = solver.problem().contact->plane_normal.head(solver.dim());
-  const Eigen::MatrixXd ubar = solver.discretization().facets()->mean * s.u;  // #facets x dim
+  const Eigen::MatrixXd ubar = solver.discretization().points()->mean * s.u;  // #points x dim
   const Eigen::VectorXd g0 =
       solver.discretization().contact_gap(s) + s.e.transpose() * N;  // initial gap g_s
   return g0 - ubar * N;
@@ -129,7 +129,7 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   // traction (frictionless), closed gap, no penetration.
   const Eigen::VectorXd pc = solver.discretization().contact_pressure(s),
                         gap = solver.discretization().contact_gap(s);
-  ASSERT_EQ(pc.size(), solver.discretization().facets()->size());
+  ASSERT_EQ(pc.size(), solver.discretization().points()->size());
   ASSERT_GT(pc.size(), 0);
   const double worst_p = (pc.array() - exact.p).abs().maxCoeff() / exact.p;
   EXPECT_LT(worst_p, 1e-6);
@@ -146,17 +146,17 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   EXPECT_LT(gap_u.cwiseAbs().maxCoeff(), 1e-9);
   // The contact force balances the load: sum_s |G_s| p_s = p |top| (the top has the reference
   // area of the bottom).
-  const double force = solver.discretization().facets()->area.dot(pc);
-  EXPECT_NEAR(force, exact.p * solver.discretization().facets()->area.sum(), 1e-6 * force);
+  const double force = solver.discretization().points()->area.dot(pc);
+  EXPECT_NEAR(force, exact.p * solver.discretization().points()->area.sum(), 1e-6 * force);
   // The same through the measures (lib/measures.hpp): every point in the contact set, the
   // contact force equal to the applied load along N, the peak pressure p.
   const ContactMeasures cm = contact_measures(solver.discretization(), s);
   EXPECT_EQ(cm.in_contact, cm.points);
   EXPECT_NEAR(cm.force, load_along_normal(solver.problem(), solver.external_load()),
               1e-6 * cm.force);
-  EXPECT_NEAR(cm.force, exact.p * solver.discretization().facets()->area.sum(), 1e-6 * cm.force);
+  EXPECT_NEAR(cm.force, exact.p * solver.discretization().points()->area.sum(), 1e-6 * cm.force);
   EXPECT_NEAR(cm.p_max, exact.p, 1e-6 * exact.p);
-  EXPECT_NEAR(cm.area, solver.discretization().facets()->area.sum(), 1e-12);
+  EXPECT_NEAR(cm.area, solver.discretization().points()->area.sum(), 1e-12);
   std::printf(
       "  %dD %s: p = %.6g Pa, stretches (%.4f, %.4f, %.4f), %d iterations; max |u - u_exact| = "
       "%.1e m, max |P - P_exact|/p = %.1e, max |p_s - p|/p = %.1e, max |lambda_t|/p = %.1e, "
@@ -294,11 +294,11 @@ TEST(Fig5, CylinderOnPlane_SignoriniConditionsAndContactForceEqualsWeight) {
   std::printf("  Fig 5: %d iterations (R = %g, q = %g Pa, tol 1e-9)\n", r.report.iterations,
               problem.algorithm.R, problem.algorithm.q);
 
-  const int nf = solver.discretization().facets()->size();
+  const int n_points = solver.discretization().points()->size();
   const int in_contact = expect_signorini(solver, s, Rc, 1e-6, 1e-6);
   // A genuine contact zone: neither a single point nor the whole lower quarter.
   EXPECT_GE(in_contact, 2);
-  EXPECT_LT(in_contact, nf);
+  EXPECT_LT(in_contact, n_points);
 
   // Loads: the consistent nodal loads add up to the weight, |Omega| = pi/2 up to the P2 geometry.
   const double area = solver.discretization().cells().vol.sum();
@@ -309,7 +309,7 @@ TEST(Fig5, CylinderOnPlane_SignoriniConditionsAndContactForceEqualsWeight) {
 
   // The plane carries the weight.
   const Eigen::VectorXd p = solver.discretization().contact_pressure(s);
-  const double force = solver.discretization().facets()->area.dot(p);
+  const double force = solver.discretization().points()->area.dot(p);
   EXPECT_NEAR(force, weight, 1e-6 * weight);
 
   // Global equilibrium (4.5) at the fixed point: zero residual on every free dof; no node is
@@ -347,8 +347,8 @@ TEST(Fig5, Eq4_1to4_3_AndersonAndPlainReachTheSameFixedPoint) {
       plain.report.iterations, accel.report.iterations, du, dp);
   EXPECT_LT(du, 1e-6);
   EXPECT_LT(dp, 1e-5);
-  const double fp = plain.solver->discretization().facets()->area.dot(pp),
-               fa = accel.solver->discretization().facets()->area.dot(pa);
+  const double fp = plain.solver->discretization().points()->area.dot(pp),
+               fa = accel.solver->discretization().points()->area.dot(pa);
   EXPECT_NEAR(fa, fp, 1e-6 * fp);
   expect_signorini(*accel.solver, accel.s, 1.0, 1e-6, 1e-6);
   EXPECT_LT(accel.report.iterations, plain.report.iterations / 2);
@@ -367,10 +367,10 @@ TEST(Fig6, GutterOverPlane_SignoriniConditionsAndVerticalBalanceWithClampReactio
   const State& s = r.s;
   std::printf("  Fig 6 (nl = 5, %d H8): %d iterations\n", problem.mesh.num_cells(),
               r.report.iterations);
-  const int nf = solver.discretization().facets()->size();
+  const int n_points = solver.discretization().points()->size();
   const int in_contact = expect_signorini(solver, s, 1.0, 1e-6, 1e-5);
   EXPECT_GE(in_contact, 1);
-  EXPECT_LT(in_contact, nf);
+  EXPECT_LT(in_contact, n_points);
 
   // The load on the quarter: 500 Pa over the inner face, a quarter cylinder of radius 1 m and
   // length 10 m (pi/2 * 10 m^2, up to the facetting of the arc by 9 flat quads).
@@ -379,7 +379,7 @@ TEST(Fig6, GutterOverPlane_SignoriniConditionsAndVerticalBalanceWithClampReactio
   EXPECT_NEAR(solver.external_load().col(0).sum(), 0.0, 1e-12 * load);
 
   const Eigen::VectorXd p = solver.discretization().contact_pressure(s);
-  const double contact = solver.discretization().facets()->area.dot(p);  // upward, N = -e2
+  const double contact = solver.discretization().points()->area.dot(p);  // upward, N = -e2
 
   const Eigen::MatrixXd res =
       equilibrium_residual(solver.discretization(), solver.external_load(), s);

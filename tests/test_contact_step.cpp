@@ -26,7 +26,7 @@ using Eigen::VectorXd;
 using ltl::Adhesion;
 using ltl::ContactStep;
 using ltl::ContactSurface;
-using ltl::FacetSolution;
+using ltl::PointSolution;
 
 // ---------------------------------------------------------------------------------------------
 // Heap allocation counter (glibc): malloc is interposed so that solve() can be checked to be
@@ -61,7 +61,7 @@ constexpr double kPi = 3.14159265358979323846;
 // Independent reference implementation of the facet problem (6.2), (6.6)-(6.7)
 // ---------------------------------------------------------------------------------------------
 
-struct Facet {
+struct PointProblem {
   Vector3d a = Vector3d::Zero();
   double aa = 0, b = 0, Rqc = 1, kappa = 0;
   Vector3d N = Vector3d::Zero();
@@ -70,13 +70,13 @@ struct Facet {
 };
 
 // (6.2)
-double Jc(const Facet& F, const Vector3d& e, double g) {
+double Jc(const PointProblem& F, const Vector3d& e, double g) {
   return 0.5 * F.Rqc * e.squaredNorm() - F.a.dot(e) + 0.5 * F.kappa * g * g * e.squaredNorm() +
          0.5 * F.aa * g * g - F.b * g;
 }
 
 // (6.6)-(6.7), written out: e = a/c, moved back to the plane e.N = g when it crosses it.
-Vector3d e_of_gamma(const Facet& F, double g) {
+Vector3d e_of_gamma(const PointProblem& F, double g) {
   const double c = F.Rqc + F.kappa * g * g;
   Vector3d e = F.a / c;
   const double en = e.dot(F.N);
@@ -84,7 +84,7 @@ Vector3d e_of_gamma(const Facet& F, double g) {
   return e;
 }
 
-double reduced(const Facet& F, double g) {
+double reduced(const PointProblem& F, double g) {
   return Jc(F, e_of_gamma(F, g), g);
 }
 
@@ -94,7 +94,7 @@ struct Brute {
 };
 
 // Grid in gamma (n intervals), then golden-section refinement around the best grid point.
-Brute brute_gamma(const Facet& F, int n = 20000) {
+Brute brute_gamma(const PointProblem& F, int n = 20000) {
   std::vector<double> f(n + 1);
   for (int i = 0; i <= n; ++i) f[i] = reduced(F, double(i) / n);
   int best = 0, minima = 0;
@@ -129,20 +129,20 @@ Brute brute_gamma(const Facet& F, int n = 20000) {
 }
 
 // A size for absolute tolerances on values of (6.2).
-double fscale(const Facet& F) {
+double fscale(const PointProblem& F) {
   return F.a.squaredNorm() / F.Rqc + (F.Rqc + F.kappa) * F.gap * F.gap +
          std::abs(F.a.dot(F.N) * F.gap) + F.aa + std::abs(F.b);
 }
 
-FacetSolution solve(const Facet& F, double beta_current = 1.0) {
-  return ContactStep::solve_facet(F.a, F.aa, F.b, F.Rqc, F.kappa, F.N, F.gap, F.dim, beta_current);
+PointSolution solve(const PointProblem& F, double beta_current = 1.0) {
+  return ContactStep::solve_point(F.a, F.aa, F.b, F.Rqc, F.kappa, F.N, F.gap, F.dim, beta_current);
 }
 
 // Brute-force check of the elimination (6.6)-(6.7): at fixed gamma, a grid over the feasible e
 // finds nothing better than e(gamma), and its best point is within grid resolution of
 // J(e(gamma)). The grid lives in the frame (T1, T2, N): tangentially centred on the tangential
 // part of a/c, normally from the plane e.N = g downwards past (a/c).N; it does not use e(gamma).
-void check_elimination(const Facet& F, double g) {
+void check_elimination(const PointProblem& F, double g) {
   const double c = F.Rqc + F.kappa * g * g;
   const Vector3d ustar = F.a / c, estar = e_of_gamma(F, g);
   const double Jstar = Jc(F, estar, g);
@@ -174,10 +174,10 @@ void check_elimination(const Facet& F, double g) {
   EXPECT_LE(best, Jstar + c * hstep * hstep + tol) << "grid min far from J(e(gamma))";
 }
 
-// The solution of solve_facet against the brute force; returns it.
-FacetSolution check_facet(const Facet& F, const char* name) {
+// The solution of solve_point against the brute force; returns it.
+PointSolution check_point(const PointProblem& F, const char* name) {
   SCOPED_TRACE(name);
-  const FacetSolution S = solve(F);
+  const PointSolution S = solve(F);
   const Brute B = brute_gamma(F);
   const double tol = 1e-10 * fscale(F);
   // beta in [0,1] and e from (6.6)-(6.7) at that beta, feasible.
@@ -197,15 +197,15 @@ FacetSolution check_facet(const Facet& F, const char* name) {
 }
 
 // Regime helpers.
-bool active(const Facet& F, double g) {  // the unconstrained e = a/c violates e.N <= g
+bool active(const PointProblem& F, double g) {  // the unconstrained e = a/c violates e.N <= g
   return (F.a / (F.Rqc + F.kappa * g * g)).dot(F.N) > F.gap;
 }
 
-Facet fig3_facet(double beta_prev, Vector3d a, Vector3d N, double gap, int dim) {
+PointProblem fig3_point(double beta_prev, Vector3d a, Vector3d N, double gap, int dim) {
   // Fig 3 data: Rqc = 8e9 (R = 8, q_c = 1/eps), kappa = 1e9, w = 0.01, d0 = 1000, |G_s| = 1/28,
   // dt = 5: aa = d0 |G_s| / dt (6.4), b = w + aa beta_prev (6.5) with the centre-point rule,
   // whose neighbour terms are ~1e-14 here.
-  Facet F;
+  PointProblem F;
   F.Rqc = 8e9;
   F.kappa = 1e9;
   F.aa = 1000.0 / 28.0 / 5.0;
@@ -286,9 +286,9 @@ TEST(ContactProjection, Eq6_7_DeepPenetrationStaysFeasibleRelativeToTheResult) {
 // The facet problem (6.1)-(6.8) against brute force
 // ---------------------------------------------------------------------------------------------
 
-TEST(ContactFacet, Eq6_8_ObjectiveMatchesPaperForm) {
+TEST(ContactPoint, Eq6_8_ObjectiveMatchesPaperForm) {
   // (6.8) of the paper: aa g^2 - 2 b g - eps |a-|^2 / (g^2 + Rqc eps) = 2 x our reduced objective.
-  Facet F;
+  PointProblem F;
   F.a = Vector3d(0.7, -0.4, 0.0);
   F.aa = 0.3;
   F.b = 0.2;
@@ -304,13 +304,13 @@ TEST(ContactFacet, Eq6_8_ObjectiveMatchesPaperForm) {
     EXPECT_NEAR(
         2.0 * ContactStep::reduced_objective(F.a, F.aa, F.b, F.Rqc, F.kappa, F.N, 0.0, 2, g), paper,
         1e-14);
-    EXPECT_NEAR(ContactStep::facet_objective(F.a, F.aa, F.b, F.Rqc, F.kappa, e_of_gamma(F, g), g),
+    EXPECT_NEAR(ContactStep::point_objective(F.a, F.aa, F.b, F.Rqc, F.kappa, e_of_gamma(F, g), g),
                 reduced(F, g), 1e-14);
   }
 }
 
-TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
-  Facet F;
+TEST(ContactPoint, Eq6_1_Order1RegimesIn2D) {
+  PointProblem F;
   F.Rqc = 1.0;
   F.kappa = 4.0;
   F.N = kN2;
@@ -319,7 +319,7 @@ TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
     F.a = Vector3d(0.3, 0.2, 0.0);
     F.aa = 0.5;
     F.b = 1.0;
-    const auto S = check_facet(F, "glued, inactive");
+    const auto S = check_point(F, "glued, inactive");
     EXPECT_EQ(S.beta, 1.0);
     EXPECT_FALSE(active(F, S.beta));
   }
@@ -327,7 +327,7 @@ TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
     F.a = Vector3d(1.0, -0.5, 0.0);
     F.aa = 1.0;
     F.b = 0.5;
-    const auto S = check_facet(F, "partial, active");
+    const auto S = check_point(F, "partial, active");
     EXPECT_GT(S.beta, 0.05);
     EXPECT_LT(S.beta, 0.95);
     EXPECT_TRUE(active(F, S.beta));
@@ -337,7 +337,7 @@ TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
     F.a = Vector3d(0.6, 1.2, 0.0);
     F.aa = 0.8;
     F.b = 1.0;
-    const auto S = check_facet(F, "partial, inactive");
+    const auto S = check_point(F, "partial, inactive");
     EXPECT_GT(S.beta, 0.05);
     EXPECT_LT(S.beta, 0.95);
     EXPECT_FALSE(active(F, S.beta));
@@ -346,7 +346,7 @@ TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
     F.a = Vector3d(0.5, 0.5, 0.0);
     F.aa = 1.0;
     F.b = -0.2;
-    const auto S = check_facet(F, "debonded");
+    const auto S = check_point(F, "debonded");
     EXPECT_EQ(S.beta, 0.0);
     EXPECT_TRUE(S.e.isApprox(F.a / F.Rqc));
   }
@@ -357,7 +357,7 @@ TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
     F.b = 0.4;
     EXPECT_TRUE(active(F, 0.0));
     EXPECT_FALSE(active(F, 1.0));
-    const auto S = check_facet(F, "gap, switch inside (0,1)");
+    const auto S = check_point(F, "gap, switch inside (0,1)");
     EXPECT_GT(S.beta, 0.0);
     EXPECT_LT(S.beta, 1.0);
   }
@@ -366,15 +366,15 @@ TEST(ContactFacet, Eq6_1_Order1RegimesIn2D) {
     F.a = Vector3d(0.2, -3.0, 0.0);
     F.aa = 0.5;
     F.b = 3.0;
-    const auto S = check_facet(F, "gap, glued, active");
+    const auto S = check_point(F, "gap, glued, active");
     EXPECT_EQ(S.beta, 1.0);
     EXPECT_TRUE(active(F, 1.0));
     EXPECT_NEAR(S.e.dot(F.N), F.gap, 1e-15);
   }
 }
 
-TEST(ContactFacet, Eq6_1_Order1RegimesIn3D) {
-  Facet F;
+TEST(ContactPoint, Eq6_1_Order1RegimesIn3D) {
+  PointProblem F;
   F.Rqc = 2.0;
   F.kappa = 6.0;
   F.N = kN3;
@@ -382,90 +382,90 @@ TEST(ContactFacet, Eq6_1_Order1RegimesIn3D) {
   F.a = Vector3d(0.4, -0.3, 0.9);  // a.N < 0: inactive
   F.aa = 0.3;
   F.b = 0.6;
-  EXPECT_EQ(check_facet(F, "3-D glued").beta, 1.0);
+  EXPECT_EQ(check_point(F, "3-D glued").beta, 1.0);
   F.a = Vector3d(1.5, 2.0, -1.0);  // a.N > 0: active at gap 0
   F.aa = 1.0;
   F.b = 0.4;
   {
-    const auto S = check_facet(F, "3-D partial active");
+    const auto S = check_point(F, "3-D partial active");
     EXPECT_TRUE(active(F, S.beta));
     EXPECT_GT(S.beta, 0.0);
     EXPECT_LT(S.beta, 1.0);
   }
   F.b = -0.1;
-  EXPECT_EQ(check_facet(F, "3-D debonded active").beta, 0.0);
+  EXPECT_EQ(check_point(F, "3-D debonded active").beta, 0.0);
   F.gap = 0.3;  // switch inside (0,1): a.N / c crosses g
   F.a = Vector3d(1.0, 2.0, -2.0) * 0.5 + Vector3d(0.4, -0.2, 0.0);
   F.b = 0.3;
   F.aa = 0.2;
   EXPECT_TRUE(active(F, 0.0));
   EXPECT_FALSE(active(F, 1.0));
-  check_facet(F, "3-D gap switch");
+  check_point(F, "3-D gap switch");
 }
 
-TEST(ContactFacet, Eq6_1_Fig3Magnitudes2D) {
+TEST(ContactPoint, Eq6_1_Fig3Magnitudes2D) {
   {  // glued: small pull, beta_prev = 1
-    Facet F = fig3_facet(1.0, Vector3d(2e4, 1e4, 0), kN2, 0.0, 2);
-    const auto S = check_facet(F, "Fig3 glued");
+    PointProblem F = fig3_point(1.0, Vector3d(2e4, 1e4, 0), kN2, 0.0, 2);
+    const auto S = check_point(F, "Fig3 glued");
     EXPECT_EQ(S.beta, 1.0);
     EXPECT_FALSE(active(F, 1.0));
   }
   {  // peeling: partly debonded, inactive
-    Facet F = fig3_facet(1.0, Vector3d(3e5, 1e6, 0), kN2, 0.0, 2);
-    const auto S = check_facet(F, "Fig3 peeling");
+    PointProblem F = fig3_point(1.0, Vector3d(3e5, 1e6, 0), kN2, 0.0, 2);
+    const auto S = check_point(F, "Fig3 peeling");
     EXPECT_GT(S.beta, 0.1);
     EXPECT_LT(S.beta, 0.9);
     EXPECT_FALSE(active(F, S.beta));
   }
   {  // pressed onto the support: active, tangential sliding only
-    Facet F = fig3_facet(1.0, Vector3d(5e5, -2e6, 0), kN2, 0.0, 2);
-    const auto S = check_facet(F, "Fig3 pressed");
+    PointProblem F = fig3_point(1.0, Vector3d(5e5, -2e6, 0), kN2, 0.0, 2);
+    const auto S = check_point(F, "Fig3 pressed");
     EXPECT_GT(S.beta, 0.1);
     EXPECT_LT(S.beta, 0.9);
     EXPECT_TRUE(active(F, S.beta));
     EXPECT_EQ(S.e(1), 0.0);
   }
   {  // debonded: beta_prev = 0 and b < 0
-    Facet F = fig3_facet(0.0, Vector3d(3e5, 1e6, 0), kN2, 0.0, 2);
+    PointProblem F = fig3_point(0.0, Vector3d(3e5, 1e6, 0), kN2, 0.0, 2);
     F.b = -0.5;
-    EXPECT_EQ(check_facet(F, "Fig3 debonded").beta, 0.0);
+    EXPECT_EQ(check_point(F, "Fig3 debonded").beta, 0.0);
     // beta_prev = 0, b = w > 0: beta stays small but positive, ~ w / (aa + kappa |e|^2)
     F.b = 0.01;
-    const auto S = check_facet(F, "Fig3 almost debonded");
+    const auto S = check_point(F, "Fig3 almost debonded");
     EXPECT_GT(S.beta, 0.0);
     EXPECT_LT(S.beta, 1e-3);
   }
   {  // gap 1e-4 m: active for gamma < 1/sqrt(2), solution active
-    Facet F = fig3_facet(1.0, Vector3d(1e5, -8.5e5, 0), kN2, 1e-4, 2);
+    PointProblem F = fig3_point(1.0, Vector3d(1e5, -8.5e5, 0), kN2, 1e-4, 2);
     EXPECT_TRUE(active(F, 0.0));
     EXPECT_FALSE(active(F, 1.0));
-    const auto S = check_facet(F, "Fig3 gap active");
+    const auto S = check_point(F, "Fig3 gap active");
     EXPECT_LT(S.beta, std::sqrt(0.5));
     EXPECT_TRUE(active(F, S.beta));
     EXPECT_NEAR(S.e.dot(F.N), 1e-4, 1e-18);
   }
   {  // gap 1e-4 m, never active
-    Facet F = fig3_facet(1.0, Vector3d(1e5, -5e5, 0), kN2, 1e-4, 2);
-    const auto S = check_facet(F, "Fig3 gap inactive");
+    PointProblem F = fig3_point(1.0, Vector3d(1e5, -5e5, 0), kN2, 1e-4, 2);
+    const auto S = check_point(F, "Fig3 gap inactive");
     EXPECT_FALSE(active(F, 0.0));
     EXPECT_TRUE(S.e.isApprox(F.a / (F.Rqc + F.kappa * S.beta * S.beta), 1e-15));
   }
 }
 
-TEST(ContactFacet, Eq6_1_Fig3Magnitudes3D) {
-  Facet F = fig3_facet(1.0, Vector3d(3e5, -4e5, 9e5), kN3, 0.0, 3);
-  check_facet(F, "3-D Fig3 inactive");
+TEST(ContactPoint, Eq6_1_Fig3Magnitudes3D) {
+  PointProblem F = fig3_point(1.0, Vector3d(3e5, -4e5, 9e5), kN3, 0.0, 3);
+  check_point(F, "3-D Fig3 inactive");
   F.a = Vector3d(1e6, 2e6, -1e6);  // a.N > 0
-  EXPECT_TRUE(active(F, check_facet(F, "3-D Fig3 active").beta));
+  EXPECT_TRUE(active(F, check_point(F, "3-D Fig3 active").beta));
   F.gap = 2e-4;
   F.a = 1e6 * kN3 * 1.7 + Vector3d(2e5, 0, 2e5);
-  check_facet(F, "3-D Fig3 gap");
+  check_point(F, "3-D Fig3 gap");
 }
 
-TEST(ContactFacet, Eq6_8_NonConvexTwoMinimaTakesTheBest) {
+TEST(ContactPoint, Eq6_8_NonConvexTwoMinimaTakesTheBest) {
   // f(gamma) = -|a|^2 / (2 (Rqc + kappa gamma^2)) + aa gamma^2 / 2 - b gamma, kappa = 100:
   // the glue term makes a bump in f' near gamma = 1/sqrt(3 kappa), hence two local minima.
-  Facet F;
+  PointProblem F;
   F.Rqc = 1.0;
   F.kappa = 100.0;
   F.N = kN2;
@@ -475,7 +475,7 @@ TEST(ContactFacet, Eq6_8_NonConvexTwoMinimaTakesTheBest) {
     F.b = 1.0;
     const Brute B = brute_gamma(F);
     EXPECT_EQ(B.local_minima, 2);
-    const auto S = check_facet(F, "two minima: interior (local) and 1 (global)");
+    const auto S = check_point(F, "two minima: interior (local) and 1 (global)");
     EXPECT_EQ(S.beta, 1.0);
     EXPECT_LT(reduced(F, 1.0), reduced(F, 0.0106) - 0.4);  // the first local minimum is wrong
   }
@@ -483,7 +483,7 @@ TEST(ContactFacet, Eq6_8_NonConvexTwoMinimaTakesTheBest) {
     F.aa = 2.0;
     F.b = 1.5;
     EXPECT_EQ(brute_gamma(F).local_minima, 2);
-    const auto S = check_facet(F, "two interior minima, the second is global");
+    const auto S = check_point(F, "two interior minima, the second is global");
     EXPECT_GT(S.beta, 0.5);
     EXPECT_LT(S.beta, 0.9);
   }
@@ -492,12 +492,12 @@ TEST(ContactFacet, Eq6_8_NonConvexTwoMinimaTakesTheBest) {
     F.aa = 2.0;
     F.b = 1.5;
     EXPECT_EQ(brute_gamma(F).local_minima, 2);
-    const auto S = check_facet(F, "two interior minima, the first is global");
+    const auto S = check_point(F, "two interior minima, the first is global");
     EXPECT_GT(S.beta, 0.0);
     EXPECT_LT(S.beta, 0.1);
   }
   {  // the same in 3-D with the constraint active and a gap
-    Facet G = F;
+    PointProblem G = F;
     G.dim = 3;
     G.N = kN3;
     G.gap = 0.05;
@@ -505,12 +505,12 @@ TEST(ContactFacet, Eq6_8_NonConvexTwoMinimaTakesTheBest) {
     G.aa = 0.0;
     G.b = 0.8;
     EXPECT_EQ(brute_gamma(G).local_minima, 2);
-    check_facet(G, "3-D two minima, active");
+    check_point(G, "3-D two minima, active");
   }
 }
 
 // Golden-section minimum of (6.8) on [lo, hi] (unimodal there).
-double min_on(const Facet& F, double lo, double hi) {
+double min_on(const PointProblem& F, double lo, double hi) {
   const double r = 0.5 * (std::sqrt(5.0) - 1.0);
   double x1 = hi - r * (hi - lo), x2 = lo + r * (hi - lo), f1 = reduced(F, x1), f2 = reduced(F, x2);
   for (int it = 0; it < 200; ++it) {
@@ -523,10 +523,10 @@ double min_on(const Facet& F, double lo, double hi) {
   return std::min(f1, f2);
 }
 
-TEST(ContactFacet, Eq6_8_EqualMinimaGoToTheLargerGamma) {
+TEST(ContactPoint, Eq6_8_EqualMinimaGoToTheLargerGamma) {
   // Two interior minima (near 0.015 and 0.69) made equal by bisection on b: the tie goes to the
   // larger gamma (the glue stays); a difference of 1e-9 in b (1e-9 in f) is not a tie.
-  Facet F;
+  PointProblem F;
   F.Rqc = 1.0;
   F.kappa = 100.0;
   F.N = kN2;
@@ -548,13 +548,13 @@ TEST(ContactFacet, Eq6_8_EqualMinimaGoToTheLargerGamma) {
   EXPECT_GT(solve(F).beta, 0.0);
 }
 
-TEST(ContactFacet, Eq6_8_RandomFacetsAcrossMagnitudesMatchBruteForce) {
+TEST(ContactPoint, Eq6_8_RandomFacetsAcrossMagnitudesMatchBruteForce) {
   // Rqc from 1e-6 to 1e6, kappa / Rqc from 1e-6 to 1e6, gaps, both dimensions, aa = 0 or not,
   // b of both signs: the solution is never worse than a grid + golden-section search.
   std::mt19937 rng(42);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   for (int t = 0; t < 400; ++t) {
-    Facet F;
+    PointProblem F;
     F.dim = 2 + t % 2;
     F.N = Vector3d(U(rng), U(rng), F.dim == 3 ? U(rng) : 0.0).normalized();
     F.Rqc = std::pow(10.0, 6.0 * U(rng));
@@ -565,16 +565,16 @@ TEST(ContactFacet, Eq6_8_RandomFacetsAcrossMagnitudesMatchBruteForce) {
     const double fs = F.a.squaredNorm() / F.Rqc * (F.kappa / (F.Rqc + F.kappa));
     F.aa = (t % 5 == 0) ? 0.0 : std::abs(U(rng)) * fs * std::pow(10.0, 2.0 * U(rng));
     F.b = U(rng) * fs * std::pow(10.0, 2.0 * U(rng));
-    const FacetSolution S = solve(F);
+    const PointSolution S = solve(F);
     const Brute B = brute_gamma(F, 2000);
     EXPECT_LE(Jc(F, S.e, S.beta), B.f + 1e-12 * fscale(F)) << "case " << t;
     EXPECT_LE((S.e - e_of_gamma(F, S.beta)).norm(), 1e-13 * (S.e.norm() + F.gap + 1e-300));
   }
 }
 
-TEST(ContactFacet, Eq6_8_NoGlueKappaZero) {
+TEST(ContactPoint, Eq6_8_NoGlueKappaZero) {
   // kappa = 0: e = projection of a / Rqc; beta minimizes (aa/2) g^2 - b g on [0,1].
-  Facet F;
+  PointProblem F;
   F.Rqc = 3.0;
   F.N = kN2;
   F.a = Vector3d(0.3, -0.9, 0.0);
@@ -599,10 +599,10 @@ TEST(ContactFacet, Eq6_8_NoGlueKappaZero) {
   EXPECT_EQ(solve(F, 1.0).beta, 1.0);
 }
 
-TEST(ContactFacet, Eq6_8_ConstantObjectiveKeepsBetaAndTiesGoUp) {
+TEST(ContactPoint, Eq6_8_ConstantObjectiveKeepsBetaAndTiesGoUp) {
   // kappa > 0 but (6.8) constant in gamma: a pressed straight into the support (a_T = 0, g = 0,
   // so e = 0 for every gamma) and aa = b = 0. beta is kept.
-  Facet F;
+  PointProblem F;
   F.Rqc = 1.0;
   F.kappa = 10.0;
   F.N = kN2;
@@ -974,11 +974,11 @@ double local_J(const ContactStep& cs, double Rqc, const SweepData& D) {
 }
 
 // Per-facet data (6.3)-(6.5) computed in the test from the kernel.
-Facet facet_data(const ContactStep& cs, double Rqc, const SweepData& D, int s) {
+PointProblem facet_data(const ContactStep& cs, double Rqc, const SweepData& D, int s) {
   const ContactSurface& S = cs.surface();
   const Adhesion& A = cs.adhesion();
   const MatrixXd k(cs.kernel());
-  Facet F;
+  PointProblem F;
   F.dim = S.dim;
   F.a.setZero();
   F.a.head(S.dim) = Rqc * D.ubar.col(s) - D.lambda_c.col(s);
@@ -1050,7 +1050,7 @@ std::vector<SweepCase> sweep_cases() {
 }
 
 TEST(ContactSweep, Sec6_GaussSeidelInFacetOrderWithNewestBeta) {
-  // One sweep of solve() is exactly the sequence of solve_facet calls with (6.3)-(6.5) rebuilt
+  // One sweep of solve() is exactly the sequence of solve_point calls with (6.3)-(6.5) rebuilt
   // from the newest beta of the other facets.
   for (auto& C : sweep_cases()) {
     SCOPED_TRACE(C.name);
@@ -1059,8 +1059,8 @@ TEST(ContactSweep, Sec6_GaussSeidelInFacetOrderWithNewestBeta) {
     SweepData R = D;
     cs.solve(D.ubar, D.lambda_c, D.beta_prev, D.e, D.beta, 1);
     for (int s = 0; s < C.S.size(); ++s) {
-      const Facet F = facet_data(cs, C.Rqc, R, s);
-      const FacetSolution sol = solve(F, R.beta(s));
+      const PointProblem F = facet_data(cs, C.Rqc, R, s);
+      const PointSolution sol = solve(F, R.beta(s));
       R.beta(s) = sol.beta;
       R.e.col(s) = sol.e.head(C.S.dim);
     }
@@ -1107,7 +1107,7 @@ TEST(ContactSweep, Eq4_7_SweepsDecreaseTheLocalFunctionalAndReachAFixedPoint) {
       }
       EXPECT_LE(change, 1e-14);
       for (int s = 0; s < C.S.size(); ++s) {
-        const Facet F = facet_data(cs, C.Rqc, D, s);
+        const PointProblem F = facet_data(cs, C.Rqc, D, s);
         const Brute B = brute_gamma(F, 2000);
         EXPECT_LE(reduced(F, D.beta(s)), B.f + 1e-10 * fscale(F)) << "facet " << s;
         Vector3d es = Vector3d::Zero();

@@ -209,9 +209,9 @@ TEST(AlgorithmDefaults, Eq4_7_GluedBlockPulledOffConvergesWithoutAlgorithmKeys) 
     if (r.s.beta(i) < 1) broken = i, ++count;
   EXPECT_EQ(count, 1);
   ASSERT_GE(broken, 0);
-  EXPECT_NEAR(r.solver->discretization().facets()->centre(0, broken), 0.1, 1e-12);
+  EXPECT_NEAR(r.solver->discretization().points()->centre(0, broken), 0.1, 1e-12);
   const Eigen::VectorXd pc = r.solver->discretization().contact_pressure(r.s);
-  EXPECT_NEAR(r.solver->discretization().facets()->area.dot(pc), -1000.0, 1e-2);
+  EXPECT_NEAR(r.solver->discretization().points()->area.dot(pc), -1000.0, 1e-2);
   std::printf("  glued block pulled off, defaults %s: %d iterations\n",
               describe_algorithm(p.algorithm).c_str(), r.report.iterations);
   // Without glue the rule is unchanged (q_c = q / h).

@@ -177,7 +177,7 @@ TEST(Memory, Eq4_7_SolverSetupAndIterationsAllocateNoPointsSquaredBuffer) {
     int points = 0;
     const std::size_t big = largest_allocation([&] {
       Solver solver(p);
-      points = solver.discretization().facets()->size();
+      points = solver.discretization().points()->size();
       State s = solver.initial_state();
       solver.solve_step(s, s.beta);  // 3 iterations: not converged, not the point here
     });

@@ -31,7 +31,7 @@ Newton::Unknowns perturbed(const Discretization& disc, const Newton& newton, dou
   s.u = Eigen::MatrixXd::Zero(nn, d);
   s.E = disc.identity();
   s.lambda = 2 * disc.split().C1 * disc.identity();
-  const int np = disc.facets() ? disc.facets()->size() : 0;
+  const int np = disc.points() ? disc.points()->size() : 0;
   s.e = Eigen::MatrixXd::Zero(d, np);
   s.lambda_c = Eigen::MatrixXd::Zero(d, np);
   s.beta = Eigen::VectorXd::Ones(np);
@@ -363,7 +363,7 @@ TEST(Newton, Eq2_2_GlueTermsAreDerivativesOfTheDiscreteFunctional) {
   Adhesion adhesion = p.contact->adhesion;
   adhesion.dt = p.time.dt;
   const ContactStep contact(disc.surface(), adhesion, 1.0);
-  const FacetOperators& pts = *disc.facets();
+  const ContactPoints& pts = *disc.points();
   const int np = pts.size(), d = disc.dim(), nn = disc.num_nodes();
   std::mt19937 g(7);
   std::uniform_real_distribution<double> U(0.05, 0.95);

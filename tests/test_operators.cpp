@@ -44,7 +44,7 @@ TEST(Operators, VolumesAreasAndLoadsAddUp) {
   const Mesh bar = load_mesh(source_path("experiments/fig3/bar.geo"));
   const CellOperators c = cell_operators(bar);
   EXPECT_NEAR(c.vol.sum(), 0.2, 1e-14);
-  const FacetOperators f = facet_operators(bar, bar.boundary("contact"));
+  const ContactPoints f = facet_mean_points(bar, bar.boundary("contact"));
   EXPECT_NEAR(f.area.sum(), 1.0, 1e-14);
   EXPECT_NEAR(f.area(0), 1.0 / 28, 1e-12);
   // The facet mean of a linear field is its value at the facet centre.
@@ -67,7 +67,7 @@ TEST(Operators, VolumesAreasAndLoadsAddUp) {
   EXPECT_NEAR(G.col(0).sum(), 0, 1e-12);
   // Curved contact arc of the half disc: length pi/2 up to the P2 geometry error.
   const Mesh disc = load_mesh(source_path("experiments/fig5/half_disc.geo"));
-  EXPECT_NEAR(facet_operators(disc, disc.boundary("contact")).area.sum(), M_PI / 2, 2e-4);
+  EXPECT_NEAR(facet_mean_points(disc, disc.boundary("contact")).area.sum(), M_PI / 2, 2e-4);
   EXPECT_NEAR(cell_operators(disc).vol.sum(), M_PI / 2, 2e-4);
 }
 
@@ -84,7 +84,7 @@ TEST(GlobalMatrix, Eq4_5_IsSymmetricPositiveDefinite) {
   // and definite with NO fixed node when a contact surface has q_c > 0.
   const Mesh bar = load_mesh(source_path("experiments/fig3/bar.geo"), {{"nx", 6}, {"ny", 2}});
   const CellOperators c = cell_operators(bar);
-  const FacetOperators f = facet_operators(bar, bar.boundary("contact"));
+  const ContactPoints f = facet_mean_points(bar, bar.boundary("contact"));
   const SpMat K = global_matrix(c, &f, 187.5e3, 3e6, 8e9);
   EXPECT_LT((SpMat(K.transpose()) - K).norm(), 1e-9 * K.norm());
   const Eigen::MatrixXd Kd(K);

@@ -354,7 +354,7 @@ Problem glued_square() {
 // (f'' = 2).
 TEST(Measures, Eq4_11_PeelFrontAndOpeningOfAConstructedState) {
   const Problem p = glued_square();
-  const FacetOperators points = facet_operators(p.mesh, p.mesh.boundary("bottom"));
+  const ContactPoints points = facet_mean_points(p.mesh, p.mesh.boundary("bottom"));
   ASSERT_EQ(points.size(), 4);
   State s;
   s.u = Eigen::MatrixXd::Zero(p.mesh.num_nodes(), 2);

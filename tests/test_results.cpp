@@ -115,7 +115,7 @@ Eigen::MatrixXd tensor_field(int p, int k, int nc, int dim) {  // transposed-blo
   return T;
 }
 
-State make_state(const Mesh& m, int nf, int p) {
+State make_state(const Mesh& m, int n_points, int p) {
   const int dim = m.dim;
   State s;
   s.u.resize(m.num_nodes(), dim);
@@ -123,10 +123,10 @@ State make_state(const Mesh& m, int nf, int p) {
     for (int i = 0; i < dim; ++i) s.u(a, i) = u_value(p, a, i);
   s.E = tensor_field(p, 0, m.num_cells(), dim);
   s.lambda = tensor_field(p, 1, m.num_cells(), dim);
-  s.e.resize(dim, nf);
-  s.lambda_c.resize(dim, nf);
-  s.beta.resize(nf);
-  for (int f = 0; f < nf; ++f) {
+  s.e.resize(dim, n_points);
+  s.lambda_c.resize(dim, n_points);
+  s.beta.resize(n_points);
+  for (int f = 0; f < n_points; ++f) {
     s.beta(f) = beta_value(p, f);
     for (int i = 0; i < dim; ++i) {
       s.e(i, f) = e_value(p, f, i);
@@ -165,39 +165,39 @@ struct Step {
   StepData data;
 };
 
-Step make_step(const Mesh& m, int nf, int p) {
+Step make_step(const Mesh& m, int n_points, int p) {
   Step s;
-  s.state = make_state(m, nf, p);
+  s.state = make_state(m, n_points, p);
   s.report = make_report(p);
   s.data.p = p;
   s.data.t = 0.5 * p;
   s.data.fields["P"] = tensor_field(p, 2, m.num_cells(), m.dim);
   s.data.fields["sigma"] = tensor_field(p, 3, m.num_cells(), m.dim);
-  Eigen::VectorXd pressure(m.num_cells()), contact_pressure(nf), gap(nf);
+  Eigen::VectorXd pressure(m.num_cells()), contact_pressure(n_points), gap(n_points);
   for (int c = 0; c < m.num_cells(); ++c) pressure(c) = p + c + 0.75;
-  for (int f = 0; f < nf; ++f) {
+  for (int f = 0; f < n_points; ++f) {
     contact_pressure(f) = 2.0 * p + f;
     gap(f) = -f - 0.5 * p;
   }
   s.data.fields["pressure"] = pressure;
-  if (nf > 0) {
+  if (n_points > 0) {
     s.data.fields["contact_pressure"] = contact_pressure;
     s.data.fields["gap"] = gap;
   }
   return s;
 }
 
-void append_step(ResultsFile& r, const Mesh& m, int nf, int p) {
-  Step s = make_step(m, nf, p);
+void append_step(ResultsFile& r, const Mesh& m, int n_points, int p) {
+  Step s = make_step(m, n_points, p);
   s.data.state = &s.state;
   s.data.report = &s.report;
   r.append(s.data);
 }
 
-/// Contact centres in the FacetOperators layout (dim x #facets): (10 f + i + 0.5).
-Eigen::MatrixXd centres(int dim, int nf) {
-  Eigen::MatrixXd c(dim, nf);
-  for (int f = 0; f < nf; ++f)
+/// Contact centres in the ContactPoints layout (dim x #points): (10 f + i + 0.5).
+Eigen::MatrixXd centres(int dim, int n_points) {
+  Eigen::MatrixXd c(dim, n_points);
+  for (int f = 0; f < n_points; ++f)
     for (int i = 0; i < dim; ++i) c(i, f) = 10.0 * f + i + 0.5;
   return c;
 }

@@ -110,7 +110,7 @@ double hertz_Rqc(int level) {
 }
 
 ContactZone zone(const SignoriniSolver& solver, const SignoriniSolution& sol) {
-  const FacetOperators& F = solver.facets();
+  const ContactPoints& F = solver.points();
   Eigen::VectorXd lo(F.size()), hi(F.size());
   for (int s = 0; s < F.size(); ++s) {
     lo(s) = std::min(F.vertices[0](0, s), F.vertices[1](0, s));
@@ -328,7 +328,7 @@ TEST(SignoriniHertz, Eq7_3_NoPenetrationComplementarityAndForceBalance) {
   EXPECT_GT(active, 5);
   EXPECT_LT(active, sol.p.size() - 5);
   // Vertical equilibrium of the half model: sum |G_s| p_s = P / 2.
-  EXPECT_NEAR(solver.facets().area.dot(sol.p), h.P() / 2, 1e-8 * h.P());
+  EXPECT_NEAR(solver.points().area.dot(sol.p), h.P() / 2, 1e-8 * h.P());
 }
 
 // Hertz (plane strain): a = sqrt(4 P Rc (1 - nu^2) / (pi E)), p0 = 2 P / (pi a). On level 1
@@ -346,7 +346,7 @@ TEST(SignoriniHertz, HalfWidthAndPeakPressureWithinStatedTolerance) {
   EXPECT_NEAR(z.peak / h.p0(), 1.0, 0.01);
   EXPECT_NEAR(z.half_width_moment / h.a(), 1.0, 0.01);
   // Facet length at the edge.
-  const FacetOperators& F = solver.facets();
+  const ContactPoints& F = solver.points();
   double hf = 0;
   for (int s = 0; s < F.size(); ++s)
     if (std::abs(F.centre(0, s) - h.a()) < 0.02) hf = std::max(hf, F.area(s));
@@ -427,14 +427,14 @@ TEST(SignoriniIteration, Eq7_7to7_10_OneIterationIsGlobalStepHalfStepProjectionU
     SignoriniProblem pb = hertz_problem(0, params(Rqc, update, 1e-30, 2.0, rho));
     pb.algorithm.max_iter = 1;
     SignoriniSolver solver(pb);
-    const int nf = solver.facets().size();
+    const int n_points = solver.points().size();
     const Eigen::VectorXd g = solver.initial_gap();
     // A start with both active and free facets: H^0 = g - 1e-3 (s odd), g (s even);
     // lambda_c^0 = -2e7 on the first half of the facets, 0 elsewhere.
-    Eigen::VectorXd H0 = g, l0 = Eigen::VectorXd::Zero(nf);
-    for (int s = 0; s < nf; ++s) {
+    Eigen::VectorXd H0 = g, l0 = Eigen::VectorXd::Zero(n_points);
+    for (int s = 0; s < n_points; ++s) {
       if (s % 2) H0(s) -= 1e-3;
-      if (2 * s < nf) l0(s) = -2e7;
+      if (2 * s < n_points) l0(s) = -2e7;
     }
     const SignoriniSolution sol = solver.solve(H0, l0);
     ASSERT_EQ(sol.report.iterations, 1);
@@ -443,7 +443,7 @@ TEST(SignoriniIteration, Eq7_7to7_10_OneIterationIsGlobalStepHalfStepProjectionU
     EXPECT_LT((sol.uN - uN).cwiseAbs().maxCoeff(), 1e-14);
     const Eigen::VectorXd N = solver.normal();
     const Eigen::MatrixXd contact =
-        (solver.facets().meanT_area * (Rqc * (H0 - uN) + l0)) * N.transpose();
+        (solver.points().meanT_area * (Rqc * (H0 - uN) + l0)) * N.transpose();
     const Eigen::MatrixXd ut = sol.u.transpose();
     const Eigen::VectorXd Au =
         solver.stiffness() * Eigen::Map<const Eigen::VectorXd>(ut.data(), ut.size());
@@ -464,7 +464,7 @@ TEST(SignoriniIteration, Eq7_7to7_10_OneIterationIsGlobalStepHalfStepProjectionU
     }
     const int active = (H.array() == g.array()).count();
     EXPECT_GT(active, 0);
-    EXPECT_LT(active, nf);
+    EXPECT_LT(active, n_points);
     EXPECT_LT((sol.H - H).cwiseAbs().maxCoeff(), 1e-15);
     EXPECT_LT((sol.lambda_c - lambda).cwiseAbs().maxCoeff(), 1e-12 * lambda.cwiseAbs().maxCoeff());
     EXPECT_LT((sol.p + lambda).cwiseAbs().maxCoeff(), 1e-12 * lambda.cwiseAbs().maxCoeff());

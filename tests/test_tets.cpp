@@ -96,7 +96,7 @@ TEST(TetMesh, GmshDefaultTetrahedraAreMadeP2InVtkOrder) {
         worst_f = std::max(worst_f, (m.X.row(F(f, 3 + e)) - mid).norm());
       }
     EXPECT_LT(worst_f, 1e-12) << side;
-    EXPECT_NEAR(facet_operators(m, m.boundary(side)).area.sum(), 1.0, 1e-12) << side;
+    EXPECT_NEAR(facet_mean_points(m, m.boundary(side)).area.sum(), 1.0, 1e-12) << side;
   }
   std::printf("  tet_box n = 3: %d P2 tetrahedra, %d nodes, %d faces on z0\n", m.num_cells(),
               m.num_nodes(), static_cast<int>(m.boundary("z0").facets.rows()));
@@ -237,7 +237,7 @@ TEST(TetElement, NodalContactWeightsOfT6Faces) {
   // face split into four 3-node triangles, |G|/12 per vertex and |G|/4 per mid-edge node.
   const Mesh m = tet_box(2);
   const auto& z0 = m.boundary("z0");
-  const FacetOperators nodal = nodal_operators(m, z0), facets = facet_operators(m, z0);
+  const ContactPoints nodal = nodal_points(m, z0), facets = facet_mean_points(m, z0);
   ASSERT_EQ(facets.vertices.size(), 3u);
   EXPECT_NEAR(nodal.area.sum(), 1.0, 1e-12);
   EXPECT_GT(nodal.area.minCoeff(), 0.0);
@@ -344,7 +344,7 @@ void expect_pressed_block(bool nodal) {
   // p integral phi_a (0 at the vertices, p |G|/3 per adjacent face at the mid-edge nodes), and
   // contact_pressure solves the consistent mass matrix for p (derived_fields.hpp): the raw
   // f_a / area(a) would read 0 at the vertices and 4 p / 3 at the mid-edge nodes.
-  const FacetOperators& pts = *solver.discretization().facets();
+  const ContactPoints& pts = *solver.discretization().points();
   const Eigen::VectorXd pc = solver.discretization().contact_pressure(s),
                         gap = solver.discretization().contact_gap(s);
   ASSERT_EQ(pc.size(), pts.size());
@@ -354,7 +354,7 @@ void expect_pressed_block(bool nodal) {
   if (nodal) {
     const auto& z0 = mesh.boundary("z0");
     Eigen::VectorXd consistent = Eigen::VectorXd::Zero(mesh.num_nodes());
-    const FacetOperators faces = facet_operators(mesh, z0);
+    const ContactPoints faces = facet_mean_points(mesh, z0);
     for (int f = 0; f < z0.facets.rows(); ++f)
       for (int a = 3; a < 6; ++a) consistent(z0.facets(f, a)) += faces.area(f) / 3;
     double worst_raw = 0;

@@ -340,10 +340,10 @@ std::pair<double, double> write_cost(const ltl::Solver& solver, const ltl::State
   ltl::ResultsOptions options;
   options.cell_volume = d.cells().vol;
   if (pb.contact) options.contact.facets = &pb.mesh.boundary(pb.contact->group);
-  if (d.facets()) {
-    options.contact.centre = d.facets()->centre;
-    options.contact.area = d.facets()->area;
-    options.contact.nodes = d.facets()->nodes;
+  if (d.points()) {
+    options.contact.centre = d.points()->centre;
+    options.contact.area = d.points()->area;
+    options.contact.nodes = d.points()->nodes;
   }
   ltl::RunInfo info;
   info.name = pb.name;
@@ -355,7 +355,7 @@ std::pair<double, double> write_cost(const ltl::Solver& solver, const ltl::State
     step.state = &s;
     step.fields = {{"P", stress.P}, {"sigma", stress.sigma}, {"pressure", stress.pressure}};
     if (stress.sigma33.size()) step.fields["sigma33"] = stress.sigma33;
-    if (d.facets()) {
+    if (d.points()) {
       step.fields["contact_pressure"] = d.contact_pressure(s);
       step.fields["gap"] = d.contact_gap(s);
     }
@@ -394,7 +394,7 @@ int run_case(const Case& c, int iters, int warm) {
   const ltl::GlobalStep& gs = solver.global_step();
   put("cells", problem.mesh.num_cells());
   put("nodes", problem.mesh.num_nodes());
-  put("facets", solver.discretization().facets() ? solver.discretization().facets()->size() : 0);
+  put("facets", solver.discretization().points() ? solver.discretization().points()->size() : 0);
   put("factors", gs.num_factors());
   {
     double cols = 0;

@@ -126,7 +126,7 @@ int predict(const Gutter& g) {
   const ltl::Problem problem = ltl::load_problem(source("experiments/fig6/fig6.toml"), ov);
   const ltl::Discretization disc(problem);
   // The sparsity pattern is all the symbolic analysis reads: unit weights will do.
-  const ltl::SpMat K = ltl::global_matrix(disc.cells(), disc.facets(), 1.0, 1.0, 1.0);
+  const ltl::SpMat K = ltl::global_matrix(disc.cells(), disc.points(), 1.0, 1.0, 1.0);
   const double lnz = ltl::GlobalStep::predicted_factor_nonzeros(K, disc.dirichlet());
   std::printf("PREDICT %s cells=%ld nodes=%d nnzL_amd_all_factors=%.0f peak_MB=%.0f\n",
               g.name().c_str(), g.cells(), problem.mesh.num_nodes(), lnz, status_mb("VmHWM:"));

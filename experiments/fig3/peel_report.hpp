@@ -16,13 +16,13 @@ namespace ltl::figures {
 /// before the hardest step.
 inline void peel_report(
     const char* name, const Solver& solver, const RunSummary& run,
-    const std::function<void(const FacetOperators&, const Eigen::VectorXd&)>& extra = {}) {
+    const std::function<void(const ContactPoints&, const Eigen::VectorXd&)>& extra = {}) {
   const Problem& problem = solver.problem();
   const State& s = run.state;
   // The measures (lib/measures.hpp, one definition each) over the solver's contact points, which
   // carry beta: the facets of the contact surface (discretization.contact = "facet-mean", as in
   // the paper) or its nodes.
-  const FacetOperators& facets = *solver.discretization().facets();
+  const ContactPoints& facets = *solver.discretization().points();
   const PeelMeasures m = peel_measures(problem, facets, s, 0);
   const Eigen::VectorXd opening = ltl::opening(problem, s);  // -e . N per point, (4.11)
 

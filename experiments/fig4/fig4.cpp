@@ -64,7 +64,7 @@ namespace {
 void report(const ltl::Solver& solver, const ltl::RunSummary& run) {
   // Here -N = e2: the opening is the vertical displacement of the contact surface the paper plots.
   ltl::figures::peel_report(
-      "fig4", solver, run, [](const ltl::FacetOperators& facets, const Eigen::VectorXd& opening) {
+      "fig4", solver, run, [](const ltl::ContactPoints& facets, const Eigen::VectorXd& opening) {
         std::printf("  vertical displacement of the contact surface e2 at x1 = 0.25, 0.5, 0.75 m:");
         for (double x : {0.25, 0.5, 0.75}) {
           int f_near = 0;

@@ -106,7 +106,7 @@ SignoriniProblem problem(const Data& d, const Mesh& m, int k, Update update, dou
 // ------------------------------------------------------------------------------------------------
 // 4. Measuring the contact zone: facet extents along x1, pressure, gap (lib: contact_zone()).
 ContactZone measure(const SignoriniSolver& solver, const SignoriniSolution& sol) {
-  const FacetOperators& F = solver.facets();
+  const ContactPoints& F = solver.points();
   Eigen::VectorXd lo(F.size()), hi(F.size());
   for (int s = 0; s < F.size(); ++s) {
     lo(s) = std::min(F.vertices[0](0, s), F.vertices[1](0, s));
@@ -153,8 +153,8 @@ void write(const SignoriniSolver& solver, const SignoriniSolution& sol, const Da
   std::filesystem::create_directories(dir);
   ResultsOptions options;
   options.contact.facets = &pb.mesh.boundary(pb.contact_group);
-  options.contact.centre = solver.facets().centre;
-  options.contact.area = solver.facets().area;
+  options.contact.centre = solver.points().centre;
+  options.contact.area = solver.points().area;
   ResultsFile f =
       ResultsFile::create(dir + (uzawa ? "/signorini-uzawa.h5" : "/signorini-bermudez-moreno.h5"),
                           pb.mesh, info, options);
@@ -222,11 +222,11 @@ int main(int argc, char** argv) {
                       rep.status.c_str());
         if (u == 0) {
           row.cells = solver.problem().mesh.num_cells();
-          row.facets = solver.facets().size();
+          row.facets = solver.points().size();
           row.dofs = solver.num_free_dofs();
           row.factorize = solver.factorize_seconds();
           row.zone = measure(solver, sols[0]);
-          const FacetOperators& F = solver.facets();
+          const ContactPoints& F = solver.points();
           for (int s = 0; s < F.size(); ++s)
             if (std::abs(F.centre(0, s) - d.a()) < 2 * d.hc(k)) row.h = std::max(row.h, F.area(s));
         }
