@@ -168,7 +168,7 @@ verify-fig6: build peer-deps
 peer-reference:
 	$(PYTHON) experiments/peer/make_reference.py $(VERIFY) tests/reference/peer.toml $(PEER_FIGS)
 
-# Time to the same accuracy against the dolfinx Newton peer (issue 10, item 4): Fig 5 K = 7, 28
+# Time to the same accuracy against the dolfinx Newton peer: Fig 5 K = 7, 28
 # and Fig 6 L = 1 with the package plain and Anderson on 1 and 2 threads, Fig 5 K = 56 and Fig 6
 # L = 2 with Anderson on 1 thread (BENCH_PEER_ARGS=--full: everything everywhere, ~45 min;
 # --quick: the small cases only); the package at tol = 1e-3, 1e-4, ... against one Newton run;

@@ -1,4 +1,4 @@
-// The input side of a user's own problem (issue 12):
+// The input side of a user's own problem :
 //   - ALG2's R, q, q_c derived from the moduli and the mesh when the configuration leaves them
 //     out (derive_algorithm_defaults): a 2-D and a 3-D block pressed on a plane with NO
 //     [algorithm] keys converge to their closed form; explicit values are kept;

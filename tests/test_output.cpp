@@ -1,4 +1,4 @@
-// The complete output of a run (issue 12.2, 12.1, 10.3, 9): the true plane-strain out-of-plane
+// The complete output of a run: the true plane-strain out-of-plane
 // stress [LTL87 (1.5), (1.1)] against closed forms and through a whole run, units and
 // descriptions on every dataset, the format version, the equilibrium measure per step, the
 // resolved configuration, cell volumes from the discretization, the unconverged iterate of a

@@ -1,4 +1,4 @@
-// The cases of issue 20, as a new user would write them from the docs (geometry with named
+// The cases of a new user's own problems, written as from the docs (geometry with named
 // groups under tests/geometry/, configuration without any [algorithm] key), each checked for the
 // right answer (a closed form, a refined mesh, a balance) or a clear refusal:
 //   - a 3-D rubber block (quarter model, P2 tetrahedra) pressed onto the plane by a dead traction
@@ -279,7 +279,7 @@ steps = 5
 // ---------------------------------------------------------------------------------------------
 
 TEST(UserCases, Eq1_5_ThreeDBlockTwentyPercentMatchesClosedForm) {
-  // C2 > 0 (det-mean, C2 in the local step) at 400.3 kPa: the state of issue 20 that was
+  // C2 > 0 (det-mean, C2 in the local step) at 400.3 kPa: the state that was
   // written turned through the plane; and C2 = 0 (mean-det) at 305 kPa.
   expect_block(200e3, 50e3, 0.8, 1, 0);
   expect_block(200e3, 0, 0.8, 1, 0);

@@ -139,7 +139,7 @@ TEST(DiscreteEquilibrium, CompressibleLawIsAStationaryPointOfTheDiscreteEnergy) 
 }
 
 TEST(DiscreteEquilibrium, Eq4_1to4_3_AndersonAndPlainReachTheSameFixedPoint) {
-  // R = 16: the plain iteration takes ~10^4 iterations on this cantilever (issue 10's table).
+  // R = 16: the plain iteration takes ~10^4 iterations on this cantilever (performance.md).
   Problem p = compressible_cantilever(16);
   p.algorithm.max_iter = 40000;
   Solver plain(p);

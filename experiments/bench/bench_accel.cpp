@@ -5,14 +5,14 @@
 //           refined (K = 7, 14, 28, 56, 112 edges per quarter circle; R = 20 as in `refinement
 //           fig5`) and on the Fig 6 gutter at levels L = 1, 2, 3 ((nt, na, nl) = L x (2, 9, 15)
 //           hexahedra as in `refinement fig6`; L = 1 is the paper's 270 H8). For each run:
-//           iterations to r_G + r_B < 1e-6 (the tolerance of issue 10's table) and to the
+//           iterations to r_G + r_B < 1e-6 (performance.md's table) and to the
 //           configuration's own tolerance (fig5.toml 1e-9, fig6.toml 1e-8), the accelerated
 //           iterates kept/rejected by the safeguard, the wall time of one iteration (after the
 //           factorization; it depends on the load of the machine, printed with every row, the
 //           iteration counts do not), and the largest difference of u between the two runs
 //           relative to max |u| (the fixed point must not move). Then, per mesh family and
 //           tolerance, the growth exponent a of iterations ~ N^a (N = nodes), least squares on
-//           the logarithms, next to issue 10's target a <= 0.2.
+//           the logarithms, next to the target a <= 0.2.
 //
 // Run:      build/experiments/bench_accel [--quick] [--depth M] [--cap-seconds S]
 //                                         [--trace CASE] [key=value]...
@@ -48,8 +48,8 @@
 
 namespace {
 
-constexpr double kIssueTol = 1e-6;       // the tolerance of issue 10's iteration table
-constexpr double kTargetExponent = 0.2;  // issue 10: growth with refinement <= N^0.2
+constexpr double kIssueTol = 1e-6;       // the tolerance of the iteration table (performance.md)
+constexpr double kTargetExponent = 0.2;  // the target: growth with refinement <= N^0.2
 
 struct Case {
   std::string name, config;

@@ -45,7 +45,7 @@ std::vector<Run> runs() {
   const std::string uzawa = "algorithm.update=uzawa", bm = "algorithm.update=bermudez-moreno";
   // Each figure also with safeguarded Anderson acceleration (default depth and accelerated
   // variables; paper_notes/performance.md, "Anderson acceleration"), the iteration the paper's
-  // plain one is compared with (issue 10).
+  // plain one is compared with.
   const std::string anderson = "algorithm.acceleration=anderson";
   std::vector<Run> r;
   for (const std::string fig : {"fig3", "fig4"}) {

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Time to the same accuracy: the package (ALG2, plain and Anderson) against the dolfinx Newton
-peer (experiments/peer/peer.py) on the meshes and observables of Figs 5 and 6 (issue 10, item 4).
+peer (experiments/peer/peer.py) on the meshes and observables of Figs 5 and 6.
 
     /usr/bin/python3 experiments/peer/bench_peer.py [--quick | --full] [--threads 1 2] [--json FILE]
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The readings study of Figs 3 and 4 [LTL87 sec. 8] (issue 11): which reading of the paper's
+"""The readings study of Figs 3 and 4 [LTL87 sec. 8]: which reading of the paper's
 silent data (where the bar is fixed, on which face and in which direction the traction
 g2 = 10 (1 - x1) kPa acts) reproduces its captions (Fig 3 magnified x20, Fig 4 at t = 800 s
 magnified x50, i.e. millimetre displacements)?
