@@ -16,9 +16,10 @@
 // Run:      build-petsc/experiments/bench_amg [--iters N] [--warm N] [--min-cells N]
 //               [--max-cells N] [--solvers cholesky,cg-amg] [--also-predict] [--predict MAX]
 //           Every (size, solver) runs in a child process (--case NAME SOLVER), so that its peak
-//           memory (VmHWM) is its own. The 10^6-cell row of performance.md:
-//               bench_amg --warm 2 --iters 3 --min-cells 900000 --max-cells 1000000
-//                   --solvers cg-amg --also-predict   (one command line)
+//           memory (VmHWM) is its own. The 10^6-cell row of performance.md (one command line):
+//               OMP_NUM_THREADS=1 bench_amg --warm 2 --iters 3 --min-cells 900000
+//                   --max-cells 1000000 --solvers cg-amg --also-predict
+//           (about 4 min and 10 GB; its Cholesky case would need 23-29 GB: not in 24 GB).
 //           Needs a build with PETSc for the CG + AMG rows (they are reported as not run
 //           otherwise). Counts (bytes, iterations) do not depend on the load
 //           of the machine; times do: the load average is printed beside them.
