@@ -181,18 +181,23 @@ void check_stiffness_balance(const Problem& problem) {
       a.h > 0   ? a.h
       : contact ? mean_facet_size(problem.mesh, problem.mesh.boundary(problem.contact->group))
                 : 0.0;
+  // The laws in principal stretches derive C1 from their shear modulus: named as given.
+  const MaterialModel model = problem.material.model;
+  const std::string modulus =
+      model == MaterialModel::Ogden || model == MaterialModel::Gent ? "material.mu" : "material.C1";
   const auto balanced = [](double ratio) { return ratio >= 1e-10 && ratio <= 1e14; };
   const auto blame = [&](double of_q) {
     // The parameter furthest from its own scale: R (about 1..10), or C1 against q.
-    if (std::abs(std::log10(a.R)) >= std::abs(std::log10(of_q))) return "algorithm.R";
-    return a.q_derived || C1 < 1e-3 || C1 > 1e13 ? "material.C1" : "algorithm.q";
+    if (std::abs(std::log10(a.R)) >= std::abs(std::log10(of_q))) return std::string("algorithm.R");
+    return a.q_derived || C1 < 1e-3 || C1 > 1e13 ? modulus : std::string("algorithm.q");
   };
   const double Rq = a.R * a.q;
-  const std::string values =
-      cat("material.C1 = ", C1, " Pa, algorithm.R = ", a.R, ", algorithm.q = ", a.q, " Pa");
+  const std::string values = cat(modulus == "material.C1" ? "material.C1 = " : "C1 = mu / 2 = ", C1,
+                                 " Pa, algorithm.R = ", a.R, ", algorithm.q = ", a.q, " Pa");
   const std::string fix =
-      "; leave R, q, q_c out to get the derived values R q = 6 (C1 + C2) (2-D), 8 (C1 + C2) "
-      "(3-D), or check the units of material.C1";
+      cat("; leave R, q, q_c out to get the derived values R q = 6 (C1 + C2) (2-D), 8 (C1 + C2) "
+          "(3-D), or check the units of ",
+          modulus);
   require(balanced(Rq / (2 * C1)), blame(a.q / (2 * C1)),
           cat("the stiffnesses of the global matrix (4.5) are out of balance: R q = ", Rq,
               " Pa is ", Rq / (2 * C1), " times 2 C1 = ", 2 * C1, " Pa (", values,
@@ -213,10 +218,37 @@ void check_stiffness_balance(const Problem& problem) {
 
 }  // namespace
 
+/// The largest |alpha_p| of an Ogden term accepted: t^alpha_p overflows or vanishes at moderate
+/// stretches beyond it (t = 10: 1e100); fits of rubber use |alpha_p| < 30.
+constexpr double kMaxOgdenExponent = 100;
+
 void Problem::validate() const {
   const int dim = mesh.dim;
   // Material [LTL87 (1.5), sec. 8].
-  require(std::isfinite(material.C1) && material.C1 > 0, "material.C1",
+  // Ogden, Gent (paper_notes/materials.md): each term stable (mu_p alpha_p > 0), |alpha_p| at
+  // most kMaxOgdenExponent, mu > 0, J_m > 0; checked before C1 (= mu / 2, derived from them), so
+  // that the message names the keys given.
+  for (std::size_t i = 0; i < material.ogden.size(); ++i) {
+    const OgdenTerm& t = material.ogden[i];
+    require(t.alpha != 0 && t.mu * t.alpha > 0,
+            cat("material.mu[", i, "], material.alpha[", i, "]"),
+            cat("= ", t.mu, " Pa, ", t.alpha,
+                ": each Ogden term needs alpha_p != 0 and mu_p alpha_p > 0"));
+    require(std::abs(t.alpha) <= kMaxOgdenExponent, cat("material.alpha[", i, "]"),
+            cat("= ", t.alpha, ": |alpha_p| must be at most ", kMaxOgdenExponent,
+                " (t^alpha_p overflows or vanishes at moderate stretches t; rubber fits use "
+                "|alpha_p| < 30)"));
+  }
+  if (material.model == MaterialModel::Gent) {
+    require(std::isfinite(material.mu) && material.mu > 0, "material.mu",
+            cat("= ", material.mu, " Pa: the Gent shear modulus must be > 0"));
+    require(std::isfinite(material.Jm) && material.Jm > 0, "material.Jm",
+            cat("= ", material.Jm, material.Jm == 0 ? " (or not given)" : "",
+                ": must be > 0 (the locking limit of |F|^2 - 3)"));
+  }
+  const bool principal =
+      material.model == MaterialModel::Ogden || material.model == MaterialModel::Gent;
+  require(std::isfinite(material.C1) && material.C1 > 0, principal ? "material.mu" : "material.C1",
           cat("= ", material.C1,
               " Pa: must be > 0 (it is the coefficient of |F|^2 and the "
               "global Laplacian (4.5))"));
@@ -224,15 +256,6 @@ void Problem::validate() const {
           cat("= ", material.C2, " Pa: must be >= 0"));
   require(std::isfinite(material.C3) && material.C3 >= 0, "material.C3",
           cat("= ", material.C3, " Pa: must be >= 0"));
-  // Ogden, Gent (paper_notes/materials.md): each term stable (mu_p alpha_p > 0), J_m > 0.
-  for (std::size_t i = 0; i < material.ogden.size(); ++i)
-    require(material.ogden[i].alpha != 0 && material.ogden[i].mu * material.ogden[i].alpha > 0,
-            cat("material.mu[", i, "], material.alpha[", i, "]"),
-            cat("= ", material.ogden[i].mu, " Pa, ", material.ogden[i].alpha,
-                ": each Ogden term needs alpha_p != 0 and mu_p alpha_p > 0"));
-  if (material.model == MaterialModel::Gent)
-    require(std::isfinite(material.Jm) && material.Jm > 0, "material.Jm",
-            cat("= ", material.Jm, ": must be > 0"));
   // Algorithm [LTL87 (3.2)-(3.3), (4.3), (7.10)].
   const AlgorithmParams& a = algorithm;
   require(std::isfinite(a.R) && a.R > 0, "algorithm.R", cat("= ", a.R, ": must be > 0"));
