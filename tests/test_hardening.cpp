@@ -987,6 +987,59 @@ TEST(Hardening, AMeshTooLargeForTheMemoryIsRefusedBeforeMeshing) {
 #endif
 }
 
+// The same in 3-D: the Fig 6 gutter (Transfinite + Recombine: hexahedra) refined to 1e8 cells
+// and the box of gmsh's tetrahedra (tests/geometry/tet_box.geo) at n = 300 (about 1.2e8 cells)
+// under a 4 GB address-space limit, and the gutter at 1e12 cells against the available memory (no
+// limit set: also under ASan), each refused before gmsh makes a surface or a cell.
+TEST(Hardening, A3DMeshTooLargeForTheMemoryIsRefusedBeforeMeshing) {
+  struct Run {
+    std::string geometry, config, args, limit;
+    std::vector<std::string> words;
+  };
+  const std::string gutter = read_bytes(ltl::testing::source_path("experiments/fig6/fig6.toml"));
+  const std::string tets =
+      "name = \"case\"\n[mesh]\ngeometry = \"tet_box.geo\"\nparameters = { n = 2 }\n"
+      "[material]\nmodel = \"mooney-rivlin\"\nC1 = \"435 kPa\"\n[[fixed]]\ngroup = \"z0\"\n"
+      "[load]\nbody_force = [0, 0, \"-40 kN/m^3\"]\n";
+  std::vector<Run> runs = {
+      {"experiments/fig6/gutter.geo",
+       gutter,
+       " --set mesh.parameters.nt=20 --set mesh.parameters.na=900 --set mesh.parameters.nl=5600",
+       "ulimit -v 4000000 &&",
+       {"gutter.geo: out of memory (predicted before meshing): the mesh would have about 7.8",
+        "e+07 cells (hexahedra", "this process may use", "Use a coarser mesh (mesh.parameters)"}},
+      {"tests/geometry/tet_box.geo",
+       tets,
+       " --set mesh.parameters.n=300",
+       "ulimit -v 4000000 &&",
+       {"tet_box.geo: out of memory (predicted before meshing): the mesh would have about 1.2",
+        "e+08 cells (tetrahedra"}},
+      {"experiments/fig6/gutter.geo",
+       gutter,
+       " --set mesh.parameters.nt=1000 --set mesh.parameters.na=10000 "
+       "--set mesh.parameters.nl=100000",
+       "",
+       {"gutter.geo: out of memory (predicted before meshing)", "e+11 cells (hexahedra"}}};
+#if defined(__SANITIZE_ADDRESS__)
+  runs.erase(runs.begin(), runs.begin() + 2);  // ASan cannot live with an address-space limit
+#endif
+  for (const Run& run : runs) {
+    Folder f("mesh_memory_3d", run.config);
+    const fs::path geo = ltl::testing::source_path(run.geometry);
+    fs::copy_file(geo, f.dir / geo.filename());
+    const auto before = snapshot(f.dir);
+    const auto t0 = std::chrono::steady_clock::now();
+    const Outcome r = f.run("case.toml -q -o out.h5" + run.args, run.limit);
+    const double seconds = seconds_since(t0);
+    EXPECT_EQ(r.status, 1) << r.err;
+    for (const std::string& w : run.words)
+      EXPECT_NE(r.err.find(w), std::string::npos) << "'" << w << "' not in: " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_LT(seconds, 30);
+    EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  }
+}
+
 // A loop whose bound is computed (not caught by the scan of literal ranges) is stopped by the
 // time limit of gmsh's reading and meshing (LTL_GEOMETRY_TIME_LIMIT, here 1 s).
 TEST(Hardening, AGeometryThatDoesNotEndIsStoppedAtTheTimeLimit) {
