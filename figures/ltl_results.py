@@ -390,6 +390,8 @@ def summary(results, file=None):
 
 
 if __name__ == "__main__":
+    import signal
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # `ltl-results FILE | head`: end quietly
     if sys.argv[1:2] == ["plot"]:  # ltl-results plot FILE: the pictures of a run (ltl_plot.py)
         import ltl_plot
         sys.exit(ltl_plot.main(sys.argv[2:]))

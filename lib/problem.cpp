@@ -218,6 +218,52 @@ void check_stiffness_balance(const Problem& problem) {
 
 }  // namespace
 
+/// A prescribed displacement may move its support by at most this many times the size of the
+/// body (the diagonal of its bounding box): beyond, a wrong unit or a factor table gone wrong.
+constexpr double kMaxSupportMotion = 1000;
+
+/// The largest load factor (1, or the largest |entry| of a table) times each load and each
+/// prescribed displacement: a load beyond 1e100 (the limit of every real value) or a support
+/// moved by more than kMaxSupportMotion times the size of the body is refused, naming the keys,
+/// instead of diverging (NaN, or a residual blow-up) at the first step.
+void check_load_factor_scale(const Problem& problem) {
+  const Mesh& mesh = problem.mesh;
+  double factor = 1;
+  for (double f : problem.ramp.table) factor = std::max(factor, std::abs(f));
+  const double size =
+      mesh.num_nodes() ? (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).norm() : 0;
+  if (!(size > 0)) return;
+  // Named by the factor when a table makes the value large, else by the value's own key.
+  const auto key = [&](const std::string& origin) {
+    return factor > 1 ? std::string("load.factor") : origin;
+  };
+  const auto with = [&](const std::string& what) {
+    return factor > 1 ? cat("with the largest factor, ", factor, ", ", what, " ") : std::string();
+  };
+  const double body = problem.body_force.norm() * factor;
+  require(body <= 1e100, key("load.body_force"),
+          cat(with("load.body_force"), "is ", body, " N/m^3: above 1e100"));
+  for (const auto& t : problem.tractions) {
+    const double g = (t.g.value.norm() + t.g.gradient.norm() * size) * factor;
+    require(g <= 1e100, key(t.origin), cat(with(t.origin), "reaches ", g, " Pa: above 1e100"));
+  }
+  for (const auto& d : problem.dirichlet) {
+    double u = 0;
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      x.head(mesh.dim) = mesh.X.row(node).transpose();
+      u = std::max(u, d.field(x).norm());
+    }
+    u *= factor;
+    std::string origin = d.origin;
+    const std::size_t dot = origin.rfind(".group");
+    if (dot != std::string::npos && dot + 6 == origin.size()) origin.replace(dot, 6, ".value");
+    require(u <= kMaxSupportMotion * size, key(origin),
+            cat(with(origin), "moves its support by up to ", u, " m, more than ", kMaxSupportMotion,
+                " times the size of the body (", size, " m); check the value and its unit"));
+  }
+}
+
 /// The largest |alpha_p| of an Ogden term accepted: t^alpha_p overflows or vanishes at moderate
 /// stretches beyond it (t = 10: 1e100); fits of rubber use |alpha_p| < 30.
 constexpr double kMaxOgdenExponent = 100;
@@ -321,6 +367,7 @@ void Problem::validate() const {
       require(c >= 0 && c < dim, d.origin, cat("component ", c, " does not exist in ", dim, "-D"));
   }
   for (const auto& t : tractions) mesh.boundary(t.group, t.origin);
+  check_load_factor_scale(*this);
 
   if (contact) {
     const ContactCondition& cc = *contact;
