@@ -1,8 +1,10 @@
 #include "problem.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -264,6 +266,40 @@ void check_load_factor_scale(const Problem& problem) {
   }
 }
 
+/// Two supports ([[fixed]], [[symmetry]], [[displacement]]) that prescribe different values of
+/// one displacement component at a node (a group fixed twice, a symmetry plane through a support
+/// that moves across it) cannot both hold: the iteration used to run to its cap. Refused, naming
+/// both conditions, the node and the two values.
+void check_conflicting_supports(const Problem& problem) {
+  const Mesh& mesh = problem.mesh;
+  struct Given {
+    double value;
+    const DirichletCondition* by;
+  };
+  std::vector<std::array<std::optional<Given>, 3>> at(mesh.num_nodes());
+  const double size =
+      mesh.num_nodes() ? (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).norm() : 0;
+  for (const auto& d : problem.dirichlet)
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      x.head(mesh.dim) = mesh.X.row(node).transpose();
+      const Eigen::Vector3d u = d.field(x);
+      for (int c : d.components) {
+        std::optional<Given>& g = at[node][c];
+        if (!g) {
+          g = Given{u(c), &d};
+          continue;
+        }
+        require(
+            std::abs(g->value - u(c)) <= 1e-12 * std::max(size, std::abs(u(c))), d.origin,
+            cat("prescribes u_", "xyz"[c], " = ", u(c), " m at node ", node, " (", mesh.X(node, 0),
+                ", ", mesh.X(node, 1), mesh.dim == 3 ? cat(", ", mesh.X(node, 2)) : "", "), where ",
+                g->by->origin, " prescribes ", g->value,
+                " m: two supports cannot both hold; give each node one value"));
+      }
+    }
+}
+
 /// The largest |alpha_p| of an Ogden term accepted: t^alpha_p overflows or vanishes at moderate
 /// stretches beyond it (t = 10: 1e100); fits of rubber use |alpha_p| < 30.
 constexpr double kMaxOgdenExponent = 100;
@@ -368,6 +404,7 @@ void Problem::validate() const {
   }
   for (const auto& t : tractions) mesh.boundary(t.group, t.origin);
   check_load_factor_scale(*this);
+  check_conflicting_supports(*this);
 
   if (contact) {
     const ContactCondition& cc = *contact;
