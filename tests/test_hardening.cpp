@@ -580,6 +580,16 @@ const std::vector<Case>& catalogue() {
        1,
        {"key 'fixed[0].value' moves its support by up to 4e+50 m",
         "more than 1000 times the size of the body"}},
+      // Two supports that cannot both hold (a group fixed twice with other values): named, not
+      // run to the iteration cap.
+      {"fixed_twice_other_values",
+       "steps = 1",
+       "steps = 1\n[[fixed]]\ngroup = \"free\"\nvalue = [0, \"1 mm\"]\n[[fixed]]\n"
+       "group = \"free\"\nvalue = [0, \"-1 mm\"]",
+       o,
+       1,
+       {"key 'fixed[1].group' prescribes u_y = -0.001 m at node",
+        "where fixed[0].group prescribes 0.001 m", "two supports cannot both hold"}},
       {"load_factor_1e99",
        "",
        "",
