@@ -54,7 +54,7 @@ test-petsc: petsc-build
 # Last full run (hostile inputs, round two; GCC 12, JOBS=2 on 2 cores shared with two other
 # builds and test suites, load average 6-9): build from scratch 41 min, then stopped by
 # test_memory crashing at test discovery (fixed: not built under ASan); the build resumed
-# (incremental, 23 min); ctest 364 tests in 26 min: 357 passed, 7 skipped by design (4 CG + AMG
+# (incremental, 23 min); ctest 364 tests in 25 min (1489 s): 357 passed, 7 skipped by design (4 CG + AMG
 # without PETSc, the 2 address-space-limit cases, the disk-full tmpfs that could not be mounted),
 # none failed, no ASan or UBSan report. Second invocation wall time 48 min (build + ctest).
 SANITIZE_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined \
