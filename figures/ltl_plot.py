@@ -70,6 +70,13 @@ def plot(path, out=None):
         sys.exit("ltl-results plot: %s: no completed step to plot (status: %s)" % (
             path, r.attrs.get("status", "")))
     out = out or os.path.splitext(path)[0] + ".png"
+    # The picture replaces a picture only: not the results file, not through a symbolic link.
+    if os.path.islink(out):
+        raise OSError("%s: is a symbolic link (to %s); refusing to write through it" % (
+            out, os.readlink(out)))
+    if os.path.exists(out) and os.path.samefile(out, path):
+        raise OSError("%s: is the results file itself; refusing to write the picture over it"
+                      % out)
     contact = r.mesh.contact_centre is not None and "contact_pressure" in r.steps[-1].fields
     glued = contact and "beta" in r.steps[-1].fields and (
         r.steps[-1].measures.get("beta_min") is not None)
@@ -165,6 +172,10 @@ def main(argv):
         out = rest[1]
     elif rest:
         print(usage, file=sys.stderr)
+        return 2
+    if not path or out == "":  # as ltl_run's -o '': never a default in its place
+        print("%s: the %s file name is empty" % (usage, "results" if not path else "output"),
+              file=sys.stderr)
         return 2
     try:
         plot(path, out)

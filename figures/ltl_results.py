@@ -31,6 +31,8 @@ Use /usr/bin/python3 (it has h5py and numpy).
 """
 
 import io
+import os
+import stat
 import struct
 import sys
 import time
@@ -182,6 +184,8 @@ def _journal_image(path):
     killed in the middle of an in-place commit (lib/results_commit.hpp: the format); None when
     there is no complete journal."""
     try:
+        if not stat.S_ISREG(os.stat(path + ".journal").st_mode):
+            return None  # not a journal of this code (a FIFO there would block the read)
         with open(path + ".journal", "rb") as j:
             data = j.read()
     except OSError:
@@ -232,22 +236,39 @@ def load(path, fields=None):
     """Loads the results file `path`. `fields` (a list of names) limits the per-step fields read;
     None reads all of them. Raises OSError/ValueError naming the file if it cannot be read."""
     try:
+        mode = os.stat(path).st_mode  # through a symbolic link: the file it names
+    except OSError as err:
+        raise OSError("%s: cannot read the results file (%s)" % (path, err.strerror)) from err
+    if not stat.S_ISREG(mode):
+        raise OSError("%s: %s" % (path, "is a directory, not a results file" if stat.S_ISDIR(mode)
+                                  else "is not a regular file (a FIFO, device or socket); "
+                                  "refusing to read it"))
+    try:
         f = _open(path)
     except OSError as err:
         raise OSError("%s: cannot read the results file (%s)" % (path, err)) from err
     with f:
         if "mesh" not in f or "steps" not in f:
             raise ValueError("%s: not a results file (no /mesh or /steps group)" % path)
-        m = f["mesh"]
-        get = lambda name: m[name][()] if name in m else None
-        mesh = Mesh(X=m["X"][()], cells=m["cells"][()], cell_volume=get("cell_volume"),
-                    contact_facets=get("contact_facets"), contact_centre=get("contact_centre"),
-                    contact_area=get("contact_area"), cell_type=_value(m.attrs.get("cell_type", "")),
-                    contact_boundary=_value(m["contact_facets"].attrs.get("boundary", ""))
-                    if "contact_facets" in m else "", contact_nodes=get("contact_nodes"))
-        steps = _read_steps(f["steps"], fields, mesh.dim)
-        unconverged = _read_steps(f["unconverged"], fields, mesh.dim) if "unconverged" in f else []
-        return Results(path, _attrs(f), mesh, steps, unconverged)
+        try:
+            return _load(path, f, fields)
+        except (KeyError, TypeError, IndexError, AttributeError) as err:
+            raise ValueError("%s: not a results file of this code, or a damaged one (%s)" % (
+                path, err)) from err
+
+
+def _load(path, f, fields):
+    """The body of load, on the open file `f`."""
+    m = f["mesh"]
+    get = lambda name: m[name][()] if name in m else None
+    mesh = Mesh(X=m["X"][()], cells=m["cells"][()], cell_volume=get("cell_volume"),
+                contact_facets=get("contact_facets"), contact_centre=get("contact_centre"),
+                contact_area=get("contact_area"), cell_type=_value(m.attrs.get("cell_type", "")),
+                contact_boundary=_value(m["contact_facets"].attrs.get("boundary", ""))
+                if "contact_facets" in m else "", contact_nodes=get("contact_nodes"))
+    steps = _read_steps(f["steps"], fields, mesh.dim)
+    unconverged = _read_steps(f["unconverged"], fields, mesh.dim) if "unconverged" in f else []
+    return Results(path, _attrs(f), mesh, steps, unconverged)
 
 
 def _read_steps(group, fields, dim):
@@ -369,10 +390,17 @@ def summary(results, file=None):
 
 
 if __name__ == "__main__":
+    import signal
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # `ltl-results FILE | head`: end quietly
     if sys.argv[1:2] == ["plot"]:  # ltl-results plot FILE: the pictures of a run (ltl_plot.py)
         import ltl_plot
         sys.exit(ltl_plot.main(sys.argv[2:]))
-    if len(sys.argv) < 2:
-        sys.exit("usage: ltl_results.py RESULTS.h5 ...  |  ltl_results.py plot RESULTS.h5 [-o PNG]")
+    if len(sys.argv) < 2 or sys.argv[1] in ("-h", "--help"):
+        print("usage: ltl_results.py RESULTS.h5 ...  |  ltl_results.py plot RESULTS.h5 [-o PNG]",
+              file=sys.stdout if sys.argv[1:] else sys.stderr)
+        sys.exit(0 if sys.argv[1:] else 2)
     for path in sys.argv[1:]:
-        summary(load(path))
+        try:
+            summary(load(path))
+        except (OSError, ValueError) as err:
+            sys.exit("ltl-results: %s" % err)

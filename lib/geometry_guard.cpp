@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -15,6 +16,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <mutex>
 #include <thread>
 #include <unordered_map>
@@ -225,8 +227,43 @@ double available_memory() {
   return avail < 0 ? 1e300 : std::max(avail, 0.0);
 }
 
-double check_mesh_size(const std::string& path) {
-  if (gmsh::model::getDimension() != 2) return 0;
+namespace {
+
+/// The nodes of the mesh of curve `tag` (meshed) by gmsh tag, and its edges as node-tag pairs in
+/// the curve's direction.
+struct CurveMesh {
+  std::unordered_map<std::size_t, std::array<double, 3>> at;
+  std::vector<std::pair<std::size_t, std::size_t>> edges;
+};
+
+CurveMesh curve_mesh(int tag) {
+  CurveMesh c;
+  std::vector<std::size_t> node_tags;
+  std::vector<double> xyz, param;
+  gmsh::model::mesh::getNodes(node_tags, xyz, param, 1, tag, true, false);
+  for (std::size_t i = 0; i < node_tags.size(); ++i)
+    c.at[node_tags[i]] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+  std::vector<int> types;
+  std::vector<std::vector<std::size_t>> tags, nodes;
+  gmsh::model::mesh::getElements(types, tags, nodes, 1, tag);
+  for (std::size_t t = 0; t < types.size(); ++t) {
+    const std::size_t per = nodes[t].size() / std::max<std::size_t>(tags[t].size(), 1);
+    for (std::size_t e = 0; e < tags[t].size(); ++e) {
+      const std::size_t a = nodes[t][e * per], b = nodes[t][e * per + 1];
+      if (c.at.count(a) && c.at.count(b)) c.edges.emplace_back(a, b);
+    }
+  }
+  return c;
+}
+
+double distance(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+  return std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
+                   (b[2] - a[2]) * (b[2] - a[2]));
+}
+
+/// 2-D: per surface, its area (shoelace over its oriented boundary edges) over the area of an
+/// equilateral triangle whose side is the mean boundary edge.
+double estimated_cells_2d() {
   gmsh::vectorpair surfaces;
   gmsh::model::getEntities(surfaces, 2);
   double cells = 0;
@@ -236,41 +273,103 @@ double check_mesh_size(const std::string& path) {
     double twice_area = 0, length = 0;
     std::size_t edges = 0;
     for (const auto& [cdim, tag] : curves) {
-      std::vector<std::size_t> node_tags;
-      std::vector<double> xyz, param;
-      gmsh::model::mesh::getNodes(node_tags, xyz, param, 1, std::abs(tag), true, false);
-      std::unordered_map<std::size_t, const double*> at;
-      for (std::size_t i = 0; i < node_tags.size(); ++i) at[node_tags[i]] = &xyz[3 * i];
-      std::vector<int> types;
-      std::vector<std::vector<std::size_t>> tags, nodes;
-      gmsh::model::mesh::getElements(types, tags, nodes, 1, std::abs(tag));
-      for (std::size_t t = 0; t < types.size(); ++t) {
-        const std::size_t per = nodes[t].size() / std::max<std::size_t>(tags[t].size(), 1);
-        for (std::size_t e = 0; e < tags[t].size(); ++e) {
-          const auto ia = at.find(nodes[t][e * per]), ib = at.find(nodes[t][e * per + 1]);
-          if (ia == at.end() || ib == at.end()) continue;
-          const double *a = ia->second, *b = ib->second;
-          const double cross = a[0] * b[1] - b[0] * a[1];
-          twice_area += tag > 0 ? cross : -cross;
-          length += std::hypot(b[0] - a[0], b[1] - a[1]);
-          ++edges;
-        }
+      const CurveMesh c = curve_mesh(std::abs(tag));
+      for (const auto& [ia, ib] : c.edges) {
+        const auto &a = c.at.at(ia), &b = c.at.at(ib);
+        const double cross = a[0] * b[1] - b[0] * a[1];
+        twice_area += tag > 0 ? cross : -cross;
+        length += distance(a, b);
+        ++edges;
       }
     }
     if (edges == 0 || !(length > 0)) continue;
     const double h = length / static_cast<double>(edges);
     cells += std::abs(twice_area) / 2 / (std::sqrt(3.0) / 4 * h * h);  // equilateral triangles
   }
-  const double need = cells * kBytesPerCell2D, have = available_memory();
+  return cells;
+}
+
+/// 3-D: per volume, its volume (each boundary surface fanned from the centroid of its boundary
+/// nodes: exact for plane faces) over the volume of a cell: h^3 for hexahedra, h^3 / 4.6 for
+/// gmsh's tetrahedra (4.6 tetrahedra per h^3, counted on tests/geometry/tet_box.geo for
+/// n = 8..24), h the geometric mean over the volume's curves of their mean edge length (for a
+/// structured hexahedral mesh of a box, the cube root of a cell's volume, however anisotropic).
+double estimated_cells_3d(bool hexahedra) {
+  gmsh::vectorpair volumes;
+  gmsh::model::getEntities(volumes, 3);
+  double cells = 0;
+  for (const auto& volume : volumes) {
+    gmsh::vectorpair surfaces;
+    gmsh::model::getBoundary({volume}, surfaces, false, true, false);
+    std::unordered_map<int, CurveMesh> curves;
+    double six_volume = 0;
+    for (const auto& [sdim, stag] : surfaces) {
+      gmsh::vectorpair loop;
+      gmsh::model::getBoundary({{2, std::abs(stag)}}, loop, false, true, false);
+      std::vector<std::pair<std::array<double, 3>, std::array<double, 3>>> edges;
+      std::array<double, 3> centre{0, 0, 0};
+      for (const auto& [cdim, ctag] : loop) {
+        auto it = curves.find(std::abs(ctag));
+        if (it == curves.end())
+          it = curves.emplace(std::abs(ctag), curve_mesh(std::abs(ctag))).first;
+        const bool forward = (ctag > 0) == (stag > 0);
+        for (const auto& [ia, ib] : it->second.edges) {
+          const auto &a = it->second.at.at(ia), &b = it->second.at.at(ib);
+          edges.emplace_back(forward ? a : b, forward ? b : a);
+          for (int d = 0; d < 3; ++d) centre[d] += a[d];
+        }
+      }
+      if (edges.empty()) continue;
+      for (int d = 0; d < 3; ++d) centre[d] /= static_cast<double>(edges.size());
+      for (const auto& [a, b] : edges)  // c . (a x b)
+        six_volume += centre[0] * (a[1] * b[2] - a[2] * b[1]) +
+                      centre[1] * (a[2] * b[0] - a[0] * b[2]) +
+                      centre[2] * (a[0] * b[1] - a[1] * b[0]);
+    }
+    double log_h = 0;
+    int n = 0;
+    for (const auto& [tag, c] : curves) {
+      double length = 0;
+      for (const auto& [ia, ib] : c.edges) length += distance(c.at.at(ia), c.at.at(ib));
+      if (c.edges.empty() || !(length > 0)) continue;
+      log_h += std::log(length / static_cast<double>(c.edges.size()));
+      ++n;
+    }
+    if (n == 0) continue;
+    const double h = std::exp(log_h / n);
+    cells += std::abs(six_volume) / 6 / (h * h * h) * (hexahedra ? 1.0 : 4.6);
+  }
+  return cells;
+}
+
+}  // namespace
+
+bool recombines(const std::vector<std::string>& files) {
+  for (const std::string& file : files) {
+    std::ifstream in(file, std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (const Word& w : words_of(text))
+      if (w.name == "Recombine") return true;
+  }
+  return false;
+}
+
+double check_mesh_size(const std::string& path, bool hexahedra) {
+  const int dim = gmsh::model::getDimension();
+  if (dim != 2 && dim != 3) return 0;
+  const double cells = dim == 2 ? estimated_cells_2d() : estimated_cells_3d(hexahedra);
+  const double need = cells * kBytesPerCell, have = available_memory();
   if (need > have)
-    throw Error(cat(path, ": out of memory (predicted before meshing): the mesh would have about ",
-                    static_cast<float>(cells),
-                    " cells (estimated from its area and the length of its boundary edges), "
-                    "which need at least ",
-                    static_cast<float>(need / 1e9), " GB (", kBytesPerCell2D,
-                    " bytes per cell); this process may use ", static_cast<float>(have / 1e9),
-                    " GB (its address-space limit, the available memory or its cgroup's "
-                    "limit). Use a coarser mesh (mesh.parameters)"));
+    throw Error(
+        cat(path, ": out of memory (predicted before meshing): the mesh would have about ",
+            static_cast<float>(cells), " cells",
+            dim == 2    ? " (estimated from its area and the length of its boundary edges)"
+            : hexahedra ? " (hexahedra, estimated from its volume and the lengths of its edges)"
+                        : " (tetrahedra, estimated from its volume and the lengths of its edges)",
+            ", which need at least ", static_cast<float>(need / 1e9), " GB (", kBytesPerCell,
+            " bytes per cell); this process may use ", static_cast<float>(have / 1e9),
+            " GB (its address-space limit, the available memory or its cgroup's "
+            "limit). Use a coarser mesh (mesh.parameters)"));
   return cells;
 }
 

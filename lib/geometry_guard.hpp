@@ -13,6 +13,7 @@
 
 #include <Eigen/Dense>
 #include <string>
+#include <vector>
 
 namespace ltl {
 
@@ -44,20 +45,28 @@ class GeometryTimeLimit {
   Watch* watch_;
 };
 
-/// Bytes of memory a run needs per cell, at least (measured peak resident memory of ltl_run on
-/// 2-D meshes: about 16 kB per cell, paper_notes/hardening.md; a quarter of it, so that an
-/// estimate that is high by up to 4x refuses nothing that would fit).
-constexpr double kBytesPerCell2D = 4000;
+/// Bytes of memory a run needs per cell, at least: measured peak resident memory of ltl_run,
+/// about 16 kB per cell on 2-D meshes, 12-16 kB per cell on H8 and P2-tetrahedron meshes in 3-D
+/// (paper_notes/hardening.md); a quarter of it, so that an estimate that is high by up to 4x
+/// refuses nothing that would fit.
+constexpr double kBytesPerCell = 4000;
 
 /// The memory this process may still allocate, in bytes: the least of its address-space limit
 /// (minus what it maps now), the system's available memory and its cgroup's limit.
 double available_memory();
 
-/// With the model read by gmsh and its curves meshed (a 2-D model): estimates the number of cells
-/// from each surface's area and the mean length of its boundary edges (equilateral triangles),
-/// and refuses (Error) a mesh whose cells need more than available_memory(). Returns the
-/// estimate (0 for a 3-D model, not estimated).
-double check_mesh_size(const std::string& path);
+/// Whether a geometry script (its file and the files it includes) recombines (the identifier
+/// `Recombine` outside comments and strings): its 3-D cells are hexahedra, else tetrahedra.
+bool recombines(const std::vector<std::string>& files);
+
+/// With the model read by gmsh and its curves meshed (nothing else yet): estimates the number of
+/// cells, and refuses (Error naming `path`, the estimate and the memory) a mesh whose cells need
+/// more than available_memory(). 2-D: per surface, its area over the area of an equilateral
+/// triangle whose side is the mean length of its boundary edges. 3-D: per volume, its volume
+/// (from its boundary curves) over the volume of a cell, h^3 for `hexahedra` (Transfinite and
+/// Recombine), h^3 / 4.6 for tetrahedra, h the geometric mean of the mean edge lengths of its
+/// curves. Returns the estimate.
+double check_mesh_size(const std::string& path, bool hexahedra);
 
 /// Refuses (Error naming both nodes and the place) two nodes closer than 1e-9 times the size of
 /// the mesh: a slit, or points of the .geo duplicated instead of shared.

@@ -318,7 +318,7 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
       // The curves first (cheap): their edges give the size of the cells, checked against the
       // memory this process may use before the cells are made.
       gmsh::model::mesh::generate(1);
-      if (gmsh_last_error(before).empty()) check_mesh_size(path);
+      if (gmsh_last_error(before).empty()) check_mesh_size(path, recombines(declared.files));
       gmsh::model::mesh::generate(dim);
     }
     std::string errors = gmsh_last_error(before);

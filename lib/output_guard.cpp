@@ -8,13 +8,16 @@
 
 #include <cerrno>
 #include <climits>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <set>
 #include <sstream>
 #include <vector>
 
+#include "config.hpp"
 #include "error.hpp"
 #include "hash.hpp"
 #include "mesh.hpp"
@@ -217,6 +220,54 @@ std::vector<std::string> configuration_changes(const std::string& stored, const 
   return out;
 }
 
+namespace {
+
+/// Whether two flattened values are the same: equal texts, or numbers within a few rounding
+/// errors (a value converted from other units: "4 mm" and "0.4 cm").
+bool same_value(const std::string& a, const std::string& b) {
+  if (a == b) return true;
+  char *ea = nullptr, *eb = nullptr;
+  const double x = std::strtod(a.c_str(), &ea), y = std::strtod(b.c_str(), &eb);
+  if (ea == a.c_str() || eb == b.c_str() || *ea != '\0' || *eb != '\0') return false;
+  return std::abs(x - y) <= 1e-14 * std::max(std::abs(x), std::abs(y));
+}
+
+}  // namespace
+
+std::vector<std::string> resolved_changes(const std::string& stored_resolved,
+                                          const std::string& now_resolved,
+                                          const std::string& stored, const std::string& now) {
+  std::map<std::string, std::string> ra, rb, a, b;
+  try {
+    flatten(toml::parse(stored_resolved), "", ra);
+    flatten(toml::parse(stored), "", a);
+  } catch (const toml::parse_error&) {
+    return {"(the configuration stored in the file cannot be read)"};
+  }
+  flatten(toml::parse(now_resolved), "", rb);
+  flatten(toml::parse(now), "", b);
+  // A value is shown as given (with its unit) where it was given, else as resolved.
+  const auto shown = [](const std::map<std::string, std::string>& given,
+                        const std::map<std::string, std::string>& resolved, const std::string& k) {
+    const auto g = given.find(k);
+    if (g != given.end()) return g->second;
+    const auto r = resolved.find(k);
+    return r == resolved.end() ? std::string("not given") : cat(r->second, " (default)");
+  };
+  std::set<std::string> keys;
+  for (const auto& [k, v] : ra) keys.insert(k);
+  for (const auto& [k, v] : rb) keys.insert(k);
+  std::vector<std::string> out;
+  for (const std::string& k : keys) {
+    // The geometry is compared by its content and mesh (identity()), not by its path.
+    if (k == "mesh.geometry") continue;
+    const auto x = ra.find(k), y = rb.find(k);
+    if (x != ra.end() && y != rb.end() && same_value(x->second, y->second)) continue;
+    out.push_back(cat(k, " (", shown(a, ra, k), " in the file, ", shown(b, rb, k), " now)"));
+  }
+  return out;
+}
+
 bool may_change_on_resume(const std::string& change) {
   return change.rfind("time.steps ", 0) == 0 || change.rfind("algorithm.", 0) == 0 ||
          change.rfind("output.", 0) == 0;
@@ -240,8 +291,14 @@ ResumePoint resume_point(const Problem& problem, const std::string& out,
   if (hash == ids.end() || ResultsFile::read_attribute(out, "config_hash") != hash->second) {
     std::string physics;
     int shown = 0, more = 0;
+    // Compared resolved (SI values, defaults filled in) when the file has the resolved
+    // configuration: '200 kPa' and 0.2 MPa, or a default given explicitly, are no change.
+    const std::string stored = ResultsFile::read_attribute(out, "config");
+    const std::string resolved = ResultsFile::read_attribute(out, "config_resolved");
     for (const std::string& change :
-         configuration_changes(ResultsFile::read_attribute(out, "config"), problem.config_text)) {
+         resolved.empty() ? configuration_changes(stored, problem.config_text)
+                          : resolved_changes(resolved, resolved_configuration(problem), stored,
+                                             problem.config_text)) {
       if (may_change_on_resume(change))
         r.changes.push_back(change);
       else if (shown < 6)

@@ -63,6 +63,15 @@ struct ResumePoint {
 /// "key (value in the file, value now)"; "not given" for a key on one side only.
 std::vector<std::string> configuration_changes(const std::string& stored, const std::string& now);
 
+/// The keys whose values differ between two resolved configurations (resolved_configuration,
+/// config.hpp: values in SI, defaults filled in; numbers equal within rounding are the same),
+/// `mesh.geometry` left out (the geometry is compared by content); each shown as given in the
+/// configuration texts `stored` and `now` where it was given ("'200 kPa' in the file"), else
+/// as resolved ("1.0 (default)").
+std::vector<std::string> resolved_changes(const std::string& stored_resolved,
+                                          const std::string& now_resolved,
+                                          const std::string& stored, const std::string& now);
+
 /// Checks that `output` was written by this problem (the mesh and geometry fingerprints `ids`;
 /// the configuration key by key, where only time.steps, [algorithm] and [output] may change: the
 /// refusal names the other keys that differ, with both values) and that its last

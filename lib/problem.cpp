@@ -1,8 +1,10 @@
 #include "problem.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -181,18 +183,23 @@ void check_stiffness_balance(const Problem& problem) {
       a.h > 0   ? a.h
       : contact ? mean_facet_size(problem.mesh, problem.mesh.boundary(problem.contact->group))
                 : 0.0;
+  // The laws in principal stretches derive C1 from their shear modulus: named as given.
+  const MaterialModel model = problem.material.model;
+  const std::string modulus =
+      model == MaterialModel::Ogden || model == MaterialModel::Gent ? "material.mu" : "material.C1";
   const auto balanced = [](double ratio) { return ratio >= 1e-10 && ratio <= 1e14; };
   const auto blame = [&](double of_q) {
     // The parameter furthest from its own scale: R (about 1..10), or C1 against q.
-    if (std::abs(std::log10(a.R)) >= std::abs(std::log10(of_q))) return "algorithm.R";
-    return a.q_derived || C1 < 1e-3 || C1 > 1e13 ? "material.C1" : "algorithm.q";
+    if (std::abs(std::log10(a.R)) >= std::abs(std::log10(of_q))) return std::string("algorithm.R");
+    return a.q_derived || C1 < 1e-3 || C1 > 1e13 ? modulus : std::string("algorithm.q");
   };
   const double Rq = a.R * a.q;
-  const std::string values =
-      cat("material.C1 = ", C1, " Pa, algorithm.R = ", a.R, ", algorithm.q = ", a.q, " Pa");
+  const std::string values = cat(modulus == "material.C1" ? "material.C1 = " : "C1 = mu / 2 = ", C1,
+                                 " Pa, algorithm.R = ", a.R, ", algorithm.q = ", a.q, " Pa");
   const std::string fix =
-      "; leave R, q, q_c out to get the derived values R q = 6 (C1 + C2) (2-D), 8 (C1 + C2) "
-      "(3-D), or check the units of material.C1";
+      cat("; leave R, q, q_c out to get the derived values R q = 6 (C1 + C2) (2-D), 8 (C1 + C2) "
+          "(3-D), or check the units of ",
+          modulus);
   require(balanced(Rq / (2 * C1)), blame(a.q / (2 * C1)),
           cat("the stiffnesses of the global matrix (4.5) are out of balance: R q = ", Rq,
               " Pa is ", Rq / (2 * C1), " times 2 C1 = ", 2 * C1, " Pa (", values,
@@ -213,10 +220,117 @@ void check_stiffness_balance(const Problem& problem) {
 
 }  // namespace
 
+/// A prescribed displacement may move its support by at most this many times the size of the
+/// body (the diagonal of its bounding box): beyond, a wrong unit or a factor table gone wrong.
+constexpr double kMaxSupportMotion = 1000;
+
+/// The largest load factor (1, or the largest |entry| of a table) times each load and each
+/// prescribed displacement: a load beyond 1e100 (the limit of every real value) or a support
+/// moved by more than kMaxSupportMotion times the size of the body is refused, naming the keys,
+/// instead of diverging (NaN, or a residual blow-up) at the first step.
+void check_load_factor_scale(const Problem& problem) {
+  const Mesh& mesh = problem.mesh;
+  double factor = 1;
+  for (double f : problem.ramp.table) factor = std::max(factor, std::abs(f));
+  const double size =
+      mesh.num_nodes() ? (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).norm() : 0;
+  if (!(size > 0)) return;
+  // Named by the factor when a table makes the value large, else by the value's own key.
+  const auto key = [&](const std::string& origin) {
+    return factor > 1 ? std::string("load.factor") : origin;
+  };
+  const auto with = [&](const std::string& what) {
+    return factor > 1 ? cat("with the largest factor, ", factor, ", ", what, " ") : std::string();
+  };
+  const double body = problem.body_force.norm() * factor;
+  require(body <= 1e100, key("load.body_force"),
+          cat(with("load.body_force"), "is ", body, " N/m^3: above 1e100"));
+  for (const auto& t : problem.tractions) {
+    const double g = (t.g.value.norm() + t.g.gradient.norm() * size) * factor;
+    require(g <= 1e100, key(t.origin), cat(with(t.origin), "reaches ", g, " Pa: above 1e100"));
+  }
+  for (const auto& d : problem.dirichlet) {
+    double u = 0;
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      x.head(mesh.dim) = mesh.X.row(node).transpose();
+      u = std::max(u, d.field(x).norm());
+    }
+    u *= factor;
+    std::string origin = d.origin;
+    const std::size_t dot = origin.rfind(".group");
+    if (dot != std::string::npos && dot + 6 == origin.size()) origin.replace(dot, 6, ".value");
+    require(u <= kMaxSupportMotion * size, key(origin),
+            cat(with(origin), "moves its support by up to ", u, " m, more than ", kMaxSupportMotion,
+                " times the size of the body (", size, " m); check the value and its unit"));
+  }
+}
+
+/// Two supports ([[fixed]], [[symmetry]], [[displacement]]) that prescribe different values of
+/// one displacement component at a node (a group fixed twice, a symmetry plane through a support
+/// that moves across it) cannot both hold: the iteration used to run to its cap. Refused, naming
+/// both conditions, the node and the two values.
+void check_conflicting_supports(const Problem& problem) {
+  const Mesh& mesh = problem.mesh;
+  struct Given {
+    double value;
+    const DirichletCondition* by;
+  };
+  std::vector<std::array<std::optional<Given>, 3>> at(mesh.num_nodes());
+  const double size =
+      mesh.num_nodes() ? (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).norm() : 0;
+  for (const auto& d : problem.dirichlet)
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      x.head(mesh.dim) = mesh.X.row(node).transpose();
+      const Eigen::Vector3d u = d.field(x);
+      for (int c : d.components) {
+        std::optional<Given>& g = at[node][c];
+        if (!g) {
+          g = Given{u(c), &d};
+          continue;
+        }
+        require(
+            std::abs(g->value - u(c)) <= 1e-12 * std::max(size, std::abs(u(c))), d.origin,
+            cat("prescribes u_", "xyz"[c], " = ", u(c), " m at node ", node, " (", mesh.X(node, 0),
+                ", ", mesh.X(node, 1), mesh.dim == 3 ? cat(", ", mesh.X(node, 2)) : "", "), where ",
+                g->by->origin, " prescribes ", g->value,
+                " m: two supports cannot both hold; give each node one value"));
+      }
+    }
+}
+
+/// The largest |alpha_p| of an Ogden term accepted: t^alpha_p overflows or vanishes at moderate
+/// stretches beyond it (t = 10: 1e100); fits of rubber use |alpha_p| < 30.
+constexpr double kMaxOgdenExponent = 100;
+
 void Problem::validate() const {
   const int dim = mesh.dim;
   // Material [LTL87 (1.5), sec. 8].
-  require(std::isfinite(material.C1) && material.C1 > 0, "material.C1",
+  // Ogden, Gent (paper_notes/materials.md): each term stable (mu_p alpha_p > 0), |alpha_p| at
+  // most kMaxOgdenExponent, mu > 0, J_m > 0; checked before C1 (= mu / 2, derived from them), so
+  // that the message names the keys given.
+  for (std::size_t i = 0; i < material.ogden.size(); ++i) {
+    const OgdenTerm& t = material.ogden[i];
+    require(t.alpha != 0 && t.mu * t.alpha > 0,
+            cat("material.mu[", i, "], material.alpha[", i, "]"),
+            cat("= ", t.mu, " Pa, ", t.alpha,
+                ": each Ogden term needs alpha_p != 0 and mu_p alpha_p > 0"));
+    require(std::abs(t.alpha) <= kMaxOgdenExponent, cat("material.alpha[", i, "]"),
+            cat("= ", t.alpha, ": |alpha_p| must be at most ", kMaxOgdenExponent,
+                " (t^alpha_p overflows or vanishes at moderate stretches t; rubber fits use "
+                "|alpha_p| < 30)"));
+  }
+  if (material.model == MaterialModel::Gent) {
+    require(std::isfinite(material.mu) && material.mu > 0, "material.mu",
+            cat("= ", material.mu, " Pa: the Gent shear modulus must be > 0"));
+    require(std::isfinite(material.Jm) && material.Jm > 0, "material.Jm",
+            cat("= ", material.Jm, material.Jm == 0 ? " (or not given)" : "",
+                ": must be > 0 (the locking limit of |F|^2 - 3)"));
+  }
+  const bool principal =
+      material.model == MaterialModel::Ogden || material.model == MaterialModel::Gent;
+  require(std::isfinite(material.C1) && material.C1 > 0, principal ? "material.mu" : "material.C1",
           cat("= ", material.C1,
               " Pa: must be > 0 (it is the coefficient of |F|^2 and the "
               "global Laplacian (4.5))"));
@@ -224,15 +338,6 @@ void Problem::validate() const {
           cat("= ", material.C2, " Pa: must be >= 0"));
   require(std::isfinite(material.C3) && material.C3 >= 0, "material.C3",
           cat("= ", material.C3, " Pa: must be >= 0"));
-  // Ogden, Gent (paper_notes/materials.md): each term stable (mu_p alpha_p > 0), J_m > 0.
-  for (std::size_t i = 0; i < material.ogden.size(); ++i)
-    require(material.ogden[i].alpha != 0 && material.ogden[i].mu * material.ogden[i].alpha > 0,
-            cat("material.mu[", i, "], material.alpha[", i, "]"),
-            cat("= ", material.ogden[i].mu, " Pa, ", material.ogden[i].alpha,
-                ": each Ogden term needs alpha_p != 0 and mu_p alpha_p > 0"));
-  if (material.model == MaterialModel::Gent)
-    require(std::isfinite(material.Jm) && material.Jm > 0, "material.Jm",
-            cat("= ", material.Jm, ": must be > 0"));
   // Algorithm [LTL87 (3.2)-(3.3), (4.3), (7.10)].
   const AlgorithmParams& a = algorithm;
   require(std::isfinite(a.R) && a.R > 0, "algorithm.R", cat("= ", a.R, ": must be > 0"));
@@ -298,6 +403,8 @@ void Problem::validate() const {
       require(c >= 0 && c < dim, d.origin, cat("component ", c, " does not exist in ", dim, "-D"));
   }
   for (const auto& t : tractions) mesh.boundary(t.group, t.origin);
+  check_load_factor_scale(*this);
+  check_conflicting_supports(*this);
 
   if (contact) {
     const ContactCondition& cc = *contact;

@@ -407,6 +407,14 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
   if (options.verbosity > 0)
     std::printf("%s: algorithm %s\n", problem.name.c_str(),
                 describe_algorithm(problem.algorithm).c_str());
+  // A ramp that ends after the last step: the run never reaches the full load (not an error:
+  // --resume --set time.steps=... extends it), said once, so that "complete" is not misread.
+  const double final_factor = problem.ramp.factor(P, problem.time.dt);
+  if (options.verbosity > 0 && problem.ramp.kind == LoadRamp::Kind::Linear && final_factor < 1)
+    std::printf(
+        "%s: note: load.ramp_time = %g s is after the last step (t = %g s): the run ends "
+        "at load factor %g\n",
+        problem.name.c_str(), problem.ramp.ramp_time, P * problem.time.dt, final_factor);
 }
 
 ResultsWriter::~ResultsWriter() = default;

@@ -536,6 +536,69 @@ const std::vector<Case>& catalogue() {
          ltl::testing::write_file(d / "out.h5",
                                   std::string("\x89HDF\r\n\x1a\n", 8) + std::string(200, '\0'));
        }},
+      // Laws in principal stretches: named by the keys given (mu, alpha, Jm), not by the C1
+      // derived from them; an exponent that overflows t^alpha_p at moderate stretches.
+      {"ogden_mu_negative",
+       "model = \"mooney-rivlin\"\nC1 = \"435 kPa\"\nC2 = \"65 kPa\"",
+       "model = \"ogden\"\nmu = [\"-1 MPa\"]\nalpha = [2]",
+       o,
+       1,
+       {"material.mu[0], material.alpha[0]", "mu_p alpha_p > 0"}},
+      {"ogden_alpha_zero",
+       "model = \"mooney-rivlin\"\nC1 = \"435 kPa\"\nC2 = \"65 kPa\"",
+       "model = \"ogden\"\nmu = [\"1 MPa\"]\nalpha = [0]",
+       o,
+       1,
+       {"material.mu[0], material.alpha[0]", "alpha_p != 0"}},
+      {"ogden_alpha_1e6",
+       "model = \"mooney-rivlin\"\nC1 = \"435 kPa\"\nC2 = \"65 kPa\"",
+       "model = \"ogden\"\nmu = [\"1 MPa\"]\nalpha = [1e6]",
+       o,
+       1,
+       {"case.toml:8: key 'material.alpha[0]'", "at most 100"}},
+      {"gent_mu_negative",
+       "model = \"mooney-rivlin\"\nC1 = \"435 kPa\"\nC2 = \"65 kPa\"",
+       "model = \"gent\"\nmu = \"-1 MPa\"\nJm = 50",
+       o,
+       1,
+       {"case.toml:7: key 'material.mu'", "Gent shear modulus must be > 0"}},
+      {"gent_mu_1e99",
+       "model = \"mooney-rivlin\"\nC1 = \"435 kPa\"\nC2 = \"65 kPa\"",
+       "model = \"gent\"\nmu = \"1e99 Pa\"\nJm = 50",
+       o,
+       1,
+       {"key 'material.mu'", "out of balance", "C1 = mu / 2", "units of material.mu"}},
+      {"gent_Jm_missing",
+       "model = \"mooney-rivlin\"\nC1 = \"435 kPa\"\nC2 = \"65 kPa\"",
+       "model = \"gent\"\nmu = \"1 MPa\"",
+       o,
+       1,
+       {"key 'material.Jm'", "(or not given): must be > 0"}},
+      // Prescribed displacements and load factors out of scale: named, not a diverged step.
+      {"fixed_value_4e50_m",
+       "steps = 1",
+       "steps = 1\n[[fixed]]\ngroup = \"free\"\nvalue = [0, \"4e50 m\"]",
+       o,
+       1,
+       {"key 'fixed[0].value' moves its support by up to 4e+50 m",
+        "more than 1000 times the size of the body"}},
+      // Two supports that cannot both hold (a group fixed twice with other values): named, not
+      // run to the iteration cap.
+      {"fixed_twice_other_values",
+       "steps = 1",
+       "steps = 1\n[[fixed]]\ngroup = \"free\"\nvalue = [0, \"1 mm\"]\n[[fixed]]\n"
+       "group = \"free\"\nvalue = [0, \"-1 mm\"]",
+       o,
+       1,
+       {"key 'fixed[1].group' prescribes u_y = -0.001 m at node",
+        "where fixed[0].group prescribes 0.001 m", "two supports cannot both hold"}},
+      {"load_factor_1e99",
+       "",
+       "",
+       "--set load.ramp=table --set 'load.factor=[1e99]'" + o,
+       1,
+       {"key 'load.factor' with the largest factor, 1e+99, load.body_force is 4e+104 N/m^3",
+        "above 1e100"}},
   };
   return cases;
 }
@@ -987,6 +1050,140 @@ TEST(Hardening, AMeshTooLargeForTheMemoryIsRefusedBeforeMeshing) {
   EXPECT_LT(seconds, 30);
   EXPECT_EQ(changes(before, snapshot(f.dir)), "");
 #endif
+}
+
+// The same in 3-D: the Fig 6 gutter (Transfinite + Recombine: hexahedra) refined to 1e8 cells
+// and the box of gmsh's tetrahedra (tests/geometry/tet_box.geo) at n = 300 (about 1.2e8 cells)
+// under a 4 GB address-space limit, and the gutter at 1e12 cells against the available memory (no
+// limit set: also under ASan), each refused before gmsh makes a surface or a cell.
+TEST(Hardening, A3DMeshTooLargeForTheMemoryIsRefusedBeforeMeshing) {
+  struct Run {
+    std::string geometry, config, args, limit;
+    std::vector<std::string> words;
+  };
+  const std::string gutter = read_bytes(ltl::testing::source_path("experiments/fig6/fig6.toml"));
+  const std::string tets =
+      "name = \"case\"\n[mesh]\ngeometry = \"tet_box.geo\"\nparameters = { n = 2 }\n"
+      "[material]\nmodel = \"mooney-rivlin\"\nC1 = \"435 kPa\"\n[[fixed]]\ngroup = \"z0\"\n"
+      "[load]\nbody_force = [0, 0, \"-40 kN/m^3\"]\n";
+  std::vector<Run> runs = {
+      {"experiments/fig6/gutter.geo",
+       gutter,
+       " --set mesh.parameters.nt=20 --set mesh.parameters.na=900 --set mesh.parameters.nl=5600",
+       "ulimit -v 4000000 &&",
+       {"gutter.geo: out of memory (predicted before meshing): the mesh would have about 7.8",
+        "e+07 cells (hexahedra", "this process may use", "Use a coarser mesh (mesh.parameters)"}},
+      {"tests/geometry/tet_box.geo",
+       tets,
+       " --set mesh.parameters.n=300",
+       "ulimit -v 4000000 &&",
+       {"tet_box.geo: out of memory (predicted before meshing): the mesh would have about 1.2",
+        "e+08 cells (tetrahedra"}},
+      {"experiments/fig6/gutter.geo",
+       gutter,
+       " --set mesh.parameters.nt=1000 --set mesh.parameters.na=10000 "
+       "--set mesh.parameters.nl=100000",
+       "",
+       {"gutter.geo: out of memory (predicted before meshing)", "e+11 cells (hexahedra"}}};
+#if defined(__SANITIZE_ADDRESS__)
+  runs.erase(runs.begin(), runs.begin() + 2);  // ASan cannot live with an address-space limit
+#endif
+  for (const Run& run : runs) {
+    Folder f("mesh_memory_3d", run.config);
+    const fs::path geo = ltl::testing::source_path(run.geometry);
+    fs::copy_file(geo, f.dir / geo.filename());
+    const auto before = snapshot(f.dir);
+    const auto t0 = std::chrono::steady_clock::now();
+    const Outcome r = f.run("case.toml -q -o out.h5" + run.args, run.limit);
+    const double seconds = seconds_since(t0);
+    EXPECT_EQ(r.status, 1) << r.err;
+    for (const std::string& w : run.words)
+      EXPECT_NE(r.err.find(w), std::string::npos) << "'" << w << "' not in: " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_LT(seconds, 30);
+    EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  }
+}
+
+// --resume compares values, not their spelling: a modulus in other units, a default given
+// explicitly, the geometry named by another path to the same file are no change; a value that
+// differs is named with both values as given.
+TEST(Hardening, ResumeComparesTheResolvedValues) {
+  Folder f("resume_values", with(kValid, "steps = 1", "steps = 3"));
+  ASSERT_EQ(f.run("case.toml -q -o out.h5 --stop-after 1").status, 0);
+  Outcome r = f.run(
+      "case.toml -q -o out.h5 --resume --stop-after 1 --set 'material.C1=\"0.435 MPa\"' "
+      "--set material.C2=65000 --set discretization.contact=nodal --set contact.kernel=centre "
+      "--set 'mesh.geometry=\"./half_disc.geo\"'");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(ResultsFile::read_last_step((f.dir / "out.h5").string())->p, 2);
+  const auto before = snapshot(f.dir);
+  r = f.run("case.toml -q -o out.h5 --resume --set material.C1=435001 --set contact.w=1");
+  EXPECT_EQ(r.status, 1) << r.err;
+  for (const char* w : {"material.C1 ('435 kPa' in the file, 435001 now)",
+                        "contact.w (0.0 (default) in the file, 1 now)"})
+    EXPECT_NE(r.err.find(w), std::string::npos) << "'" << w << "' not in: " << r.err;
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+}
+
+// The reader (`ltl-results FILE`) and its plot (`ltl-results plot FILE`) on what is not a
+// results file: one line naming the file, exit status 1 (2 for usage), nothing changed; a FIFO
+// (it used to block), a directory, an empty, a foreign, a truncated file, an HDF5 file with the
+// groups but not the datasets of a results file (it used to be a traceback); the picture is never
+// written over the results file or through a symbolic link.
+TEST(Hardening, TheReaderRefusesWhatIsNotAResultsFile) {
+  const std::string py = "/usr/bin/python3";
+  if (std::system((py + " -c 'import h5py' 2> /dev/null").c_str()) != 0)
+    GTEST_SKIP() << "h5py is not installed for " << py;
+  const bool plots = std::system((py + " -c 'import matplotlib' 2> /dev/null").c_str()) == 0;
+  Folder f("reader");
+  ASSERT_EQ(f.run("case.toml -q -o out.h5").status, 0);
+  ASSERT_EQ(::mkfifo((f.dir / "fifo.h5").c_str(), 0644), 0);
+  fs::create_directory(f.dir / "dir.h5");
+  ltl::testing::write_file(f.dir / "empty.h5", "");
+  ltl::testing::write_file(f.dir / "notes.h5", "my notes\n");
+  ltl::testing::write_file(f.dir / "truncated.h5", read_bytes(f.dir / "out.h5").substr(0, 3000));
+  ASSERT_EQ(std::system(("cd '" + f.dir.string() + "' && " + py +
+                         " -c \"import h5py; f = h5py.File('alien.h5', 'w'); "
+                         "f.create_group('mesh'); f.create_group('steps')\"")
+                            .c_str()),
+            0);
+  fs::create_symlink("notes.h5", f.dir / "link.png");
+  const std::string reader = ltl::testing::source_path("figures/ltl_results.py");
+  struct Run {
+    std::string args;
+    int status;
+    std::string words;
+  };
+  std::vector<Run> runs = {
+      {"fifo.h5", 1, "fifo.h5: is not a regular file"},
+      {"dir.h5", 1, "dir.h5: is a directory, not a results file"},
+      {"empty.h5", 1, "empty.h5: cannot read the results file"},
+      {"notes.h5", 1, "notes.h5: cannot read the results file"},
+      {"truncated.h5", 1, "truncated.h5: cannot read the results file"},
+      {"alien.h5", 1, "alien.h5: not a results file of this code, or a damaged one"},
+      {"", 2, "usage: ltl_results.py"}};
+  if (plots) {
+    runs.push_back({"plot fifo.h5", 1, "ltl-results plot: fifo.h5: is not a regular file"});
+    runs.push_back({"plot alien.h5", 1, "alien.h5: not a results file of this code"});
+    runs.push_back({"plot out.h5 -o ''", 2, "the output file name is empty"});
+    runs.push_back({"plot out.h5 -o link.png", 1, "link.png: is a symbolic link (to notes.h5)"});
+    runs.push_back({"plot out.h5 -o ./out.h5", 1, "./out.h5: is the results file itself"});
+  }
+  const auto before = snapshot(f.dir);
+  for (const Run& run : runs) {
+    const fs::path err = f.dir.parent_path() / "reader.err";
+    const int rc = std::system(("cd '" + f.dir.string() + "' && timeout 60 " + py + " " + reader +
+                                " " + run.args + " > /dev/null 2> '" + err.string() + "'")
+                                   .c_str());
+    const std::string msg = read_bytes(err);
+    fs::remove(err);
+    EXPECT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == run.status)
+        << run.args << ": status " << rc << ": " << msg;
+    EXPECT_NE(msg.find(run.words), std::string::npos) << run.args << ": " << msg;
+    EXPECT_EQ(std::count(msg.begin(), msg.end(), '\n'), 1) << run.args << ": " << msg;
+  }
+  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
 }
 
 // A loop whose bound is computed (not caught by the scan of literal ranges) is stopped by the
