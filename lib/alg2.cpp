@@ -80,7 +80,7 @@ void Solver::precompute(double R) {
     } else {
       Adhesion adhesion = problem().contact->adhesion;
       adhesion.dt = problem().time.dt;
-      contact_ = std::make_unique<ContactStep>(disc_.surface(), adhesion, Rqc);
+      contact_ = std::make_unique<ContactStep>(*disc_.points(), adhesion, Rqc);
     }
   }
 }

@@ -31,7 +31,7 @@
 #include <Eigen/Sparse>
 
 #include "adhesion.hpp"
-#include "contact_surface.hpp"
+#include "contact_points.hpp"
 
 namespace ltl {
 
@@ -44,8 +44,11 @@ struct PointSolution {
 class ContactStep {
  public:
   /// Precomputes the sparse kernel matrix k (#points x #points, no entries when d0 = 0).
-  /// Rqc = R * q_c > 0. N is normalized. Throws std::invalid_argument on inconsistent data.
-  ContactStep(const ContactSurface& surface, const Adhesion& adhesion, double Rqc);
+  /// Rqc = R * q_c > 0. Reads points.N normalized (normal()). Throws std::invalid_argument on
+  /// inconsistent data. Keeps a reference to `points`, which must outlive the step (the
+  /// discretization owns them; a temporary is refused at compile time).
+  ContactStep(const ContactPoints& points, const Adhesion& adhesion, double Rqc);
+  ContactStep(ContactPoints&&, const Adhesion&, double) = delete;
 
   /// [LTL87 (6.1)-(6.8)] One facet: minimize the functional above given a, aa, b.
   /// a and N: only the first dim entries are read (N of unit length); gap may be any real.
@@ -105,11 +108,13 @@ class ContactStep {
   const Eigen::SparseMatrix<double>& kernel() const { return k_; }
   /// Bytes held by the kernel (values and indices of k and its transpose, and the diagonal).
   double kernel_bytes() const;
-  const ContactSurface& surface() const { return surface_; }
+  const ContactPoints& points() const { return *points_; }
+  /// The unit normal of the obstacle plane (points().N normalized), dim entries.
+  Eigen::VectorXd normal() const { return N3_.head(points_->dim); }
   const Adhesion& adhesion() const { return adhesion_; }
 
  private:
-  ContactSurface surface_;
+  const ContactPoints* points_;
   Adhesion adhesion_;
   double Rqc_;
   Eigen::SparseMatrix<double> k_;

@@ -115,7 +115,7 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
       if (r >= 0 && c >= 0 && r >= c) fluct_pos_.emplace_back(position(r, c), it.value());
     }
   if (const ContactPoints* pts = disc.points()) {
-    const Eigen::VectorXd& N = disc.surface().N;
+    const Eigen::VectorXd& N = disc.points()->N;
     const int np = pts->size();
     point_dofs_.resize(np), point_coef_.resize(np), point_pos_.resize(np);
     for (int k = 0; k < np; ++k) {
@@ -153,7 +153,7 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
     }
   }
   if (const ContactPoints* pts = disc_.points()) {
-    const Eigen::VectorXd N = disc_.surface().N;
+    const Eigen::VectorXd N = disc_.points()->N;
     Eigen::MatrixXd lc = s.lambda_c;  // dim x #points; with glue, less the glue's force
     if (glued_) {
       x.beta = s.beta;
@@ -186,7 +186,7 @@ void Newton::to_state(const Unknowns& x, State& s) const {
   }
   if (const ContactPoints* pts = disc_.points()) {
     s.e = (pts->mean * x.u).transpose();
-    const Eigen::VectorXd N = disc_.surface().N;
+    const Eigen::VectorXd N = disc_.points()->N;
     for (int k = 0; k < pts->size(); ++k) s.lambda_c.col(k) = -(x.mu(k) / pts->area(k)) * N;
     if (glued_) {
       s.beta = x.beta;
@@ -306,7 +306,7 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
   Ru += fluct_ * uflat - Fflat;
   // The contact forces: mu_s N (x) mean_s, the reaction of the plane (1.1).
   if (const ContactPoints* pts = disc_.points()) {
-    const Eigen::VectorXd& N = disc_.surface().N;
+    const Eigen::VectorXd& N = disc_.points()->N;
     for (int s = 0; s < pts->size(); ++s)
       for (SpMatR::InnerIterator it(pts->mean, s); it; ++it)
         for (int i = 0; i < d; ++i) Ru(d * it.col() + i) += x.mu(s) * it.value() * N(i);
@@ -367,7 +367,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   const int d = dim_, nc = disc_.num_cells();
   const ContactPoints* pts = disc_.points();
   const int np = pts ? pts->size() : 0;
-  const Eigen::VectorXd N = pts ? disc_.surface().N : Eigen::VectorXd();
+  const Eigen::VectorXd N = pts ? disc_.points()->N : Eigen::VectorXd();
   const Eigen::VectorXd& vol = disc_.cells().vol;
   Result result;
   const double wall0 = report.history.empty() ? 0.0 : report.history.back().wall;
@@ -407,7 +407,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     }
     double c2 = 0;
     if (pts) {
-      gapv = (pts->mean * y.u) * N - disc_.surface().gap;  // N . ubar - g (> 0: penetration)
+      gapv = (pts->mean * y.u) * N - disc_.points()->gap;  // N . ubar - g (> 0: penetration)
       for (int k = 0; k < np; ++k) {
         comp(k) = y.mu(k) - std::max(0.0, y.mu(k) + c_(k) * gapv(k));
         c2 += comp(k) * comp(k);
@@ -464,7 +464,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     IterationRecord rec;
     auto t0 = clock_type::now();
     // The active set of the semismooth step: mu_s + c_s (N . ubar_s - g_s) > 0.
-    if (pts) gapv = (pts->mean * x.u) * N - disc_.surface().gap;
+    if (pts) gapv = (pts->mean * x.u) * N - disc_.points()->gap;
     if (glued_) gb = glue_gradient(x);
     prev_active = active;
     int nA = 0;

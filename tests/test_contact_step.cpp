@@ -24,8 +24,8 @@ using Eigen::Vector2d;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
 using ltl::Adhesion;
+using ltl::ContactPoints;
 using ltl::ContactStep;
-using ltl::ContactSurface;
 using ltl::PointSolution;
 
 // ---------------------------------------------------------------------------------------------
@@ -624,9 +624,9 @@ TEST(ContactPoint, Eq6_8_ConstantObjectiveKeepsBetaAndTiesGoUp) {
 // ---------------------------------------------------------------------------------------------
 
 // Segments [x_k, x_{k+1}] on the line x2 = 0, the body above (N = (0,-1)).
-ContactSurface line_surface(const std::vector<double>& x) {
+ContactPoints line_surface(const std::vector<double>& x) {
   const int n = static_cast<int>(x.size()) - 1;
-  ContactSurface S;
+  ContactPoints S;
   S.dim = 2;
   S.area.resize(n);
   S.centre.resize(2, n);
@@ -642,7 +642,7 @@ ContactSurface line_surface(const std::vector<double>& x) {
   return S;
 }
 
-ContactSurface fig3_surface() {
+ContactPoints fig3_surface() {
   std::vector<double> x(29);
   for (int k = 0; k <= 28; ++k) x[k] = k / 28.0;
   return line_surface(x);
@@ -661,7 +661,7 @@ Adhesion fig3_adhesion(bool exact) {
 using ltl::testing::quad;
 
 TEST(ContactKernel, Eq6_4_Eq6_5_CentrePointRule) {
-  const ContactSurface S = line_surface({0.0, 0.01, 0.03, 0.035, 0.06});
+  const ContactPoints S = line_surface({0.0, 0.01, 0.03, 0.035, 0.06});
   Adhesion A = fig3_adhesion(false);
   A.d0 = 50.0;
   const ContactStep cs(S, A, 8e9);
@@ -679,7 +679,7 @@ TEST(ContactKernel, Eq1_6_ExactSelfTermClosedFormAndQuadrature) {
   // (1/h) int_0^h int_0^h d0 e^{-d0|x-y|} dy dx = 2 (1 - (1 - e^{-d0 h}) / (d0 h)).
   for (double d0h : {1e-4, 0.01, 0.5, 1.0, 5.0, 1000.0 / 28.0, 300.0}) {
     const double h = 0.1, d0 = d0h / h;
-    const ContactSurface S = line_surface({0.0, h});
+    const ContactPoints S = line_surface({0.0, h});
     Adhesion A;
     A.d0 = d0;
     A.exact_kernel = true;
@@ -708,7 +708,7 @@ TEST(ContactKernel, Eq1_6_ExactCollinearPairs) {
   //   int_P int_Q = e^{-d0 delta} (1 - e^{-d0 hp}) (1 - e^{-d0 hq}) / d0,  delta = gap between,
   // against an independent quadrature of the double integral.
   const std::vector<double> x = {0.0, 0.02, 0.05, 0.051, 0.09};
-  const ContactSurface S = line_surface(x);
+  const ContactPoints S = line_surface(x);
   Adhesion A;
   A.d0 = 60.0;
   A.exact_kernel = true;
@@ -736,7 +736,7 @@ TEST(ContactKernel, Eq1_6_ExactCollinearPairs) {
 
 TEST(ContactKernel, Eq1_6_Fig3SurfaceNumbers) {
   // The numbers quoted in paper_notes/section6.md: 28 segments of 1/28 m, d0 = 1000 /m.
-  const ContactSurface S = fig3_surface();
+  const ContactPoints S = fig3_surface();
   const ContactStep cp(S, fig3_adhesion(false), 8e9), ex(S, fig3_adhesion(true), 8e9);
   const MatrixXd kc(cp.kernel()), ke(ex.kernel());
   const double x = 1000.0 / 28.0;  // d0 h
@@ -763,7 +763,7 @@ double L_shape_reference(double h, double d0) {
 TEST(ContactKernel, Eq1_6_ExactNonCollinear2D) {
   const double h = 0.05;
   for (double d0 : {2.0, 40.0, 700.0}) {
-    ContactSurface S = line_surface({0.0, h});  // two facets, edited below
+    ContactPoints S = line_surface({0.0, h});  // two facets, edited below
     S.area = VectorXd::Constant(2, h);
     S.centre = MatrixXd::Zero(2, 2);
     S.gap = VectorXd::Zero(2);
@@ -781,7 +781,7 @@ TEST(ContactKernel, Eq1_6_ExactNonCollinear2D) {
     EXPECT_EQ(cs.kernel().coeff(0, 1), cs.kernel().coeff(1, 0));
   }
   {  // separated, tilted segments: smooth integrand, tensor Gauss reference
-    ContactSurface S = line_surface({0.0, 0.1});
+    ContactPoints S = line_surface({0.0, 0.1});
     S.area = VectorXd::Constant(2, 0.1);
     S.centre = MatrixXd::Zero(2, 2);
     S.gap = VectorXd::Zero(2);
@@ -810,7 +810,7 @@ TEST(ContactKernel, Eq1_6_ExactNonCollinear2D) {
     EXPECT_NEAR(cs.kernel().coeff(0, 1) * 0.1, ref, 1e-11 * ref);
   }
   {  // nearly collinear (tilt 1e-6): the quadrature path agrees with the collinear closed form
-    ContactSurface S = line_surface({0.0, 0.05, 0.1});
+    ContactPoints S = line_surface({0.0, 0.05, 0.1});
     const double tilt = 1e-6;
     S.vertices[1].col(1) << 0.05 + 0.05 * std::cos(tilt), 0.05 * std::sin(tilt);
     Adhesion A;
@@ -886,7 +886,7 @@ TEST(ContactKernel, Eq1_6_Exact3DQuadrilaterals) {
   const double h = 0.5;
   for (double d0 : {0.2, 4.0, 20.0}) {
     SCOPED_TRACE(d0);
-    ContactSurface S;
+    ContactPoints S;
     S.dim = 3;
     const int n = 3;
     S.area = VectorXd::Constant(n, h * h);
@@ -927,7 +927,8 @@ TEST(ContactKernel, Eq1_6_Exact3DQuadrilaterals) {
 TEST(ContactKernel, Eq1_6_ZeroWhenNoDissipation) {
   Adhesion A = fig3_adhesion(true);
   A.d0 = 0.0;
-  const ContactStep cs(fig3_surface(), A, 8e9);
+  const ContactPoints S = fig3_surface();  // the step keeps a reference: S outlives it
+  const ContactStep cs(S, A, 8e9);
   EXPECT_EQ(cs.kernel().rows(), 28);
   EXPECT_EQ(cs.kernel().norm(), 0.0);
   EXPECT_EQ(cs.kernel().nonZeros(), 0);  // nothing stored (the memory test: test_memory.cpp)
@@ -942,7 +943,7 @@ struct SweepData {
   VectorXd beta_prev, beta;
 };
 
-SweepData random_data(const ContactSurface& S, double u_scale, double lambda_scale, unsigned seed) {
+SweepData random_data(const ContactPoints& S, double u_scale, double lambda_scale, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(-1.0, 1.0), P(0.0, 1.0);
   const int n = S.size(), dim = S.dim;
@@ -958,7 +959,7 @@ SweepData random_data(const ContactSurface& S, double u_scale, double lambda_sca
 // The local functional written out independently: sum_s |G_s| [(Rqc/2)|e|^2 - a.e
 // + (kappa/2) beta^2 |e|^2 - w beta] + (1/(2 dt)) sum sum |G_s| k_ss' db_s db_s'.
 double local_J(const ContactStep& cs, double Rqc, const SweepData& D) {
-  const ContactSurface& S = cs.surface();
+  const ContactPoints& S = cs.points();
   const Adhesion& A = cs.adhesion();
   const MatrixXd k(cs.kernel());
   double J = 0.0;
@@ -975,7 +976,7 @@ double local_J(const ContactStep& cs, double Rqc, const SweepData& D) {
 
 // Per-facet data (6.3)-(6.5) computed in the test from the kernel.
 PointProblem facet_data(const ContactStep& cs, double Rqc, const SweepData& D, int s) {
-  const ContactSurface& S = cs.surface();
+  const ContactPoints& S = cs.points();
   const Adhesion& A = cs.adhesion();
   const MatrixXd k(cs.kernel());
   PointProblem F;
@@ -994,8 +995,8 @@ PointProblem facet_data(const ContactStep& cs, double Rqc, const SweepData& D, i
   return F;
 }
 
-ContactSurface grid3d(int nx, int ny, double h, double gap) {
-  ContactSurface S;
+ContactPoints grid3d(int nx, int ny, double h, double gap) {
+  ContactPoints S;
   S.dim = 3;
   const int n = nx * ny;
   S.area = VectorXd::Constant(n, h * h);
@@ -1017,7 +1018,7 @@ ContactSurface grid3d(int nx, int ny, double h, double gap) {
 
 struct SweepCase {
   const char* name;
-  ContactSurface S;
+  ContactPoints S;
   Adhesion A;
   double Rqc, u_scale, lambda_scale;
 };
@@ -1029,7 +1030,7 @@ std::vector<SweepCase> sweep_cases() {
   {  // O(1), strongly non-convex facets, coupled kernel, gaps
     std::vector<double> x(13);
     for (int k = 0; k <= 12; ++k) x[k] = 0.1 * k;
-    ContactSurface S = line_surface(x);
+    ContactPoints S = line_surface(x);
     for (int s = 0; s < 12; ++s) S.gap(s) = 0.05 * (s % 3);
     Adhesion A;
     A.w = 0.3;
@@ -1120,7 +1121,7 @@ TEST(ContactSweep, Eq4_7_SweepsDecreaseTheLocalFunctionalAndReachAFixedPoint) {
 
 TEST(ContactSweep, PureContactKappaZeroD0Zero) {
   // Figs 5-6: w = 1/eps = d = 0. e is the projection of a / Rqc, beta untouched.
-  ContactSurface S = fig3_surface();
+  ContactPoints S = fig3_surface();
   for (int s = 0; s < S.size(); ++s) S.gap(s) = 1e-3 * (s % 4);
   Adhesion A;
   A.dt = 1.0;
@@ -1165,7 +1166,7 @@ TEST(ContactSweep, SolveIsAllocationFree) {
 #endif
 
 TEST(ContactEnergy, Eq2_2_DiscreteAdhesionEnergy) {
-  const ContactSurface S = line_surface({0.0, 0.1, 0.3});
+  const ContactPoints S = line_surface({0.0, 0.1, 0.3});
   Adhesion A;
   A.w = 0.5;
   A.kappa = 10.0;
@@ -1195,7 +1196,7 @@ TEST(ContactEnergy, Eq2_2_DiscreteAdhesionEnergy) {
 }
 
 TEST(ContactStepSetup, RejectsInconsistentData) {
-  ContactSurface S = fig3_surface();
+  ContactPoints S = fig3_surface();
   EXPECT_THROW(ContactStep(S, fig3_adhesion(false), 0.0), std::invalid_argument);
   S.gap.resize(27);
   EXPECT_THROW(ContactStep(S, fig3_adhesion(false), 8e9), std::invalid_argument);
@@ -1204,9 +1205,9 @@ TEST(ContactStepSetup, RejectsInconsistentData) {
   EXPECT_NO_THROW(ContactStep(S, fig3_adhesion(false), 8e9));  // centre-point: no vertices
   EXPECT_THROW(ContactStep(S, fig3_adhesion(true), 8e9), std::invalid_argument);
   S = fig3_surface();
-  S.N = Vector2d(0, -2);  // normalized by the constructor
+  S.N = Vector2d(0, -2);  // read normalized by the constructor
   const ContactStep cs(S, fig3_adhesion(false), 8e9);
-  EXPECT_DOUBLE_EQ(cs.surface().N.norm(), 1.0);
+  EXPECT_DOUBLE_EQ(cs.normal().norm(), 1.0);
 }
 
 }  // namespace

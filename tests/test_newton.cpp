@@ -268,7 +268,7 @@ TEST(Newton, Eq2_2_GlueTermsAreDerivativesOfTheDiscreteFunctional) {
   Newton newton(disc);
   Adhesion adhesion = p.contact->adhesion;
   adhesion.dt = p.time.dt;
-  const ContactStep contact(disc.surface(), adhesion, 1.0);
+  const ContactStep contact(*disc.points(), adhesion, 1.0);
   const ContactPoints& pts = *disc.points();
   const int np = pts.size(), d = disc.dim(), nn = disc.num_nodes();
   std::mt19937 g(7);
