@@ -94,7 +94,7 @@ class Solver {
   /// mean gradients Gbar u, the means ubar of u at the contact points, and the mean-det targets
   /// det E_e = J_e = 1 - c_e(u). Allocated once.
   struct GlobalOutput {
-    Eigen::MatrixXd GU, ubar, ubar_rows;
+    Eigen::MatrixXd GU, ubar;  ///< ubar: #points x dim, like u
     Eigen::VectorXd J;
   };
   /// The multipliers the local steps see: lambda^{n-1} (Uzawa) or the half step (7.8).
@@ -159,7 +159,7 @@ class Solver {
   double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers
   // of the local steps (Bermudez-Moreno), the previous iterate of the residual r_G.
-  Eigen::MatrixXd rhs_, T_, c_rows_;
+  Eigen::MatrixXd rhs_, T_;
   GlobalOutput global_out_;
   Multipliers half_;
   State prev_;

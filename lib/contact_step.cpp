@@ -296,16 +296,16 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
                         const Eigen::VectorXd& beta_prev, Eigen::MatrixXd& e, Eigen::VectorXd& beta,
                         int sweeps) const {
   const int n = points_->size(), dim = points_->dim;
-  if (ubar.rows() != dim || ubar.cols() != n || lambda_c.rows() != dim || lambda_c.cols() != n ||
-      e.rows() != dim || e.cols() != n || beta_prev.size() != n || beta.size() != n)
-    fail("solve(): ubar, lambda_c, e must be dim x #points and beta_prev, beta #points (dim = " +
+  if (ubar.rows() != n || ubar.cols() != dim || lambda_c.rows() != n || lambda_c.cols() != dim ||
+      e.rows() != n || e.cols() != dim || beta_prev.size() != n || beta.size() != n)
+    fail("solve(): ubar, lambda_c, e must be #points x dim and beta_prev, beta #points (dim = " +
          std::to_string(dim) + ", #points = " + std::to_string(n) + ")");
   const double dt = adhesion_.dt, w = adhesion_.w, kappa = adhesion_.kappa;
   const bool dissipation = adhesion_.d0 > 0.0;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     for (int s = 0; s < n; ++s) {
       Vector3d a = Vector3d::Zero();
-      a.head(dim) = Rqc_ * ubar.col(s) - lambda_c.col(s);  // (6.3)
+      a.head(dim) = (Rqc_ * ubar.row(s) - lambda_c.row(s)).transpose();  // (6.3)
       double aa = 0.0, b = w;
       if (dissipation) {
         const double kss = kdiag_(s);
@@ -317,7 +317,7 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
       }
       const PointSolution sol =
           solve_point(a, aa, b, Rqc_, kappa, N3_, points_->gap(s), dim, beta(s));
-      e.col(s) = sol.e.head(dim);
+      e.row(s) = sol.e.head(dim).transpose();
       beta(s) = sol.beta;
     }
   }
@@ -326,14 +326,14 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
 double ContactStep::energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta,
                            const Eigen::VectorXd& beta_prev) const {
   const int n = points_->size(), dim = points_->dim;
-  if (e.rows() != dim || e.cols() != n || beta.size() != n || beta_prev.size() != n)
-    fail("energy(): e must be dim x #points and beta, beta_prev #points");
+  if (e.rows() != n || e.cols() != dim || beta.size() != n || beta_prev.size() != n)
+    fail("energy(): e must be #points x dim and beta, beta_prev #points");
   double E = 0.0;
   for (int s = 0; s < n; ++s) {
     if (!(beta(s) >= 0.0 && beta(s) <= 1.0)) return kInf;
-    const double en = e.col(s).dot(N3_.head(dim)), g = points_->gap(s);
-    if (en > g + 1e-10 * (e.col(s).norm() + std::abs(g))) return kInf;
-    E += points_->area(s) * (0.5 * adhesion_.kappa * beta(s) * beta(s) * e.col(s).squaredNorm() -
+    const double en = e.row(s).dot(N3_.head(dim).transpose()), g = points_->gap(s);
+    if (en > g + 1e-10 * (e.row(s).norm() + std::abs(g))) return kInf;
+    E += points_->area(s) * (0.5 * adhesion_.kappa * beta(s) * beta(s) * e.row(s).squaredNorm() -
                              adhesion_.w * beta(s));
   }
   if (adhesion_.d0 > 0.0) {
@@ -349,12 +349,12 @@ double ContactStep::local_objective(const Eigen::MatrixXd& ubar, const Eigen::Ma
                                     const Eigen::VectorXd& beta_prev, const Eigen::MatrixXd& e,
                                     const Eigen::VectorXd& beta) const {
   const int n = points_->size(), dim = points_->dim;
-  if (ubar.rows() != dim || ubar.cols() != n || lambda_c.rows() != dim || lambda_c.cols() != n)
-    fail("local_objective(): ubar and lambda_c must be dim x #points");
+  if (ubar.rows() != n || ubar.cols() != dim || lambda_c.rows() != n || lambda_c.cols() != dim)
+    fail("local_objective(): ubar and lambda_c must be #points x dim");
   double J = energy(e, beta, beta_prev);
   for (int s = 0; s < n; ++s)
-    J += points_->area(s) * (0.5 * Rqc_ * e.col(s).squaredNorm() -
-                             (Rqc_ * ubar.col(s) - lambda_c.col(s)).dot(e.col(s)));
+    J += points_->area(s) * (0.5 * Rqc_ * e.row(s).squaredNorm() -
+                             (Rqc_ * ubar.row(s) - lambda_c.row(s)).dot(e.row(s)));
   return J;
 }
 

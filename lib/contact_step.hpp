@@ -77,8 +77,8 @@ class ContactStep {
                                   double gamma);
 
   /// [LTL87 (4.7), sec. 6] `sweeps` Gauss-Seidel sweeps over the facets in order.
-  ///   ubar:      dim x #points, facet means of the current displacement u^n
-  ///   lambda_c:  dim x #points, current multiplier
+  ///   ubar:      #points x dim like u, the current displacement u^n at the points
+  ///   lambda_c:  #points x dim, current multiplier
   ///   beta_prev: #points, beta at the previous time step (beta_{p-1})
   ///   e, beta:   in: current iterate, out: updated.
   /// Allocation-free. O(nnz(k)) per sweep: O(#points x neighbours within the cutoff).

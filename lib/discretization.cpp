@@ -297,7 +297,7 @@ namespace {
 /// -lambda_c . N per contact point: the nominal contact pressure (Pa), before any reading.
 Eigen::VectorXd nominal_pressure(const Problem& problem, const State& s) {
   if (!problem.contact) return Eigen::VectorXd(0);
-  return -(s.lambda_c.transpose() * problem.contact->plane_normal.head(problem.mesh.dim));
+  return -(s.lambda_c * problem.contact->plane_normal.head(problem.mesh.dim));
 }
 }  // namespace
 
@@ -317,7 +317,7 @@ Eigen::VectorXd Discretization::contact_forces(const State& s) const {
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {
   if (!points_) return {};
-  return points_->gap - s.e.transpose() * points_->N;
+  return points_->gap - s.e * points_->N;
 }
 
 double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) const {

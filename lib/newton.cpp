@@ -154,13 +154,13 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
   }
   if (const ContactPoints* pts = disc_.points()) {
     const Eigen::VectorXd N = disc_.points()->N;
-    Eigen::MatrixXd lc = s.lambda_c;  // dim x #points; with glue, less the glue's force
+    Eigen::MatrixXd lc = s.lambda_c;  // #points x dim; with glue, less the glue's force
     if (glued_) {
       x.beta = s.beta;
       for (int k = 0; k < pts->size(); ++k)
-        lc.col(k) += glue_.kappa * s.beta(k) * s.beta(k) * s.e.col(k);
+        lc.row(k) += glue_.kappa * s.beta(k) * s.beta(k) * s.e.row(k);
     }
-    x.mu = pts->area.cwiseProduct((-(lc.transpose() * N)).cwiseMax(0.0));
+    x.mu = pts->area.cwiseProduct((-(lc * N)).cwiseMax(0.0));
   }
   return x;
 }
@@ -185,13 +185,14 @@ void Newton::to_state(const Unknowns& x, State& s) const {
     s.lambda.block(d * e, 0, d, d) = L.transpose();
   }
   if (const ContactPoints* pts = disc_.points()) {
-    s.e = (pts->mean * x.u).transpose();
+    s.e = pts->mean * x.u;
     const Eigen::VectorXd N = disc_.points()->N;
-    for (int k = 0; k < pts->size(); ++k) s.lambda_c.col(k) = -(x.mu(k) / pts->area(k)) * N;
+    for (int k = 0; k < pts->size(); ++k)
+      s.lambda_c.row(k) = -(x.mu(k) / pts->area(k)) * N.transpose();
     if (glued_) {
       s.beta = x.beta;
       for (int k = 0; k < pts->size(); ++k)
-        s.lambda_c.col(k) -= glue_.kappa * x.beta(k) * x.beta(k) * s.e.col(k);
+        s.lambda_c.row(k) -= glue_.kappa * x.beta(k) * x.beta(k) * s.e.row(k);
     }
   }
 }

@@ -948,11 +948,12 @@ SweepData random_data(const ContactPoints& S, double u_scale, double lambda_scal
   std::uniform_real_distribution<double> U(-1.0, 1.0), P(0.0, 1.0);
   const int n = S.size(), dim = S.dim;
   SweepData D;
-  D.ubar = u_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); });
-  D.lambda_c = lambda_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); });
+  // Drawn dim x #points (the draws of the earlier layout), stored #points x dim like u.
+  D.ubar = u_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); }).transpose();
+  D.lambda_c = lambda_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); }).transpose();
   D.beta_prev = VectorXd::NullaryExpr(n, [&]() { return P(rng); });
   D.beta = VectorXd::NullaryExpr(n, [&]() { return P(rng); });
-  D.e = MatrixXd::Zero(dim, n);  // feasible when gap >= 0
+  D.e = MatrixXd::Zero(n, dim);  // feasible when gap >= 0
   return D;
 }
 
@@ -964,9 +965,10 @@ double local_J(const ContactStep& cs, double Rqc, const SweepData& D) {
   const MatrixXd k(cs.kernel());
   double J = 0.0;
   for (int s = 0; s < S.size(); ++s) {
-    const VectorXd a = Rqc * D.ubar.col(s) - D.lambda_c.col(s);
-    const double e2 = D.e.col(s).squaredNorm(), b = D.beta(s);
-    J += S.area(s) * (0.5 * Rqc * e2 - a.dot(D.e.col(s)) + 0.5 * A.kappa * b * b * e2 - A.w * b);
+    const VectorXd a = (Rqc * D.ubar.row(s) - D.lambda_c.row(s)).transpose();
+    const double e2 = D.e.row(s).squaredNorm(), b = D.beta(s);
+    J += S.area(s) *
+         (0.5 * Rqc * e2 - a.dot(D.e.row(s).transpose()) + 0.5 * A.kappa * b * b * e2 - A.w * b);
     for (int t = 0; t < S.size(); ++t)
       J += S.area(s) * k(s, t) * (D.beta(s) - D.beta_prev(s)) * (D.beta(t) - D.beta_prev(t)) /
            (2.0 * A.dt);
@@ -982,7 +984,7 @@ PointProblem facet_data(const ContactStep& cs, double Rqc, const SweepData& D, i
   PointProblem F;
   F.dim = S.dim;
   F.a.setZero();
-  F.a.head(S.dim) = Rqc * D.ubar.col(s) - D.lambda_c.col(s);
+  F.a.head(S.dim) = (Rqc * D.ubar.row(s) - D.lambda_c.row(s)).transpose();
   F.N.setZero();
   F.N.head(S.dim) = S.N.normalized();
   F.gap = S.gap(s);
@@ -1063,7 +1065,7 @@ TEST(ContactSweep, Sec6_GaussSeidelInFacetOrderWithNewestBeta) {
       const PointProblem F = facet_data(cs, C.Rqc, R, s);
       const PointSolution sol = solve(F, R.beta(s));
       R.beta(s) = sol.beta;
-      R.e.col(s) = sol.e.head(C.S.dim);
+      R.e.row(s) = sol.e.head(C.S.dim).transpose();
     }
     EXPECT_LE((D.beta - R.beta).lpNorm<Eigen::Infinity>(), 1e-12);
     EXPECT_LE((D.e - R.e).norm(), 1e-12 * (R.e.norm() + 1e-300));
@@ -1112,7 +1114,7 @@ TEST(ContactSweep, Eq4_7_SweepsDecreaseTheLocalFunctionalAndReachAFixedPoint) {
         const Brute B = brute_gamma(F, 2000);
         EXPECT_LE(reduced(F, D.beta(s)), B.f + 1e-10 * fscale(F)) << "facet " << s;
         Vector3d es = Vector3d::Zero();
-        es.head(C.S.dim) = D.e.col(s);
+        es.head(C.S.dim) = D.e.row(s).transpose();
         EXPECT_LE((es - e_of_gamma(F, D.beta(s))).norm(), 1e-13 * (es.norm() + F.gap + 1e-300));
       }
     }
@@ -1133,10 +1135,10 @@ TEST(ContactSweep, PureContactKappaZeroD0Zero) {
   EXPECT_EQ(D.beta, beta0);
   int active_count = 0;
   for (int s = 0; s < S.size(); ++s) {
-    const Vector2d x = (Rqc * D.ubar.col(s) - D.lambda_c.col(s)) / Rqc;
+    const Vector2d x = (Rqc * D.ubar.row(s) - D.lambda_c.row(s)).transpose() / Rqc;
     const Vector2d N(0, -1);
     const Vector2d e = (x.dot(N) <= S.gap(s)) ? x : Vector2d(x - (x.dot(N) - S.gap(s)) * N);
-    EXPECT_LE((D.e.col(s) - e).norm(), 1e-15 * (x.norm() + S.gap(s)));
+    EXPECT_LE((D.e.row(s).transpose() - e).norm(), 1e-15 * (x.norm() + S.gap(s)));
     active_count += (x.dot(N) > S.gap(s));
   }
   EXPECT_GT(active_count, 3);  // both regimes visited
@@ -1174,7 +1176,7 @@ TEST(ContactEnergy, Eq2_2_DiscreteAdhesionEnergy) {
   A.dt = 0.5;
   const ContactStep cs(S, A, 1.0);
   MatrixXd e(2, 2);
-  e << 0.1, -0.2, 0.3, 0.0;  // e.N = -e_y <= 0
+  e << 0.1, 0.3, -0.2, 0.0;  // one point per row; e.N = -e_y <= 0
   VectorXd beta(2), beta_prev(2);
   beta << 0.4, 0.9;
   beta_prev << 1.0, 0.7;
@@ -1191,7 +1193,7 @@ TEST(ContactEnergy, Eq2_2_DiscreteAdhesionEnergy) {
   bad(1) = 1.0 + 1e-12;
   EXPECT_EQ(cs.energy(e, bad, beta_prev), std::numeric_limits<double>::infinity());
   MatrixXd pen = e;
-  pen(1, 0) = -1e-6;  // e.N = 1e-6 > 0 = g
+  pen(0, 1) = -1e-6;  // e.N = 1e-6 > 0 = g
   EXPECT_EQ(cs.energy(pen, beta, beta_prev), std::numeric_limits<double>::infinity());
 }
 

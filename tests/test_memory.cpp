@@ -108,7 +108,7 @@ TEST(Memory, Eq4_7_ContactStepWithoutGlueAllocatesNoPointsSquaredBuffer) {
   const ContactPoints S = line(n, 1e-3);
   Adhesion A;  // no glue, no dissipation: d0 = 0
   A.dt = 1.0;
-  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(2, n, 1e-4), lambda_c = ubar, e = ubar;
+  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(n, 2, 1e-4), lambda_c = ubar, e = ubar;
   Eigen::VectorXd beta_prev = Eigen::VectorXd::Zero(n), beta = beta_prev;
   const std::size_t big = largest_allocation([&] {
     const ContactStep cs(S, A, 1e6);
@@ -127,7 +127,7 @@ TEST(Memory, Eq6_4_Eq6_5_ContactStepWithGlueStoresASparseKernel) {
   A.kappa = 1e9;
   A.d0 = 1000.0;
   A.dt = 5.0;
-  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(2, n, 1e-4), lambda_c = ubar, e = ubar;
+  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(n, 2, 1e-4), lambda_c = ubar, e = ubar;
   Eigen::VectorXd beta_prev = Eigen::VectorXd::Zero(n), beta = Eigen::VectorXd::Ones(n);
   double bytes = 0;
   const std::size_t big = largest_allocation([&] {
