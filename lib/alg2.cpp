@@ -29,7 +29,7 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
   norm_I_ = std::sqrt(a.q * disc_.volume() * dim);
   precompute(a.R);
 
-  // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per facet.
+  // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per point.
   w_cell_ = (a.q * disc_.volume_rows()).cwiseSqrt() / norm_I_;
   if (points) w_point_ = (a.q_c * points->area).cwiseSqrt() / norm_I_;
   // The packed iterate: lambda, lambda_c; E, e unless only the multipliers are accelerated; beta

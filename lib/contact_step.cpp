@@ -121,7 +121,7 @@ void regime_poly(double A, double b, double r, double m, double p[6]) {
 }
 
 std::string point_str(int s) {
-  return "facet " + std::to_string(s);
+  return "contact point " + std::to_string(s);
 }
 
 [[noreturn]] void fail(const std::string& what) {
@@ -131,7 +131,7 @@ std::string point_str(int s) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-// The facet problem
+// The point problem
 // ---------------------------------------------------------------------------------------------
 
 Vector3d ContactStep::project(const Vector3d& x, const Vector3d& N, double gap) {
@@ -310,7 +310,7 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
       if (dissipation) {
         const double kss = kdiag_(s);
         aa = kss / dt;  // (6.4)
-        // (6.5), with the newest beta of the other facets (Gauss-Seidel).
+        // (6.5), with the newest beta of the other points (Gauss-Seidel).
         const double others =
             kernel_row_dot(kt_, s, beta, beta_prev) - kss * (beta(s) - beta_prev(s));
         b = w - others / dt + kss * beta_prev(s) / dt;
