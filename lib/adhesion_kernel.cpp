@@ -389,7 +389,7 @@ namespace {
 /// Galerkin integral; the constructor checks the vertices the exact rule needs.
 class PairRule {
  public:
-  PairRule(const ContactSurface& surface, double d0, bool exact)
+  PairRule(const ContactPoints& surface, double d0, bool exact)
       : S_(surface), d0_(d0), exact_(exact) {
     const int n = S_.size(), dim = S_.dim;
     if (!exact) return;
@@ -441,14 +441,14 @@ class PairRule {
   }
 
  private:
-  const ContactSurface& S_;
+  const ContactPoints& S_;
   double d0_;
   bool exact_;
   std::vector<Facet3> facets_;
 };
 
 /// The largest facet diameter D of kernel_cutoff().
-double largest_diameter(const ContactSurface& S) {
+double largest_diameter(const ContactPoints& S) {
   double D = 0.0;
   for (int s = 0; s < S.size(); ++s) {
     double d = S.dim == 2 ? S.area(s) : 2.0 * std::sqrt(S.area(s));
@@ -464,7 +464,7 @@ double largest_diameter(const ContactSurface& S) {
 
 }  // namespace
 
-Eigen::MatrixXd adhesion_kernel(const ContactSurface& surface, double d0, bool exact) {
+Eigen::MatrixXd adhesion_kernel(const ContactPoints& surface, double d0, bool exact) {
   const int n = surface.size();
   const PairRule rule(surface, d0, exact);
   Eigen::MatrixXd k(n, n);
@@ -477,7 +477,7 @@ Eigen::MatrixXd adhesion_kernel(const ContactSurface& surface, double d0, bool e
   return k;
 }
 
-double kernel_cutoff(const ContactSurface& surface, double d0, double rel_tol) {
+double kernel_cutoff(const ContactPoints& surface, double d0, double rel_tol) {
   if (!(d0 > 0.0) || !std::isfinite(d0)) fail("d0 must be > 0 for a kernel cutoff");
   if (!(rel_tol > 0.0 && rel_tol < 1.0)) fail("the cutoff tolerance must be in (0, 1)");
   const double D = largest_diameter(surface), delta = d0 * D;
@@ -493,7 +493,7 @@ double kernel_cutoff(const ContactSurface& surface, double d0, double rel_tol) {
   return D + x / d0;
 }
 
-Eigen::SparseMatrix<double> adhesion_kernel_sparse(const ContactSurface& surface, double d0,
+Eigen::SparseMatrix<double> adhesion_kernel_sparse(const ContactPoints& surface, double d0,
                                                    bool exact, double rel_tol) {
   const int n = surface.size(), dim = surface.dim;
   const PairRule rule(surface, d0, exact);

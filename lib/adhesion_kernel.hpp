@@ -19,7 +19,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 
-#include "contact_surface.hpp"
+#include "contact_points.hpp"
 
 namespace ltl {
 
@@ -28,7 +28,7 @@ namespace ltl {
 /// `exact` (then surface.vertices is required and checked against surface.area). Throws
 /// std::invalid_argument naming the facet on inconsistent vertices.
 /// The dense reference: every pair (#points^2 doubles). The solver uses the sparse kernel below.
-Eigen::MatrixXd adhesion_kernel(const ContactSurface& surface, double d0, bool exact);
+Eigen::MatrixXd adhesion_kernel(const ContactPoints& surface, double d0, bool exact);
 
 /// The relative tolerance of the sparse kernel's cutoff: the mass dropped from any row is below
 /// kKernelCutoffTol times the mass of the kernel over the whole line (2) or plane (2 pi / d0).
@@ -42,13 +42,13 @@ constexpr double kKernelCutoffTol = 1e-12;
 /// d(x_s - x_t) <= e^delta d(x_s - y), so the dropped entries of row s (either rule) sum to at
 /// most e^delta times the kernel's mass beyond x / d0, which is (1 + x) e^-x (plane) or e^-x
 /// (line) of its whole mass.
-double kernel_cutoff(const ContactSurface& surface, double d0, double rel_tol);
+double kernel_cutoff(const ContactPoints& surface, double d0, double rel_tol);
 
 /// [LTL87 (1.3), (1.6), (6.4)-(6.5)] The same kernel, sparse: the entries of adhesion_kernel()
 /// for the pairs within kernel_cutoff() (bitwise the same values), the others dropped. Pairs
 /// are found on a grid of cell size r_c: O(#points x neighbours) time and memory, no
 /// #points^2 buffer. Throws like adhesion_kernel().
-Eigen::SparseMatrix<double> adhesion_kernel_sparse(const ContactSurface& surface, double d0,
+Eigen::SparseMatrix<double> adhesion_kernel_sparse(const ContactPoints& surface, double d0,
                                                    bool exact, double rel_tol = kKernelCutoffTol);
 
 /// The integrals behind the exact rule, each of d0 exp(-d0 |x - y|) [LTL87 (1.6)].

@@ -100,7 +100,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
     r.inside_tol = kInsideTolerance * r.h;
     std::vector<char> on_surface(nn, 0);
     const ContactPoints* pts = d.points();
-    const bool points = pts && s.e.cols() == pts->size();
+    const bool points = pts && s.e.rows() == pts->size();
     if (points)
       for (int n : mesh.boundary_nodes(pb.contact->group)) on_surface[n] = 1;
     double worst_excess = -std::numeric_limits<double>::infinity();
@@ -125,7 +125,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
       const bool nodal = !pts->nodes.empty();
       for (int i = 0; i < pts->size(); ++i) {
         const double depth = (xbar.row(i).transpose() - p0).dot(N);
-        const double residual = std::abs((ubar.row(i) - s.e.col(i).transpose()).dot(N));
+        const double residual = std::abs((ubar.row(i) - s.e.row(i)).dot(N));
         record(depth, r.inside_tol + (std::isfinite(residual) ? residual : 0.0), [&] {
           const std::string where =
               nodal ? cat("node ", pts->nodes[i], " at reference ", position(mesh.X, pts->nodes[i]),
@@ -219,7 +219,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
 
   // 4. Contact: no tension where there is no glue, 0 <= beta <= 1.
   if (const ContactPoints* pts = d.points();
-      pb.contact && pts && pts->size() > 0 && s.lambda_c.cols() == pts->size()) {
+      pb.contact && pts && pts->size() > 0 && s.lambda_c.rows() == pts->size()) {
     const Eigen::VectorXd p = d.contact_pressure(s);
     const double kappa = pb.contact->adhesion.kappa;
     const bool has_beta = s.beta.size() == pts->size();

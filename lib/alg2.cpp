@@ -29,7 +29,7 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
   norm_I_ = std::sqrt(a.q * disc_.volume() * dim);
   precompute(a.R);
 
-  // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per facet.
+  // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per point.
   w_cell_ = (a.q * disc_.volume_rows()).cwiseSqrt() / norm_I_;
   if (points) w_point_ = (a.q_c * points->area).cwiseSqrt() / norm_I_;
   // The packed iterate: lambda, lambda_c; E, e unless only the multipliers are accelerated; beta
@@ -49,9 +49,7 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
   global_out_.GU.resize(dim * nc, dim);
   global_out_.J = Eigen::VectorXd::Ones(nc);
   if (points) {
-    global_out_.ubar_rows.resize(n_points, dim);
-    global_out_.ubar.resize(dim, n_points);
-    c_rows_.resize(n_points, dim);
+    global_out_.ubar.resize(n_points, dim);
   }
   if (a.solver == NonlinearSolver::Newton) newton_ = std::make_unique<Newton>(disc_);
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
@@ -80,7 +78,7 @@ void Solver::precompute(double R) {
     } else {
       Adhesion adhesion = problem().contact->adhesion;
       adhesion.dt = problem().time.dt;
-      contact_ = std::make_unique<ContactStep>(disc_.surface(), adhesion, Rqc);
+      contact_ = std::make_unique<ContactStep>(*disc_.points(), adhesion, Rqc);
     }
   }
 }
@@ -92,8 +90,8 @@ State Solver::initial_state() const {
   s.u = disc_.dirichlet().value;
   s.E = disc_.identity();
   s.lambda = 2 * disc_.split().C1 * disc_.identity();
-  s.e = Eigen::MatrixXd::Zero(dim, n_points);
-  s.lambda_c = Eigen::MatrixXd::Zero(dim, n_points);
+  s.e = Eigen::MatrixXd::Zero(n_points, dim);
+  s.lambda_c = Eigen::MatrixXd::Zero(n_points, dim);
   s.beta = Eigen::VectorXd::Constant(n_points, problem().contact ? problem().contact->beta0 : 0.0);
   return s;
 }
@@ -115,10 +113,7 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
     rhs_.noalias() += gamma_ * (disc_.fluctuation_laplacian() * s.u);
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_);
   }
-  if (points) {
-    c_rows_ = (R_ * a.q_c * s.e + s.lambda_c).transpose();
-    rhs_.noalias() += points->meanT_area * c_rows_;
-  }
+  if (points) rhs_.noalias() += points->meanT_area * (R_ * a.q_c * s.e + s.lambda_c);
   global_->solve(rhs_, s.u);
 
   g.GU.noalias() = cells.Gbar * s.u;
@@ -126,10 +121,7 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
     disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr);
     g.J = 1.0 - g.J.array();
   }
-  if (points) {
-    g.ubar_rows.noalias() = points->mean * s.u;
-    g.ubar = g.ubar_rows.transpose();
-  }
+  if (points) g.ubar.noalias() = points->mean * s.u;
 }
 
 // [LTL87 (4.6), (5.2)-(5.8)] Cell by cell, D = R q (I + Gbar u) - lambda and E = argmin J_E.
@@ -260,8 +252,8 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   if (const ContactPoints* points = disc_.points()) {
     for (int f = 0; f < points->size(); ++f) {
       const double w = points->area(f);
-      B2 += a.q_c * w * (g.ubar.col(f) - s.e.col(f)).squaredNorm();
-      G2 += a.q_c * w * (s.e.col(f) - prev.e.col(f)).squaredNorm();
+      B2 += a.q_c * w * (g.ubar.row(f) - s.e.row(f)).squaredNorm();
+      G2 += a.q_c * w * (s.e.row(f) - prev.e.row(f)).squaredNorm();
       beta2 += w * std::pow(s.beta(f) - prev.beta(f), 2);
     }
   }
@@ -271,9 +263,13 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
 }
 
 namespace {
-// z[k .. k + size) <-> a matrix scaled by a weight per row (cells) or per column (points).
+// z[k .. k + size) <-> a matrix scaled by a weight per row (cells, and the contact points,
+// #points x dim, packed point by point: row-major).
 using Map = Eigen::Map<Eigen::MatrixXd>;
 using ConstMap = Eigen::Map<const Eigen::MatrixXd>;
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using RowMap = Eigen::Map<RowMajor>;
+using ConstRowMap = Eigen::Map<const RowMajor>;
 }  // namespace
 
 template <class S, class Cells, class Points, class Beta, class U>
@@ -302,8 +298,7 @@ void Solver::pack(const State& s, Eigen::VectorXd& z) const {
         p += A.size();
       },
       [&](const Eigen::MatrixXd& A, double c) {
-        Map(p, A.rows(), A.cols()) =
-            c * (A.array().rowwise() * w_point_.transpose().array()).matrix();
+        RowMap(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_point_.array()).matrix();
         p += A.size();
       },
       [&](double b, double w) { *p++ = w * b; },
@@ -319,7 +314,7 @@ void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
         p += A.size();
       },
       [&](Eigen::MatrixXd& A, double c) {
-        A = (ConstMap(p, A.rows(), A.cols()).array().rowwise() / (c * w_point_.transpose().array()))
+        A = (ConstRowMap(p, A.rows(), A.cols()).array().colwise() / (c * w_point_.array()))
                 .matrix();
         p += A.size();
       },
@@ -423,7 +418,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
 }
 
 bool Solver::local_contact_step_holds(const State& s, const Eigen::VectorXd& beta_prev) const {
-  const Eigen::MatrixXd ubar = (disc_.points()->mean * s.u).transpose();
+  const Eigen::MatrixXd ubar = disc_.points()->mean * s.u;
   Eigen::MatrixXd e = s.e;
   Eigen::VectorXd beta = s.beta;
   contact_->solve(ubar, s.lambda_c, beta_prev, e, beta, 1);

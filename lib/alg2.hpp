@@ -2,12 +2,12 @@
 // Bermudez-Moreno variant (7.7)-(7.10), for one time step (2.1) of the adhesion problem.
 //
 // Unknowns (our reading, section3-4.md): u (P2 / H8 nodal displacement), E and lambda (P0 per
-// cell), e, beta, lambda_c (P0 per contact facet). One iteration reads as three phases:
+// cell), e, beta, lambda_c (per contact point). One iteration reads as three phases:
 //
 //   (4.1) global step:
 //           K u = f + g + GbarT [ R q (E - I) + lambda - 2 C1 I ] + MT [ R q_c e + lambda_c ]
 //   (4.2) local steps:
-//           E per cell (4.6, sec. 5), {e, beta} per facet (4.7, sec. 6)
+//           E per cell (4.6, sec. 5), {e, beta} per point (4.7, sec. 6)
 //   (4.3) update:
 //           lambda -= rho R q (I + Gbar u - E),  lambda_c -= rho R q_c (ubar - e)
 //
@@ -94,7 +94,7 @@ class Solver {
   /// mean gradients Gbar u, the means ubar of u at the contact points, and the mean-det targets
   /// det E_e = J_e = 1 - c_e(u). Allocated once.
   struct GlobalOutput {
-    Eigen::MatrixXd GU, ubar, ubar_rows;
+    Eigen::MatrixXd GU, ubar;  ///< ubar: #points x dim, like u
     Eigen::VectorXd J;
   };
   /// The multipliers the local steps see: lambda^{n-1} (Uzawa) or the half step (7.8).
@@ -127,7 +127,7 @@ class Solver {
   void pack(const State& s, Eigen::VectorXd& z) const;
   void unpack(const Eigen::VectorXd& z, State& s) const;
   /// The blocks of the packed vector in their order, one definition for pack and unpack:
-  /// cells(A, c) and points(A, c) for the cell and facet fields with their scale c, beta(b, w)
+  /// cells(A, c) and points(A, c) for the cell and point fields with their scale c, beta(b, w)
   /// for each beta_s with its weight, u(A) for the displacement (mean-det).
   template <class S, class Cells, class Points, class Beta, class U>
   void for_each_packed(S& s, Cells&& cells, Points&& points, Beta&& beta, U&& u) const;
@@ -159,7 +159,7 @@ class Solver {
   double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers
   // of the local steps (Bermudez-Moreno), the previous iterate of the residual r_G.
-  Eigen::MatrixXd rhs_, T_, c_rows_;
+  Eigen::MatrixXd rhs_, T_;
   GlobalOutput global_out_;
   Multipliers half_;
   State prev_;

@@ -121,7 +121,7 @@ void regime_poly(double A, double b, double r, double m, double p[6]) {
 }
 
 std::string point_str(int s) {
-  return "facet " + std::to_string(s);
+  return "contact point " + std::to_string(s);
 }
 
 [[noreturn]] void fail(const std::string& what) {
@@ -131,7 +131,7 @@ std::string point_str(int s) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-// The facet problem
+// The point problem
 // ---------------------------------------------------------------------------------------------
 
 Vector3d ContactStep::project(const Vector3d& x, const Vector3d& N, double gap) {
@@ -224,7 +224,7 @@ PointSolution ContactStep::solve_point(const Vector3d& a_in, double aa, double b
 }
 
 // ---------------------------------------------------------------------------------------------
-// The surface
+// The contact points
 // ---------------------------------------------------------------------------------------------
 
 void ContactStep::set_Rqc(double Rqc) {
@@ -232,29 +232,28 @@ void ContactStep::set_Rqc(double Rqc) {
   Rqc_ = Rqc;
 }
 
-ContactStep::ContactStep(const ContactSurface& surface, const Adhesion& adhesion, double Rqc)
-    : surface_(surface), adhesion_(adhesion), Rqc_(Rqc) {
-  const int dim = surface_.dim;
-  if (dim != 2 && dim != 3) fail("surface.dim = " + std::to_string(dim) + ", expected 2 or 3");
-  const int n = surface_.size();
-  if (surface_.centre.rows() != dim || surface_.centre.cols() != n)
-    fail("surface.centre is " + std::to_string(surface_.centre.rows()) + " x " +
-         std::to_string(surface_.centre.cols()) + ", expected dim x #points = " +
-         std::to_string(dim) + " x " + std::to_string(n) + " (#points = surface.area.size())");
-  if (surface_.gap.size() != n)
-    fail("surface.gap has " + std::to_string(surface_.gap.size()) +
+ContactStep::ContactStep(const ContactPoints& points, const Adhesion& adhesion, double Rqc)
+    : points_(&points), adhesion_(adhesion), Rqc_(Rqc) {
+  const int dim = points_->dim;
+  if (dim != 2 && dim != 3) fail("points.dim = " + std::to_string(dim) + ", expected 2 or 3");
+  const int n = points_->size();
+  if (points_->centre.rows() != dim || points_->centre.cols() != n)
+    fail("points.centre is " + std::to_string(points_->centre.rows()) + " x " +
+         std::to_string(points_->centre.cols()) + ", expected dim x #points = " +
+         std::to_string(dim) + " x " + std::to_string(n) + " (#points = points.area.size())");
+  if (points_->gap.size() != n)
+    fail("points.gap has " + std::to_string(points_->gap.size()) +
          " entries, expected #points = " + std::to_string(n));
-  if (surface_.N.size() != dim)
-    fail("surface.N has " + std::to_string(surface_.N.size()) +
+  if (points_->N.size() != dim)
+    fail("points.N has " + std::to_string(points_->N.size()) +
          " entries, expected dim = " + std::to_string(dim));
-  const double Nn = surface_.N.norm();
-  if (!(Nn > 0.0) || !std::isfinite(Nn)) fail("surface.N must be a nonzero finite vector");
-  surface_.N /= Nn;
+  const double Nn = points_->N.norm();
+  if (!(Nn > 0.0) || !std::isfinite(Nn)) fail("points.N must be a nonzero finite vector");
   for (int s = 0; s < n; ++s) {
-    if (!(surface_.area(s) > 0.0) || !std::isfinite(surface_.area(s)))
-      fail("surface.area(" + std::to_string(s) + ") = " + std::to_string(surface_.area(s)) +
-           " on " + point_str(s) + ", must be > 0");
-    if (!std::isfinite(surface_.gap(s))) fail("surface.gap is not finite on " + point_str(s));
+    if (!(points_->area(s) > 0.0) || !std::isfinite(points_->area(s)))
+      fail("points.area(" + std::to_string(s) + ") = " + std::to_string(points_->area(s)) + " on " +
+           point_str(s) + ", must be > 0");
+    if (!std::isfinite(points_->gap(s))) fail("points.gap is not finite on " + point_str(s));
   }
   if (!(Rqc > 0.0) || !std::isfinite(Rqc)) fail("Rqc = R q_c must be > 0");
   if (!(adhesion_.kappa >= 0.0) || !std::isfinite(adhesion_.kappa))
@@ -265,11 +264,11 @@ ContactStep::ContactStep(const ContactSurface& surface, const Adhesion& adhesion
   if (!std::isfinite(adhesion_.w)) fail("adhesion.w must be finite");
 
   N3_.setZero();
-  N3_.head(dim) = surface_.N;
+  N3_.head(dim) = points_->N / Nn;
 
   // [LTL87 (6.4)-(6.5)] the kernel k_ss' (adhesion_kernel.hpp), sparse; empty without
   // dissipation: no #points^2 buffer in either case.
-  k_ = adhesion_.d0 > 0.0 ? adhesion_kernel_sparse(surface_, adhesion_.d0, adhesion_.exact_kernel)
+  k_ = adhesion_.d0 > 0.0 ? adhesion_kernel_sparse(points, adhesion_.d0, adhesion_.exact_kernel)
                           : Eigen::SparseMatrix<double>(n, n);
   k_.makeCompressed();
   kt_ = k_.transpose();
@@ -296,29 +295,29 @@ static double kernel_row_dot(const Eigen::SparseMatrix<double>& kt, int s,
 void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
                         const Eigen::VectorXd& beta_prev, Eigen::MatrixXd& e, Eigen::VectorXd& beta,
                         int sweeps) const {
-  const int n = surface_.size(), dim = surface_.dim;
-  if (ubar.rows() != dim || ubar.cols() != n || lambda_c.rows() != dim || lambda_c.cols() != n ||
-      e.rows() != dim || e.cols() != n || beta_prev.size() != n || beta.size() != n)
-    fail("solve(): ubar, lambda_c, e must be dim x #points and beta_prev, beta #points (dim = " +
+  const int n = points_->size(), dim = points_->dim;
+  if (ubar.rows() != n || ubar.cols() != dim || lambda_c.rows() != n || lambda_c.cols() != dim ||
+      e.rows() != n || e.cols() != dim || beta_prev.size() != n || beta.size() != n)
+    fail("solve(): ubar, lambda_c, e must be #points x dim and beta_prev, beta #points (dim = " +
          std::to_string(dim) + ", #points = " + std::to_string(n) + ")");
   const double dt = adhesion_.dt, w = adhesion_.w, kappa = adhesion_.kappa;
   const bool dissipation = adhesion_.d0 > 0.0;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     for (int s = 0; s < n; ++s) {
       Vector3d a = Vector3d::Zero();
-      a.head(dim) = Rqc_ * ubar.col(s) - lambda_c.col(s);  // (6.3)
+      a.head(dim) = (Rqc_ * ubar.row(s) - lambda_c.row(s)).transpose();  // (6.3)
       double aa = 0.0, b = w;
       if (dissipation) {
         const double kss = kdiag_(s);
         aa = kss / dt;  // (6.4)
-        // (6.5), with the newest beta of the other facets (Gauss-Seidel).
+        // (6.5), with the newest beta of the other points (Gauss-Seidel).
         const double others =
             kernel_row_dot(kt_, s, beta, beta_prev) - kss * (beta(s) - beta_prev(s));
         b = w - others / dt + kss * beta_prev(s) / dt;
       }
       const PointSolution sol =
-          solve_point(a, aa, b, Rqc_, kappa, N3_, surface_.gap(s), dim, beta(s));
-      e.col(s) = sol.e.head(dim);
+          solve_point(a, aa, b, Rqc_, kappa, N3_, points_->gap(s), dim, beta(s));
+      e.row(s) = sol.e.head(dim).transpose();
       beta(s) = sol.beta;
     }
   }
@@ -326,21 +325,21 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
 
 double ContactStep::energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta,
                            const Eigen::VectorXd& beta_prev) const {
-  const int n = surface_.size(), dim = surface_.dim;
-  if (e.rows() != dim || e.cols() != n || beta.size() != n || beta_prev.size() != n)
-    fail("energy(): e must be dim x #points and beta, beta_prev #points");
+  const int n = points_->size(), dim = points_->dim;
+  if (e.rows() != n || e.cols() != dim || beta.size() != n || beta_prev.size() != n)
+    fail("energy(): e must be #points x dim and beta, beta_prev #points");
   double E = 0.0;
   for (int s = 0; s < n; ++s) {
     if (!(beta(s) >= 0.0 && beta(s) <= 1.0)) return kInf;
-    const double en = e.col(s).dot(surface_.N), g = surface_.gap(s);
-    if (en > g + 1e-10 * (e.col(s).norm() + std::abs(g))) return kInf;
-    E += surface_.area(s) * (0.5 * adhesion_.kappa * beta(s) * beta(s) * e.col(s).squaredNorm() -
+    const double en = e.row(s).dot(N3_.head(dim).transpose()), g = points_->gap(s);
+    if (en > g + 1e-10 * (e.row(s).norm() + std::abs(g))) return kInf;
+    E += points_->area(s) * (0.5 * adhesion_.kappa * beta(s) * beta(s) * e.row(s).squaredNorm() -
                              adhesion_.w * beta(s));
   }
   if (adhesion_.d0 > 0.0) {
     double D = 0.0;
     for (int s = 0; s < n; ++s)
-      D += surface_.area(s) * (beta(s) - beta_prev(s)) * kernel_row_dot(kt_, s, beta, beta_prev);
+      D += points_->area(s) * (beta(s) - beta_prev(s)) * kernel_row_dot(kt_, s, beta, beta_prev);
     E += D / (2.0 * adhesion_.dt);
   }
   return E;
@@ -349,13 +348,13 @@ double ContactStep::energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta
 double ContactStep::local_objective(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
                                     const Eigen::VectorXd& beta_prev, const Eigen::MatrixXd& e,
                                     const Eigen::VectorXd& beta) const {
-  const int n = surface_.size(), dim = surface_.dim;
-  if (ubar.rows() != dim || ubar.cols() != n || lambda_c.rows() != dim || lambda_c.cols() != n)
-    fail("local_objective(): ubar and lambda_c must be dim x #points");
+  const int n = points_->size(), dim = points_->dim;
+  if (ubar.rows() != n || ubar.cols() != dim || lambda_c.rows() != n || lambda_c.cols() != dim)
+    fail("local_objective(): ubar and lambda_c must be #points x dim");
   double J = energy(e, beta, beta_prev);
   for (int s = 0; s < n; ++s)
-    J += surface_.area(s) * (0.5 * Rqc_ * e.col(s).squaredNorm() -
-                             (Rqc_ * ubar.col(s) - lambda_c.col(s)).dot(e.col(s)));
+    J += points_->area(s) * (0.5 * Rqc_ * e.row(s).squaredNorm() -
+                             (Rqc_ * ubar.row(s) - lambda_c.row(s)).dot(e.row(s)));
   return J;
 }
 

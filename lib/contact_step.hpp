@@ -1,13 +1,14 @@
-// The local adhesion / contact step (4.7), solved facet by facet as in section 6, (6.1)-(6.8).
+// The local adhesion / contact step (4.7), solved point by point as in section 6, (6.1)-(6.8).
 //
-// Unknowns per contact facet s (P0): e_s (the paper's h, a vector), beta_s in [0,1], and the
-// multiplier lambda_c_s. The rigid support is a plane with unit normal N pointing INTO the
-// obstacle (away from the body); the unilateral condition is e_s . N <= g_s, with g_s the initial
-// gap at the facet centre (g_s = 0 for a body glued to the support: then this is e.n <= 0, (4.11)).
-// The contact pressure on the body is p_s = -lambda_c_s . N (>= 0 at convergence).
+// Unknowns per contact point s (a node, or a facet with P0 values): e_s (the paper's h, a vector),
+// beta_s in [0,1], and the multiplier lambda_c_s. The rigid support is a plane with unit normal N
+// pointing INTO the obstacle (away from the body); the unilateral condition is e_s . N <= g_s, with
+// g_s the initial gap at the point (node or facet centre) (g_s = 0 for a body glued to the support:
+// then this is e.n <= 0, (4.11)). The contact pressure on the body is p_s = -lambda_c_s . N (>= 0
+// at convergence).
 //
-// Glue is parametrized by kappa = 1/eps >= 0 (kappa = 0: no glue). On facet s, with the other
-// facets' beta frozen (relaxation, Gauss-Seidel in facet order), the paper's (6.1)-(6.2) is
+// Glue is parametrized by kappa = 1/eps >= 0 (kappa = 0: no glue). On point s, with the other
+// points' beta frozen (relaxation, Gauss-Seidel in point order), the paper's (6.1)-(6.2) is
 //
 //   min over e.N <= g, gamma in [0,1]:
 //     (R q_c / 2)|e|^2 - a.e + (kappa/2) gamma^2 |e|^2 + (aa/2) gamma^2 - b gamma
@@ -31,11 +32,11 @@
 #include <Eigen/Sparse>
 
 #include "adhesion.hpp"
-#include "contact_surface.hpp"
+#include "contact_points.hpp"
 
 namespace ltl {
 
-/// Result of one facet problem (6.1).
+/// Result of one point problem (6.1).
 struct PointSolution {
   Eigen::Vector3d e = Eigen::Vector3d::Zero();  ///< only the first dim entries are used
   double beta = 1.0;
@@ -44,14 +45,17 @@ struct PointSolution {
 class ContactStep {
  public:
   /// Precomputes the sparse kernel matrix k (#points x #points, no entries when d0 = 0).
-  /// Rqc = R * q_c > 0. N is normalized. Throws std::invalid_argument on inconsistent data.
-  ContactStep(const ContactSurface& surface, const Adhesion& adhesion, double Rqc);
+  /// Rqc = R * q_c > 0. Reads points.N normalized (normal()). Throws std::invalid_argument on
+  /// inconsistent data. Keeps a reference to `points`, which must outlive the step (the
+  /// discretization owns them; a temporary is refused at compile time).
+  ContactStep(const ContactPoints& points, const Adhesion& adhesion, double Rqc);
+  ContactStep(ContactPoints&&, const Adhesion&, double) = delete;
 
-  /// [LTL87 (6.1)-(6.8)] One facet: minimize the functional above given a, aa, b.
+  /// [LTL87 (6.1)-(6.8)] One point: minimize the functional above given a, aa, b.
   /// a and N: only the first dim entries are read (N of unit length); gap may be any real.
   /// Ties between equal minima are broken towards the larger gamma (glue stays). When the
   /// reduced objective (6.8) does not depend on gamma at all (e.g. kappa = 0 and aa = b = 0, the
-  /// pure contact case), beta is arbitrary and beta_current (the facet's current beta) is
+  /// pure contact case), beta is arbitrary and beta_current (the point's current beta) is
   /// returned unchanged.
   static PointSolution solve_point(const Eigen::Vector3d& a, double aa, double b, double Rqc,
                                    double kappa, const Eigen::Vector3d& N, double gap, int dim,
@@ -73,9 +77,9 @@ class ContactStep {
                                   double kappa, const Eigen::Vector3d& N, double gap, int dim,
                                   double gamma);
 
-  /// [LTL87 (4.7), sec. 6] `sweeps` Gauss-Seidel sweeps over the facets in order.
-  ///   ubar:      dim x #points, facet means of the current displacement u^n
-  ///   lambda_c:  dim x #points, current multiplier
+  /// [LTL87 (4.7), sec. 6] `sweeps` Gauss-Seidel sweeps over the points in order.
+  ///   ubar:      #points x dim like u, the current displacement u^n at the points
+  ///   lambda_c:  #points x dim, current multiplier
   ///   beta_prev: #points, beta at the previous time step (beta_{p-1})
   ///   e, beta:   in: current iterate, out: updated.
   /// Allocation-free. O(nnz(k)) per sweep: O(#points x neighbours within the cutoff).
@@ -92,7 +96,7 @@ class ContactStep {
 
   /// [LTL87 (4.7), (4.10)] The whole functional minimized by the local step:
   ///   sum_s |G_s| [ (Rqc/2)|e_s|^2 - a_s.e_s ] + energy(e, beta, beta_prev),
-  /// a_s = Rqc ubar_s - lambda_c_s (6.3). Every facet update of solve() does not increase it.
+  /// a_s = Rqc ubar_s - lambda_c_s (6.3). Every point update of solve() does not increase it.
   double local_objective(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
                          const Eigen::VectorXd& beta_prev, const Eigen::MatrixXd& e,
                          const Eigen::VectorXd& beta) const;
@@ -101,15 +105,17 @@ class ContactStep {
   void set_Rqc(double Rqc);
 
   /// [LTL87 (6.4)-(6.5)] The kernel k_ss' (sparse, adhesion_kernel_sparse()): row s holds the
-  /// facets s' within the cutoff of s; |G_s| k_ss' is symmetric. Empty when d0 = 0.
+  /// points s' within the cutoff of s; |G_s| k_ss' is symmetric. Empty when d0 = 0.
   const Eigen::SparseMatrix<double>& kernel() const { return k_; }
   /// Bytes held by the kernel (values and indices of k and its transpose, and the diagonal).
   double kernel_bytes() const;
-  const ContactSurface& surface() const { return surface_; }
+  const ContactPoints& points() const { return *points_; }
+  /// The unit normal of the obstacle plane (points().N normalized), dim entries.
+  Eigen::VectorXd normal() const { return N3_.head(points_->dim); }
   const Adhesion& adhesion() const { return adhesion_; }
 
  private:
-  ContactSurface surface_;
+  const ContactPoints* points_;
   Adhesion adhesion_;
   double Rqc_;
   Eigen::SparseMatrix<double> k_;

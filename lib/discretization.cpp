@@ -67,20 +67,17 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
     fluctuation_laplacian_.prune(0.0);
   }
 
-  // The contact points and the surface the local step (4.7) sees.
+  // The contact points, with their initial gaps to the obstacle plane (section 6).
   if (problem_.contact) {
     const ContactCondition& cc = *problem_.contact;
     const Mesh::Boundary& boundary = mesh.boundary(cc.group, "contact.group");
     points_ = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
-    surface_.dim = dim;
-    surface_.area = points_->area;
-    surface_.centre = points_->centre;
-    surface_.N = cc.plane_normal.head(dim);
+    ContactPoints& pts = *points_;
+    pts.N = cc.plane_normal.head(dim);
     // Initial gap g_s = (p0 - x_s) . N at each facet centre or node (paper_notes/section6.md).
-    surface_.gap.resize(points_->size());
+    pts.gap.resize(points_->size());
     for (int f = 0; f < points_->size(); ++f)
-      surface_.gap(f) = (cc.plane_point.head(dim) - points_->centre.col(f)).dot(surface_.N);
-    surface_.vertices = points_->vertices;
+      pts.gap(f) = (cc.plane_point.head(dim) - points_->centre.col(f)).dot(pts.N);
     const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
     // The body must start on the admissible side of the plane: its centroid (cell centres
     // weighted by volume) on the side N points away from. With the normal reversed the
@@ -95,12 +92,12 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
         centroid += cells_.vol(c) * xc / mesh.nodes_per_cell();
       }
       centroid /= volume_;
-      const double side = (centroid - cc.plane_point.head(dim)).dot(surface_.N);
+      const double side = (centroid - cc.plane_point.head(dim)).dot(pts.N);
       if (side > 1e-10 * scale) {
         std::string n, reversed;
         for (int k = 0; k < dim; ++k) {
-          n += cat(k ? ", " : "", surface_.N(k));
-          reversed += cat(k ? ", " : "", surface_.N(k) == 0 ? 0.0 : -surface_.N(k));
+          n += cat(k ? ", " : "", pts.N(k));
+          reversed += cat(k ? ", " : "", pts.N(k) == 0 ? 0.0 : -pts.N(k));
         }
         throw Error(cat(mesh.source,
                         ": the body lies on the obstacle side of the contact plane "
@@ -115,16 +112,16 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
       }
     }
     for (int f = 0; f < points_->size(); ++f)
-      if (surface_.gap(f) < -1e-10 * scale)
+      if (pts.gap(f) < -1e-10 * scale)
         throw Error(cat(mesh.source, ": contact ",
                         problem_.discretization.nodal_contact ? "node " : "facet ", f, " of '",
-                        cc.group, "' starts inside the obstacle (gap ", surface_.gap(f),
+                        cc.group, "' starts inside the obstacle (gap ", pts.gap(f),
                         " m at its centre): check contact.plane_point and contact.plane_normal "
                         "(the normal points into the obstacle)"));
     // Every node of the body starts on the admissible side (the contact surface was checked
     // above, facet by facet or node by node).
     for (int n = 0; n < nn; ++n) {
-      const double inside = (mesh.X.row(n).transpose() - cc.plane_point.head(dim)).dot(surface_.N);
+      const double inside = (mesh.X.row(n).transpose() - cc.plane_point.head(dim)).dot(pts.N);
       if (inside > 1e-10 * scale)
         throw Error(cat(mesh.source, ": node ", n, " of the body (at ", mesh.X.row(n),
                         ") starts inside the obstacle, ", inside,
@@ -300,7 +297,7 @@ namespace {
 /// -lambda_c . N per contact point: the nominal contact pressure (Pa), before any reading.
 Eigen::VectorXd nominal_pressure(const Problem& problem, const State& s) {
   if (!problem.contact) return Eigen::VectorXd(0);
-  return -(s.lambda_c.transpose() * problem.contact->plane_normal.head(problem.mesh.dim));
+  return -(s.lambda_c * problem.contact->plane_normal.head(problem.mesh.dim));
 }
 }  // namespace
 
@@ -320,7 +317,7 @@ Eigen::VectorXd Discretization::contact_forces(const State& s) const {
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {
   if (!points_) return {};
-  return surface_.gap - s.e.transpose() * surface_.N;
+  return points_->gap - s.e * points_->N;
 }
 
 double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) const {

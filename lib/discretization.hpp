@@ -1,6 +1,6 @@
 // The discrete problem, built once from a Problem and independent of how it is solved: the
-// cell operators (mean gradients Gbar, volumes, Laplacian), the contact points and the contact
-// surface with its initial gaps, the Dirichlet data, the consistent dead loads f and g, the split
+// cell operators (mean gradients Gbar, volumes, Laplacian), the contact points with their
+// initial gaps to the obstacle, the Dirichlet data, the consistent dead loads f and g, the split
 // (2.5)-(2.6) of the energy between the global quadratic and the local steps, and, for mean-det
 // incompressibility (2.7), the point gradients at the cell quadrature points.
 //
@@ -12,7 +12,7 @@
 #include <optional>
 #include <vector>
 
-#include "contact_surface.hpp"
+#include "contact_points.hpp"
 #include "fe.hpp"
 #include "global_step.hpp"
 #include "material.hpp"
@@ -41,12 +41,10 @@ class Discretization {
   const Material& split() const { return split_; }
   const CellOperators& cells() const { return cells_; }
   /// The contact points: facets (discretization.contact = "facet-mean") or the nodes of the
-  /// contact surface ("nodal"), with their weights, positions and the map from nodal values
-  /// (mean); null without contact.
+  /// contact surface ("nodal"), with their weights, positions, the map from nodal values (mean)
+  /// and the initial gap g_s = (p0 - x_s) . N >= 0 of each to the obstacle plane (section 6);
+  /// null without contact.
   const ContactPoints* points() const { return points_ ? &*points_ : nullptr; }
-  /// The contact surface as the local contact step (4.7) sees it, with the initial gap
-  /// g_s = (p0 - x_s) . N >= 0 of every contact point (section 6); empty without contact.
-  const ContactSurface& surface() const { return surface_; }
   /// Per component, the sorted nodes whose displacement is prescribed, and their values.
   const DirichletData& dirichlet() const { return bc_; }
   /// The consistent dead loads f (body force) and g (tractions) at load factor 1, #nodes x dim
@@ -122,7 +120,6 @@ class Discretization {
   Material split_;
   CellOperators cells_;
   std::optional<ContactPoints> points_;
-  ContactSurface surface_;
   DirichletData bc_;
   Eigen::MatrixXd F_dead_, Id_;
   Eigen::VectorXd vol_rows_;

@@ -233,6 +233,7 @@ ContactPoints facet_mean_points(const Mesh& mesh, const Mesh::Boundary& boundary
   const int dim = mesh.dim, nf = static_cast<int>(boundary.facets.rows());
   const int npf = mesh.nodes_per_facet();
   ContactPoints ops;
+  ops.dim = dim;
   ops.area.resize(nf);
   ops.centre.resize(dim, nf);
   const int ncorner = dim == 2 ? 2 : npf == 6 ? 3 : 4;
@@ -286,6 +287,7 @@ ContactPoints nodal_points(const Mesh& mesh, const Mesh::Boundary& boundary) {
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
   const int np = static_cast<int>(nodes.size());
   ContactPoints ops;
+  ops.dim = mesh.dim;
   ops.area.resize(np);
   ops.centre.resize(mesh.dim, np);
   std::vector<Eigen::Triplet<double>> sel;

@@ -12,12 +12,10 @@
 #include <Eigen/Sparse>
 #include <functional>
 
+#include "contact_points.hpp"
 #include "mesh.hpp"
 
 namespace ltl {
-
-using SpMat = Eigen::SparseMatrix<double>;
-using SpMatR = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
 /// Cell operators.
 struct CellOperators {
@@ -32,20 +30,6 @@ struct CellOperators {
   /// #nodes x #nodes, the scalar Laplacian integral grad phi_a . grad phi_b (exact quadrature on
   /// affine P2 triangles and tetrahedra and on parallelepipeds).
   SpMat laplacian;
-};
-
-/// Facet operators of one boundary part.
-struct ContactPoints {
-  Eigen::VectorXd area;    ///< #points, |G_s|
-  Eigen::MatrixXd centre;  ///< dim x #points, x_s = mean of x over the facet
-  SpMatR mean;             ///< #points x #nodes, (mean * U).row(s) = vbar_s
-  SpMatR meanT_area;       ///< #nodes x #points, transpose of mean weighted by |G_s|
-  /// Corner vertices (2 in 2-D, 3 (triangle faces) or 4 (quadrilateral faces) in 3-D), each
-  /// dim x #points.
-  std::vector<Eigen::MatrixXd> vertices;
-  /// Nodal contact points only (nodal_points): the mesh node of each point; empty for facets.
-  std::vector<int> nodes;
-  int size() const { return static_cast<int>(area.size()); }
 };
 
 CellOperators cell_operators(const Mesh& mesh);

@@ -49,7 +49,7 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
 Eigen::VectorXd opening(const Problem& pb, const State& s) {
   if (!pb.contact) return Eigen::VectorXd(0);
   const Eigen::VectorXd N = pb.contact->plane_normal.head(pb.mesh.dim).normalized();
-  return -(s.e.transpose() * N);
+  return -(s.e * N);
 }
 
 PeelMeasures peel_measures(const Problem& pb, const ContactPoints& points, const State& s,
@@ -153,7 +153,7 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   const Eigen::MatrixXd GU = c.Gbar * s.u;
   Eigen::MatrixXd r =
       c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - f_ext;
-  if (d.points()) r -= d.points()->meanT_area * s.lambda_c.transpose();
+  if (d.points()) r -= d.points()->meanT_area * s.lambda_c;
   if (d.mean_det()) r -= d.fluctuation_force(s);
   return r;
 }

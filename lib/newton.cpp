@@ -115,7 +115,7 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
       if (r >= 0 && c >= 0 && r >= c) fluct_pos_.emplace_back(position(r, c), it.value());
     }
   if (const ContactPoints* pts = disc.points()) {
-    const Eigen::VectorXd& N = disc.surface().N;
+    const Eigen::VectorXd& N = disc.points()->N;
     const int np = pts->size();
     point_dofs_.resize(np), point_coef_.resize(np), point_pos_.resize(np);
     for (int k = 0; k < np; ++k) {
@@ -153,14 +153,14 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
     }
   }
   if (const ContactPoints* pts = disc_.points()) {
-    const Eigen::VectorXd N = disc_.surface().N;
-    Eigen::MatrixXd lc = s.lambda_c;  // dim x #points; with glue, less the glue's force
+    const Eigen::VectorXd N = disc_.points()->N;
+    Eigen::MatrixXd lc = s.lambda_c;  // #points x dim; with glue, less the glue's force
     if (glued_) {
       x.beta = s.beta;
       for (int k = 0; k < pts->size(); ++k)
-        lc.col(k) += glue_.kappa * s.beta(k) * s.beta(k) * s.e.col(k);
+        lc.row(k) += glue_.kappa * s.beta(k) * s.beta(k) * s.e.row(k);
     }
-    x.mu = pts->area.cwiseProduct((-(lc.transpose() * N)).cwiseMax(0.0));
+    x.mu = pts->area.cwiseProduct((-(lc * N)).cwiseMax(0.0));
   }
   return x;
 }
@@ -185,13 +185,14 @@ void Newton::to_state(const Unknowns& x, State& s) const {
     s.lambda.block(d * e, 0, d, d) = L.transpose();
   }
   if (const ContactPoints* pts = disc_.points()) {
-    s.e = (pts->mean * x.u).transpose();
-    const Eigen::VectorXd N = disc_.surface().N;
-    for (int k = 0; k < pts->size(); ++k) s.lambda_c.col(k) = -(x.mu(k) / pts->area(k)) * N;
+    s.e = pts->mean * x.u;
+    const Eigen::VectorXd N = disc_.points()->N;
+    for (int k = 0; k < pts->size(); ++k)
+      s.lambda_c.row(k) = -(x.mu(k) / pts->area(k)) * N.transpose();
     if (glued_) {
       s.beta = x.beta;
       for (int k = 0; k < pts->size(); ++k)
-        s.lambda_c.col(k) -= glue_.kappa * x.beta(k) * x.beta(k) * s.e.col(k);
+        s.lambda_c.row(k) -= glue_.kappa * x.beta(k) * x.beta(k) * s.e.row(k);
     }
   }
 }
@@ -306,7 +307,7 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
   Ru += fluct_ * uflat - Fflat;
   // The contact forces: mu_s N (x) mean_s, the reaction of the plane (1.1).
   if (const ContactPoints* pts = disc_.points()) {
-    const Eigen::VectorXd& N = disc_.surface().N;
+    const Eigen::VectorXd& N = disc_.points()->N;
     for (int s = 0; s < pts->size(); ++s)
       for (SpMatR::InnerIterator it(pts->mean, s); it; ++it)
         for (int i = 0; i < d; ++i) Ru(d * it.col() + i) += x.mu(s) * it.value() * N(i);
@@ -367,7 +368,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   const int d = dim_, nc = disc_.num_cells();
   const ContactPoints* pts = disc_.points();
   const int np = pts ? pts->size() : 0;
-  const Eigen::VectorXd N = pts ? disc_.surface().N : Eigen::VectorXd();
+  const Eigen::VectorXd N = pts ? disc_.points()->N : Eigen::VectorXd();
   const Eigen::VectorXd& vol = disc_.cells().vol;
   Result result;
   const double wall0 = report.history.empty() ? 0.0 : report.history.back().wall;
@@ -407,7 +408,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     }
     double c2 = 0;
     if (pts) {
-      gapv = (pts->mean * y.u) * N - disc_.surface().gap;  // N . ubar - g (> 0: penetration)
+      gapv = (pts->mean * y.u) * N - disc_.points()->gap;  // N . ubar - g (> 0: penetration)
       for (int k = 0; k < np; ++k) {
         comp(k) = y.mu(k) - std::max(0.0, y.mu(k) + c_(k) * gapv(k));
         c2 += comp(k) * comp(k);
@@ -464,7 +465,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     IterationRecord rec;
     auto t0 = clock_type::now();
     // The active set of the semismooth step: mu_s + c_s (N . ubar_s - g_s) > 0.
-    if (pts) gapv = (pts->mean * x.u) * N - disc_.surface().gap;
+    if (pts) gapv = (pts->mean * x.u) * N - disc_.points()->gap;
     if (glued_) gb = glue_gradient(x);
     prev_active = active;
     int nA = 0;

@@ -64,7 +64,7 @@ class Newton {
   void set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_prev);
   /// [(2.2)] The beta-derivative of the discrete functional over |G_s|, at e_s = ubar_s:
   ///   g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - beta_prev_s'),
-  /// the stationarity of the local step's facet problem (6.1)-(6.5) in gamma. Empty without glue.
+  /// the stationarity of the local step's point problem (6.1)-(6.5) in gamma. Empty without glue.
   Eigen::VectorXd glue_gradient(const Unknowns& x) const;
   /// From an ALG2 state: u; p_e from lambda_e = 2 C1 E_e - dW(E_e) + p_e cof E_e (least
   /// squares); mu_s = |G_s| max(0, -(lambda_c_s + kappa beta_s^2 e_s) . N); beta.

@@ -271,7 +271,7 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
     if (free_[k] >= 0) rhs(free_[k]) = -Ru(k);
   for (int e = 0; e < np_; ++e) rhs(nfree_ + e) = G(e);
   if (pts) {
-    const Eigen::VectorXd& N = disc_.surface().N;
+    const Eigen::VectorXd& N = disc_.points()->N;
     for (int k = 0, a = 0; k < npts; ++k) {
       if (!active[k]) continue;
       const int r = nfree_ + np_ + a++;

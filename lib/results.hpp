@@ -40,7 +40,7 @@
 //
 // XDMF (updated after every change): xdmf_path_of(path) (the body: u, pressure, sigma33, E, P,
 // sigma) and, with a contact surface, contact_xdmf_path_of(path) (beta, contact_pressure, gap, e,
-// lambda_c on the contact facets, per contact node or per facet). They refer to the HDF5 file by
+// lambda_c on the contact points, per contact node or per facet). They refer to the HDF5 file by
 // its bare name, so keep the files side by side. Several steps: a temporal collection of uniform
 // grids; one step: its uniform grid alone (what meshio.read() accepts).
 // The readers wait while a writer updates the file in place (a few milliseconds per step) and

@@ -67,8 +67,8 @@ Eigen::MatrixXd state_field(const State& s, const std::string& name) {
   if (name == "E") return s.E;
   if (name == "lambda") return s.lambda;
   if (name == "beta") return s.beta;
-  if (name == "e") return s.e.transpose();
-  if (name == "lambda_c") return s.lambda_c.transpose();
+  if (name == "e") return s.e;
+  if (name == "lambda_c") return s.lambda_c;
   throw Error(cat("internal: the state has no field ", name));
 }
 
@@ -77,8 +77,8 @@ void set_state_field(State& s, const std::string& name, const Eigen::MatrixXd& v
   if (name == "E") s.E = v;
   if (name == "lambda") s.lambda = v;
   if (name == "beta") s.beta = v.col(0);
-  if (name == "e") s.e = v.transpose();
-  if (name == "lambda_c") s.lambda_c = v.transpose();
+  if (name == "e") s.e = v;
+  if (name == "lambda_c") s.lambda_c = v;
 }
 
 /// The expected rows x cols of a field in the layout of StepData::fields, n entities.
@@ -371,8 +371,8 @@ void check_step(const StepData& step, const Sizes& n, const std::string& file) {
     expect("lambda", s.lambda.rows(), s.lambda.cols(), dim * nc, dim);
   }
   if (n.contact) {
-    expect("e", s.e.rows(), s.e.cols(), dim, n_points);
-    expect("lambda_c", s.lambda_c.rows(), s.lambda_c.cols(), dim, n_points);
+    expect("e", s.e.rows(), s.e.cols(), n_points, dim);
+    expect("lambda_c", s.lambda_c.rows(), s.lambda_c.cols(), n_points, dim);
     if (s.beta.size()) expect("beta", s.beta.size(), 1, n_points, 1);
   }
   for (const auto& [name, value] : step.fields) {
@@ -527,8 +527,8 @@ std::optional<StoredStep> read_last_step(hid_t f, const std::string& path) {
     }
   // The state: the State rows of the field table, back in the solver's layouts.
   State& s = out.state;
-  s.e = Eigen::MatrixXd::Zero(n.dim, 0);
-  s.lambda_c = Eigen::MatrixXd::Zero(n.dim, 0);
+  s.e = Eigen::MatrixXd::Zero(0, n.dim);
+  s.lambda_c = Eigen::MatrixXd::Zero(0, n.dim);
   s.beta = Eigen::VectorXd::Zero(0);
   for (const Field& row : kFields) {
     if (row.source != Source::State || (row.at == Location::Point && !n.contact)) continue;

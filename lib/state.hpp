@@ -15,9 +15,9 @@ struct State {
   Eigen::MatrixXd u;         ///< #nodes x dim
   Eigen::MatrixXd E;         ///< (dim*#cells) x dim, strain (the paper's F), transposed blocks
   Eigen::MatrixXd lambda;    ///< (dim*#cells) x dim, multiplier of I + grad u = E, transposed
-  Eigen::MatrixXd e;         ///< dim x #points, contact displacement (the paper's h)
+  Eigen::MatrixXd e;         ///< #points x dim like u, contact displacement (the paper's h)
   Eigen::VectorXd beta;      ///< #points, adhesion intensity
-  Eigen::MatrixXd lambda_c;  ///< dim x #points, multiplier of u = e on Gamma_c (a traction)
+  Eigen::MatrixXd lambda_c;  ///< #points x dim, multiplier of u = e on Gamma_c (a traction)
 };
 
 /// The tensor of cell c (dim x dim) from a transposed-block field.

@@ -26,7 +26,7 @@ import sys
 import tempfile
 
 LAYERS = [
-    ("leaf", "error hash cofactor signed_svd state material adhesion contact_surface version "
+    ("leaf", "error hash cofactor signed_svd state material adhesion contact_points version "
              "stored_measure log_newton interrupt geometry_guard hdf5_io results_info"),
     ("fe/mesh", "mesh fe cholesky cg_amg derived_fields"),
     ("steps", "strain_step strain_principal contact_step adhesion_kernel global_step anderson"),

@@ -59,7 +59,7 @@ TEST(Adhesion, BetaStaysInUnitIntervalDecreasesAndStaysOneWhereUnloaded) {
     // ...while the free end x1 = 0, where the peeling traction is largest, debonds.
     EXPECT_LT(s.beta(0), 1.0 - 0.03 * step);
     // No penetration of the support: e2 >= 0 (N = (0, -1), gap 0).
-    EXPECT_GE(s.e.row(1).minCoeff(), -1e-12);
+    EXPECT_GE(s.e.col(1).minCoeff(), -1e-12);
   }
 }
 

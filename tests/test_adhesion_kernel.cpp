@@ -137,8 +137,8 @@ TEST(AdhesionKernel, Eq1_6_PointPolygonAgainstPlaneClosedForm) {
 }
 
 /// Uniform segments of length h on the x axis, [0, n h].
-ltl::ContactSurface line(int n, double h) {
-  ltl::ContactSurface S;
+ltl::ContactPoints line(int n, double h) {
+  ltl::ContactPoints S;
   S.dim = 2;
   S.area = Eigen::VectorXd::Constant(n, h);
   S.centre.resize(2, n);
@@ -157,7 +157,7 @@ TEST(AdhesionKernel, Eq6_4_Eq6_5_RowSumsAgainstClosedForms2D) {
   const int n = 40;
   const double h = 0.025, L = n * h;
   for (double d0 : {2.0, 40.0, 1000.0}) {
-    const ltl::ContactSurface S = line(n, h);
+    const ltl::ContactPoints S = line(n, h);
     // exact rule: |G_s| sum_s' k_ss' = int_a^b int_0^L d(x - y) dy dx
     //   = 2 (b - a) - (e^{-d0 a} - e^{-d0 b}) / d0 - (e^{-d0 (L - b)} - e^{-d0 (L - a)}) / d0
     const MatrixXd k = ltl::adhesion_kernel(S, d0, true);
@@ -179,7 +179,7 @@ TEST(AdhesionKernel, Eq6_4_Eq6_5_RowSumsAgainstClosedForms2D) {
 TEST(AdhesionKernel, Eq6_4_Eq6_5_AreaWeightedKernelIsSymmetric) {
   // Segments of different lengths on an arc (no two collinear): |G_s| k_ss' = |G_s'| k_s's.
   const int n = 12;
-  ltl::ContactSurface S;
+  ltl::ContactPoints S;
   S.dim = 2;
   S.area.resize(n);
   S.centre.resize(2, n);
@@ -240,7 +240,7 @@ TEST(AdhesionKernel, Eq6_4_Eq6_5_RowSumOfAPlaneGridIs2PiOverD0In3D) {
 /// the dense value (bitwise: the same code per pair), every dropped row mass below rel_tol x the
 /// kernel's whole mass (2 on a line, 2 pi / d0 on a plane), and most pairs dropped (the cutoff
 /// is exercised).
-void expect_sparse_equals_dense(const ltl::ContactSurface& S, double d0, bool exact,
+void expect_sparse_equals_dense(const ltl::ContactPoints& S, double d0, bool exact,
                                 double rel_tol) {
   const MatrixXd k = ltl::adhesion_kernel(S, d0, exact);
   const Eigen::SparseMatrix<double> sparse = ltl::adhesion_kernel_sparse(S, d0, exact, rel_tol);
@@ -277,7 +277,7 @@ TEST(AdhesionKernel, Eq1_6_SparseKernelEqualsDenseWithinItsCutoff) {
   const double h = 0.05;
   const Eigen::Matrix3d Q =
       Eigen::AngleAxisd(0.4, Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
-  ltl::ContactSurface S;
+  ltl::ContactPoints S;
   S.dim = 3;
   S.area = Eigen::VectorXd::Constant(m * m, h * h);
   S.centre.resize(3, m * m);
@@ -290,7 +290,7 @@ TEST(AdhesionKernel, Eq1_6_SparseKernelEqualsDenseWithinItsCutoff) {
 }
 
 TEST(AdhesionKernel, RejectsVerticesThatDoNotMatchTheFacets) {
-  ltl::ContactSurface S = line(5, 0.1);
+  ltl::ContactPoints S = line(5, 0.1);
   S.vertices[1](0, 3) += 0.05;  // facet 3 now 0.15 long, area says 0.1
   try {
     ltl::adhesion_kernel(S, 10.0, true);

@@ -220,7 +220,7 @@ TEST(Admissibility, Eq1_1_TensionWithoutGlueIsRefusedAndAcceptedWithGlue) {
   const Eigen::VectorXd N = d.problem().contact->plane_normal.head(2);
   State s = r.s;
   const int i = 3;
-  s.lambda_c.col(i) = 50e3 * N;
+  s.lambda_c.row(i) = 50e3 * N.transpose();
   const AdmissibilityReport a = check_admissibility(d, s);
   ASSERT_FALSE(a.admissible());
   ASSERT_EQ(a.failures.size(), 1u) << a.message();

@@ -45,9 +45,8 @@ ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& 
 // convergence they agree up to the tolerance, and this one is what the body actually does.
 Eigen::VectorXd mean_gap(const Solver& solver, const State& s) {
   const Eigen::VectorXd N = solver.problem().contact->plane_normal.head(solver.dim());
-  const Eigen::MatrixXd ubar = solver.discretization().points()->mean * s.u;  // #points x dim
-  const Eigen::VectorXd g0 =
-      solver.discretization().contact_gap(s) + s.e.transpose() * N;  // initial gap g_s
+  const Eigen::MatrixXd ubar = solver.discretization().points()->mean * s.u;    // #points x dim
+  const Eigen::VectorXd g0 = solver.discretization().contact_gap(s) + s.e * N;  // initial gap g_s
   return g0 - ubar * N;
 }
 
@@ -136,7 +135,7 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   const Eigen::VectorXd Nd = p.contact->plane_normal.head(d);
   double worst_t = 0;
   for (int f = 0; f < pc.size(); ++f) {
-    const Eigen::VectorXd lc = s.lambda_c.col(f);
+    const Eigen::VectorXd lc = s.lambda_c.row(f).transpose();
     worst_t = std::max(worst_t, (lc - lc.dot(Nd) * Nd).norm() / exact.p);
   }
   EXPECT_LT(worst_t, 1e-6);
@@ -253,7 +252,7 @@ int expect_signorini(const Solver& solver, const State& s, double L, double tol_
   for (int f = 0; f < p.size(); ++f) {
     if (p(f) > tol_p * p_max) ++in_contact;
     if (gap_u(f) > tol_g * L) worst_open = std::max(worst_open, std::abs(p(f)));
-    const Eigen::VectorXd lc = s.lambda_c.col(f);
+    const Eigen::VectorXd lc = s.lambda_c.row(f).transpose();
     worst_t = std::max(worst_t, (lc - lc.dot(N) * N).norm());
   }
   EXPECT_GE(gap.minCoeff(), -tol_g * L);

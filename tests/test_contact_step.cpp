@@ -24,8 +24,8 @@ using Eigen::Vector2d;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
 using ltl::Adhesion;
+using ltl::ContactPoints;
 using ltl::ContactStep;
-using ltl::ContactSurface;
 using ltl::PointSolution;
 
 // ---------------------------------------------------------------------------------------------
@@ -624,9 +624,9 @@ TEST(ContactPoint, Eq6_8_ConstantObjectiveKeepsBetaAndTiesGoUp) {
 // ---------------------------------------------------------------------------------------------
 
 // Segments [x_k, x_{k+1}] on the line x2 = 0, the body above (N = (0,-1)).
-ContactSurface line_surface(const std::vector<double>& x) {
+ContactPoints line_surface(const std::vector<double>& x) {
   const int n = static_cast<int>(x.size()) - 1;
-  ContactSurface S;
+  ContactPoints S;
   S.dim = 2;
   S.area.resize(n);
   S.centre.resize(2, n);
@@ -642,7 +642,7 @@ ContactSurface line_surface(const std::vector<double>& x) {
   return S;
 }
 
-ContactSurface fig3_surface() {
+ContactPoints fig3_surface() {
   std::vector<double> x(29);
   for (int k = 0; k <= 28; ++k) x[k] = k / 28.0;
   return line_surface(x);
@@ -661,7 +661,7 @@ Adhesion fig3_adhesion(bool exact) {
 using ltl::testing::quad;
 
 TEST(ContactKernel, Eq6_4_Eq6_5_CentrePointRule) {
-  const ContactSurface S = line_surface({0.0, 0.01, 0.03, 0.035, 0.06});
+  const ContactPoints S = line_surface({0.0, 0.01, 0.03, 0.035, 0.06});
   Adhesion A = fig3_adhesion(false);
   A.d0 = 50.0;
   const ContactStep cs(S, A, 8e9);
@@ -679,7 +679,7 @@ TEST(ContactKernel, Eq1_6_ExactSelfTermClosedFormAndQuadrature) {
   // (1/h) int_0^h int_0^h d0 e^{-d0|x-y|} dy dx = 2 (1 - (1 - e^{-d0 h}) / (d0 h)).
   for (double d0h : {1e-4, 0.01, 0.5, 1.0, 5.0, 1000.0 / 28.0, 300.0}) {
     const double h = 0.1, d0 = d0h / h;
-    const ContactSurface S = line_surface({0.0, h});
+    const ContactPoints S = line_surface({0.0, h});
     Adhesion A;
     A.d0 = d0;
     A.exact_kernel = true;
@@ -708,7 +708,7 @@ TEST(ContactKernel, Eq1_6_ExactCollinearPairs) {
   //   int_P int_Q = e^{-d0 delta} (1 - e^{-d0 hp}) (1 - e^{-d0 hq}) / d0,  delta = gap between,
   // against an independent quadrature of the double integral.
   const std::vector<double> x = {0.0, 0.02, 0.05, 0.051, 0.09};
-  const ContactSurface S = line_surface(x);
+  const ContactPoints S = line_surface(x);
   Adhesion A;
   A.d0 = 60.0;
   A.exact_kernel = true;
@@ -736,7 +736,7 @@ TEST(ContactKernel, Eq1_6_ExactCollinearPairs) {
 
 TEST(ContactKernel, Eq1_6_Fig3SurfaceNumbers) {
   // The numbers quoted in paper_notes/section6.md: 28 segments of 1/28 m, d0 = 1000 /m.
-  const ContactSurface S = fig3_surface();
+  const ContactPoints S = fig3_surface();
   const ContactStep cp(S, fig3_adhesion(false), 8e9), ex(S, fig3_adhesion(true), 8e9);
   const MatrixXd kc(cp.kernel()), ke(ex.kernel());
   const double x = 1000.0 / 28.0;  // d0 h
@@ -763,7 +763,7 @@ double L_shape_reference(double h, double d0) {
 TEST(ContactKernel, Eq1_6_ExactNonCollinear2D) {
   const double h = 0.05;
   for (double d0 : {2.0, 40.0, 700.0}) {
-    ContactSurface S = line_surface({0.0, h});  // two facets, edited below
+    ContactPoints S = line_surface({0.0, h});  // two facets, edited below
     S.area = VectorXd::Constant(2, h);
     S.centre = MatrixXd::Zero(2, 2);
     S.gap = VectorXd::Zero(2);
@@ -781,7 +781,7 @@ TEST(ContactKernel, Eq1_6_ExactNonCollinear2D) {
     EXPECT_EQ(cs.kernel().coeff(0, 1), cs.kernel().coeff(1, 0));
   }
   {  // separated, tilted segments: smooth integrand, tensor Gauss reference
-    ContactSurface S = line_surface({0.0, 0.1});
+    ContactPoints S = line_surface({0.0, 0.1});
     S.area = VectorXd::Constant(2, 0.1);
     S.centre = MatrixXd::Zero(2, 2);
     S.gap = VectorXd::Zero(2);
@@ -810,7 +810,7 @@ TEST(ContactKernel, Eq1_6_ExactNonCollinear2D) {
     EXPECT_NEAR(cs.kernel().coeff(0, 1) * 0.1, ref, 1e-11 * ref);
   }
   {  // nearly collinear (tilt 1e-6): the quadrature path agrees with the collinear closed form
-    ContactSurface S = line_surface({0.0, 0.05, 0.1});
+    ContactPoints S = line_surface({0.0, 0.05, 0.1});
     const double tilt = 1e-6;
     S.vertices[1].col(1) << 0.05 + 0.05 * std::cos(tilt), 0.05 * std::sin(tilt);
     Adhesion A;
@@ -886,7 +886,7 @@ TEST(ContactKernel, Eq1_6_Exact3DQuadrilaterals) {
   const double h = 0.5;
   for (double d0 : {0.2, 4.0, 20.0}) {
     SCOPED_TRACE(d0);
-    ContactSurface S;
+    ContactPoints S;
     S.dim = 3;
     const int n = 3;
     S.area = VectorXd::Constant(n, h * h);
@@ -927,7 +927,8 @@ TEST(ContactKernel, Eq1_6_Exact3DQuadrilaterals) {
 TEST(ContactKernel, Eq1_6_ZeroWhenNoDissipation) {
   Adhesion A = fig3_adhesion(true);
   A.d0 = 0.0;
-  const ContactStep cs(fig3_surface(), A, 8e9);
+  const ContactPoints S = fig3_surface();  // the step keeps a reference: S outlives it
+  const ContactStep cs(S, A, 8e9);
   EXPECT_EQ(cs.kernel().rows(), 28);
   EXPECT_EQ(cs.kernel().norm(), 0.0);
   EXPECT_EQ(cs.kernel().nonZeros(), 0);  // nothing stored (the memory test: test_memory.cpp)
@@ -942,30 +943,32 @@ struct SweepData {
   VectorXd beta_prev, beta;
 };
 
-SweepData random_data(const ContactSurface& S, double u_scale, double lambda_scale, unsigned seed) {
+SweepData random_data(const ContactPoints& S, double u_scale, double lambda_scale, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(-1.0, 1.0), P(0.0, 1.0);
   const int n = S.size(), dim = S.dim;
   SweepData D;
-  D.ubar = u_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); });
-  D.lambda_c = lambda_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); });
+  // Drawn dim x #points (the draws of the earlier layout), stored #points x dim like u.
+  D.ubar = u_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); }).transpose();
+  D.lambda_c = lambda_scale * MatrixXd::NullaryExpr(dim, n, [&]() { return U(rng); }).transpose();
   D.beta_prev = VectorXd::NullaryExpr(n, [&]() { return P(rng); });
   D.beta = VectorXd::NullaryExpr(n, [&]() { return P(rng); });
-  D.e = MatrixXd::Zero(dim, n);  // feasible when gap >= 0
+  D.e = MatrixXd::Zero(n, dim);  // feasible when gap >= 0
   return D;
 }
 
 // The local functional written out independently: sum_s |G_s| [(Rqc/2)|e|^2 - a.e
 // + (kappa/2) beta^2 |e|^2 - w beta] + (1/(2 dt)) sum sum |G_s| k_ss' db_s db_s'.
 double local_J(const ContactStep& cs, double Rqc, const SweepData& D) {
-  const ContactSurface& S = cs.surface();
+  const ContactPoints& S = cs.points();
   const Adhesion& A = cs.adhesion();
   const MatrixXd k(cs.kernel());
   double J = 0.0;
   for (int s = 0; s < S.size(); ++s) {
-    const VectorXd a = Rqc * D.ubar.col(s) - D.lambda_c.col(s);
-    const double e2 = D.e.col(s).squaredNorm(), b = D.beta(s);
-    J += S.area(s) * (0.5 * Rqc * e2 - a.dot(D.e.col(s)) + 0.5 * A.kappa * b * b * e2 - A.w * b);
+    const VectorXd a = (Rqc * D.ubar.row(s) - D.lambda_c.row(s)).transpose();
+    const double e2 = D.e.row(s).squaredNorm(), b = D.beta(s);
+    J += S.area(s) *
+         (0.5 * Rqc * e2 - a.dot(D.e.row(s).transpose()) + 0.5 * A.kappa * b * b * e2 - A.w * b);
     for (int t = 0; t < S.size(); ++t)
       J += S.area(s) * k(s, t) * (D.beta(s) - D.beta_prev(s)) * (D.beta(t) - D.beta_prev(t)) /
            (2.0 * A.dt);
@@ -975,13 +978,13 @@ double local_J(const ContactStep& cs, double Rqc, const SweepData& D) {
 
 // Per-facet data (6.3)-(6.5) computed in the test from the kernel.
 PointProblem facet_data(const ContactStep& cs, double Rqc, const SweepData& D, int s) {
-  const ContactSurface& S = cs.surface();
+  const ContactPoints& S = cs.points();
   const Adhesion& A = cs.adhesion();
   const MatrixXd k(cs.kernel());
   PointProblem F;
   F.dim = S.dim;
   F.a.setZero();
-  F.a.head(S.dim) = Rqc * D.ubar.col(s) - D.lambda_c.col(s);
+  F.a.head(S.dim) = (Rqc * D.ubar.row(s) - D.lambda_c.row(s)).transpose();
   F.N.setZero();
   F.N.head(S.dim) = S.N.normalized();
   F.gap = S.gap(s);
@@ -994,8 +997,8 @@ PointProblem facet_data(const ContactStep& cs, double Rqc, const SweepData& D, i
   return F;
 }
 
-ContactSurface grid3d(int nx, int ny, double h, double gap) {
-  ContactSurface S;
+ContactPoints grid3d(int nx, int ny, double h, double gap) {
+  ContactPoints S;
   S.dim = 3;
   const int n = nx * ny;
   S.area = VectorXd::Constant(n, h * h);
@@ -1017,7 +1020,7 @@ ContactSurface grid3d(int nx, int ny, double h, double gap) {
 
 struct SweepCase {
   const char* name;
-  ContactSurface S;
+  ContactPoints S;
   Adhesion A;
   double Rqc, u_scale, lambda_scale;
 };
@@ -1029,7 +1032,7 @@ std::vector<SweepCase> sweep_cases() {
   {  // O(1), strongly non-convex facets, coupled kernel, gaps
     std::vector<double> x(13);
     for (int k = 0; k <= 12; ++k) x[k] = 0.1 * k;
-    ContactSurface S = line_surface(x);
+    ContactPoints S = line_surface(x);
     for (int s = 0; s < 12; ++s) S.gap(s) = 0.05 * (s % 3);
     Adhesion A;
     A.w = 0.3;
@@ -1062,7 +1065,7 @@ TEST(ContactSweep, Sec6_GaussSeidelInFacetOrderWithNewestBeta) {
       const PointProblem F = facet_data(cs, C.Rqc, R, s);
       const PointSolution sol = solve(F, R.beta(s));
       R.beta(s) = sol.beta;
-      R.e.col(s) = sol.e.head(C.S.dim);
+      R.e.row(s) = sol.e.head(C.S.dim).transpose();
     }
     EXPECT_LE((D.beta - R.beta).lpNorm<Eigen::Infinity>(), 1e-12);
     EXPECT_LE((D.e - R.e).norm(), 1e-12 * (R.e.norm() + 1e-300));
@@ -1111,7 +1114,7 @@ TEST(ContactSweep, Eq4_7_SweepsDecreaseTheLocalFunctionalAndReachAFixedPoint) {
         const Brute B = brute_gamma(F, 2000);
         EXPECT_LE(reduced(F, D.beta(s)), B.f + 1e-10 * fscale(F)) << "facet " << s;
         Vector3d es = Vector3d::Zero();
-        es.head(C.S.dim) = D.e.col(s);
+        es.head(C.S.dim) = D.e.row(s).transpose();
         EXPECT_LE((es - e_of_gamma(F, D.beta(s))).norm(), 1e-13 * (es.norm() + F.gap + 1e-300));
       }
     }
@@ -1120,7 +1123,7 @@ TEST(ContactSweep, Eq4_7_SweepsDecreaseTheLocalFunctionalAndReachAFixedPoint) {
 
 TEST(ContactSweep, PureContactKappaZeroD0Zero) {
   // Figs 5-6: w = 1/eps = d = 0. e is the projection of a / Rqc, beta untouched.
-  ContactSurface S = fig3_surface();
+  ContactPoints S = fig3_surface();
   for (int s = 0; s < S.size(); ++s) S.gap(s) = 1e-3 * (s % 4);
   Adhesion A;
   A.dt = 1.0;
@@ -1132,10 +1135,10 @@ TEST(ContactSweep, PureContactKappaZeroD0Zero) {
   EXPECT_EQ(D.beta, beta0);
   int active_count = 0;
   for (int s = 0; s < S.size(); ++s) {
-    const Vector2d x = (Rqc * D.ubar.col(s) - D.lambda_c.col(s)) / Rqc;
+    const Vector2d x = (Rqc * D.ubar.row(s) - D.lambda_c.row(s)).transpose() / Rqc;
     const Vector2d N(0, -1);
     const Vector2d e = (x.dot(N) <= S.gap(s)) ? x : Vector2d(x - (x.dot(N) - S.gap(s)) * N);
-    EXPECT_LE((D.e.col(s) - e).norm(), 1e-15 * (x.norm() + S.gap(s)));
+    EXPECT_LE((D.e.row(s).transpose() - e).norm(), 1e-15 * (x.norm() + S.gap(s)));
     active_count += (x.dot(N) > S.gap(s));
   }
   EXPECT_GT(active_count, 3);  // both regimes visited
@@ -1165,7 +1168,7 @@ TEST(ContactSweep, SolveIsAllocationFree) {
 #endif
 
 TEST(ContactEnergy, Eq2_2_DiscreteAdhesionEnergy) {
-  const ContactSurface S = line_surface({0.0, 0.1, 0.3});
+  const ContactPoints S = line_surface({0.0, 0.1, 0.3});
   Adhesion A;
   A.w = 0.5;
   A.kappa = 10.0;
@@ -1173,7 +1176,7 @@ TEST(ContactEnergy, Eq2_2_DiscreteAdhesionEnergy) {
   A.dt = 0.5;
   const ContactStep cs(S, A, 1.0);
   MatrixXd e(2, 2);
-  e << 0.1, -0.2, 0.3, 0.0;  // e.N = -e_y <= 0
+  e << 0.1, 0.3, -0.2, 0.0;  // one point per row; e.N = -e_y <= 0
   VectorXd beta(2), beta_prev(2);
   beta << 0.4, 0.9;
   beta_prev << 1.0, 0.7;
@@ -1190,12 +1193,12 @@ TEST(ContactEnergy, Eq2_2_DiscreteAdhesionEnergy) {
   bad(1) = 1.0 + 1e-12;
   EXPECT_EQ(cs.energy(e, bad, beta_prev), std::numeric_limits<double>::infinity());
   MatrixXd pen = e;
-  pen(1, 0) = -1e-6;  // e.N = 1e-6 > 0 = g
+  pen(0, 1) = -1e-6;  // e.N = 1e-6 > 0 = g
   EXPECT_EQ(cs.energy(pen, beta, beta_prev), std::numeric_limits<double>::infinity());
 }
 
 TEST(ContactStepSetup, RejectsInconsistentData) {
-  ContactSurface S = fig3_surface();
+  ContactPoints S = fig3_surface();
   EXPECT_THROW(ContactStep(S, fig3_adhesion(false), 0.0), std::invalid_argument);
   S.gap.resize(27);
   EXPECT_THROW(ContactStep(S, fig3_adhesion(false), 8e9), std::invalid_argument);
@@ -1204,9 +1207,9 @@ TEST(ContactStepSetup, RejectsInconsistentData) {
   EXPECT_NO_THROW(ContactStep(S, fig3_adhesion(false), 8e9));  // centre-point: no vertices
   EXPECT_THROW(ContactStep(S, fig3_adhesion(true), 8e9), std::invalid_argument);
   S = fig3_surface();
-  S.N = Vector2d(0, -2);  // normalized by the constructor
+  S.N = Vector2d(0, -2);  // read normalized by the constructor
   const ContactStep cs(S, fig3_adhesion(false), 8e9);
-  EXPECT_DOUBLE_EQ(cs.surface().N.norm(), 1.0);
+  EXPECT_DOUBLE_EQ(cs.normal().norm(), 1.0);
 }
 
 }  // namespace

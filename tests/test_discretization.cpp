@@ -168,7 +168,7 @@ TEST(Discretization, Eq4_5_IsIndependentOfTheAugmentationAndFeedsTheSolverUnchan
   EXPECT_EQ((da.cells().vol - db.cells().vol).norm(), 0.0);
   EXPECT_EQ(ltl::SpMat(da.cells().Gbar - db.cells().Gbar).norm(), 0.0);
   EXPECT_EQ((da.dead_load() - db.dead_load()).norm(), 0.0);
-  EXPECT_EQ((da.surface().gap - db.surface().gap).norm(), 0.0);
+  EXPECT_EQ((da.points()->gap - db.points()->gap).norm(), 0.0);
   EXPECT_EQ(da.dirichlet().fixed, db.dirichlet().fixed);
   EXPECT_EQ(da.split().C1, 435e3 + 65e3);  // plane strain, pointwise C2 split (2.5)-(2.6)
   EXPECT_TRUE(da.mean_det());

@@ -73,8 +73,8 @@ std::size_t largest_allocation(const F& f) {
 }
 
 /// A surface of n collinear segments of length h on the plane x2 = 0.
-ContactSurface line(int n, double h) {
-  ContactSurface S;
+ContactPoints line(int n, double h) {
+  ContactPoints S;
   S.dim = 2;
   S.area = Eigen::VectorXd::Constant(n, h);
   S.centre = Eigen::MatrixXd::Zero(2, n);
@@ -105,10 +105,10 @@ TEST(Memory, TheRecorderSeesADensePointsSquaredBuffer) {
 
 TEST(Memory, Eq4_7_ContactStepWithoutGlueAllocatesNoPointsSquaredBuffer) {
   const int n = 3000;
-  const ContactSurface S = line(n, 1e-3);
+  const ContactPoints S = line(n, 1e-3);
   Adhesion A;  // no glue, no dissipation: d0 = 0
   A.dt = 1.0;
-  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(2, n, 1e-4), lambda_c = ubar, e = ubar;
+  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(n, 2, 1e-4), lambda_c = ubar, e = ubar;
   Eigen::VectorXd beta_prev = Eigen::VectorXd::Zero(n), beta = beta_prev;
   const std::size_t big = largest_allocation([&] {
     const ContactStep cs(S, A, 1e6);
@@ -121,13 +121,13 @@ TEST(Memory, Eq4_7_ContactStepWithoutGlueAllocatesNoPointsSquaredBuffer) {
 TEST(Memory, Eq6_4_Eq6_5_ContactStepWithGlueStoresASparseKernel) {
   // d0 h = 36 as Fig 3: a few neighbours per point within the cutoff.
   const int n = 3000;
-  const ContactSurface S = line(n, 1.0 / 28);
+  const ContactPoints S = line(n, 1.0 / 28);
   Adhesion A;
   A.w = 0.01;
   A.kappa = 1e9;
   A.d0 = 1000.0;
   A.dt = 5.0;
-  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(2, n, 1e-4), lambda_c = ubar, e = ubar;
+  Eigen::MatrixXd ubar = Eigen::MatrixXd::Constant(n, 2, 1e-4), lambda_c = ubar, e = ubar;
   Eigen::VectorXd beta_prev = Eigen::VectorXd::Zero(n), beta = Eigen::VectorXd::Ones(n);
   double bytes = 0;
   const std::size_t big = largest_allocation([&] {

@@ -32,8 +32,8 @@ Newton::Unknowns perturbed(const Discretization& disc, const Newton& newton, dou
   s.E = disc.identity();
   s.lambda = 2 * disc.split().C1 * disc.identity();
   const int np = disc.points() ? disc.points()->size() : 0;
-  s.e = Eigen::MatrixXd::Zero(d, np);
-  s.lambda_c = Eigen::MatrixXd::Zero(d, np);
+  s.e = Eigen::MatrixXd::Zero(np, d);
+  s.lambda_c = Eigen::MatrixXd::Zero(np, d);
   s.beta = Eigen::VectorXd::Ones(np);
   Newton::Unknowns x = newton.unknowns(s);
   const double L = disc.problem().mesh.X.cwiseAbs().maxCoeff();
@@ -362,7 +362,7 @@ TEST(Newton, Eq2_2_GlueTermsAreDerivativesOfTheDiscreteFunctional) {
   Newton newton(disc);
   Adhesion adhesion = p.contact->adhesion;
   adhesion.dt = p.time.dt;
-  const ContactStep contact(disc.surface(), adhesion, 1.0);
+  const ContactStep contact(*disc.points(), adhesion, 1.0);
   const ContactPoints& pts = *disc.points();
   const int np = pts.size(), d = disc.dim(), nn = disc.num_nodes();
   std::mt19937 g(7);
@@ -376,7 +376,7 @@ TEST(Newton, Eq2_2_GlueTermsAreDerivativesOfTheDiscreteFunctional) {
   for (int k = 0; k < np; ++k) x.beta(k) = U(g);
   const Eigen::MatrixXd F = Eigen::MatrixXd::Zero(nn, d);
   auto glue_energy = [&](const Newton::Unknowns& y) {
-    return contact.energy((pts.mean * y.u).transpose(), y.beta, beta_prev);
+    return contact.energy(pts.mean * y.u, y.beta, beta_prev);
   };
   // The glue force: R_u(x) - R_u(x with beta = 0).
   Eigen::VectorXd R, G, R0, G0;

@@ -359,12 +359,12 @@ TEST(Measures, Eq4_11_PeelFrontAndOpeningOfAConstructedState) {
   State s;
   s.u = Eigen::MatrixXd::Zero(p.mesh.num_nodes(), 2);
   s.beta.resize(4);
-  s.e.resize(2, 4);
-  s.lambda_c = Eigen::MatrixXd::Zero(2, 4);
+  s.e.resize(4, 2);
+  s.lambda_c = Eigen::MatrixXd::Zero(4, 2);
   for (int i = 0; i < 4; ++i) {
     const double x = points.centre(0, i);
     s.beta(i) = x + 0.3;
-    s.e.col(i) = Eigen::Vector2d(0.1, 0.01 * (1 - x) * (1 - x));
+    s.e.row(i) = Eigen::RowVector2d(0.1, 0.01 * (1 - x) * (1 - x));
   }
   const PeelMeasures m = peel_measures(p, points, s);
   EXPECT_EQ(m.points, 4);

@@ -123,14 +123,14 @@ State make_state(const Mesh& m, int n_points, int p) {
     for (int i = 0; i < dim; ++i) s.u(a, i) = u_value(p, a, i);
   s.E = tensor_field(p, 0, m.num_cells(), dim);
   s.lambda = tensor_field(p, 1, m.num_cells(), dim);
-  s.e.resize(dim, n_points);
-  s.lambda_c.resize(dim, n_points);
+  s.e.resize(n_points, dim);
+  s.lambda_c.resize(n_points, dim);
   s.beta.resize(n_points);
   for (int f = 0; f < n_points; ++f) {
     s.beta(f) = beta_value(p, f);
     for (int i = 0; i < dim; ++i) {
-      s.e(i, f) = e_value(p, f, i);
-      s.lambda_c(i, f) = lc_value(p, f, i);
+      s.e(f, i) = e_value(p, f, i);
+      s.lambda_c(f, i) = lc_value(p, f, i);
     }
   }
   return s;
@@ -590,9 +590,9 @@ TEST_F(ResultsTest, ThreeDimensionalWithoutContact) {
   ASSERT_EQ(last->state.E.rows(), 3);
   EXPECT_TRUE((last->state.E.array() == want.E.array()).all());
   EXPECT_TRUE((last->state.lambda.array() == want.lambda.array()).all());
-  EXPECT_EQ(last->state.e.rows(), 3);
-  EXPECT_EQ(last->state.e.cols(), 0);
-  EXPECT_EQ(last->state.lambda_c.cols(), 0);
+  EXPECT_EQ(last->state.e.rows(), 0);
+  EXPECT_EQ(last->state.e.cols(), 3);
+  EXPECT_EQ(last->state.lambda_c.rows(), 0);
   EXPECT_EQ(last->state.beta.size(), 0);
 
   const Raw P = raw_read(path, "/steps/000003/P");
@@ -723,7 +723,7 @@ TEST_F(ResultsTest, FlushedStepsAreReadableWhileTheWriterIsOpen) {
   const auto last = ResultsFile::read_last_step(path);
   ASSERT_TRUE(last);
   EXPECT_EQ(last->p, 2);
-  EXPECT_EQ(last->state.lambda_c(1, 2), lc_value(2, 2, 1));
+  EXPECT_EQ(last->state.lambda_c(2, 1), lc_value(2, 2, 1));
   EXPECT_EQ(count(read_text(file("open.xdmf")), "<Grid Name=\"step_"), 2);
   EXPECT_FALSE(raw_exists(path, "/mesh/contact_centre"));  // not given
 }

@@ -157,8 +157,8 @@ void fill(Step& s, const Mesh& m, int points, int p) {
   s.state.u = Eigen::MatrixXd::Constant(m.num_nodes(), dim, 1e-3 * p);
   s.state.E = Eigen::MatrixXd::Constant(dim * nc, dim, 1.0 + 1e-4 * p);
   s.state.lambda = Eigen::MatrixXd::Constant(dim * nc, dim, 2.0 * p);
-  s.state.e = Eigen::MatrixXd::Constant(dim, points, 1e-4 * p);
-  s.state.lambda_c = Eigen::MatrixXd::Constant(dim, points, -3.0 * p);
+  s.state.e = Eigen::MatrixXd::Constant(points, dim, 1e-4 * p);
+  s.state.lambda_c = Eigen::MatrixXd::Constant(points, dim, -3.0 * p);
   s.state.beta = Eigen::VectorXd::Constant(points, 1.0);
   s.report.iterations = 50;
   s.report.converged = true;

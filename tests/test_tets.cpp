@@ -377,7 +377,7 @@ void expect_pressed_block(bool nodal) {
   const Eigen::VectorXd N = -Eigen::Vector3d::UnitZ();
   double worst_t = 0;
   for (int f = 0; f < pc.size(); ++f) {
-    const Eigen::VectorXd lc = s.lambda_c.col(f);
+    const Eigen::VectorXd lc = s.lambda_c.row(f).transpose();
     worst_t = std::max(worst_t, (lc - lc.dot(N) * N).norm() / p_exact);
   }
   EXPECT_LT(worst_t, 1e-6);

@@ -412,7 +412,7 @@ int run_case(const Case& c, int iters, int warm) {
     if (problem.contact) {
       ltl::Adhesion adhesion = problem.contact->adhesion;
       adhesion.dt = problem.time.dt;
-      const ltl::ContactStep cs(solver.discretization().surface(), adhesion, 1.0);
+      const ltl::ContactStep cs(*solver.discretization().points(), adhesion, 1.0);
       put("kernel_bytes", cs.kernel_bytes());
     }
   }

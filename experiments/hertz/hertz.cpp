@@ -134,8 +134,8 @@ void write(const SignoriniSolver& solver, const SignoriniSolution& sol, const Da
   const Eigen::VectorXd N = solver.normal();
   State s;
   s.u = sol.u;
-  s.e = N * sol.H.transpose();
-  s.lambda_c = N * sol.lambda_c.transpose();
+  s.e = sol.H * N.transpose();  // #points x dim, like u
+  s.lambda_c = sol.lambda_c * N.transpose();
   StepData step;
   step.p = 1;
   step.t = 0;

@@ -1,0 +1,38 @@
+// The contact points of the contact surface Gamma_c and everything the solver knows of them, in
+// one place: their weights, reference positions and (facet-mean points) facet vertices, the map
+// from nodal values to point values, and the initial gap to the obstacle plane with its normal.
+// Built by the discretization (fe.hpp: facet_mean_points, nodal_points; discretization.cpp: gap
+// and N); read by the global step (4.5), the local contact step (contact_step.hpp, (6.1)-(6.8)),
+// the kernel quadrature (adhesion_kernel.hpp), the Newton phase and the measures.
+#pragma once
+
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+#include <vector>
+
+namespace ltl {
+
+using SpMat = Eigen::SparseMatrix<double>;
+using SpMatR = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
+/// The contact points of one contact surface: the facets of the boundary part
+/// (discretization.contact = "facet-mean", the paper's P0 choice: one point per facet, its
+/// value the facet mean) or its nodes ("nodal", the default: one point per node).
+struct ContactPoints {
+  int dim = 2;             ///< 2 or 3
+  Eigen::VectorXd area;    ///< #points, weight |G_s|: facet measure, or integral of phi_a
+  Eigen::MatrixXd centre;  ///< dim x #points, reference position x_s (facet centre or node)
+  SpMatR mean;             ///< #points x #nodes, (mean * U).row(s) = ubar_s (facet mean or u_a)
+  SpMatR meanT_area;       ///< #nodes x #points, transpose of mean weighted by |G_s|
+  /// Facet-mean points only, for the exact kernel integral: the corners of each point's facet
+  /// (2 in 2-D, 3 (triangle faces) or 4 (quadrilateral faces, cyclic order) in 3-D), each
+  /// dim x #points; empty for nodal points.
+  std::vector<Eigen::MatrixXd> vertices;
+  /// Nodal points only: the mesh node of each point; empty for facet-mean points.
+  std::vector<int> nodes;
+  Eigen::VectorXd gap;  ///< #points, initial gap g_s = (p0 - x_s) . N to the obstacle plane
+  Eigen::VectorXd N;    ///< dim, unit normal of the obstacle plane, pointing into it
+  int size() const { return static_cast<int>(area.size()); }
+};
+
+}  // namespace ltl
