@@ -46,12 +46,9 @@ bool IterationPolicy::stop(const IterationRecord& rec, bool finite,
   bool converged = r < alg_.tol;
   if (alg_.stopping == Stopping::Equilibrium && equilibrium) {
     const bool due = r < kEquilibriumGate && (rec.n % kEquilibriumEvery == 0 || r < alg_.tol);
-    const double e = due ? equilibrium() : NAN;
+    const double e = due ? equilibrium() : NAN;  // NaN also: a map without the measure
     if (!std::isnan(e)) equilibrium_error_ = e;
-    if (!due)
-      converged = false;
-    else if (!std::isnan(e))  // NaN: a map without the measure keeps the paper's test
-      converged = e <= alg_.force_tol;
+    if (!std::isnan(e) || !due) converged = e <= alg_.force_tol;  // false when NaN
   }
   if (converged) {
     report_.converged = true;

@@ -20,9 +20,6 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
   const Problem& pb = d.problem();
   if (!pb.contact || !d.points()) return m;
   const ContactPoints& points = *d.points();
-  const int dim = pb.mesh.dim;
-  const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
-  const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
   const Eigen::MatrixXd x = pb.mesh.X + s.u;        // deformed nodes
   const Eigen::MatrixXd xp = points.mean * x;       // deformed contact points
   const Eigen::VectorXd p = d.contact_pressure(s);  // nominal contact pressure
@@ -158,22 +155,36 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   return r;
 }
 
+namespace {
+/// The largest |equilibrium_residual| over the free dofs, and over the fixed ones (the largest
+/// reaction).
+struct FreeAndFixed {
+  double free = 0, reaction = 0;
+};
+FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                     const State& s) {
+  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
+  FreeAndFixed m;
+  const auto& fixed = d.dirichlet().fixed;
+  for (int c = 0; c < d.dim(); ++c)
+    for (int i : fixed[c]) m.reaction = std::max(m.reaction, std::abs(r(i, c))), r(i, c) = 0;
+  m.free = r.cwiseAbs().maxCoeff();
+  return m;
+}
+}  // namespace
+
 EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
                                        const State& s) {
   EquilibriumMeasure m;
-  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
-  const auto& fixed = d.dirichlet().fixed;
-  for (int c = 0; c < d.dim(); ++c)
-    for (int i : fixed[c]) r(i, c) = 0;
   const double load = f_ext.cwiseAbs().maxCoeff();
-  m.force_residual = r.cwiseAbs().maxCoeff() / (load > 0 ? load : 1.0);
+  m.force_residual = residual_free_and_fixed(d, f_ext, s).free / (load > 0 ? load : 1.0);
   if (d.problem().material.incompressible()) {
     // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
     const Eigen::VectorXd c = d.fluctuation_det(s.u);
     for (int e = 0; e < d.num_cells(); ++e)
       m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
   }
-  if (d.points()) m.penetration = std::max(0.0, contact_measures(d, s).penetration);
+  if (d.points()) m.penetration = std::max(0.0, max_penetration(d, s));
   m.det_min = min_det_F(d, s.u);
   return m;
 }
@@ -192,16 +203,12 @@ double max_penetration(const Discretization& d, const State& s) {
 
 double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s) {
   const int dim = d.dim();
-  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
-  double reaction = 0;
-  const auto& fixed = d.dirichlet().fixed;
-  for (int c = 0; c < dim; ++c)
-    for (int i : fixed[c]) reaction = std::max(reaction, std::abs(r(i, c))), r(i, c) = 0;
+  const FreeAndFixed r = residual_free_and_fixed(d, f_ext, s);
   const double h = std::pow(d.volume() / d.num_cells(), 1.0 / dim);
   double scale = f_ext.cwiseAbs().maxCoeff();
-  if (!(scale > 0)) scale = reaction;
+  if (!(scale > 0)) scale = r.reaction;
   if (!(scale > 0)) scale = d.split().C1 * std::pow(h, dim - 1);
-  double err = r.cwiseAbs().maxCoeff() / scale;
+  double err = r.free / scale;
   // The strains of the stress above are those of u: E_e = I + Gbar_e u (the constraint B = 0 of
   // (3.2)), and for an incompressible law det(I + Gbar_e u) + c_e(u) = 1 on u itself.
   const Eigen::MatrixXd GU = d.cells().Gbar * s.u;

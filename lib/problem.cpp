@@ -98,6 +98,11 @@ double LoadRamp::factor(int p, double dt) const {
   }
 }
 
+double default_Rq(const Problem& p) {
+  const double C = p.material.C1 + (p.material.incompressible() ? p.material.C2 : 0.0);
+  return (p.mesh.dim == 2 ? 6 : 8) * C;
+}
+
 void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c) {
   AlgorithmParams& a = p.algorithm;
   const double C = p.material.C1 + (p.material.incompressible() ? p.material.C2 : 0.0);
@@ -105,8 +110,8 @@ void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c)
   a.R_derived = !has_R;
   a.q_c_derived = !has_q_c;
   if (!has_q) a.q = 2 * C;
-  if (!has_R) a.R = (p.mesh.dim == 2 ? 6 : 8) * C / a.q;
-  if (!(a.R_min > 0)) a.R_min = std::min(a.R, (p.mesh.dim == 2 ? 6 : 8) * C / a.q);
+  if (!has_R) a.R = default_Rq(p) / a.q;
+  if (!(a.R_min > 0)) a.R_min = std::min(a.R, default_Rq(p) / a.q);
   if (!has_q_c) {
     a.h = p.contact && p.mesh.has_boundary(p.contact->group)
               ? mean_facet_size(p.mesh, p.mesh.boundary(p.contact->group))

@@ -208,6 +208,8 @@ struct Problem {
 /// physical branch (paper_notes/section3-4.md); q_c = q / h makes the contact term of the
 /// global matrix (4.5) as stiff as the elastic term on one cell. Sets the *_derived flags and h.
 void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c);
+/// The default rule's R q (Pa): 6 (C1 + C2) in 2-D, 8 (C1 + C2) in 3-D (C2 = 0 compressible).
+double default_Rq(const Problem& p);
 
 /// One line: "R = 2 (derived), q = 5e+05 Pa (derived: 2 (C1 + C2)), q_c = ..." for the start of
 /// a run and for messages.

@@ -37,7 +37,7 @@ std::string divergence_hint(const Problem& problem, double factor, const TimeSte
   const double C = m.C1 + (m.incompressible() ? m.C2 : 0.0);
   const int dim = problem.mesh.dim;
   // R q far above the default rule's: ALG2's steps are tiny (r_G + r_B small) far from equilibrium.
-  const double huge = a.R * a.q / ((dim == 3 ? 8 : 6) * C);
+  const double huge = a.R * a.q / default_Rq(problem);
   return cat(
       " Parameters used: ", describe_algorithm(a), "; R q = ", a.R * a.q,
       " Pa = ", a.R * a.q / m.C1, " C1 (load factor ", factor, "). What to change: ",
