@@ -5,18 +5,41 @@
 //   build/experiments/ltl_run CONFIG.toml [-o RESULTS.h5] [--set key=value]... [--resume]
 //                             [--stop-after N] [-v | -q]
 //
+// Built with MPI (-DLTL_WITH_MPI=ON, build-mpi/), `mpirun -n P ltl_run ...` distributes ALG2
+// over the P ranks (lib/alg2_mpi.cpp, paper_notes/mpi.md): rank 0 alone prints and writes the
+// results file, with the serial layout.
+//
 // Every configuration key is described in experiments/README.md.
+#include <cstdio>
+
 #include "cli.hpp"
+#include "error.hpp"
+#include "mpi_comm.hpp"
 
 // The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize and precompute -> solve the
 // time steps, each written as soon as it converges.
 static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);  // the configuration, validated
-  ltl::Solver solver{ltl::Discretization(problem)};     // discretize; K factorized once (4.5)
-  ltl::run(solver, ltl::run_options(cmd, problem));     // (2.1): ALG2 per step, written at once
+  ltl::RunOptions options = ltl::run_options(cmd, problem);
+  const bool ranks = ltl::mpi::size() > 1;
+  if (ranks && options.resume)
+    throw ltl::Error("--resume under mpirun with more than one rank is not supported yet: "
+                     "resume with one rank (paper_notes/mpi.md)");
+  if (ranks && ltl::mpi::rank() != 0) {  // rank 0 writes the results file and prints
+    options.output.clear();
+    options.verbosity = 0;
+  }
+  // Discretize; K factorized once (4.5), or the distributed KSP set up once over the ranks.
+  ltl::Solver solver{ltl::Discretization(problem), ranks ? ltl::Ranks::All : ltl::Ranks::One};
+  ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
 }
 
-// Errors: one line on stderr, exit status 1; bad usage: 2.
+// Errors: one line on stderr, exit status 1; bad usage: 2. Under mpirun a failing rank ends
+// every rank (MPI_Abort), which would otherwise wait for it.
 int main(int argc, char** argv) {
-  return ltl::guarded_main(argc, argv, "ltl_run", "", solve_and_report);
+  ltl::mpi::Session session(&argc, &argv);
+  if (ltl::mpi::size() > 1 && ltl::mpi::rank() != 0) std::freopen("/dev/null", "w", stdout);
+  const int status = ltl::guarded_main(argc, argv, "ltl_run", "", solve_and_report);
+  if (status != 0 && ltl::mpi::size() > 1) ltl::mpi::abort(status);
+  return status;
 }

@@ -19,7 +19,7 @@ double seconds_since(clock_type::time_point t0) {
 
 Solver::Solver(const Problem& problem) : Solver(Discretization(problem)) {}
 
-Solver::Solver(Discretization discretization) : disc_(std::move(discretization)) {
+Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(discretization)) {
   const auto t0 = clock_type::now();
   const int dim = disc_.dim(), nc = disc_.num_cells(), nn = disc_.num_nodes();
   const ContactPoints* points = disc_.points();
@@ -27,6 +27,7 @@ Solver::Solver(Discretization discretization) : disc_(std::move(discretization))
   const AlgorithmParams& a = alg();
   F_ext_ = disc_.dead_load();
   norm_I_ = std::sqrt(a.q * disc_.volume() * dim);
+  if (ranks == Ranks::All) distribute();  // alg2_mpi.cpp
   precompute(a.R);
 
   // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per point.
@@ -66,10 +67,14 @@ void Solver::precompute(double R) {
   gamma_ = disc_.mean_det() ? 2 * Rq : 0.0;
   const SpMat K =
       global_matrix(disc_.cells(), disc_.points(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
-  const double scale = global_ ? global_->value_scale() : 1.0;  // a substep's, kept
+  // a substep's value scale, kept
+  const double scale = global_ ? global_->value_scale() : dist_ ? distributed_value_scale() : 1.0;
   global_.reset();  // release the old factor before the new one is computed
-  global_ = std::make_unique<GlobalStep>(K, disc_.dirichlet(), a.global_solver, &problem().mesh.X);
-  global_->set_value_scale(scale);
+  if (!dist_ || !distributed_global_step(K, scale)) {  // the distributed KSP (alg2_mpi.cpp)
+    global_ =
+        std::make_unique<GlobalStep>(K, disc_.dirichlet(), a.global_solver, &problem().mesh.X);
+    global_->set_value_scale(scale);
+  }
   ++factorizations_;
   strain_ = std::make_unique<StrainStep>(disc_.split(), Rq);
   if (disc_.points()) {
@@ -102,6 +107,7 @@ State Solver::initial_state() const {
 // (+ mean-det's lagged fluctuation terms), then one triangular solve per distinct Dirichlet set
 // against the stored factor; then Gbar u, the contact means ubar and the mean-det targets J.
 void Solver::global_phase(State& s, GlobalOutput& g) {
+  if (dist_) return global_phase_distributed(s, g);  // alg2_mpi.cpp
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q;
   const CellOperators& cells = disc_.cells();
@@ -126,14 +132,15 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
 
 // [LTL87 (4.6), (5.2)-(5.8)] Cell by cell, D = R q (I + Gbar u) - lambda and E = argmin J_E.
 // The blocks are transposed tensors; the energies are isotropic, so solving on D^T gives E^T.
+// The cells c0 <= c < c1 (a rank's block when distributed).
 namespace {
 template <int d>
 int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
-                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E) {
-  const int nc = static_cast<int>(GU.rows() / d);
+                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E,
+                int c0, int c1) {
   int failures = 0;
 #pragma omp parallel for schedule(static) reduction(+ : failures)
-  for (int c = 0; c < nc; ++c) {
+  for (int c = c0; c < c1; ++c) {
     Eigen::Matrix<double, d, d> D =
         Rq * GU.template block<d, d>(d * c, 0) - lambda.template block<d, d>(d * c, 0);
     D.diagonal().array() += Rq;
@@ -160,22 +167,42 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
   const double Rq = R_ * alg().q;
   const Eigen::VectorXd* J = disc_.mean_det() ? &g.J : nullptr;
   auto t0 = clock_type::now();
-  const int failures = dim() == 2 ? strain_loop<2>(*strain_, Rq, g.GU, lambda, J, s.E)
-                                  : strain_loop<3>(*strain_, Rq, g.GU, lambda, J, s.E);
+  const Range cells = cell_range();
+  int failures = dim() == 2
+                     ? strain_loop<2>(*strain_, Rq, g.GU, lambda, J, s.E, cells.first, cells.end)
+                     : strain_loop<3>(*strain_, Rq, g.GU, lambda, J, s.E, cells.first, cells.end);
   rec.t_strain += seconds_since(t0);
   if (contact_) {
     t0 = clock_type::now();
-    contact_->solve(g.ubar, lambda_c, beta_prev, s.e, s.beta, alg().contact_sweeps);
+    if (point_range().end - point_range().first < disc_.points()->size())  // distributed
+      contact_owned(g, lambda_c, beta_prev, s);
+    else
+      contact_->solve(g.ubar, lambda_c, beta_prev, s.e, s.beta, alg().contact_sweeps);
     rec.t_contact += seconds_since(t0);
+  }
+  if (dist_) {
+    double f = failures;
+    sum_over_ranks(&f, 1);
+    failures = static_cast<int>(f);
   }
   return failures;
 }
 
 // [LTL87 (7.8)] lambda^{n-1/2} = lambda^{n-1} - R q B(u^n, G^{n-1}) (and the same for lambda_c).
+// On this rank's rows (all of them unless distributed).
 void Solver::half_step(const GlobalOutput& g, const State& s, Multipliers& m) const {
   const double Rq = R_ * alg().q, Rqc = R_ * alg().q_c;
-  m.lambda = s.lambda - Rq * (disc_.identity() + g.GU - s.E);
-  if (contact_) m.lambda_c = s.lambda_c - Rqc * (g.ubar - s.e);
+  const int d = dim(), r0 = d * cell_range().first, nr = d * cell_range().end - r0;
+  m.lambda.resize(s.lambda.rows(), s.lambda.cols());
+  m.lambda.middleRows(r0, nr) =
+      s.lambda.middleRows(r0, nr) -
+      Rq * (disc_.identity().middleRows(r0, nr) + g.GU.middleRows(r0, nr) - s.E.middleRows(r0, nr));
+  if (contact_) {
+    const int p0 = point_range().first, np = point_range().end - p0;
+    m.lambda_c.resize(s.lambda_c.rows(), s.lambda_c.cols());
+    m.lambda_c.middleRows(p0, np) =
+        s.lambda_c.middleRows(p0, np) - Rqc * (g.ubar.middleRows(p0, np) - s.e.middleRows(p0, np));
+  }
 }
 
 // [LTL87 (4.3)] Uzawa: lambda -= rho R q (I + Gbar u - E), lambda_c -= rho R q_c (ubar - e).
@@ -184,12 +211,18 @@ void Solver::update_phase(const GlobalOutput& g, const Multipliers* half, State&
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q, Rqc = R_ * a.q_c;
   const double step = half ? 2 * a.rho - 1 : a.rho;
+  const int d = dim(), r0 = d * cell_range().first, nr = d * cell_range().end - r0;
+  const int p0 = point_range().first, np = point_range().end - p0;
   if (half) {
-    s.lambda = half->lambda;
-    if (contact_) s.lambda_c = half->lambda_c;
+    s.lambda.middleRows(r0, nr) = half->lambda.middleRows(r0, nr);
+    if (contact_) s.lambda_c.middleRows(p0, np) = half->lambda_c.middleRows(p0, np);
   }
-  s.lambda -= step * Rq * (disc_.identity() + g.GU - s.E);
-  if (contact_) s.lambda_c -= step * Rqc * (g.ubar - s.e);
+  s.lambda.middleRows(r0, nr) -=
+      step * Rq *
+      (disc_.identity().middleRows(r0, nr) + g.GU.middleRows(r0, nr) - s.E.middleRows(r0, nr));
+  if (contact_)
+    s.lambda_c.middleRows(p0, np) -=
+        step * Rqc * (g.ubar.middleRows(p0, np) - s.e.middleRows(p0, np));
 }
 
 // [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One ALG2 iteration, in three phases.
@@ -221,6 +254,7 @@ IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int&
   auto t0 = clock_type::now();
   update_phase(g, bm ? &half_ : nullptr, s);
   residuals(g, s, prev_, rec);
+  if (dist_) make_whole(s);  // the owned blocks gathered (alg2_mpi.cpp)
   rec.t_update += seconds_since(t0);
   return rec;
 }
@@ -233,10 +267,10 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   const AlgorithmParams& a = alg();
   const Eigen::VectorXd& vol_rows = disc_.volume_rows();
   double B2 = 0, G2 = 0, beta2 = 0;
-  const Eigen::Index rows = g.GU.rows();
   const int dim = this->dim();
+  const Eigen::Index r0 = dim * cell_range().first, r1 = dim * cell_range().end;
 #pragma omp parallel for schedule(static) reduction(+ : B2, G2)
-  for (Eigen::Index r = 0; r < rows; ++r) {
+  for (Eigen::Index r = r0; r < r1; ++r) {
     double b = 0, gr = 0;
     for (int i = 0; i < dim; ++i) {
       const double Bri = (i == r % dim ? 1.0 : 0.0) + g.GU(r, i) - s.E(r, i);
@@ -250,12 +284,17 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   B2 *= a.q;
   G2 *= a.q;
   if (const ContactPoints* points = disc_.points()) {
-    for (int f = 0; f < points->size(); ++f) {
+    for (int f = residual_points().first; f < residual_points().end; ++f) {
       const double w = points->area(f);
       B2 += a.q_c * w * (g.ubar.row(f) - s.e.row(f)).squaredNorm();
       G2 += a.q_c * w * (s.e.row(f) - prev.e.row(f)).squaredNorm();
       beta2 += w * std::pow(s.beta(f) - prev.beta(f), 2);
     }
+  }
+  if (dist_) {
+    double parts[3] = {B2, G2, beta2};
+    sum_over_ranks(parts, 3);
+    B2 = parts[0], G2 = parts[1], beta2 = parts[2];
   }
   rec.r_B = std::sqrt(B2) / norm_I_;
   rec.r_G =
@@ -443,7 +482,8 @@ void Solver::set_load_factor(double factor) {
 
 void Solver::set_displacement_factor(double factor) {
   if (!std::isfinite(factor)) throw Error(cat("displacement factor ", factor, ": must be finite"));
-  global_->set_value_scale(factor);
+  if (global_) global_->set_value_scale(factor);
+  if (dist_) set_distributed_value_scale(factor);
 }
 
 double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {

@@ -34,13 +34,31 @@
 
 namespace ltl {
 
+/// The ranks a Solver runs on: this process alone (the serial package), or every MPI rank of
+/// an MPI build (lib/alg2_mpi.cpp, paper_notes/mpi.md).
+enum class Ranks { One, All };
+
+/// What this rank holds and did in a distributed solver (Ranks::All; zeros otherwise).
+struct RankShare {
+  int cells = 0, points = 0;      ///< owned cells and contact points
+  bool contact_replicated = false;  ///< the coupled Gauss-Seidel (d0 > 0) on every rank
+  bool replicated_cholesky = false;  ///< -ltl_mpi_replicated: the serial factor on every rank
+  bool mumps = false;                ///< the distributed solve is MUMPS's Cholesky
+  long ksp_iterations = 0, ksp_solves = 0, ghosts = 0;
+  double ksp_seconds = 0, ksp_setup_seconds = 0;
+};
+
 class Solver {
  public:
   /// Discretizes the problem (discretization.hpp), then the precompute: assembles K with R q and
   /// factorizes it once [LTL87 (4.5)].
   explicit Solver(const Problem& problem);
-  /// The same from a discretization built beforehand.
-  explicit Solver(Discretization discretization);
+  /// The same from a discretization built beforehand. Ranks::All (an MPI build, lib/mpi_comm.hpp)
+  /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): every rank holds the whole
+  /// discretization, computes its block of cells and contact points, and ends each iteration
+  /// with the whole state.
+  explicit Solver(Discretization discretization, Ranks ranks = Ranks::One);
+  ~Solver();
 
   /// E = I, lambda = 2 C1 I (zero first Piola-Kirchhoff stress P = 2 C1 E - lambda), u = the
   /// prescribed values, e = 0, beta = beta_0, lambda_c = 0.
@@ -67,7 +85,12 @@ class Solver {
   /// (At a converged state E = I + Gbar u and e = ubar up to the tolerance.)
   double energy(const State& s, const Eigen::VectorXd& beta_prev) const;
 
-  const GlobalStep& global_step() const { return *global_; }
+  /// The serial global step (an Error in a distributed solver with the distributed KSP).
+  const GlobalStep& global_step() const;
+  /// Factors of the global step (0 with the distributed KSP).
+  int global_factors() const { return global_ ? global_->num_factors() : 0; }
+  bool distributed() const { return dist_ != nullptr; }
+  RankShare rank_share() const;
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
   /// external_load() = factor x the assembled dead loads f, g, and the prescribed displacements
@@ -144,6 +167,37 @@ class Solver {
 
   const AlgorithmParams& alg() const { return disc_.problem().algorithm; }
 
+  // The distribution over the MPI ranks (Ranks::All), in alg2_mpi.cpp: the owned blocks, the
+  // owned parts of the operators and the distributed KSP.
+  struct Distribution;
+  struct DropDistribution {  // defined where Distribution is (alg2_mpi.cpp)
+    void operator()(Distribution* d) const;
+  };
+  struct Range {
+    int first, end;
+  };
+  void distribute();
+  /// The cells, and the contact points, whose local steps and updates this rank computes (all
+  /// of them unless distributed; all points when the contact step is replicated).
+  Range cell_range() const;
+  Range point_range() const;
+  /// The contact points whose residual this rank sums (its own block when distributed).
+  Range residual_points() const;
+  /// The distributed KSP in place of the factor; false with the replicated Cholesky.
+  bool distributed_global_step(const SpMat& K, double scale);
+  double distributed_value_scale() const;
+  void set_distributed_value_scale(double scale);
+  /// Phase 1 when distributed: the right-hand side's owned parts summed over the ranks, the
+  /// distributed solve, then the owned rows of Gbar u, ubar and J.
+  void global_phase_distributed(State& s, GlobalOutput& g);
+  /// The contact step (4.7) on the owned points, independent when d0 = 0.
+  void contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c,
+                     const Eigen::VectorXd& beta_prev, State& s) const;
+  /// Sums over the ranks (residual parts, failures); nothing unless distributed.
+  void sum_over_ranks(double* x, int n) const;
+  /// The owned blocks of E, lambda (and e, lambda_c, beta) gathered: the whole state everywhere.
+  void make_whole(State& s) const;
+
   Discretization disc_;
   double R_ = 1;  ///< R in use (see R())
   int factorizations_ = 0;
@@ -153,6 +207,7 @@ class Solver {
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;
   std::unique_ptr<Newton> newton_;  ///< algorithm.solver = "newton" (newton.hpp)
+  std::unique_ptr<Distribution, DropDistribution> dist_;  ///< Ranks::All (alg2_mpi.cpp)
   double gamma_ = 0;                ///< mean-det's proximal stiffness on the fluctuations, 2 R q
   Eigen::MatrixXd F_ext_;           ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;

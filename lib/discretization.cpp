@@ -168,12 +168,13 @@ template <int d>
 void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
                       const Eigen::VectorXd& wq, const Eigen::VectorXd& vol, int nq,
                       const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) {
+                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
+                      int e0, int e1) {
   using Mat = Eigen::Matrix<double, d, d>;
   using Nodal = Eigen::Matrix<double, Eigen::Dynamic, d, 0, 10, d>;  // <= 10 nodes: no heap
-  const int nc = static_cast<int>(vol.size()), npc = static_cast<int>(cells.cols());
+  const int npc = static_cast<int>(cells.cols());
 #pragma omp parallel for schedule(static)
-  for (int e = 0; e < nc; ++e) {
+  for (int e = e0; e < e1; ++e) {
     Nodal ue(npc, d);
     for (int a = 0; a < npc; ++a) ue.row(a) = u.row(cells(e, a));
     // The point gradients, transposed blocks: (grad u)^T at point q = gq_q^T ue.
@@ -214,9 +215,9 @@ void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
 template <int d>
 void scatter_points(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
                     const Eigen::VectorXd& wq, int nq, const Eigen::MatrixXd& S,
-                    Eigen::MatrixXd& force) {
-  const int nc = static_cast<int>(cells.rows()), npc = static_cast<int>(cells.cols());
-  for (int e = 0; e < nc; ++e)
+                    Eigen::MatrixXd& force, int e0, int e1) {
+  const int npc = static_cast<int>(cells.cols());
+  for (int e = e0; e < e1; ++e)
     for (int k = 0; k < nq; ++k) {
       const int q = nq * e + k;
       const Eigen::Matrix<double, d, d> Sq = wq(q) * S.block<d, d>(d * q, 0);
@@ -228,20 +229,21 @@ void scatter_points(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
 
 void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                                  const Eigen::MatrixXd* E, Eigen::VectorXd* c,
-                                 Eigen::MatrixXd* force) const {
+                                 Eigen::MatrixXd* force, int first, int end) const {
   // The point gradients are recomputed per cell from the table gq_ and the cell's nodal u (no
   // per-point buffer of them is kept: memory per cell, not speed, limits the 3-D problems).
   const Eigen::MatrixXi& cells = problem_.mesh.cells;
   Eigen::MatrixXd* S = force ? &Sq_ : nullptr;
+  if (end < 0) end = num_cells();
   if (dim() == 2)
-    fluctuation_loop<2>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S);
+    fluctuation_loop<2>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S, first, end);
   else
-    fluctuation_loop<3>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S);
+    fluctuation_loop<3>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S, first, end);
   if (!force) return;
   if (dim() == 2)
-    scatter_points<2>(cells, gq_, wq_, nq_, Sq_, *force);
+    scatter_points<2>(cells, gq_, wq_, nq_, Sq_, *force, first, end);
   else
-    scatter_points<3>(cells, gq_, wq_, nq_, Sq_, *force);
+    scatter_points<3>(cells, gq_, wq_, nq_, Sq_, *force, first, end);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {

@@ -78,9 +78,11 @@ class Discretization {
   /// of (4.1).
   Eigen::MatrixXd fluctuation_force(const State& s) const;
   /// The allocation-free kernel of the two above: c (#cells) and/or force (#nodes x dim, added
-  /// to, not overwritten) at u, with p_e from lambda and E when force is wanted.
+  /// to, not overwritten) at u, with p_e from lambda and E when force is wanted. On the cells
+  /// first <= e < end (end < 0: all; a rank's block when distributed, alg2_mpi.cpp).
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                   const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) const;
+                   const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
+                   int first = 0, int end = -1) const;
 
   // Outputs at a state, per cell (transposed-block layout like E) or per contact point.
   /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).

@@ -26,14 +26,14 @@ import sys
 import tempfile
 
 LAYERS = [
-    ("leaf", "error hash cofactor signed_svd state material adhesion contact_points version "
+    ("leaf", "error hash mpi_comm cofactor signed_svd state material adhesion contact_points version "
              "stored_measure log_newton interrupt geometry_guard hdf5_io results_info"),
     ("fe/mesh", "mesh fe cholesky cg_amg derived_fields"),
-    ("steps", "strain_step strain_principal contact_step adhesion_kernel global_step anderson"),
+    ("steps", "strain_step strain_principal contact_step adhesion_kernel global_step mpi_global anderson"),
     ("problem", "problem config config_toml config_rows config_schema"),
     ("discretization", "discretization"),
     ("measures", "measures admissibility reactions"),
-    ("solver", "alg2 adaptive_r newton newton_kkt fixed_point iteration signorini"),
+    ("solver", "alg2 alg2_mpi adaptive_r newton newton_kkt fixed_point iteration signorini"),
     ("results", "results results_commit results_fields results_layout results_xdmf"),
     ("simulation", "simulation output_guard"),
     ("cli", "cli"),

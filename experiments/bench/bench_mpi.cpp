@@ -1,0 +1,148 @@
+//                 ALG2 over MPI ranks: the cost of one iteration (make bench-mpi)
+//
+// What:     on the Fig 6 gutter refined through its mesh parameters (nt x na x nl H8), plain ALG2
+//           distributed over the ranks of mpirun (lib/alg2_mpi.cpp): after `--warm` iterations,
+//           `--iters` timed ones, split into the global phase (right-hand side, its sum over the
+//           ranks, the distributed KSP or the replicated factor, Gbar u), the strain step, the
+//           contact step and the update (with the gather of the owned blocks); the seconds in our
+//           collectives (Allreduce, Allgatherv) and in KSPSolve; the bytes received per rank and
+//           iteration by our collectives and by PETSc's messages; the KSP iterations per solve;
+//           the peak resident memory of every rank (VmHWM). Times are the largest over the
+//           ranks; the load average is printed beside them.
+//
+// Run:      mpirun -n P build-mpi/experiments/bench_mpi NT NA NL [--iters N] [--warm N]
+//               [--solver mumps|cg-amg] [--distribute 1] [--label TEXT]
+//           (make bench-mpi runs the table of paper_notes/mpi.md). Without MPI (the default
+//           build) it runs on one rank with the serial solver.
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "alg2.hpp"
+#include "config.hpp"
+#include "mpi_comm.hpp"
+
+namespace {
+
+std::string loadavg() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + "/" + b + "/" + c;
+}
+
+/// Every rank's value, on every rank (a sum of one-hot vectors).
+std::vector<double> all_ranks(double v) {
+  std::vector<double> x(ltl::mpi::size(), 0.0);
+  x[ltl::mpi::rank()] = v;
+  ltl::mpi::sum(x.data(), static_cast<long>(x.size()));
+  return x;
+}
+double max_of(double v) {
+  double m = 0;
+  for (double x : all_ranks(v)) m = std::max(m, x);
+  return m;
+}
+
+int bench(int argc, char** argv) {
+  if (argc < 4) {
+    std::fprintf(stderr, "usage: bench_mpi NT NA NL [--iters N] [--warm N] [--solver mumps|cg-amg]"
+                         " [--label TEXT]\n");
+    return 2;
+  }
+  int iters = 20, warm = 3;
+  std::string solver_name = "mumps", label = "-";
+  bool distribute = false;  // --distribute 1: the distributed solver on one rank too
+  for (int i = 4; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--iters") iters = std::atoi(argv[i + 1]);
+    if (a == "--warm") warm = std::atoi(argv[i + 1]);
+    if (a == "--solver") solver_name = argv[i + 1];
+    if (a == "--label") label = argv[i + 1];
+    if (a == "--distribute") distribute = std::atoi(argv[i + 1]) != 0;
+  }
+  std::vector<std::string> ov = {
+      std::string("mesh.parameters.nt=") + argv[1], std::string("mesh.parameters.na=") + argv[2],
+      std::string("mesh.parameters.nl=") + argv[3], "algorithm.tol=1e-300",
+      "algorithm.blowup=1e100", "algorithm.solver=alg2",
+      "algorithm.max_iter=" + std::to_string(iters + warm)};
+  if (solver_name == "cg-amg") ov.push_back("algorithm.global_solver=\"cg-amg\"");
+  const ltl::Problem problem =
+      ltl::load_problem(std::string(LTL_SOURCE_DIR) + "/experiments/fig6/fig6.toml", ov);
+  const int P = ltl::mpi::size();
+  const bool all = P > 1 || distribute;
+  ltl::Solver solver(ltl::Discretization(problem), all ? ltl::Ranks::All : ltl::Ranks::One);
+  const double setup = max_of(solver.setup_seconds());
+  ltl::State s = solver.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  double wall0 = 0, wall = 0, tg = 0, ts = 0, tc = 0, tu = 0;
+  ltl::mpi::Traffic c0;
+  double petsc0 = 0, ksp_s0 = 0;
+  long ksp_it0 = 0, ksp_solves0 = 0;
+  int n = 0;
+  solver.solve_step(s, beta_prev, [&](const ltl::IterationRecord& rec) {
+    ++n;
+    if (n > warm) {
+      tg += rec.t_global;
+      ts += rec.t_strain;
+      tc += rec.t_contact;
+      tu += rec.t_update;
+      wall = rec.wall;
+    }
+    if (n != warm) return;
+    wall0 = rec.wall;
+    c0 = ltl::mpi::traffic();
+    petsc0 = ltl::mpi::petsc_bytes_received();
+    const ltl::RankShare r = solver.rank_share();
+    ksp_s0 = r.ksp_seconds;
+    ksp_it0 = r.ksp_iterations;
+    ksp_solves0 = r.ksp_solves;
+  });
+  const int timed = n - warm;
+  const ltl::mpi::Traffic c1 = ltl::mpi::traffic();
+  const ltl::RankShare r = solver.rank_share();
+  auto ms = [&](double sec) { return timed > 0 ? 1e3 * max_of(sec) / timed : 0.0; };
+  const double bytes_ours = max_of((c1.bytes - c0.bytes) / timed);
+  const double calls_ours = max_of((c1.calls - c0.calls) / timed);
+  const double bytes_petsc = max_of((ltl::mpi::petsc_bytes_received() - petsc0) / timed);
+  const long solves = r.ksp_solves - ksp_solves0;
+  const double its = solves > 0 ? double(r.ksp_iterations - ksp_it0) / solves : 0.0;
+  const std::vector<double> peak = all_ranks(ltl::mpi::peak_resident_bytes() / 1048576.0);
+  const double ghosts = max_of(static_cast<double>(r.ghosts));
+  std::string peaks;
+  for (double p : peak) peaks += (peaks.empty() ? "" : ",") + std::to_string(static_cast<int>(p));
+  // Every collective before the print, on every rank.
+  const double t_it = ms(wall - wall0), t_g = ms(tg), t_ksp = ms(r.ksp_seconds - ksp_s0),
+               t_coll = ms(c1.seconds - c0.seconds), t_s = ms(ts), t_c = ms(tc), t_u = ms(tu);
+  if (ltl::mpi::rank() == 0)
+    std::printf(
+        "MPI label=%s ranks=%d solver=%s cells=%d nodes=%d setup_s=%.2f timed=%d "
+        "ms_per_it=%.2f global=%.2f (ksp %.2f, collectives %.2f) strain=%.2f contact=%.2f "
+        "update=%.2f ksp_its_per_solve=%.1f bytes_per_it_ours=%.0f calls_per_it=%.0f "
+        "bytes_per_it_petsc=%.0f ghosts=%.0f peak_MB_per_rank=%s load=%s\n",
+        label.c_str(), P,
+        all ? (r.replicated_cholesky ? "replicated-cholesky" : r.mumps ? "mumps" : "cg-gamg")
+            : "serial",
+        problem.mesh.num_cells(), problem.mesh.num_nodes(), setup, timed, t_it, t_g, t_ksp, t_coll,
+        t_s, t_c, t_u, its,
+        bytes_ours, calls_ours, bytes_petsc, ghosts, peaks.c_str(), loadavg().c_str());
+  std::fflush(stdout);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ltl::mpi::Session session(&argc, &argv);
+  int status = 1;
+  try {
+    status = bench(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_mpi: error: %s\n", e.what());
+    ltl::mpi::abort(1);
+  }
+  return status;
+}

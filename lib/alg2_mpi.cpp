@@ -1,0 +1,216 @@
+// ALG2 [LTL87 (4.1)-(4.4)] distributed over the MPI ranks (Solver with Ranks::All; an MPI build,
+// lib/mpi_comm.hpp). The first slice of the distribution (paper_notes/mpi.md):
+//
+//   - REPLICATED: the mesh, the discretization, the operators and the state. Every rank reads
+//     and discretizes the whole problem (memory per rank does not fall yet) and ends every
+//     iteration with the whole state, so that Anderson, the stopping tests, the Newton phase and
+//     the output are the serial ones, identical on every rank.
+//   - DISTRIBUTED: the cells and the contact points, in contiguous blocks (mpi::blocks). A rank
+//     computes, on its own blocks: the global step's per-cell right-hand side
+//     Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R q_c e + lambda_c] (4.1),
+//     the mean-det fluctuation terms and targets, Gbar u and ubar; the strain step (4.6); the
+//     contact step (4.7) when the points are independent (d0 = 0); the update (4.3) and the
+//     residual sums (4.4). The right-hand side is summed over the ranks (one Allreduce of
+//     #nodes x dim), the global solve (4.5) is one distributed PETSc KSP (mpi_global.hpp), or
+//     with algorithm.global_solver = "cholesky" the serial factor on every rank (replicated);
+//     the residual parts are summed (3 values); the owned blocks of E, lambda (and e, lambda_c,
+//     beta) are gathered (Allgatherv).
+//   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
+//     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
+#include <algorithm>
+
+#include "alg2.hpp"
+#include "error.hpp"
+#include "mpi_comm.hpp"
+#include "mpi_global.hpp"
+
+namespace ltl {
+
+struct Solver::Distribution {
+  std::vector<int> cells, points, nodes;  ///< the ranks' blocks (mpi::blocks)
+  int c0 = 0, c1 = 0, p0 = 0, p1 = 0, n0 = 0, n1 = 0;
+  bool contact_replicated = false;
+  bool use_ksp = true;  ///< false: the serial factor on every rank
+  DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
+  SpMatR GbarT_own;     ///< #nodes x dim #owned cells: the owned columns of GbarT_vol
+  SpMatR meanT_own;     ///< #nodes x #owned points: the owned columns of meanT_area
+  SpMatR fluct_rows;    ///< the owned node rows of the fluctuation Laplacian (mean-det)
+  std::unique_ptr<DistributedGlobalStep> ksp;
+  double scale = 1;
+};
+
+void Solver::DropDistribution::operator()(Distribution* d) const {
+  delete d;
+}
+
+Solver::~Solver() = default;
+
+const GlobalStep& Solver::global_step() const {
+  if (!global_) throw Error("the global step is the distributed KSP: no serial global step");
+  return *global_;
+}
+
+void Solver::distribute() {
+  const int P = mpi::size(), me = mpi::rank();
+  const int dim = this->dim(), nc = disc_.num_cells(), nn = disc_.num_nodes();
+  const ContactPoints* points = disc_.points();
+  const int np = points ? points->size() : 0;
+  dist_.reset(new Distribution());
+  Distribution& d = *dist_;
+  d.cells = mpi::blocks(nc, P);
+  d.points = mpi::blocks(np, P);
+  d.nodes = mpi::blocks(nn, P);
+  d.c0 = d.cells[me], d.c1 = d.cells[me + 1];
+  d.p0 = d.points[me], d.p1 = d.points[me + 1];
+  d.n0 = d.nodes[me], d.n1 = d.nodes[me + 1];
+  d.contact_replicated = points && problem().contact->adhesion.d0 > 0;
+  // The global solver: algorithm.global_solver = "cg-amg" the distributed CG + GAMG, else (left
+  // out, or "cholesky") MUMPS's distributed Cholesky factorization; the PETSc option
+  // -ltl_mpi_replicated: the serial factor on every rank.
+  d.use_ksp = !mpi::option("-ltl_mpi_replicated");
+  d.ksp_solver = alg().global_solver == GlobalSolver::CgAmg
+                     ? DistributedGlobalStep::Solver::CgGamg
+                     : DistributedGlobalStep::Solver::Mumps;
+  d.GbarT_own = disc_.cells().GbarT_vol.middleCols(dim * d.c0, dim * (d.c1 - d.c0));
+  if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
+  if (disc_.mean_det()) d.fluct_rows = disc_.fluctuation_laplacian().middleRows(d.n0, d.n1 - d.n0);
+}
+
+Solver::Range Solver::cell_range() const {
+  if (!dist_) return {0, disc_.num_cells()};
+  return {dist_->c0, dist_->c1};
+}
+
+Solver::Range Solver::point_range() const {
+  const int np = disc_.points() ? disc_.points()->size() : 0;
+  if (!dist_ || dist_->contact_replicated) return {0, np};
+  return {dist_->p0, dist_->p1};
+}
+
+Solver::Range Solver::residual_points() const {
+  if (!dist_) return {0, disc_.points() ? disc_.points()->size() : 0};
+  return {dist_->p0, dist_->p1};
+}
+
+bool Solver::distributed_global_step(const SpMat& K, double scale) {
+  Distribution& d = *dist_;
+  d.scale = scale;
+  if (!d.use_ksp) return false;
+  d.ksp.reset();
+  d.ksp =
+      std::make_unique<DistributedGlobalStep>(K, disc_.dirichlet(), problem().mesh.X, d.ksp_solver);
+  d.ksp->set_value_scale(scale);
+  return true;
+}
+
+double Solver::distributed_value_scale() const {
+  return dist_->scale;
+}
+
+void Solver::set_distributed_value_scale(double scale) {
+  dist_->scale = scale;
+  if (dist_->ksp) dist_->ksp->set_value_scale(scale);
+}
+
+void Solver::sum_over_ranks(double* x, int n) const {
+  if (dist_) mpi::sum(x, n);
+}
+
+RankShare Solver::rank_share() const {
+  RankShare r;
+  if (!dist_) return r;
+  const Distribution& d = *dist_;
+  r.cells = d.c1 - d.c0;
+  r.points = d.p1 - d.p0;
+  r.contact_replicated = d.contact_replicated;
+  r.replicated_cholesky = !d.ksp;
+  r.mumps = d.ksp && d.ksp->solver() == DistributedGlobalStep::Solver::Mumps;
+  if (d.ksp) {
+    r.ksp_iterations = d.ksp->iterations();
+    r.ksp_solves = d.ksp->solves();
+    r.ghosts = d.ksp->ghosts();
+    r.ksp_seconds = d.ksp->ksp_seconds();
+    r.ksp_setup_seconds = d.ksp->setup_seconds();
+  }
+  return r;
+}
+
+// [LTL87 (4.1), (4.5)] The right-hand side of global_phase (alg2.cpp) from the owned cells and
+// points (the dead loads once, on rank 0; the mean-det lagged Laplacian term on the owned node
+// rows), summed over the ranks; the distributed solve; then the owned rows of Gbar u, the
+// mean-det targets J and ubar (all of ubar when the contact step is replicated).
+void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
+  const Distribution& d = *dist_;
+  const AlgorithmParams& a = alg();
+  const double Rq = R_ * a.q;
+  const int dim = this->dim(), r0 = dim * d.c0, nr = dim * (d.c1 - d.c0);
+  const ContactPoints* points = disc_.points();
+  const Eigen::MatrixXd& I = disc_.identity();
+  T_.middleRows(r0, nr) = Rq * (s.E.middleRows(r0, nr) - I.middleRows(r0, nr)) +
+                          s.lambda.middleRows(r0, nr) -
+                          2 * disc_.split().C1 * I.middleRows(r0, nr);
+  rhs_.noalias() = d.GbarT_own * T_.middleRows(r0, nr);
+  if (mpi::rank() == 0) rhs_ += F_ext_;
+  if (disc_.mean_det()) {
+    rhs_.middleRows(d.n0, d.n1 - d.n0).noalias() += gamma_ * (d.fluct_rows * s.u);
+    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, d.c0, d.c1);
+  }
+  if (points) {
+    const int np = d.p1 - d.p0;
+    rhs_.noalias() += d.meanT_own * (R_ * a.q_c * s.e.middleRows(d.p0, np) +
+                                     s.lambda_c.middleRows(d.p0, np));
+  }
+  mpi::sum(rhs_.data(), rhs_.size());
+  if (d.ksp)
+    d.ksp->solve(rhs_, s.u);
+  else
+    global_->solve(rhs_, s.u);
+
+  g.GU.middleRows(r0, nr).noalias() = disc_.cells().Gbar.middleRows(r0, nr) * s.u;
+  if (disc_.mean_det()) {
+    disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, d.c0, d.c1);
+    g.J.segment(d.c0, d.c1 - d.c0) = 1.0 - g.J.segment(d.c0, d.c1 - d.c0).array();
+  }
+  if (points) {
+    const Range pr = point_range();
+    g.ubar.middleRows(pr.first, pr.end - pr.first).noalias() =
+        points->mean.middleRows(pr.first, pr.end - pr.first) * s.u;
+  }
+}
+
+// [LTL87 (4.7), (6.1)-(6.8)] Without dissipation (d0 = 0) the points do not see each other:
+// each owned point solves its own (6.1)-(6.2), exactly as ContactStep::solve does (a = R q_c
+// ubar_s - lambda_c_s, aa = 0, b = w).
+void Solver::contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c,
+                           const Eigen::VectorXd&, State& s) const {
+  const ContactPoints& points = *disc_.points();
+  const Adhesion& ad = contact_->adhesion();
+  const int dim = this->dim();
+  const double Rqc = R_ * alg().q_c;
+  Eigen::Vector3d N = Eigen::Vector3d::Zero();
+  N.head(dim) = contact_->normal();
+  const Range pr = point_range();
+  for (int sweep = 0; sweep < alg().contact_sweeps; ++sweep)
+    for (int p = pr.first; p < pr.end; ++p) {
+      Eigen::Vector3d av = Eigen::Vector3d::Zero();
+      av.head(dim) = (Rqc * g.ubar.row(p) - lambda_c.row(p)).transpose();
+      const PointSolution sol = ContactStep::solve_point(av, 0.0, ad.w, Rqc, ad.kappa, N,
+                                                         points.gap(p), dim, s.beta(p));
+      s.e.row(p) = sol.e.head(dim).transpose();
+      s.beta(p) = sol.beta;
+    }
+}
+
+void Solver::make_whole(State& s) const {
+  const Distribution& d = *dist_;
+  const int dim = this->dim();
+  mpi::gather_rows(s.E, d.cells, dim);
+  mpi::gather_rows(s.lambda, d.cells, dim);
+  if (disc_.points() && !d.contact_replicated) {
+    mpi::gather_rows(s.e, d.points, 1);
+    mpi::gather_rows(s.lambda_c, d.points, 1);
+    mpi::gather_rows(s.beta, d.points);
+  }
+}
+
+}  // namespace ltl

@@ -1,0 +1,224 @@
+// The MPI ranks of a distributed run; see mpi_comm.hpp.
+#include "mpi_comm.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include "error.hpp"
+
+#ifdef LTL_HAVE_MPI
+#include <mpi.h>
+#include <petscsys.h>
+#endif
+
+namespace ltl::mpi {
+
+namespace {
+Traffic traffic_;
+using clock_type = std::chrono::steady_clock;
+double seconds_since(clock_type::time_point t0) {
+  return std::chrono::duration<double>(clock_type::now() - t0).count();
+}
+}  // namespace
+
+std::vector<int> blocks(int n, int ranks) {
+  std::vector<int> offset(ranks + 1);
+  for (int r = 0; r <= ranks; ++r)
+    offset[r] = static_cast<int>(static_cast<long long>(n) * r / ranks);
+  return offset;
+}
+
+Traffic traffic() {
+  return traffic_;
+}
+
+double peak_resident_bytes() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::atof(line.c_str() + 6);
+  return 0;
+}
+
+#ifndef LTL_HAVE_MPI
+
+bool built() {
+  return false;
+}
+int rank() {
+  return 0;
+}
+int size() {
+  return 1;
+}
+Session::Session(int*, char***) {}
+Session::~Session() = default;
+void abort(int code) {
+  std::exit(code);
+}
+void barrier() {}
+void sum(double*, long) {}
+void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
+  lo = hi = v;
+}
+void gather_rows(Eigen::MatrixXd&, const std::vector<int>&, int) {}
+void gather_rows(Eigen::VectorXd&, const std::vector<int>&) {}
+void gather(double*, const std::vector<int>&) {}
+double petsc_bytes_received() {
+  return 0;
+}
+bool option(const char*) {
+  return false;
+}
+double petsc_reductions() {
+  return 0;
+}
+
+#else
+
+namespace {
+bool up = false;
+int rank_ = 0, size_ = 1;
+std::vector<double> send_, recv_;
+std::vector<int> counts_, displs_;
+
+void check(int err, const char* call) {
+  if (err != MPI_SUCCESS) throw Error(cat("MPI: ", call, " failed (error ", err, ")"));
+}
+}  // namespace
+
+bool built() {
+  return true;
+}
+int rank() {
+  return rank_;
+}
+int size() {
+  return size_;
+}
+
+Session::Session(int* argc, char*** argv) {
+  int already = 0;
+  MPI_Initialized(&already);
+  if (!already) check(MPI_Init(argc, argv), "MPI_Init");
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  PetscBool petsc = PETSC_FALSE;
+  PetscInitialized(&petsc);
+  if (!petsc) {
+    PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
+    if (PetscInitializeNoArguments()) throw Error("PETSc could not be initialized");
+  }
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  up = true;
+}
+
+Session::~Session() {
+  PetscFinalize();
+  int finalized = 0;
+  MPI_Finalized(&finalized);
+  if (!finalized) MPI_Finalize();
+  up = false;
+}
+
+void abort(int code) {
+  if (up && size_ > 1) MPI_Abort(MPI_COMM_WORLD, code);
+  std::exit(code);
+}
+
+void barrier() {
+  if (up) MPI_Barrier(MPI_COMM_WORLD);
+}
+
+void sum(double* x, long n) {
+  if (!up || size_ == 1) return;
+  const auto t0 = clock_type::now();
+  check(MPI_Allreduce(MPI_IN_PLACE, x, static_cast<int>(n), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD),
+        "MPI_Allreduce");
+  traffic_.bytes += 8.0 * n;
+  traffic_.calls += 1;
+  traffic_.seconds += seconds_since(t0);
+}
+
+void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
+  lo = hi = v;
+  if (!up || size_ == 1) return;
+  unsigned long long in = v, a = 0, b = 0;
+  check(MPI_Allreduce(&in, &a, 1, MPI_UNSIGNED_LONG_LONG, MPI_MIN, MPI_COMM_WORLD), "MPI_Allreduce");
+  check(MPI_Allreduce(&in, &b, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+  lo = a;
+  hi = b;
+}
+
+namespace {
+/// Allgatherv of `cols` columns of `n` rows each, rank r owning the rows [m offset[r], m
+/// offset[r + 1]) of every column (col(k) at data + k * ld).
+void gather_columns(double* data, long ld, int cols, const std::vector<int>& offset, int m) {
+  if (!up || size_ == 1) return;
+  const auto t0 = clock_type::now();
+  const int P = size_;
+  counts_.resize(P);
+  displs_.resize(P);
+  long total = 0;
+  for (int r = 0; r < P; ++r) {
+    counts_[r] = cols * m * (offset[r + 1] - offset[r]);
+    displs_[r] = static_cast<int>(total);
+    total += counts_[r];
+  }
+  const long first = static_cast<long>(m) * offset[rank_];
+  const int own = m * (offset[rank_ + 1] - offset[rank_]);
+  send_.resize(static_cast<std::size_t>(cols) * own);
+  recv_.resize(total);
+  for (int k = 0; k < cols; ++k)
+    std::memcpy(send_.data() + static_cast<long>(k) * own, data + k * ld + first,
+                sizeof(double) * own);
+  check(MPI_Allgatherv(send_.data(), counts_[rank_], MPI_DOUBLE, recv_.data(), counts_.data(),
+                       displs_.data(), MPI_DOUBLE, MPI_COMM_WORLD),
+        "MPI_Allgatherv");
+  for (int r = 0; r < P; ++r) {
+    if (r == rank_) continue;
+    const int rows = m * (offset[r + 1] - offset[r]);
+    const long at = static_cast<long>(m) * offset[r];
+    for (int k = 0; k < cols; ++k)
+      std::memcpy(data + k * ld + at, recv_.data() + displs_[r] + static_cast<long>(k) * rows,
+                  sizeof(double) * rows);
+  }
+  traffic_.bytes += 8.0 * (total - counts_[rank_]);
+  traffic_.calls += 1;
+  traffic_.seconds += seconds_since(t0);
+}
+}  // namespace
+
+void gather_rows(Eigen::MatrixXd& A, const std::vector<int>& offset, int rows_per_item) {
+  if (A.size() == 0) return;
+  gather_columns(A.data(), A.rows(), static_cast<int>(A.cols()), offset, rows_per_item);
+}
+
+void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset) {
+  if (v.size() == 0) return;
+  gather_columns(v.data(), v.size(), 1, offset, 1);
+}
+
+void gather(double* x, const std::vector<int>& offset) {
+  gather_columns(x, offset.back(), 1, offset, 1);
+}
+
+double petsc_bytes_received() {
+  return petsc_irecv_len + petsc_recv_len;
+}
+bool option(const char* name) {
+  PetscBool set = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, name, &set);
+  return set == PETSC_TRUE;
+}
+double petsc_reductions() {
+  return petsc_allreduce_ct;
+}
+
+#endif
+
+}  // namespace ltl::mpi

@@ -1,0 +1,74 @@
+// The MPI ranks of a distributed ALG2 run (lib/alg2_mpi.cpp), behind plain C++: the world's size
+// and rank, the session (MPI and PETSc initialized once, finalized once), and the few collectives
+// the distributed iteration needs (sums, row-block gathers, min/max), each counted in bytes.
+//
+// Built with MPI only when CMake's LTL_WITH_MPI is on (it needs PETSc: the distributed global
+// step, lib/mpi_global.hpp); only mpi_comm.cpp and mpi_global.cpp see MPI's and PETSc's headers.
+// Without it every call is a no-op on one rank (size() = 1, rank() = 0): the serial package.
+//
+// Bytes: the payload each collective brings INTO this rank (a sum of n doubles: 8 n; a gather:
+// the other ranks' blocks), counted here; PETSc's own messages (the distributed KSP's
+// matrix-vector products and AMG levels) are PETSc's counters, petsc_bytes_received().
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <vector>
+
+namespace ltl::mpi {
+
+/// Built with MPI (and PETSc)?
+bool built();
+/// The ranks of MPI_COMM_WORLD once a Session is up; 0 and 1 otherwise.
+int rank();
+int size();
+
+/// MPI then PETSc initialized in the constructor, PETSc then MPI finalized in the destructor
+/// (PETSc without its signal handlers, errors returned rather than printed). One per process,
+/// in main(); without MPI it does nothing.
+class Session {
+ public:
+  Session(int* argc, char*** argv);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+};
+
+/// Ends every rank at once (a rank that failed alone would leave the others waiting).
+[[noreturn]] void abort(int code);
+void barrier();
+
+/// Contiguous blocks of n items over the ranks: rank r owns [offset[r], offset[r + 1]).
+std::vector<int> blocks(int n, int ranks);
+
+/// In place: x[i] = sum over ranks of x[i].
+void sum(double* x, long n);
+/// Over the ranks: the smallest and the largest of v (the check that every rank holds the same).
+void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi);
+
+/// A row-block gather: rank r holds the rows [rows_per_item * offset[r], rows_per_item *
+/// offset[r + 1]) of A (column-major, the other rows anything); afterwards every rank holds all of
+/// them.
+void gather_rows(Eigen::MatrixXd& A, const std::vector<int>& offset, int rows_per_item);
+void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset);
+/// The same for a plain array of n values where rank r holds [offset[r], offset[r + 1]).
+void gather(double* x, const std::vector<int>& offset);
+
+/// What our collectives moved since the start: bytes received (payload), calls, wall seconds.
+struct Traffic {
+  double bytes = 0, calls = 0, seconds = 0;
+};
+Traffic traffic();
+/// PETSc's own point-to-point payload received by this rank since the start (its log counters:
+/// the distributed KSP), and its count of reductions.
+double petsc_bytes_received();
+double petsc_reductions();
+
+/// Is the PETSc option `name` set (PETSC_OPTIONS in the environment, e.g. "-ltl_mpi_replicated")?
+/// False without MPI.
+bool option(const char* name);
+
+/// Peak resident memory of this process (VmHWM, bytes; 0 where /proc is missing).
+double peak_resident_bytes();
+
+}  // namespace ltl::mpi

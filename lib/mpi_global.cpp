@@ -1,0 +1,222 @@
+// The distributed global step (4.5): one PETSc KSP (CG + GAMG) over the MPI ranks; see
+// mpi_global.hpp.
+#include "mpi_global.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <map>
+
+#include "error.hpp"
+#include "mpi_comm.hpp"
+
+#ifdef LTL_HAVE_MPI
+#include <petscksp.h>
+#endif
+
+namespace ltl {
+
+#ifndef LTL_HAVE_MPI
+
+struct DistributedGlobalStep::Group {};
+
+DistributedGlobalStep::DistributedGlobalStep(const SpMat&, const DirichletData& bc,
+                                             const Eigen::MatrixXd&, Solver solver)
+    : bc_(bc), solver_(solver) {
+  throw Error(
+      "the distributed global step needs MPI and PETSc: build with -DLTL_WITH_MPI=ON "
+      "(`make test-mpi`)");
+}
+DistributedGlobalStep::~DistributedGlobalStep() = default;
+void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&) {}
+
+#else
+
+namespace {
+void check(PetscErrorCode ierr, const std::string& what, const char* call) {
+  if (ierr) throw Error(cat(what, ": PETSc's ", call, " failed (PETSc error ", ierr, ")"));
+}
+}  // namespace
+
+/// One distinct Dirichlet set: its free nodes (mesh order), this rank's block of them, the
+/// constant shift K_fd u_d on the owned rows, and PETSc's matrix, solver and vectors.
+struct DistributedGlobalStep::Group {
+  std::vector<int> components;
+  std::vector<int> node;    ///< #free, mesh node of each free row
+  std::vector<int> offset;  ///< the ranks' blocks of free rows (mpi::blocks)
+  Eigen::MatrixXd shift;    ///< #owned x #components
+  std::vector<double> x;    ///< #free: one component's solution, gathered
+  std::string what;
+  Mat A = nullptr;
+  KSP ksp = nullptr;
+  Vec b = nullptr, xv = nullptr;
+  ~Group() {
+    if (ksp) KSPDestroy(&ksp);
+    if (A) MatDestroy(&A);
+    if (b) VecDestroy(&b);
+    if (xv) VecDestroy(&xv);
+  }
+};
+
+DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData& bc,
+                                             const Eigen::MatrixXd& X, Solver solver)
+    : bc_(bc), solver_(solver) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int n = static_cast<int>(K.rows()), dim = static_cast<int>(bc.fixed.size());
+  const int P = mpi::size(), me = mpi::rank();
+  std::map<std::vector<int>, int> by_set;
+  for (int i = 0; i < dim; ++i) {
+    auto it = by_set.find(bc.fixed[i]);
+    if (it == by_set.end()) {
+      by_set[bc.fixed[i]] = static_cast<int>(groups_.size());
+      groups_.push_back(std::make_unique<Group>());
+      groups_.back()->components.push_back(i);
+    } else {
+      groups_[it->second]->components.push_back(i);
+    }
+  }
+  PetscReal rtol = kRtol;
+  PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_rtol", &rtol, nullptr);
+  for (auto& gp : groups_) {
+    Group& g = *gp;
+    std::vector<int> local(n, -1);
+    std::vector<char> fixed(n, 0);
+    for (int i : bc.fixed[g.components[0]]) fixed[i] = 1;
+    for (int i = 0; i < n; ++i)
+      if (!fixed[i]) {
+        local[i] = static_cast<int>(g.node.size());
+        g.node.push_back(i);
+      }
+    const int nf = static_cast<int>(g.node.size()), nc = static_cast<int>(g.components.size());
+    g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
+                 solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");
+    g.offset = mpi::blocks(nf, P);
+    const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
+    g.x.assign(nf, 0.0);
+    // The owned rows of K_ff (K is symmetric: row i is column i), global columns in the free
+    // numbering (increasing: the free numbering keeps the mesh order), and the shift.
+    std::vector<PetscInt> ia(own + 1, 0), ja;
+    std::vector<PetscScalar> va;
+    g.shift = Eigen::MatrixXd::Zero(own, nc);
+    for (int r = 0; r < own; ++r) {
+      for (SpMat::InnerIterator it(K, g.node[f0 + r]); it; ++it) {
+        const int m = static_cast<int>(it.row());
+        if (local[m] >= 0) {
+          ja.push_back(local[m]);
+          va.push_back(it.value());
+        } else {
+          for (int k = 0; k < nc; ++k) g.shift(r, k) += it.value() * bc.value(m, g.components[k]);
+        }
+      }
+      ia[r + 1] = static_cast<PetscInt>(ja.size());
+    }
+    check(MatCreateMPIAIJWithArrays(PETSC_COMM_WORLD, own, own, nf, nf, ia.data(), ja.data(),
+                                    va.data(), &g.A),
+          g.what, "MatCreateMPIAIJWithArrays");
+    check(MatSetOption(g.A, MAT_SPD, PETSC_TRUE), g.what, "MatSetOption");
+    {  // the near-null space (cg_amg.hpp): constants and centred coordinates, orthonormalized
+      std::vector<Eigen::VectorXd> basis;
+      Eigen::MatrixXd Xf(nf, X.cols());
+      for (int k = 0; k < nf; ++k) Xf.row(k) = X.row(g.node[k]);
+      for (int k = 0; k < Xf.cols(); ++k) {
+        Eigen::VectorXd v = Xf.col(k).array() - Xf.col(k).mean();
+        for (int pass = 0; pass < 2; ++pass)
+          for (const Eigen::VectorXd& q : basis) v -= q.dot(v) * q;
+        const double nv = v.norm();
+        if (nv > 1e-10 * std::sqrt(static_cast<double>(nf)) * (Xf.cwiseAbs().maxCoeff() + 1e-300))
+          basis.push_back(v / nv);
+      }
+      std::vector<Vec> vecs(basis.size());
+      for (std::size_t k = 0; k < basis.size(); ++k) {
+        check(VecCreateMPI(PETSC_COMM_WORLD, own, nf, &vecs[k]), g.what, "VecCreateMPI");
+        PetscScalar* a = nullptr;
+        check(VecGetArray(vecs[k], &a), g.what, "VecGetArray");
+        for (int r = 0; r < own; ++r) a[r] = basis[k](f0 + r);
+        check(VecRestoreArray(vecs[k], &a), g.what, "VecRestoreArray");
+      }
+      MatNullSpace nsp = nullptr;
+      check(MatNullSpaceCreate(PETSC_COMM_WORLD, PETSC_TRUE, static_cast<PetscInt>(vecs.size()),
+                               vecs.data(), &nsp),
+            g.what, "MatNullSpaceCreate");
+      check(MatSetNearNullSpace(g.A, nsp), g.what, "MatSetNearNullSpace");
+      MatNullSpaceDestroy(&nsp);
+      for (Vec& v : vecs) VecDestroy(&v);
+    }
+    check(KSPCreate(PETSC_COMM_WORLD, &g.ksp), g.what, "KSPCreate");
+    check(KSPSetOperators(g.ksp, g.A, g.A), g.what, "KSPSetOperators");
+    PC pc;
+    check(KSPGetPC(g.ksp, &pc), g.what, "KSPGetPC");
+    if (solver == Solver::Mumps) {  // factored once (KSPSetUp), then one triangular pair per solve
+      check(KSPSetType(g.ksp, KSPPREONLY), g.what, "KSPSetType");
+      check(PCSetType(pc, PCCHOLESKY), g.what, "PCSetType");
+      check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), g.what, "PCFactorSetMatSolverType");
+    } else {
+      check(KSPSetType(g.ksp, KSPCG), g.what, "KSPSetType");
+      check(KSPSetNormType(g.ksp, KSP_NORM_UNPRECONDITIONED), g.what, "KSPSetNormType");
+      check(KSPSetInitialGuessNonzero(g.ksp, PETSC_TRUE), g.what, "KSPSetInitialGuessNonzero");
+      check(PCSetType(pc, PCGAMG), g.what, "PCSetType");
+      check(PCGAMGSetType(pc, PCGAMGAGG), g.what, "PCGAMGSetType");
+      check(KSPSetTolerances(g.ksp, rtol, 0.0, PETSC_DEFAULT, 5000), g.what, "KSPSetTolerances");
+    }
+    check(KSPSetFromOptions(g.ksp), g.what, "KSPSetFromOptions");
+    check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the AMG hierarchy)");
+    check(MatCreateVecs(g.A, &g.xv, &g.b), g.what, "MatCreateVecs");
+    Mat Ad = nullptr, Ao = nullptr;
+    const PetscInt* colmap = nullptr;
+    if (!MatMPIAIJGetSeqAIJ(g.A, &Ad, &Ao, &colmap) && Ao) {
+      PetscInt rows = 0, cols = 0;
+      MatGetSize(Ao, &rows, &cols);
+      ghosts_ += cols;
+    }
+  }
+  setup_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+DistributedGlobalStep::~DistributedGlobalStep() = default;
+
+// [LTL87 (4.5)] One KSP solve per component of each Dirichlet set, from the warm start u; the
+// owned rows of the solution gathered to every rank.
+void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) {
+  if (u.rows() != b.rows() || u.cols() != b.cols()) u = Eigen::MatrixXd::Zero(b.rows(), b.cols());
+  const int me = mpi::rank();
+  for (auto& gp : groups_) {
+    Group& g = *gp;
+    const int f0 = g.offset[me], own = g.offset[me + 1] - f0;
+    for (std::size_t k = 0; k < g.components.size(); ++k) {
+      const int c = g.components[k];
+      PetscScalar *pb = nullptr, *px = nullptr;
+      check(VecGetArray(g.b, &pb), g.what, "VecGetArray");
+      check(VecGetArray(g.xv, &px), g.what, "VecGetArray");
+      for (int r = 0; r < own; ++r) {
+        const int node = g.node[f0 + r];
+        pb[r] = b(node, c) - scale_ * g.shift(r, k);
+        px[r] = u(node, c);
+      }
+      check(VecRestoreArray(g.b, &pb), g.what, "VecRestoreArray");
+      check(VecRestoreArray(g.xv, &px), g.what, "VecRestoreArray");
+      const auto t0 = std::chrono::steady_clock::now();
+      check(KSPSolve(g.ksp, g.b, g.xv), g.what, "KSPSolve");
+      ksp_seconds_ +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      KSPConvergedReason reason;
+      PetscInt its = 0;
+      KSPGetConvergedReason(g.ksp, &reason);
+      KSPGetIterationNumber(g.ksp, &its);
+      if (reason < 0)
+        throw Error(cat(g.what, ": the distributed CG + AMG did not converge (",
+                        KSPConvergedReasons[reason], ", ", its, " iterations)"));
+      iterations_ += its;
+      ++solves_;
+      const PetscScalar* cx = nullptr;
+      check(VecGetArrayRead(g.xv, &cx), g.what, "VecGetArrayRead");
+      for (int r = 0; r < own; ++r) g.x[f0 + r] = cx[r];
+      check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
+      mpi::gather(g.x.data(), g.offset);
+      for (std::size_t i = 0; i < g.node.size(); ++i) u(g.node[i], c) = g.x[i];
+      for (int i : bc_.fixed[c]) u(i, c) = scale_ * bc_.value(i, c);
+    }
+  }
+}
+
+#endif
+
+}  // namespace ltl

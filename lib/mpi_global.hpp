@@ -1,0 +1,71 @@
+// The global step (4.1), i.e. the linear problem (4.5), as ONE distributed PETSc KSP over the MPI
+// ranks (lib/mpi_comm.hpp): conjugate gradients preconditioned by smoothed-aggregation AMG
+// (GAMG) on an MPIAIJ matrix, each rank assembling its contiguous block of rows, the hierarchy set
+// up once per Dirichlet set (like the factor it replaces, global_step.hpp), with the near-null
+// space of cg_amg.hpp (the constants and the centred coordinates, orthonormalized).
+//
+// Unlike the serial CG + AMG (cg_amg.hpp, inexact), every solve here is converged tightly,
+// ||b - K x|| <= kRtol ||b|| from the warm start (the previous iterate), so that the distributed
+// ALG2 follows the serial (Cholesky) iterates, iteration by iteration, to about 1e-10: the same
+// iteration counts and the same answer. -ltl_mpi_rtol (PETSC_OPTIONS) changes kRtol.
+//
+// The right-hand side and u are whole on every rank (the first slice of the distribution,
+// paper_notes/mpi.md): a rank copies its rows in, solves, and the solution's row blocks are
+// gathered back to every rank (mpi::gather).
+#pragma once
+
+#include <Eigen/Dense>
+#include <memory>
+#include <vector>
+
+#include "global_step.hpp"
+
+namespace ltl {
+
+class DistributedGlobalStep {
+ public:
+  static constexpr double kRtol = 1e-12;
+  /// CG + GAMG, or MUMPS's distributed Cholesky factorization (computed once, in the
+  /// constructor; each solve is its forward and backward substitution: exact like the serial
+  /// factor).
+  enum class Solver { CgGamg, Mumps };
+
+  /// K: the whole (replicated) matrix of (4.5); bc: the Dirichlet sets; X: the #nodes x dim
+  /// reference coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error
+  /// without MPI (a build without LTL_WITH_MPI) or when PETSc fails.
+  DistributedGlobalStep(const SpMat& K, const DirichletData& bc, const Eigen::MatrixXd& X,
+                        Solver solver = Solver::CgGamg);
+  ~DistributedGlobalStep();
+  DistributedGlobalStep(const DistributedGlobalStep&) = delete;
+  DistributedGlobalStep& operator=(const DistributedGlobalStep&) = delete;
+
+  /// [LTL87 (4.1), (4.5)] K u = b with u = value_scale x value on the fixed nodes; b whole on
+  /// every rank, u in: the warm start, out: the solution, whole on every rank. Collective.
+  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u);
+
+  void set_value_scale(double s) { scale_ = s; }
+  double value_scale() const { return scale_; }
+  int num_sets() const { return static_cast<int>(groups_.size()); }
+  Solver solver() const { return solver_; }
+
+  /// Since construction: KSP iterations and solves, AMG setup seconds; seconds in KSPSolve and
+  /// in the gather of u.
+  long iterations() const { return iterations_; }
+  long solves() const { return solves_; }
+  double setup_seconds() const { return setup_seconds_; }
+  double ksp_seconds() const { return ksp_seconds_; }
+  /// Ghost values a rank's row block needs in a product with K (the fine level's message size
+  /// per matrix-vector product, summed over the Dirichlet sets, this rank).
+  long ghosts() const { return ghosts_; }
+
+ private:
+  struct Group;
+  std::vector<std::unique_ptr<Group>> groups_;
+  const DirichletData bc_;
+  Solver solver_;
+  double scale_ = 1;
+  long iterations_ = 0, solves_ = 0, ghosts_ = 0;
+  double setup_seconds_ = 0, ksp_seconds_ = 0;
+};
+
+}  // namespace ltl
