@@ -6,7 +6,7 @@ RESULTS := results
 JOBS    ?= 2
 RUN     := $(BUILD)/experiments
 
-.PHONY: all figures test test-petsc petsc-build sanitize bench bench-amg deps build fig3 fig4 fig5 fig6 \
+.PHONY: all figures test test-petsc petsc-build test-mpi mpi-build bench-mpi sanitize bench bench-amg deps build fig3 fig4 fig5 fig6 \
         compare hertz readings reference keys format clean verify verify-fig6 peer-deps \
         peer-reference bench-peer install paper-vs-package peel
 
@@ -43,6 +43,31 @@ petsc-build:
 
 test-petsc: petsc-build
 	cd $(PETSC_BUILD) && LTL_REQUIRE_PETSC=1 OMP_NUM_THREADS=2 ctest --output-on-failure -j $(JOBS) -R CgAmg
+
+# ALG2 over MPI ranks (optional; lib/alg2_mpi.cpp, paper_notes/mpi.md): its own build in
+# build-mpi/ with -DLTL_WITH_MPI=ON (PETSc with its MPI: installs petsc-dev as root, else prints
+# the command), then its tests under mpirun with 1, 2 and 3 ranks (3 oversubscribed) and ltl_run
+# under mpirun -n 2 (ctest label "mpi"; about 2 min on the 2-core machine). `make test` never
+# needs MPI. Run as root, mpirun needs OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+# (set by the tests and the benchmark).
+MPI_BUILD := build-mpi
+mpi-build:
+	@pkg-config --exists PETSc || { if [ "$$(id -u)" = 0 ]; then apt-get update && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y petsc-dev; else \
+	  echo "run as root: apt-get install -y petsc-dev"; exit 1; fi; }
+	@cmake -S . -B $(MPI_BUILD) -DCMAKE_BUILD_TYPE=Release -DLTL_WITH_MPI=ON > /dev/null
+	@cmake --build $(MPI_BUILD) -j $(JOBS) --target ltl_run mpi_ranks bench_mpi
+
+test-mpi: mpi-build
+	cd $(MPI_BUILD) && ctest --output-on-failure -L mpi
+
+# The cost of a distributed ALG2 iteration on refined gutters, 1, 2 and 4 (oversubscribed)
+# ranks, strong and weak scaling: the phases, the bytes each rank receives per iteration, the
+# peak memory per rank (experiments/bench/bench_mpi.sh; the table of paper_notes/mpi.md).
+# BENCH_MPI_ARGS=--quick: the two smaller gutters only.
+BENCH_MPI_ARGS ?=
+bench-mpi: mpi-build
+	sh experiments/bench/bench_mpi.sh $(MPI_BUILD) $(BENCH_MPI_ARGS)
 
 # The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer, in build-sanitize.
 # EIGEN_MALLOC_ALREADY_ALIGNED=1: Eigen then allocates with plain malloc/free, as libgmsh's own

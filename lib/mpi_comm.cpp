@@ -74,6 +74,7 @@ double petsc_bytes_received() {
 bool option(const char*) {
   return false;
 }
+void set_option(const char*, bool) {}
 double petsc_reductions() {
   return 0;
 }
@@ -214,6 +215,12 @@ bool option(const char* name) {
   PetscBool set = PETSC_FALSE;
   PetscOptionsHasName(nullptr, nullptr, name, &set);
   return set == PETSC_TRUE;
+}
+void set_option(const char* name, bool on) {
+  if (on)
+    PetscOptionsSetValue(nullptr, name, nullptr);
+  else
+    PetscOptionsClearValue(nullptr, name);
 }
 double petsc_reductions() {
   return petsc_allreduce_ct;
