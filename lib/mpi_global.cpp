@@ -2,6 +2,7 @@
 // mpi_global.hpp.
 #include "mpi_global.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -41,7 +42,7 @@ void check(PetscErrorCode ierr, const std::string& what, const char* call) {
 /// constant shift K_fd u_d on the owned rows, and PETSc's matrix, solver and vectors.
 struct DistributedGlobalStep::Group {
   std::vector<int> components;
-  std::vector<int> node;    ///< #free, mesh node of each free row
+  std::vector<int> node;    ///< #free, mesh node of each free row (in the coordinate order)
   std::vector<int> offset;  ///< the ranks' blocks of free rows (mpi::blocks)
   Eigen::MatrixXd shift;    ///< #owned x #components
   std::vector<double> x;    ///< #free: one component's solution, gathered
@@ -78,14 +79,18 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
   PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_rtol", &rtol, nullptr);
   for (auto& gp : groups_) {
     Group& g = *gp;
+    // The free nodes in the order of their coordinate along the mesh's longest extent (a
+    // coordinate partition: each rank's block of rows is a slab, its ghosts the slabs' faces).
     std::vector<int> local(n, -1);
     std::vector<char> fixed(n, 0);
     for (int i : bc.fixed[g.components[0]]) fixed[i] = 1;
     for (int i = 0; i < n; ++i)
-      if (!fixed[i]) {
-        local[i] = static_cast<int>(g.node.size());
-        g.node.push_back(i);
-      }
+      if (!fixed[i]) g.node.push_back(i);
+    Eigen::Index axis = 0;
+    (X.colwise().maxCoeff() - X.colwise().minCoeff()).maxCoeff(&axis);
+    std::stable_sort(g.node.begin(), g.node.end(),
+                     [&](int a, int b) { return X(a, axis) < X(b, axis); });
+    for (std::size_t k = 0; k < g.node.size(); ++k) local[g.node[k]] = static_cast<int>(k);
     const int nf = static_cast<int>(g.node.size()), nc = static_cast<int>(g.components.size());
     g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
                  solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");
@@ -93,19 +98,25 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
     const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
     g.x.assign(nf, 0.0);
     // The owned rows of K_ff (K is symmetric: row i is column i), global columns in the free
-    // numbering (increasing: the free numbering keeps the mesh order), and the shift.
+    // numbering, sorted, and the shift.
     std::vector<PetscInt> ia(own + 1, 0), ja;
     std::vector<PetscScalar> va;
+    std::vector<std::pair<PetscInt, PetscScalar>> row;
     g.shift = Eigen::MatrixXd::Zero(own, nc);
     for (int r = 0; r < own; ++r) {
+      row.clear();
       for (SpMat::InnerIterator it(K, g.node[f0 + r]); it; ++it) {
         const int m = static_cast<int>(it.row());
         if (local[m] >= 0) {
-          ja.push_back(local[m]);
-          va.push_back(it.value());
+          row.emplace_back(local[m], it.value());
         } else {
           for (int k = 0; k < nc; ++k) g.shift(r, k) += it.value() * bc.value(m, g.components[k]);
         }
+      }
+      std::sort(row.begin(), row.end());
+      for (const auto& [col, v] : row) {
+        ja.push_back(col);
+        va.push_back(v);
       }
       ia[r + 1] = static_cast<PetscInt>(ja.size());
     }
