@@ -23,8 +23,9 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   ltl::RunOptions options = ltl::run_options(cmd, problem);
   const bool ranks = ltl::mpi::size() > 1;
   if (ranks && options.resume)
-    throw ltl::Error("--resume under mpirun with more than one rank is not supported yet: "
-                     "resume with one rank (paper_notes/mpi.md)");
+    throw ltl::Error(
+        "--resume under mpirun with more than one rank is not supported yet: "
+        "resume with one rank (paper_notes/mpi.md)");
   if (ranks && ltl::mpi::rank() != 0) {  // rank 0 writes the results file and prints
     options.output.clear();
     options.verbosity = 0;

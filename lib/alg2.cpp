@@ -136,8 +136,8 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
 namespace {
 template <int d>
 int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
-                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E,
-                int c0, int c1) {
+                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E, int c0,
+                int c1) {
   int failures = 0;
 #pragma omp parallel for schedule(static) reduction(+ : failures)
   for (int c = c0; c < c1; ++c) {

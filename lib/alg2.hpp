@@ -40,8 +40,8 @@ enum class Ranks { One, All };
 
 /// What this rank holds and did in a distributed solver (Ranks::All; zeros otherwise).
 struct RankShare {
-  int cells = 0, points = 0;      ///< owned cells and contact points
-  bool contact_replicated = false;  ///< the coupled Gauss-Seidel (d0 > 0) on every rank
+  int cells = 0, points = 0;         ///< owned cells and contact points
+  bool contact_replicated = false;   ///< the coupled Gauss-Seidel (d0 > 0) on every rank
   bool replicated_cholesky = false;  ///< -ltl_mpi_replicated: the serial factor on every rank
   bool mumps = false;                ///< the distributed solve is MUMPS's Cholesky
   long ksp_iterations = 0, ksp_solves = 0, ghosts = 0;
@@ -208,8 +208,8 @@ class Solver {
   std::unique_ptr<ContactStep> contact_;
   std::unique_ptr<Newton> newton_;  ///< algorithm.solver = "newton" (newton.hpp)
   std::unique_ptr<Distribution, DropDistribution> dist_;  ///< Ranks::All (alg2_mpi.cpp)
-  double gamma_ = 0;                ///< mean-det's proximal stiffness on the fluctuations, 2 R q
-  Eigen::MatrixXd F_ext_;           ///< #nodes x dim, load_factor_ x the dead loads f, g
+  double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q
+  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;
   double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers

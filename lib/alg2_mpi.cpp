@@ -32,9 +32,9 @@ struct Solver::Distribution {
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  SpMatR GbarT_own;     ///< #nodes x dim #owned cells: the owned columns of GbarT_vol
-  SpMatR meanT_own;     ///< #nodes x #owned points: the owned columns of meanT_area
-  SpMatR fluct_rows;    ///< the owned node rows of the fluctuation Laplacian (mean-det)
+  SpMatR GbarT_own;   ///< #nodes x dim #owned cells: the owned columns of GbarT_vol
+  SpMatR meanT_own;   ///< #nodes x #owned points: the owned columns of meanT_area
+  SpMatR fluct_rows;  ///< the owned node rows of the fluctuation Laplacian (mean-det)
   std::unique_ptr<DistributedGlobalStep> ksp;
   double scale = 1;
 };
@@ -68,9 +68,8 @@ void Solver::distribute() {
   // out, or "cholesky") MUMPS's distributed Cholesky factorization; the PETSc option
   // -ltl_mpi_replicated: the serial factor on every rank.
   d.use_ksp = !mpi::option("-ltl_mpi_replicated");
-  d.ksp_solver = alg().global_solver == GlobalSolver::CgAmg
-                     ? DistributedGlobalStep::Solver::CgGamg
-                     : DistributedGlobalStep::Solver::Mumps;
+  d.ksp_solver = alg().global_solver == GlobalSolver::CgAmg ? DistributedGlobalStep::Solver::CgGamg
+                                                            : DistributedGlobalStep::Solver::Mumps;
   d.GbarT_own = disc_.cells().GbarT_vol.middleCols(dim * d.c0, dim * (d.c1 - d.c0));
   if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
   if (disc_.mean_det()) d.fluct_rows = disc_.fluctuation_laplacian().middleRows(d.n0, d.n1 - d.n0);
@@ -147,8 +146,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const ContactPoints* points = disc_.points();
   const Eigen::MatrixXd& I = disc_.identity();
   T_.middleRows(r0, nr) = Rq * (s.E.middleRows(r0, nr) - I.middleRows(r0, nr)) +
-                          s.lambda.middleRows(r0, nr) -
-                          2 * disc_.split().C1 * I.middleRows(r0, nr);
+                          s.lambda.middleRows(r0, nr) - 2 * disc_.split().C1 * I.middleRows(r0, nr);
   rhs_.noalias() = d.GbarT_own * T_.middleRows(r0, nr);
   if (mpi::rank() == 0) rhs_ += F_ext_;
   if (disc_.mean_det()) {
@@ -157,8 +155,8 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   }
   if (points) {
     const int np = d.p1 - d.p0;
-    rhs_.noalias() += d.meanT_own * (R_ * a.q_c * s.e.middleRows(d.p0, np) +
-                                     s.lambda_c.middleRows(d.p0, np));
+    rhs_.noalias() +=
+        d.meanT_own * (R_ * a.q_c * s.e.middleRows(d.p0, np) + s.lambda_c.middleRows(d.p0, np));
   }
   mpi::sum(rhs_.data(), rhs_.size());
   if (d.ksp)
@@ -194,8 +192,8 @@ void Solver::contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_
     for (int p = pr.first; p < pr.end; ++p) {
       Eigen::Vector3d av = Eigen::Vector3d::Zero();
       av.head(dim) = (Rqc * g.ubar.row(p) - lambda_c.row(p)).transpose();
-      const PointSolution sol = ContactStep::solve_point(av, 0.0, ad.w, Rqc, ad.kappa, N,
-                                                         points.gap(p), dim, s.beta(p));
+      const PointSolution sol =
+          ContactStep::solve_point(av, 0.0, ad.w, Rqc, ad.kappa, N, points.gap(p), dim, s.beta(p));
       s.e.row(p) = sol.e.head(dim).transpose();
       s.beta(p) = sol.beta;
     }

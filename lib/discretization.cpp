@@ -168,8 +168,8 @@ template <int d>
 void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
                       const Eigen::VectorXd& wq, const Eigen::VectorXd& vol, int nq,
                       const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
-                      int e0, int e1) {
+                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force, int e0,
+                      int e1) {
   using Mat = Eigen::Matrix<double, d, d>;
   using Nodal = Eigen::Matrix<double, Eigen::Dynamic, d, 0, 10, d>;  // <= 10 nodes: no heap
   const int npc = static_cast<int>(cells.cols());

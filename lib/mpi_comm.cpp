@@ -19,10 +19,6 @@ namespace ltl::mpi {
 
 namespace {
 Traffic traffic_;
-using clock_type = std::chrono::steady_clock;
-double seconds_since(clock_type::time_point t0) {
-  return std::chrono::duration<double>(clock_type::now() - t0).count();
-}
 }  // namespace
 
 std::vector<int> blocks(int n, int ranks) {
@@ -82,6 +78,10 @@ double petsc_reductions() {
 #else
 
 namespace {
+using clock_type = std::chrono::steady_clock;
+double seconds_since(clock_type::time_point t0) {
+  return std::chrono::duration<double>(clock_type::now() - t0).count();
+}
 bool up = false;
 int rank_ = 0, size_ = 1;
 std::vector<double> send_, recv_;
@@ -149,8 +149,10 @@ void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
   lo = hi = v;
   if (!up || size_ == 1) return;
   unsigned long long in = v, a = 0, b = 0;
-  check(MPI_Allreduce(&in, &a, 1, MPI_UNSIGNED_LONG_LONG, MPI_MIN, MPI_COMM_WORLD), "MPI_Allreduce");
-  check(MPI_Allreduce(&in, &b, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+  check(MPI_Allreduce(&in, &a, 1, MPI_UNSIGNED_LONG_LONG, MPI_MIN, MPI_COMM_WORLD),
+        "MPI_Allreduce");
+  check(MPI_Allreduce(&in, &b, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD),
+        "MPI_Allreduce");
   lo = a;
   hi = b;
 }

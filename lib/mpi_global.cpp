@@ -101,7 +101,7 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
     // numbering, sorted, and the shift.
     std::vector<PetscInt> ia(own + 1, 0), ja;
     std::vector<PetscScalar> va;
-    std::vector<std::pair<PetscInt, PetscScalar>> row;
+    std::vector<std::pair<PetscInt, PetscScalar> > row;
     g.shift = Eigen::MatrixXd::Zero(own, nc);
     for (int r = 0; r < own; ++r) {
       row.clear();
@@ -169,6 +169,16 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
       check(KSPSetTolerances(g.ksp, rtol, 0.0, PETSC_DEFAULT, 5000), g.what, "KSPSetTolerances");
     }
     check(KSPSetFromOptions(g.ksp), g.what, "KSPSetFromOptions");
+    PCType type = nullptr;
+    PCGetType(pc, &type);
+    if (type && std::string(type) == PCCHOLESKY) {
+      // MUMPS's workspace estimate is short on several ranks (INFOG(1) = -9 on 4 ranks of the
+      // 1 080-cell gutter): twice the estimate (ICNTL(14) = 100 %, percent more).
+      Mat F = nullptr;
+      check(PCFactorSetUpMatSolverType(pc), g.what, "PCFactorSetUpMatSolverType");
+      check(PCFactorGetMatrix(pc, &F), g.what, "PCFactorGetMatrix");
+      check(MatMumpsSetIcntl(F, 14, 100), g.what, "MatMumpsSetIcntl");
+    }
     check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the AMG hierarchy)");
     check(MatCreateVecs(g.A, &g.xv, &g.b), g.what, "MatCreateVecs");
     Mat Ad = nullptr, Ao = nullptr;
@@ -206,15 +216,14 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) 
       check(VecRestoreArray(g.xv, &px), g.what, "VecRestoreArray");
       const auto t0 = std::chrono::steady_clock::now();
       check(KSPSolve(g.ksp, g.b, g.xv), g.what, "KSPSolve");
-      ksp_seconds_ +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      ksp_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       KSPConvergedReason reason;
       PetscInt its = 0;
       KSPGetConvergedReason(g.ksp, &reason);
       KSPGetIterationNumber(g.ksp, &its);
       if (reason < 0)
-        throw Error(cat(g.what, ": the distributed CG + AMG did not converge (",
-                        KSPConvergedReasons[reason], ", ", its, " iterations)"));
+        throw Error(cat(g.what, ": the distributed solve failed (", KSPConvergedReasons[reason],
+                        ", ", its, " iterations)"));
       iterations_ += its;
       ++solves_;
       const PetscScalar* cx = nullptr;

@@ -107,6 +107,11 @@ TEST(Mpi, GluedFig3StepSerialAnswerMumps) {
 TEST(Mpi, GluedFig3StepSerialAnswerCgGamg) {
   expect_serial_answer("glued Fig 3 step", kFig3, {"time.steps=1"}, "cg-amg");
 }
+/// The default solver: distributed ALG2, then the Newton phase replicated on every rank.
+TEST(Mpi, Fig5NewtonPhaseReplicated) {
+  expect_serial_answer("Fig 5 with Newton", kFig5, {"algorithm.solver=newton"}, "cholesky");
+}
+
 /// Converged (13720 iterations): with the serial factor on every rank (-ltl_mpi_replicated), the
 /// rest distributed; with MUMPS and CG + GAMG only with LTL_MPI_FULL=1 (~5 ms an iteration on 2
 /// ranks of the loaded 2-core machine).
@@ -201,8 +206,8 @@ TEST(Mpi, RankZeroWritesTheResultsFile) {
 class FailurePrinter : public ::testing::EmptyTestEventListener {
   void OnTestPartResult(const ::testing::TestPartResult& r) override {
     if (r.failed())
-      std::fprintf(stderr, "rank %d: %s:%d: %s\n", mpi::rank(),
-                   r.file_name() ? r.file_name() : "?", r.line_number(), r.summary());
+      std::fprintf(stderr, "rank %d: %s:%d: %s\n", mpi::rank(), r.file_name() ? r.file_name() : "?",
+                   r.line_number(), r.summary());
   }
 };
 

@@ -47,28 +47,50 @@ double max_of(double v) {
   return m;
 }
 
+const char* kUsage =
+    "usage: bench_mpi NT NA NL [--iters N] [--warm N] [--solver mumps|cg-amg] [--distribute 1]"
+    " [--label TEXT]\n";
+
 int bench(int argc, char** argv) {
-  if (argc < 4) {
-    std::fprintf(stderr, "usage: bench_mpi NT NA NL [--iters N] [--warm N] [--solver mumps|cg-amg]"
-                         " [--label TEXT]\n");
-    return 2;
-  }
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::printf("%s", kUsage);
+      return 0;
+    }
   int iters = 20, warm = 3;
   std::string solver_name = "mumps", label = "-";
   bool distribute = false;  // --distribute 1: the distributed solver on one rank too
-  for (int i = 4; i + 1 < argc; i += 2) {
+  std::vector<std::string> positional;
+  for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--iters") iters = std::atoi(argv[i + 1]);
-    if (a == "--warm") warm = std::atoi(argv[i + 1]);
-    if (a == "--solver") solver_name = argv[i + 1];
-    if (a == "--label") label = argv[i + 1];
-    if (a == "--distribute") distribute = std::atoi(argv[i + 1]) != 0;
+    const bool known =
+        a == "--iters" || a == "--warm" || a == "--solver" || a == "--label" || a == "--distribute";
+    if (a.rfind("-", 0) == 0 && (!known || i + 1 >= argc)) {
+      std::fprintf(stderr, "bench_mpi: bad option %s\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+    if (!known) {
+      positional.push_back(a);
+      continue;
+    }
+    const std::string v = argv[++i];
+    if (a == "--iters") iters = std::atoi(v.c_str());
+    if (a == "--warm") warm = std::atoi(v.c_str());
+    if (a == "--solver") solver_name = v;
+    if (a == "--label") label = v;
+    if (a == "--distribute") distribute = std::atoi(v.c_str()) != 0;
   }
-  std::vector<std::string> ov = {
-      std::string("mesh.parameters.nt=") + argv[1], std::string("mesh.parameters.na=") + argv[2],
-      std::string("mesh.parameters.nl=") + argv[3], "algorithm.tol=1e-300",
-      "algorithm.blowup=1e100", "algorithm.solver=alg2",
-      "algorithm.max_iter=" + std::to_string(iters + warm)};
+  if (positional.size() != 3 || (solver_name != "mumps" && solver_name != "cg-amg")) {
+    std::fprintf(stderr, "%s", kUsage);
+    return 2;
+  }
+  std::vector<std::string> ov = {"mesh.parameters.nt=" + positional[0],
+                                 "mesh.parameters.na=" + positional[1],
+                                 "mesh.parameters.nl=" + positional[2],
+                                 "algorithm.tol=1e-300",
+                                 "algorithm.blowup=1e100",
+                                 "algorithm.solver=alg2",
+                                 "algorithm.max_iter=" + std::to_string(iters + warm)};
   if (solver_name == "cg-amg") ov.push_back("algorithm.global_solver=\"cg-amg\"");
   const ltl::Problem problem =
       ltl::load_problem(std::string(LTL_SOURCE_DIR) + "/experiments/fig6/fig6.toml", ov);
@@ -124,11 +146,13 @@ int bench(int argc, char** argv) {
         "update=%.2f ksp_its_per_solve=%.1f bytes_per_it_ours=%.0f calls_per_it=%.0f "
         "bytes_per_it_petsc=%.0f ghosts=%.0f peak_MB_per_rank=%s load=%s\n",
         label.c_str(), P,
-        all ? (r.replicated_cholesky ? "replicated-cholesky" : r.mumps ? "mumps" : "cg-gamg")
+        all ? (r.replicated_cholesky ? "replicated-cholesky"
+               : r.mumps             ? "mumps"
+                                     : "cg-gamg")
             : "serial",
         problem.mesh.num_cells(), problem.mesh.num_nodes(), setup, timed, t_it, t_g, t_ksp, t_coll,
-        t_s, t_c, t_u, its,
-        bytes_ours, calls_ours, bytes_petsc, ghosts, peaks.c_str(), loadavg().c_str());
+        t_s, t_c, t_u, its, bytes_ours, calls_ours, bytes_petsc, ghosts, peaks.c_str(),
+        loadavg().c_str());
   std::fflush(stdout);
   return 0;
 }

@@ -3,7 +3,9 @@
 # at a time, each printing one "MPI ..." line (times, bytes, memory per rank, load average).
 #   strong scaling: the same gutter on 1 rank (serial solver, and the distributed one), 2 ranks
 #                   and 4 ranks (oversubscribed: 2 cores), with MUMPS and with CG + GAMG;
-#   weak scaling:   ~25 000 cells per rank on 1, 2 and 4 ranks (MUMPS).
+#   weak scaling:   25 600 cells per rank on 1 and 2 ranks (MUMPS); 4 ranks is the strong
+#                   row of the 102 400-cell gutter.
+# 20 timed iterations after 3 (1 080 and 9 900 cells), 8 after 2 (the larger gutters).
 # Usage: bench_mpi.sh BUILD_DIR [--quick]   (--quick: the gutters of 1 080 and 9 900 cells only)
 set -u
 build=$1
@@ -16,23 +18,23 @@ run() {  # ranks label nt na nl solver [extra]
   if [ "$p" = 1 ]; then
     "$bench" "$nt" "$na" "$nl" --solver "$solver" --label "$label" "$@"
   else
+    # stdin from /dev/null: mpirun would read the loop's input.
     mpirun -n "$p" --oversubscribe "$bench" "$nt" "$na" "$nl" --solver "$solver" \
-      --label "$label" "$@"
+      --label "$label" "$@" < /dev/null
   fi
 }
-strong="2 18 30
-3 30 110"
+strong="2 18 30 20 3
+3 30 110 20 3"
 [ "$quick" = "--quick" ] || strong="$strong
-4 50 500"
-echo "$strong" | while read -r nt na nl; do
-  run 1 strong "$nt" "$na" "$nl" mumps
+8 80 160 8 2"
+echo "$strong" | while read -r nt na nl it warm; do
+  run 1 strong "$nt" "$na" "$nl" mumps --iters "$it" --warm "$warm"
   for solver in mumps cg-amg; do
-    run 1 strong "$nt" "$na" "$nl" "$solver" --distribute 1
-    run 2 strong "$nt" "$na" "$nl" "$solver"
-    run 4 strong-oversubscribed "$nt" "$na" "$nl" "$solver"
+    run 1 strong "$nt" "$na" "$nl" "$solver" --distribute 1 --iters "$it" --warm "$warm"
+    run 2 strong "$nt" "$na" "$nl" "$solver" --iters "$it" --warm "$warm"
+    run 4 strong-oversubscribed "$nt" "$na" "$nl" "$solver" --iters "$it" --warm "$warm"
   done
 done
 [ "$quick" = "--quick" ] && exit 0
-run 1 weak 4 25 250 mumps --distribute 1
-run 2 weak 4 50 250 mumps
-run 4 weak-oversubscribed 4 50 500 mumps
+run 1 weak 8 80 40 mumps --distribute 1 --iters 8 --warm 2
+run 2 weak 8 80 80 mumps --iters 8 --warm 2
