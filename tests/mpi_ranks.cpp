@@ -107,6 +107,15 @@ TEST(Mpi, GluedFig3StepSerialAnswerMumps) {
 TEST(Mpi, GluedFig3StepSerialAnswerCgGamg) {
   expect_serial_answer("glued Fig 3 step", kFig3, {"time.steps=1"}, "cg-amg");
 }
+/// The Bermudez-Moreno update (7.7)-(7.10) and Anderson acceleration over the distributed map.
+TEST(Mpi, Fig5BermudezMorenoSerialAnswer) {
+  expect_serial_answer("Fig 5 Bermudez-Moreno", kFig5, {"algorithm.update=bermudez-moreno"},
+                       "cholesky");
+}
+TEST(Mpi, Fig5AndersonSerialAnswer) {
+  expect_serial_answer("Fig 5 Anderson", kFig5, {"algorithm.acceleration=anderson"}, "cholesky");
+}
+
 /// The default solver: distributed ALG2, then the Newton phase replicated on every rank.
 TEST(Mpi, Fig5NewtonPhaseReplicated) {
   expect_serial_answer("Fig 5 with Newton", kFig5, {"algorithm.solver=newton"}, "cholesky");
