@@ -175,7 +175,7 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
   if (contact_) {
     t0 = clock_type::now();
     if (point_range().end - point_range().first < disc_.points()->size())  // distributed
-      contact_owned(g, lambda_c, beta_prev, s);
+      contact_owned(g, lambda_c, s);
     else
       contact_->solve(g.ubar, lambda_c, beta_prev, s.e, s.beta, alg().contact_sweeps);
     rec.t_contact += seconds_since(t0);

@@ -191,8 +191,7 @@ class Solver {
   /// distributed solve, then the owned rows of Gbar u, ubar and J.
   void global_phase_distributed(State& s, GlobalOutput& g);
   /// The contact step (4.7) on the owned points, independent when d0 = 0.
-  void contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c,
-                     const Eigen::VectorXd& beta_prev, State& s) const;
+  void contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c, State& s) const;
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
   /// The owned blocks of E, lambda (and e, lambda_c, beta) gathered: the whole state everywhere.
@@ -207,9 +206,8 @@ class Solver {
   std::unique_ptr<StrainStep> strain_;
   std::unique_ptr<ContactStep> contact_;
   std::unique_ptr<Newton> newton_;  ///< algorithm.solver = "newton" (newton.hpp)
-  std::unique_ptr<Distribution, DropDistribution> dist_;  ///< Ranks::All (alg2_mpi.cpp)
-  double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q
-  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
+  double gamma_ = 0;                ///< mean-det's proximal stiffness on the fluctuations, 2 R q
+  Eigen::MatrixXd F_ext_;           ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;
   double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers
@@ -222,6 +220,9 @@ class Solver {
   Eigen::Index packed_size_ = 0;
   Eigen::VectorXd w_cell_, w_point_;
   double w_u_ = 0;  ///< weight of u in the accelerated vector (mean-det only)
+  // Ranks::All: the owned blocks, the owned parts of the operators, the distributed KSP
+  // (alg2_mpi.cpp); null on one rank.
+  std::unique_ptr<Distribution, DropDistribution> dist_;
   /// ALG2 as the fixed-point map of the driver (fixed_point.hpp), in alg2.cpp.
   class Alg2Map;
 };

@@ -179,8 +179,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
 // [LTL87 (4.7), (6.1)-(6.8)] Without dissipation (d0 = 0) the points do not see each other:
 // each owned point solves its own (6.1)-(6.2), exactly as ContactStep::solve does (a = R q_c
 // ubar_s - lambda_c_s, aa = 0, b = w).
-void Solver::contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c,
-                           const Eigen::VectorXd&, State& s) const {
+void Solver::contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c, State& s) const {
   const ContactPoints& points = *disc_.points();
   const Adhesion& ad = contact_->adhesion();
   const int dim = this->dim();
