@@ -95,45 +95,45 @@ const char* kFig3 = "experiments/fig3/fig3.toml";
 const char* kFig6 = "experiments/fig6/fig6.toml";
 const std::vector<std::string> kCoarseGutter = {"mesh.parameters.nl=5", "mesh.parameters.na=5"};
 
-TEST(Mpi, Fig5SerialAnswerMumps) {
+TEST(Mpi, Eq4_1to4_4_Fig5SerialAnswerMumps) {
   expect_serial_answer("Fig 5", kFig5, {}, "cholesky");
 }
-TEST(Mpi, Fig5SerialAnswerCgGamg) {
+TEST(Mpi, Eq4_1to4_4_Fig5SerialAnswerCgGamg) {
   expect_serial_answer("Fig 5", kFig5, {}, "cg-amg");
 }
-TEST(Mpi, GluedFig3StepSerialAnswerMumps) {
+TEST(Mpi, Eq4_1to4_4_GluedFig3StepSerialAnswerMumps) {
   expect_serial_answer("glued Fig 3 step", kFig3, {"time.steps=1"}, "cholesky");
 }
-TEST(Mpi, GluedFig3StepSerialAnswerCgGamg) {
+TEST(Mpi, Eq4_1to4_4_GluedFig3StepSerialAnswerCgGamg) {
   expect_serial_answer("glued Fig 3 step", kFig3, {"time.steps=1"}, "cg-amg");
 }
 /// The Bermudez-Moreno update (7.7)-(7.10) and Anderson acceleration over the distributed map.
-TEST(Mpi, Fig5BermudezMorenoSerialAnswer) {
+TEST(Mpi, Eq7_7to7_10_Fig5BermudezMorenoSerialAnswer) {
   expect_serial_answer("Fig 5 Bermudez-Moreno", kFig5, {"algorithm.update=bermudez-moreno"},
                        "cholesky");
 }
-TEST(Mpi, Fig5AndersonSerialAnswer) {
+TEST(Mpi, Eq4_1to4_4_Fig5AndersonSerialAnswer) {
   expect_serial_answer("Fig 5 Anderson", kFig5, {"algorithm.acceleration=anderson"}, "cholesky");
 }
 
 /// The default solver: distributed ALG2, then the Newton phase replicated on every rank.
-TEST(Mpi, Fig5NewtonPhaseReplicated) {
+TEST(Mpi, Eq4_1to4_4_Fig5NewtonPhaseReplicated) {
   expect_serial_answer("Fig 5 with Newton", kFig5, {"algorithm.solver=newton"}, "cholesky");
 }
 
 /// Converged (13720 iterations): with the serial factor on every rank (-ltl_mpi_replicated), the
 /// rest distributed; with MUMPS and CG + GAMG only with LTL_MPI_FULL=1 (~5 ms an iteration on 2
 /// ranks of the loaded 2-core machine).
-TEST(Mpi, CoarseGutterSerialAnswerReplicatedFactor) {
+TEST(Mpi, Eq4_1to4_4_CoarseGutterSerialAnswerReplicatedFactor) {
   mpi::set_option("-ltl_mpi_replicated", true);
   expect_serial_answer("coarse gutter", kFig6, kCoarseGutter, "cholesky");
   mpi::set_option("-ltl_mpi_replicated", false);
 }
-TEST(Mpi, CoarseGutterSerialAnswerMumps) {
+TEST(Mpi, Eq4_1to4_4_CoarseGutterSerialAnswerMumps) {
   if (!std::getenv("LTL_MPI_FULL")) GTEST_SKIP() << "13720 iterations: set LTL_MPI_FULL=1";
   expect_serial_answer("coarse gutter", kFig6, kCoarseGutter, "cholesky");
 }
-TEST(Mpi, CoarseGutterSerialAnswerCgGamg) {
+TEST(Mpi, Eq4_1to4_4_CoarseGutterSerialAnswerCgGamg) {
   if (!std::getenv("LTL_MPI_FULL")) GTEST_SKIP() << "13720 iterations: set LTL_MPI_FULL=1";
   expect_serial_answer("coarse gutter", kFig6, kCoarseGutter, "cg-amg");
 }
@@ -166,10 +166,10 @@ void expect_same_iterates(const std::string& global_solver) {
   EXPECT_LE(relative(dist.lambda, serial.lambda), 1e-8);
   EXPECT_TRUE(same_on_every_rank(dist));
 }
-TEST(Mpi, CoarseGutterSameIteratesMumps) {
+TEST(Mpi, Eq4_1to4_4_CoarseGutterSameIteratesMumps) {
   expect_same_iterates("cholesky");
 }
-TEST(Mpi, CoarseGutterSameIteratesCgGamg) {
+TEST(Mpi, Eq4_1to4_4_CoarseGutterSameIteratesCgGamg) {
   expect_same_iterates("cg-amg");
 }
 
