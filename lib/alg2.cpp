@@ -76,9 +76,12 @@ void Solver::precompute(double R) {
     if (contact_) {
       contact_->set_Rqc(Rqc);  // the adhesion kernel does not depend on R
     } else {
-      Adhesion adhesion = problem().contact->adhesion;
-      adhesion.dt = problem().time.dt;
-      contact_ = std::make_unique<ContactStep>(*disc_.points(), adhesion, Rqc);
+      std::vector<Adhesion> adhesion;  // each obstacle's glue, with the time step
+      for (const ContactCondition& cc : problem().contacts) {
+        adhesion.push_back(cc.adhesion);
+        adhesion.back().dt = problem().time.dt;
+      }
+      contact_ = std::make_unique<ContactSteps>(disc_.obstacle_points(), adhesion, Rqc);
     }
   }
 }
@@ -92,7 +95,10 @@ State Solver::initial_state() const {
   s.lambda = 2 * disc_.split().C1 * disc_.identity();
   s.e = Eigen::MatrixXd::Zero(n_points, dim);
   s.lambda_c = Eigen::MatrixXd::Zero(n_points, dim);
-  s.beta = Eigen::VectorXd::Constant(n_points, problem().contact ? problem().contact->beta0 : 0.0);
+  s.beta = Eigen::VectorXd::Zero(n_points);
+  for (int k = 0; k < disc_.num_obstacles(); ++k)  // each obstacle's beta_0 on its points
+    s.beta.segment(disc_.points()->offset[k], disc_.obstacle_points()[k].size())
+        .setConstant(problem().contacts[k].beta0);
   return s;
 }
 
@@ -388,7 +394,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
         break;
       ++report.newton_attempts;
       if (contact_) newton_->set_glue(*contact_, beta_prev);
-      const bool glued = contact_ && contact_->adhesion().glued();
+      const bool glued = contact_ && contact_->glued();
       const State before = glued ? s : State();
       Newton::Result r = newton_->solve(s, F_ext_, a, report, progress);
       if (r.converged && glued && !local_contact_step_holds(s, beta_prev)) {

@@ -10,6 +10,49 @@
 
 namespace ltl {
 
+namespace {
+/// The points of several obstacles, one after the other (ContactPoints::offset): the rows of
+/// `mean` and of every per-point array stacked, `meanT_area` the columns; no one normal N.
+ContactPoints stack_obstacles(const std::vector<ContactPoints>& obstacles, int nn) {
+  ContactPoints all;
+  const int dim = obstacles.front().dim;
+  int n = 0;
+  all.offset = {0};
+  for (const ContactPoints& o : obstacles) all.offset.push_back(n += o.size());
+  all.dim = dim;
+  all.area.resize(n);
+  all.centre.resize(dim, n);
+  all.gap.resize(n);
+  all.normals.resize(n, dim);
+  std::vector<Eigen::Triplet<double>> t, tT;
+  const bool facets = !obstacles.front().vertices.empty();
+  if (facets) all.vertices.assign(obstacles.front().vertices.size(), Eigen::MatrixXd(dim, n));
+  for (std::size_t k = 0; k < obstacles.size(); ++k) {
+    const ContactPoints& o = obstacles[k];
+    const int r0 = all.offset[k], m = o.size();
+    all.area.segment(r0, m) = o.area;
+    all.centre.middleCols(r0, m) = o.centre;
+    all.gap.segment(r0, m) = o.gap;
+    all.normals.middleRows(r0, m) = o.normals;
+    all.nodes.insert(all.nodes.end(), o.nodes.begin(), o.nodes.end());
+    if (facets && o.vertices.size() == all.vertices.size())
+      for (std::size_t v = 0; v < o.vertices.size(); ++v)
+        all.vertices[v].middleCols(r0, m) = o.vertices[v];
+    for (int s = 0; s < m; ++s)
+      for (SpMatR::InnerIterator it(o.mean, s); it; ++it)
+        t.emplace_back(r0 + s, it.col(), it.value());
+    for (int a = 0; a < o.meanT_area.outerSize(); ++a)
+      for (SpMatR::InnerIterator it(o.meanT_area, a); it; ++it)
+        tT.emplace_back(a, r0 + it.col(), it.value());
+  }
+  all.mean.resize(n, nn);
+  all.mean.setFromTriplets(t.begin(), t.end());
+  all.meanT_area.resize(nn, n);
+  all.meanT_area.setFromTriplets(tT.begin(), tT.end());
+  return all;
+}
+}  // namespace
+
 Discretization::Discretization(const Problem& problem) : problem_(problem) {
   const auto t0 = std::chrono::steady_clock::now();
   problem_.validate();
@@ -67,31 +110,34 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
     fluctuation_laplacian_.prune(0.0);
   }
 
-  // The contact points, with their initial gaps to the obstacle plane (section 6).
-  if (problem_.contact) {
-    const ContactCondition& cc = *problem_.contact;
-    const Mesh::Boundary& boundary = mesh.boundary(cc.group, "contact.group");
-    points_ = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
-    ContactPoints& pts = *points_;
+  // The contact points of each obstacle, with their initial gaps to its plane (section 6), and
+  // the points of all of them, one obstacle after the other (paper_notes/obstacles.md).
+  const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
+  Eigen::VectorXd centroid = Eigen::VectorXd::Zero(dim);
+  if (!problem_.contacts.empty()) {
+    for (int c = 0; c < nc; ++c) {
+      Eigen::VectorXd xc = Eigen::VectorXd::Zero(dim);
+      for (int a = 0; a < mesh.nodes_per_cell(); ++a)
+        xc += mesh.X.row(mesh.cells(c, a)).transpose();
+      centroid += cells_.vol(c) * xc / mesh.nodes_per_cell();
+    }
+    centroid /= volume_;
+  }
+  for (const ContactCondition& cc : problem_.contacts) {
+    const Mesh::Boundary& boundary = mesh.boundary(cc.group, cc.key("group"));
+    ContactPoints pts = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
     pts.N = cc.plane_normal.head(dim);
+    pts.normals = pts.N.transpose().replicate(pts.size(), 1);
+    pts.offset = {0, pts.size()};
     // Initial gap g_s = (p0 - x_s) . N at each facet centre or node (paper_notes/section6.md).
-    pts.gap.resize(points_->size());
-    for (int f = 0; f < points_->size(); ++f)
-      pts.gap(f) = (cc.plane_point.head(dim) - points_->centre.col(f)).dot(pts.N);
-    const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
+    pts.gap.resize(pts.size());
+    for (int f = 0; f < pts.size(); ++f)
+      pts.gap(f) = (cc.plane_point.head(dim) - pts.centre.col(f)).dot(pts.N);
     // The body must start on the admissible side of the plane: its centroid (cell centres
     // weighted by volume) on the side N points away from. With the normal reversed the
     // contact surface is still at the plane but the body lies in the obstacle, and the
     // iteration wanders without converging.
     {
-      Eigen::VectorXd centroid = Eigen::VectorXd::Zero(dim);
-      for (int c = 0; c < nc; ++c) {
-        Eigen::VectorXd xc = Eigen::VectorXd::Zero(dim);
-        for (int a = 0; a < mesh.nodes_per_cell(); ++a)
-          xc += mesh.X.row(mesh.cells(c, a)).transpose();
-        centroid += cells_.vol(c) * xc / mesh.nodes_per_cell();
-      }
-      centroid /= volume_;
       const double side = (centroid - cc.plane_point.head(dim)).dot(pts.N);
       if (side > 1e-10 * scale) {
         std::string n, reversed;
@@ -102,34 +148,36 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
         throw Error(cat(mesh.source,
                         ": the body lies on the obstacle side of the contact plane "
                         "(its centroid is ",
-                        side,
-                        " m from the plane along contact.plane_normal "
-                        "= (",
-                        n,
-                        ")): contact.plane_normal must point into the obstacle, away "
+                        side, " m from the plane along ", cc.key("plane_normal"), " = (", n,
+                        ")): ", cc.key("plane_normal"),
+                        " must point into the obstacle, away "
                         "from the body; reverse it (plane_normal = [",
-                        reversed, "]) or check contact.plane_point"));
+                        reversed, "]) or check ", cc.key("plane_point")));
       }
     }
-    for (int f = 0; f < points_->size(); ++f)
+    for (int f = 0; f < pts.size(); ++f)
       if (pts.gap(f) < -1e-10 * scale)
         throw Error(cat(mesh.source, ": contact ",
                         problem_.discretization.nodal_contact ? "node " : "facet ", f, " of '",
                         cc.group, "' starts inside the obstacle (gap ", pts.gap(f),
-                        " m at its centre): check contact.plane_point and contact.plane_normal "
-                        "(the normal points into the obstacle)"));
+                        " m at its centre): check ", cc.key("plane_point"), " and ",
+                        cc.key("plane_normal"), " (the normal points into the obstacle)"));
     // Every node of the body starts on the admissible side (the contact surface was checked
     // above, facet by facet or node by node).
     for (int n = 0; n < nn; ++n) {
       const double inside = (mesh.X.row(n).transpose() - cc.plane_point.head(dim)).dot(pts.N);
       if (inside > 1e-10 * scale)
         throw Error(cat(mesh.source, ": node ", n, " of the body (at ", mesh.X.row(n),
-                        ") starts inside the obstacle, ", inside,
-                        " m beyond the contact plane: check contact.plane_point and "
-                        "contact.plane_normal (the normal points into the obstacle)"));
+                        ") starts inside the obstacle, ", inside, " m beyond the contact plane",
+                        problem_.contacts.size() > 1 ? " of " + cc.origin : std::string(),
+                        ": check ", cc.key("plane_point"), " and ", cc.key("plane_normal"),
+                        " (the normal points into the obstacle)"));
     }
-    contact_area_ = points_->area.sum();
+    obstacles_.push_back(std::move(pts));
   }
+  if (obstacles_.size() == 1) points_ = obstacles_.front();
+  if (obstacles_.size() > 1) points_ = stack_obstacles(obstacles_, nn);
+  if (points_) contact_area_ = points_->area.sum();
 
   // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
   bc_.fixed.assign(dim, {});
@@ -293,31 +341,36 @@ Discretization::Stresses Discretization::stresses(const State& s) const {
   return out;
 }
 
-namespace {
-/// -lambda_c . N per contact point: the nominal contact pressure (Pa), before any reading.
-Eigen::VectorXd nominal_pressure(const Problem& problem, const State& s) {
-  if (!problem.contact) return Eigen::VectorXd(0);
-  return -(s.lambda_c * problem.contact->plane_normal.head(problem.mesh.dim));
+Eigen::VectorXd Discretization::normal_component(const Eigen::MatrixXd& v) const {
+  if (!points_) return Eigen::VectorXd(0);
+  if (points_->N.size()) return v * points_->N;  // one obstacle
+  return v.cwiseProduct(points_->normals).rowwise().sum();
 }
-}  // namespace
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  const Eigen::VectorXd p = nominal_pressure(problem_, s);
-  const ContactPoints* points = this->points();
-  if (!points || points->nodes.empty()) return p;
-  // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp).
-  return consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contact->group),
-                                   *points, p);
+  if (!points_) return Eigen::VectorXd(0);
+  // -lambda_c . N_k per contact point: the nominal contact pressure (Pa), before any reading.
+  Eigen::VectorXd p = normal_component(s.lambda_c);
+  p = -p;
+  if (points_->nodes.empty()) return p;
+  // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp), per obstacle.
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    const int r0 = points_->offset[k], m = obstacles_[k].size();
+    p.segment(r0, m) =
+        consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contacts[k].group),
+                                  obstacles_[k], p.segment(r0, m));
+  }
+  return p;
 }
 
 Eigen::VectorXd Discretization::contact_forces(const State& s) const {
-  if (!problem_.contact || !points()) return Eigen::VectorXd(0);
-  return points()->area.cwiseProduct(nominal_pressure(problem_, s));
+  if (!points_) return Eigen::VectorXd(0);
+  return points_->area.cwiseProduct(-normal_component(s.lambda_c));
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {
   if (!points_) return {};
-  return points_->gap - s.e * points_->N;
+  return points_->gap - normal_component(s.e);
 }
 
 double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) const {

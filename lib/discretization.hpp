@@ -44,7 +44,17 @@ class Discretization {
   /// contact surface ("nodal"), with their weights, positions, the map from nodal values (mean)
   /// and the initial gap g_s = (p0 - x_s) . N >= 0 of each to the obstacle plane (section 6);
   /// null without contact.
+  /// Several obstacles ([[contact]], paper_notes/obstacles.md): the points of each obstacle,
+  /// one after the other (ContactPoints::offset, ContactPoints::normals), a node of two groups
+  /// being one point of each; the global step (4.5) sums R q_c M^T |G| M over all of them.
   const ContactPoints* points() const { return points_ ? &*points_ : nullptr; }
+  /// The contact points of obstacle k alone (problem().contacts[k]), with its plane's normal N
+  /// and gaps: rows points()->offset[k] .. offset[k + 1] - 1 of points(). Empty without contact.
+  const std::vector<ContactPoints>& obstacle_points() const { return obstacles_; }
+  int num_obstacles() const { return static_cast<int>(obstacles_.size()); }
+  /// N_k . v_s per contact point s (v: #points x dim, e.g. e or lambda_c), N_k the normal of the
+  /// obstacle of s.
+  Eigen::VectorXd normal_component(const Eigen::MatrixXd& v) const;
   /// Per component, the sorted nodes whose displacement is prescribed, and their values.
   const DirichletData& dirichlet() const { return bc_; }
   /// The consistent dead loads f (body force) and g (tractions) at load factor 1, #nodes x dim
@@ -97,7 +107,7 @@ class Discretization {
     Eigen::VectorXd sigma33, pressure;
   };
   Stresses stresses(const State& s) const;
-  /// Nominal contact pressure per contact point, p_c = -lambda_c . N (Pa; > 0 where the body
+  /// Nominal contact pressure per contact point, p_c = -lambda_c . N_k (Pa; > 0 where the body
   /// presses): the one definition, which the measures (lib/measures.hpp) use. With nodal contact
   /// on P2 triangle faces, read consistently from the point forces (derived_fields.hpp:
   /// consistent_nodal_pressure), so that a uniform pressure reads uniform.
@@ -120,6 +130,7 @@ class Discretization {
   Material split_;
   CellOperators cells_;
   std::optional<ContactPoints> points_;
+  std::vector<ContactPoints> obstacles_;
   DirichletData bc_;
   Eigen::MatrixXd F_dead_, Id_;
   Eigen::VectorXd vol_rows_;
