@@ -506,7 +506,8 @@ void Problem::check_shared_glue() const {
               glued(B) ? B.key("kappa") : A.key("kappa"),
               cat("obstacles ", A.origin, " (group '", A.group, "') and ", B.origin, " (group '",
                   B.group, "') share the contact ", k.size() == 1 ? "node " : "facet of nodes ",
-                  k[0], k.size() > 1 ? ", ..." : "", " at (", mesh.X.row(k[0]),
+                  k[0], k.size() > 1 ? ", ..." : "", " at (", mesh.X(k[0], 0), ", ",
+                  mesh.X(k[0], 1), mesh.dim == 3 ? cat(", ", mesh.X(k[0], 2)) : std::string(),
                   ") and one of them is glued: the glued local step (6.1)-(6.8) has one beta and "
                   "one plane per point, and at a point of two obstacles it is not defined here; "
                   "glue neither at a shared point (paper_notes/obstacles.md)"));

@@ -81,7 +81,9 @@ void expect_two_plane_projection(int dim) {
         const bool on1 = std::abs(N1.dot(e) - g1) <= tol, on2 = std::abs(N2.dot(e) - g2) <= tol;
         ++regime[(e - x).norm() <= tol ? 0 : on1 && on2 ? 3 : on1 ? 1 : 2];
         worst = std::max(worst, (e - dykstra(x, N1, g1, N2, g2)).norm());
-        if (dim == 2) EXPECT_EQ(e(2), 0.0);
+        if (dim == 2) {
+          EXPECT_EQ(e(2), 0.0);
+        }
       });
   std::printf(
       "  %d-D: %d inside, %d on plane 1, %d on plane 2, %d on the edge; max |e - Dykstra| "
@@ -233,7 +235,7 @@ TEST(Obstacles, Eq1_5_TwoPlatesSqueezeACompressibleBlock) {
 // pi; each plane carries its traction over the unit side. The corner node is a contact point of
 // both obstacles. (With a = 0.9, pi = 3 (C1 + C2), both solvers reach from rest another
 // equilibrium of the dead loads, the block turned through the corner into both obstacles with
-// its contact faces still on the planes, which the admissibility check refuses: the loads here
+// its contact faces still on the planes (the corner (1, 1) at (-1.19, -0.84)): the loads here
 // keep the physical branch, as in test_contact_problems.cpp.)
 TEST(Obstacles, Eq1_5_BlockPressedIntoACornerSharedNode) {
   const double C1 = 100e3, C2 = 30e3, C = C1 + C2, a = 0.95, pi = 2.5 * C;
