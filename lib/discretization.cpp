@@ -175,9 +175,9 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
     }
     obstacles_.push_back(std::move(pts));
   }
-  if (obstacles_.size() == 1) points_ = obstacles_.front();
+  // One obstacle: its points are all the points (no copy); several: stacked.
   if (obstacles_.size() > 1) points_ = stack_obstacles(obstacles_, nn);
-  if (points_) contact_area_ = points_->area.sum();
+  if (points()) contact_area_ = points()->area.sum();
 
   // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
   bc_.fixed.assign(dim, {});
@@ -342,20 +342,22 @@ Discretization::Stresses Discretization::stresses(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::normal_component(const Eigen::MatrixXd& v) const {
-  if (!points_) return Eigen::VectorXd(0);
-  if (points_->N.size()) return v * points_->N;  // one obstacle
-  return v.cwiseProduct(points_->normals).rowwise().sum();
+  const ContactPoints* pts = points();
+  if (!pts) return Eigen::VectorXd(0);
+  if (pts->N.size()) return v * pts->N;  // one obstacle
+  return v.cwiseProduct(pts->normals).rowwise().sum();
 }
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  if (!points_) return Eigen::VectorXd(0);
+  const ContactPoints* pts = points();
+  if (!pts) return Eigen::VectorXd(0);
   // -lambda_c . N_k per contact point: the nominal contact pressure (Pa), before any reading.
   Eigen::VectorXd p = normal_component(s.lambda_c);
   p = -p;
-  if (points_->nodes.empty()) return p;
+  if (pts->nodes.empty()) return p;
   // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp), per obstacle.
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-    const int r0 = points_->offset[k], m = obstacles_[k].size();
+    const int r0 = pts->offset[k], m = obstacles_[k].size();
     p.segment(r0, m) =
         consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contacts[k].group),
                                   obstacles_[k], p.segment(r0, m));
@@ -364,13 +366,15 @@ Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
 }
 
 Eigen::VectorXd Discretization::contact_forces(const State& s) const {
-  if (!points_) return Eigen::VectorXd(0);
-  return points_->area.cwiseProduct(-normal_component(s.lambda_c));
+  const ContactPoints* pts = points();
+  if (!pts) return Eigen::VectorXd(0);
+  return pts->area.cwiseProduct(-normal_component(s.lambda_c));
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {
-  if (!points_) return {};
-  return points_->gap - normal_component(s.e);
+  const ContactPoints* pts = points();
+  if (!pts) return {};
+  return pts->gap - normal_component(s.e);
 }
 
 double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) const {

@@ -47,7 +47,9 @@ class Discretization {
   /// Several obstacles ([[contact]], paper_notes/obstacles.md): the points of each obstacle,
   /// one after the other (ContactPoints::offset, ContactPoints::normals), a node of two groups
   /// being one point of each; the global step (4.5) sums R q_c M^T |G| M over all of them.
-  const ContactPoints* points() const { return points_ ? &*points_ : nullptr; }
+  const ContactPoints* points() const {
+    return obstacles_.size() == 1 ? &obstacles_.front() : points_ ? &*points_ : nullptr;
+  }
   /// The contact points of obstacle k alone (problem().contacts[k]), with its plane's normal N
   /// and gaps: rows points()->offset[k] .. offset[k + 1] - 1 of points(). Empty without contact.
   const std::vector<ContactPoints>& obstacle_points() const { return obstacles_; }
@@ -129,7 +131,7 @@ class Discretization {
   Problem problem_;
   Material split_;
   CellOperators cells_;
-  std::optional<ContactPoints> points_;
+  std::optional<ContactPoints> points_;  ///< several obstacles only: their points stacked
   std::vector<ContactPoints> obstacles_;
   DirichletData bc_;
   Eigen::MatrixXd F_dead_, Id_;

@@ -229,6 +229,38 @@ TEST(Obstacles, Eq1_5_TwoPlatesSqueezeACompressibleBlock) {
   }
 }
 
+// [LTL87 (1.1)] A node behind ANY obstacle is inadmissible: the block between the plates x2 = 0
+// and x2 = 1 lifted by 1 cm is 1 cm behind the upper plate (obstacle 1) and 1 cm clear of the
+// lower one.
+TEST(Obstacles, Eq1_1_ANodeBehindTheSecondObstacleIsInadmissible) {
+  Problem p;
+  p.mesh = load_mesh(test_path("geometry/square.geo"));
+  p.material = Material::compressible(187.5e3, 187.5e3);
+  p.dirichlet = {{"left", {0}, {}, "test"}};
+  Traction right{"right", {}, "test"};
+  right.g.value(0) = -1e4;
+  p.tractions = {right};
+  p.contacts = {plane("bottom", Vector3d::Zero(), Vector3d(0, -1, 0)),
+                plane("top", Vector3d(0, 1, 0), Vector3d(0, 1, 0))};
+  const Solver solver(p);
+  const Discretization& d = solver.discretization();
+  State s = solver.initial_state();
+  s.u.col(1).setConstant(0.01);
+  s.e = d.points()->mean * s.u;
+  EXPECT_NEAR(penetration_of(d, s, 0), -0.01, 1e-15);
+  EXPECT_NEAR(penetration_of(d, s, 1), 0.01, 1e-15);
+  EXPECT_NEAR(max_penetration(d, s), 0.01, 1e-15);
+  const AdmissibilityReport adm = check_admissibility(d, s);
+  EXPECT_FALSE(adm.admissible());
+  EXPECT_NE(adm.message().find("inside the obstacles"), std::string::npos) << adm.message();
+  EXPECT_NEAR(adm.max_inside, 0.01, 1e-15);
+  // The gaps of the points, each to its own plane: -1 cm at the top, +1 cm at the bottom.
+  const Eigen::VectorXd gap = d.contact_gap(s);
+  const ContactPoints& pts = *d.points();
+  EXPECT_NEAR(gap.head(pts.offset[1]).maxCoeff(), 0.01, 1e-15);
+  EXPECT_NEAR(gap.tail(pts.size() - pts.offset[1]).maxCoeff(), -0.01, 1e-15);
+}
+
 // [LTL87 (1.5)] Incompressible Mooney-Rivlin in the corner of two planes x1 = 0 and x2 = 0, pressed
 // by dead tractions -p1 e1 on x1 = 1 and -p2 e2 on x2 = 1: F = diag(a, 1/a), P = 2 (C1 + C2) F -
 // pi F^-T, so p1 = pi / a - 2 (C1 + C2) a and p2 = pi a - 2 (C1 + C2) / a for a chosen pressure
