@@ -229,6 +229,51 @@ TEST(Obstacles, Eq1_5_TwoPlatesSqueezeACompressibleBlock) {
   }
 }
 
+// [LTL87 (1.5), sec. 8] The same in 3-D on distorted hexahedra: the unit box between the plates
+// x3 = 0 and x3 = 1, u1 = 0 on x1 = 0, u2 = 0 on x2 = 0, dead traction -p1 e1 on x1 = 1, x2 free:
+// F = diag(a, b, 1), J = a b, P22 = 0 gives b^2 = (C1 + C3) / (C1 + C3 a^2), and each plate
+// presses with -P33 = 2 C3 (1 - a^2 b^2) over its unit area.
+TEST(Obstacles, Eq1_5_TwoPlatesSqueezeACompressibleBlock3D) {
+  const double C1 = 187.5e3, C3 = 187.5e3, a = 0.9;
+  const double b = std::sqrt((C1 + C3) / (C1 + C3 * a * a)), J = a * b;
+  const double p1 = -(2 * C1 * a + (2 * C3 * J * J - 2 * (C1 + C3)) / a);
+  const double p_plate = 2 * C3 * (1 - J * J);
+  ASSERT_GT(p1, 0);
+  ASSERT_GT(p_plate, 0);
+  for (NonlinearSolver solver : {NonlinearSolver::Alg2, NonlinearSolver::Newton}) {
+    Problem p;
+    p.mesh = ltl::testing::distorted_box(2);
+    p.material = Material::compressible(C1, C3);
+    p.dirichlet = {{"x0", {0}, {}, "test"}, {"y0", {1}, {}, "test"}};
+    Traction right{"x1", {}, "test"};
+    right.g.value(0) = -p1;
+    p.tractions = {right};
+    p.contacts = {plane("z0", Vector3d::Zero(), Vector3d(0, 0, -1)),
+                  plane("z1", Vector3d(0, 0, 1), Vector3d(0, 0, 1))};
+    p.algorithm = ltl::testing::tight(8 * C1);
+    p.algorithm.tol = 1e-11;
+    p.algorithm.solver = solver;
+    const ltl::testing::Solved r = ltl::testing::solve_one_step(p);
+    const Discretization& d = r.solver->discretization();
+    double worst_u = 0;
+    for (int i = 0; i < p.mesh.num_nodes(); ++i)
+      worst_u = std::max({worst_u, std::abs(r.s.u(i, 0) - (a - 1) * p.mesh.X(i, 0)),
+                          std::abs(r.s.u(i, 1) - (b - 1) * p.mesh.X(i, 1)), std::abs(r.s.u(i, 2))});
+    EXPECT_LT(worst_u, 1e-7);
+    const StepMeasures m = step_measures(d, r.s);
+    ASSERT_TRUE(m.contact);
+    ASSERT_EQ(m.obstacles.size(), 1u);
+    EXPECT_NEAR(m.contact->force, p_plate, 1e-7 * p_plate);
+    EXPECT_NEAR(m.obstacles[0].force, p_plate, 1e-7 * p_plate);
+    EXPECT_TRUE(check_admissibility(d, r.s).admissible());
+    std::printf(
+        "  3-D %s: %d iterations, max |u - u_exact| = %.1e m, plate forces %.8g, %.8g N "
+        "(closed form %.8g)\n",
+        solver == NonlinearSolver::Newton ? "newton" : "alg2", r.report.iterations, worst_u,
+        m.contact->force, m.obstacles[0].force, p_plate);
+  }
+}
+
 // [LTL87 (1.1)] A node behind ANY obstacle is inadmissible: the block between the plates x2 = 0
 // and x2 = 1 lifted by 1 cm is 1 cm behind the upper plate (obstacle 1) and 1 cm clear of the
 // lower one.
