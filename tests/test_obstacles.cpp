@@ -466,6 +466,46 @@ TEST(Obstacles, OneContactTableEqualsAOneElementList) {
   EXPECT_EQ((s.lambda_c - t.lambda_c).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// [LTL87 (4.7), (6.1)-(6.8)] Glue on one of several obstacles (ALG2): the block of the first
+// problem glued to its plane and pressed by 100 kPa, with a second, frictionless obstacle 15 cm
+// above its top that it never reaches, converges to the state of the glued block alone (the
+// second obstacle's points add R q_c M^T M to (4.5), another iteration with the same fixed
+// point).
+TEST(Obstacles, Eq4_7_GlueOnOneOfTwoObstaclesAsAlone) {
+  const auto dir = temp_dir("obstacles_glue");
+  std::string one = block_config("[[contact]]");
+  one.replace(one.find("beta0 = 0.0"), 11, "beta0 = 1.0\nkappa = \"1e9 Pa/m\"\nw = \"1 J/m^2\"");
+  one += "[algorithm]\nsolver = \"alg2\"\nforce_tol = 1e-7\nmax_iter = 40000\n";
+  const std::string two = one +
+                          "[[contact]]\ngroup = \"top\"\nplane_point = [\"0 m\", \"20 cm\"]\n"
+                          "plane_normal = [0, 1]\n";
+  write_file(dir / "one.toml", one);
+  write_file(dir / "two.toml", two);
+  const Problem a = load_problem((dir / "one.toml").string());
+  const Problem b = load_problem((dir / "two.toml").string());
+  ASSERT_EQ(b.contacts.size(), 2u);
+  Solver sa(a), sb(b);
+  State s = sa.initial_state(), t = sb.initial_state();
+  const StepReport ra = sa.solve_step(s, s.beta), rb = sb.solve_step(t, t.beta);
+  ASSERT_TRUE(ra.converged) << ra.status;
+  ASSERT_TRUE(rb.converged) << rb.status;
+  const int n0 = sb.discretization().points()->offset[1];
+  ASSERT_EQ(n0, s.beta.size());
+  const double du = (s.u - t.u).cwiseAbs().maxCoeff() / s.u.cwiseAbs().maxCoeff();
+  const double dbeta = (s.beta - t.beta.head(n0)).cwiseAbs().maxCoeff();
+  EXPECT_LT(du, 1e-6);
+  EXPECT_LT(dbeta, 1e-6);
+  // The far obstacle carries nothing; the glued one the load, 100 kPa x 0.1 m = 10 kN/m.
+  const StepMeasures m = step_measures(sb.discretization(), t);
+  ASSERT_EQ(m.obstacles.size(), 1u);
+  EXPECT_NEAR(m.obstacles[0].force, 0.0, 1e-8 * 1e4);
+  EXPECT_NEAR(m.contact->resultant(1), 1e4, 1e-4 * 1e4);
+  std::printf(
+      "  glued alone: %d iterations; with a second obstacle: %d; max |du| / max |u| = "
+      "%.1e, max |dbeta| = %.1e; glue force %.6g N/m\n",
+      ra.iterations, rb.iterations, du, dbeta, m.contact->resultant(1));
+}
+
 namespace {
 
 std::string load_error(const std::string& text) {
