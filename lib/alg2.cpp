@@ -109,10 +109,8 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   T_ = Rq * (s.E - disc_.identity()) + s.lambda - 2 * disc_.split().C1 * disc_.identity();
   rhs_.noalias() = cells.GbarT_vol * T_;
   rhs_ += F_ext_;
-  if (disc_.mean_det()) {  // the pressure's work on the fluctuations, lagged
-    rhs_.noalias() += gamma_ * (disc_.fluctuation_laplacian() * s.u);
-    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_);
-  }
+  if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, lagged
+    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_);
   if (points) rhs_.noalias() += points->meanT_area * (R_ * a.q_c * s.e + s.lambda_c);
   global_->solve(rhs_, s.u);
 

@@ -184,7 +184,32 @@ void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f
   }
 }
 
+template <int NPC, int DIM, class Rule, class Shape>
+ReferenceRule reference_points(const Rule& rule, Shape shape) {
+  ReferenceRule r;
+  Eigen::Matrix<double, NPC, 1> N;
+  Eigen::Matrix<double, NPC, DIM> dN;
+  for (const auto& p : rule) {
+    shape(p, N, dN);
+    r.dN.push_back(dN);
+    r.w.push_back(p.w);
+  }
+  return r;
+}
+
 }  // namespace
+
+ReferenceRule reference_rule(const Mesh& mesh) {
+  if (mesh.dim == 2)
+    return reference_points<6, 2>(
+        kTriangleRule, [](const QPoint& p, auto& N, auto& dN) { p2_triangle(p.xi, p.eta, N, dN); });
+  if (mesh.nodes_per_cell() == 10)
+    return reference_points<10, 3>(kTetRule, [](const QPoint& p, auto& N, auto& dN) {
+      p2_tetrahedron(p.xi, p.eta, p.zeta, N, dN);
+    });
+  return reference_points<8, 3>(
+      kHexRule, [](const QPoint& p, auto& N, auto& dN) { h8(p.xi, p.eta, p.zeta, N, dN); });
+}
 
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit) {
