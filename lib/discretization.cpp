@@ -259,14 +259,14 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
   // per-point table: memory per cell, not speed, limits the 3-D problems).
   const Mesh& mesh = problem_.mesh;
   if (dim() == 2)
-    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
-                           c, force, buffer_);
+    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
+                           force, buffer_);
   else if (mesh.nodes_per_cell() == 10)
-    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E,
-                            gamma, c, force, buffer_);
+    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
+                            c, force, buffer_);
   else
-    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
-                           c, force, buffer_);
+    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
+                           force, buffer_);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
