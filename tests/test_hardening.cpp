@@ -653,9 +653,8 @@ TEST(Hardening, OutOfMemoryIsAMessage) {
   EXPECT_EQ(changes(before, snapshot(f.dir)), "");
   // That mesh is refused before it is made (predicted). A smaller one that the estimate lets
   // through (n = nd = 150, about 49 000 cells under 600 MB) used to run out of memory in the
-  // factorization; its setup now fits (the discretization and the assembly hold about 2.3 kB
-  // per cell in 2-D, paper_notes/performance.md), so no quick out-of-memory case is left
-  // between the estimate and the setup.
+  // factorization; its setup now fits (paper_notes/hardening.md, "Mesh size against memory"),
+  // so no quick out-of-memory case is left between the estimate and the setup.
 #endif
 }
 
