@@ -42,7 +42,11 @@ SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, dou
           const double* g = cells.Gbar.valuePtr() + cells.Gbar.outerIndexPtr()[dim * c + j];
           m += g[a] * g[b];
         }
-        *entry(node[a], node[b]) += Rq * cells.vol(c) * m;
+        double* at = entry(node[a], node[b]);
+        if (!at)  // cell_operators' layout: L holds every pair of nodes of a cell
+          throw Error(cat("global matrix (4.5): nodes ", node[a], " and ", node[b], " of cell ", c,
+                          " are not in the Laplacian's pattern"));
+        *at += Rq * cells.vol(c) * m;
       }
   }
   if (points && points->size() > 0) {
