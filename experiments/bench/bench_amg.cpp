@@ -22,8 +22,8 @@
 //           memory (VmHWM) is its own. The 10^6-cell row of performance.md (one command line):
 //               OMP_NUM_THREADS=1 bench_amg --warm 2 --iters 3 --min-cells 900000
 //                   --max-cells 1000000 --solvers cg-amg --also-predict
-//           (about 4 min; 10 GB measured before the memory layout of performance.md's second
-//           pass, about 5 GB extrapolated since; its Cholesky case would need 23-29 GB).
+//           (about 2-4 min and 4.6 GB, 10 GB before the memory layout of performance.md's
+//           second pass; its Cholesky case would need 23-29 GB: not in 24 GB).
 //           Needs a build with PETSc for the CG + AMG rows (they are reported as not run
 //           otherwise). Counts (bytes, iterations) do not depend on the load
 //           of the machine; times do: the load average is printed beside them.
