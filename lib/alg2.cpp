@@ -64,11 +64,12 @@ void Solver::precompute(double R) {
   const double Rq = R * a.q, Rqc = R * a.q_c;
   R_ = R;
   gamma_ = disc_.mean_det() ? 2 * Rq : 0.0;
-  const SpMat K =
-      global_matrix(disc_.cells(), disc_.points(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
   const double scale = global_ ? global_->value_scale() : 1.0;  // a substep's, kept
   global_.reset();  // release the old factor before the new one is computed
-  global_ = std::make_unique<GlobalStep>(K, disc_.dirichlet(), a.global_solver, &problem().mesh.X);
+  // K is consumed by the global step (freed before the factorization / AMG setup's peak).
+  global_ = std::make_unique<GlobalStep>(
+      global_matrix(disc_.cells(), disc_.points(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc),
+      disc_.dirichlet(), a.global_solver, &problem().mesh.X);
   global_->set_value_scale(scale);
   ++factorizations_;
   strain_ = std::make_unique<StrainStep>(disc_.split(), Rq);
@@ -115,10 +116,8 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   T_ = Rq * (s.E - disc_.identity()) + s.lambda - 2 * disc_.split().C1 * disc_.identity();
   rhs_.noalias() = cells.GbarT_vol * T_;
   rhs_ += F_ext_;
-  if (disc_.mean_det()) {  // the pressure's work on the fluctuations, lagged
-    rhs_.noalias() += gamma_ * (disc_.fluctuation_laplacian() * s.u);
-    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_);
-  }
+  if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, lagged
+    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_);
   if (points) rhs_.noalias() += points->meanT_area * (R_ * a.q_c * s.e + s.lambda_c);
   global_->solve(rhs_, s.u);
 

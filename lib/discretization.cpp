@@ -84,30 +84,12 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
   mean_det_ = problem_.discretization.mean_det && split_.model == MaterialModel::MooneyRivlin &&
               split_.C2 == 0;
   if (mean_det_) {
-    // The table of point gradients: nodes_per_cell x dim per point, nothing else (the cell's
-    // nodes are the mesh's): 8 x 3 doubles per point, 1.5 KB per H8 cell.
-    const int npc = mesh.nodes_per_cell();
-    if (nc > 0) for_each_quadrature_point(mesh, 0, [&](const Eigen::MatrixXd&, double) { ++nq_; });
+    // The reference rule alone (nodes_per_cell x dim per point, for the cell type, not per
+    // cell): the point gradients are recomputed cell by cell from the nodes' positions.
+    rule_ = reference_rule(mesh);
+    nq_ = rule_.size();
     if (nq_ > kMaxPoints)
       throw Error(cat(mesh.source, ": ", nq_, " quadrature points per cell, at most ", kMaxPoints));
-    gq_.resize(npc, static_cast<Eigen::Index>(dim) * nq_ * nc);
-    wq_.resize(static_cast<Eigen::Index>(nq_) * nc);
-    for (int c = 0; c < nc; ++c) {
-      int k = 0;
-      for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double wt) {
-        if (k < nq_) {
-          const Eigen::Index q = static_cast<Eigen::Index>(nq_) * c + k;
-          gq_.middleCols(dim * q, dim) = grad;
-          wq_(q) = wt;
-        }
-        ++k;
-      });
-      if (k != nq_) throw Error(cat(mesh.source, ": cell ", c, " has ", k, " quadrature points"));
-    }
-    const Eigen::Index nq = wq_.size();
-    Sq_.resize(dim * nq, dim);
-    fluctuation_laplacian_ = cells_.laplacian - SpMat(cells_.GbarT_vol * cells_.Gbar);
-    fluctuation_laplacian_.prune(0.0);
   }
 
   // The contact points of each obstacle, with their initial gaps to its plane (section 6), and
@@ -210,27 +192,53 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
 //   c_e = (1/|O_e|) sum_k w_k det F_k - det Fbar,   force block p_e (cof F_k - cof Fbar),
 // p_e = lambda_e : E_e / (d det E_e). In 2-D cof is linear, so c_e is the mean of det(delta_k)
 // and the force block p_e cof(delta_k), delta_k = F_k - Fbar. The blocks are transposed tensors;
-// det and cof commute with the transpose.
+// det and cof commute with the transpose. With gamma, the block gains gamma (F_k - Fbar): the
+// cell's part of gamma (L - GbarT_vol Gbar) u, since sum_k w_k grad_k = |O_e| Gbar_e on the
+// rule that assembles L (fe.hpp).
+//
+// The point gradients are recomputed from the cell's nodes at each call (fe.hpp,
+// ReferenceRule): with Xe, ue the cell's positions and displacements and dN_k the reference
+// gradients, J_k^T = dN_k^T Xe, (grad u)^T = J_k^-T dN_k^T ue, w_k = w_ref det J_k; the force
+// on node a is w_k dN_k(a, :) J_k^-1 S_k. Nothing per cell or per point is stored.
 namespace {
-template <int d>
-void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
-                      const Eigen::VectorXd& wq, const Eigen::VectorXd& vol, int nq,
-                      const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) {
+template <int d, int npc>
+struct FluctuationKernel {
   using Mat = Eigen::Matrix<double, d, d>;
-  using Nodal = Eigen::Matrix<double, Eigen::Dynamic, d, 0, 10, d>;  // <= 10 nodes: no heap
-  const int nc = static_cast<int>(vol.size()), npc = static_cast<int>(cells.cols());
-#pragma omp parallel for schedule(static)
-  for (int e = 0; e < nc; ++e) {
-    Nodal ue(npc, d);
-    for (int a = 0; a < npc; ++a) ue.row(a) = u.row(cells(e, a));
-    // The point gradients, transposed blocks: (grad u)^T at point q = gq_q^T ue.
-    Mat G[Discretization::kMaxPoints];
+  using Nodal = Eigen::Matrix<double, npc, d>;
+  Eigen::Matrix<double, npc, d> dN[Discretization::kMaxPoints];
+  double wref[Discretization::kMaxPoints];
+  int nq = 0;
+  const Eigen::MatrixXi& cells;
+  const Eigen::MatrixXd& X;
+  const Eigen::VectorXd& vol;
+
+  FluctuationKernel(const ReferenceRule& rule, const Mesh& mesh, const Eigen::VectorXd& v)
+      : nq(rule.size()), cells(mesh.cells), X(mesh.X), vol(v) {
+    for (int k = 0; k < nq; ++k) {
+      dN[k] = rule.dN[k];
+      wref[k] = rule.w[k];
+    }
+  }
+
+  /// Cell e: returns c_e; with fe, the cell's nodal force (p_e and gamma as above).
+  double operator()(int e, const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
+                    const Eigen::MatrixXd* E, double gamma, double* fe) const {
+    Eigen::Matrix<double, npc, 2 * d> XU;  // [Xe ue]
+    for (int a = 0; a < npc; ++a) {
+      const int n = cells(e, a);
+      XU.row(a).template head<d>() = X.row(n);
+      XU.row(a).template tail<d>() = u.row(n);
+    }
+    Mat G[Discretization::kMaxPoints], JTinv[Discretization::kMaxPoints];
+    double w[Discretization::kMaxPoints];
     Mat Fbar = Mat::Zero();
     for (int k = 0; k < nq; ++k) {
-      const int q = nq * e + k;
-      G[k].noalias() = gq.middleCols<d>(d * q).transpose() * ue;
-      Fbar += wq(q) * G[k];
+      const Eigen::Matrix<double, d, 2 * d> H = dN[k].transpose() * XU;  // [J^T  dN^T ue]
+      const Mat JT = H.template leftCols<d>();
+      JTinv[k] = JT.inverse();
+      w[k] = wref[k] * JT.determinant();
+      G[k].noalias() = JTinv[k] * H.template rightCols<d>();
+      Fbar += w[k] * G[k];
     }
     Fbar /= vol(e);
     Fbar.diagonal().array() += 1.0;
@@ -239,57 +247,74 @@ void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
       const Mat Ee = E->block<d, d>(d * e, 0);
       p = (lambda->block<d, d>(d * e, 0).cwiseProduct(Ee)).sum() / (d * Ee.determinant());
     }
-    const Mat cof_bar = (d == 3 && force) ? cofactor<d>(Fbar) : Mat::Zero();
+    const Mat cof_bar = (d == 3 && fe) ? cofactor<d>(Fbar) : Mat::Zero();
+    Eigen::Map<Nodal> force(fe ? fe : nullptr);
+    if (fe) force.setZero();
     double mean_det = 0;
     for (int k = 0; k < nq; ++k) {
-      const int q = nq * e + k;
       Mat F = G[k];
       F.diagonal().array() += 1.0;
+      Mat S;
       if constexpr (d == 2) {  // the linear term cancels exactly: det and cof of delta directly
-        mean_det += wq(q) * (F - Fbar).determinant();
-        if (force) force->block<d, d>(d * q, 0) = p * cofactor<d>(F - Fbar);
+        mean_det += w[k] * (F - Fbar).determinant();
+        if (fe) S = p * cofactor<d>(F - Fbar);
       } else {
-        mean_det += wq(q) * F.determinant();
-        if (force) force->block<d, d>(d * q, 0) = p * (cofactor<d>(F) - cof_bar);
+        mean_det += w[k] * F.determinant();
+        if (fe) S = p * (cofactor<d>(F) - cof_bar);
+      }
+      if (fe) {
+        if (gamma != 0) S += gamma * (F - Fbar);
+        const Mat M = w[k] * (JTinv[k].transpose() * S);
+        force.noalias() += dN[k] * M;
       }
     }
-    if (c) (*c)(e) = d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
+    return d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
   }
-}
+};
 
-/// force(node a of cell e) += sum over the cell's points q of w_q gq_q(a, :) S_q (the transpose
-/// of the point-gradient operator applied to the point blocks S).
-template <int d>
-void scatter_points(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
-                    const Eigen::VectorXd& wq, int nq, const Eigen::MatrixXd& S,
-                    Eigen::MatrixXd& force) {
-  const int nc = static_cast<int>(cells.rows()), npc = static_cast<int>(cells.cols());
-  for (int e = 0; e < nc; ++e)
-    for (int k = 0; k < nq; ++k) {
-      const int q = nq * e + k;
-      const Eigen::Matrix<double, d, d> Sq = wq(q) * S.block<d, d>(d * q, 0);
-      for (int a = 0; a < npc; ++a)
-        force.row(cells(e, a)).noalias() += gq.block<1, d>(a, d * q) * Sq;
+/// c (when non-null) and force += the cells' nodal forces (when non-null). The cells run in
+/// parallel; the forces are summed onto the nodes block by block, in cell order, from a buffer of
+/// kBlock cells (memory per block, not per cell).
+template <int d, int npc>
+void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::MatrixXd& u,
+                      const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
+                      Eigen::VectorXd* c, Eigen::MatrixXd* force, std::vector<double>& buffer) {
+  constexpr int kBlock = 2048, kNodal = npc * d;
+  const int nc = static_cast<int>(kernel.vol.size());
+  if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
+  for (int b0 = 0; b0 < nc; b0 += kBlock) {
+    const int b1 = std::min(nc, b0 + kBlock);
+#pragma omp parallel for schedule(static)
+    for (int e = b0; e < b1; ++e) {
+      double* fe = force ? buffer.data() + static_cast<std::size_t>(e - b0) * kNodal : nullptr;
+      const double ce = kernel(e, u, lambda, E, gamma, fe);
+      if (c) (*c)(e) = ce;
     }
+    if (!force) continue;
+    for (int e = b0; e < b1; ++e) {
+      const Eigen::Map<const Eigen::Matrix<double, npc, d>> fe(
+          buffer.data() + static_cast<std::size_t>(e - b0) * kNodal);
+      for (int a = 0; a < npc; ++a) force->row(kernel.cells(e, a)) += fe.row(a);
+    }
+  }
 }
 }  // namespace
 
 void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                                  const Eigen::MatrixXd* E, Eigen::VectorXd* c,
-                                 Eigen::MatrixXd* force) const {
-  // The point gradients are recomputed per cell from the table gq_ and the cell's nodal u (no
-  // per-point buffer of them is kept: memory per cell, not speed, limits the 3-D problems).
-  const Eigen::MatrixXi& cells = problem_.mesh.cells;
-  Eigen::MatrixXd* S = force ? &Sq_ : nullptr;
+                                 Eigen::MatrixXd* force, double gamma) const {
+  // The point gradients are recomputed per cell from the nodes' positions (no per-cell or
+  // per-point table: memory per cell, not speed, limits the 3-D problems).
+  const Mesh& mesh = problem_.mesh;
   if (dim() == 2)
-    fluctuation_loop<2>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S);
+    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
+                           force, buffer_);
+  else if (mesh.nodes_per_cell() == 10)
+    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
+                            c, force, buffer_);
   else
-    fluctuation_loop<3>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S);
-  if (!force) return;
-  if (dim() == 2)
-    scatter_points<2>(cells, gq_, wq_, nq_, Sq_, *force);
-  else
-    scatter_points<3>(cells, gq_, wq_, nq_, Sq_, *force);
+    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
+                           force, buffer_);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {

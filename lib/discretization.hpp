@@ -74,9 +74,6 @@ class Discretization {
   /// i.e. plane strain with the pointwise C2 split, or C2 = 0 in 3-D).
   bool mean_det() const { return mean_det_; }
   static constexpr int kMaxPoints = 27;  ///< quadrature points per cell (mean-det), at most
-  /// L - GbarT_vol Gbar (#nodes x #nodes): the energy of the intra-cell fluctuation of grad u;
-  /// mean-det only.
-  const SpMat& fluctuation_laplacian() const { return fluctuation_laplacian_; }
   /// [(2.7), discretization.md] Mean-det incompressibility: with delta = grad u - Gbar_e u the
   /// intra-cell fluctuation, (1/|O_e|) integral det F = det(Fbar_e) + c_e(u) with
   ///   c_e = (1/|O_e|) integral det F - det(Fbar_e)   (= the mean of det(delta) in 2-D),
@@ -89,10 +86,13 @@ class Discretization {
   /// cof E : E = d det E); zero when !mean_det(). ALG2 adds it, lagged, to the right-hand side
   /// of (4.1).
   Eigen::MatrixXd fluctuation_force(const State& s) const;
-  /// The allocation-free kernel of the two above: c (#cells) and/or force (#nodes x dim, added
-  /// to, not overwritten) at u, with p_e from lambda and E when force is wanted.
+  /// The allocation-free kernel of the two above (after its first call): c (#cells) and/or
+  /// force (#nodes x dim, added to, not overwritten) at u, with p_e from lambda and E when force
+  /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
+  /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell.
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                   const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force) const;
+                   const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
+                   double gamma = 0) const;
 
   // Outputs at a state, per cell (transposed-block layout like E) or per contact point.
   /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
@@ -137,15 +137,12 @@ class Discretization {
   Eigen::MatrixXd F_dead_, Id_;
   Eigen::VectorXd vol_rows_;
   double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
-  // Mean-det: the physical gradients at the cell quadrature points, nodes_per_cell x dim per
-  // point (point q = nq_ e + k of cell e in columns dim q .. dim q + dim - 1), their weights,
-  // and the work buffer of the per-point force blocks (dim x dim per point).
+  // Mean-det: the reference rule of the cell type (the point gradients are recomputed per cell
+  // from the nodes' positions), and the work buffer of the nodal forces of a block of cells.
   bool mean_det_ = false;
   int nq_ = 0;
-  Eigen::MatrixXd gq_;
-  Eigen::VectorXd wq_;
-  SpMat fluctuation_laplacian_;
-  mutable Eigen::MatrixXd Sq_;
+  ReferenceRule rule_;
+  mutable std::vector<double> buffer_;
 };
 
 }  // namespace ltl
