@@ -8,7 +8,7 @@ RUN     := $(BUILD)/experiments
 
 .PHONY: all figures test test-petsc petsc-build test-mpi mpi-build bench-mpi sanitize bench bench-amg deps build fig3 fig4 fig5 fig6 \
         compare hertz readings reference keys format clean verify verify-fig6 peer-deps \
-        peer-reference bench-peer install paper-vs-package peel
+        peer-reference bench-peer install paper-vs-package peel oring vgroove
 
 all: figures
 
@@ -117,6 +117,14 @@ peel: build
 	@mkdir -p $(RESULTS)
 	$(RUN)/ltl_run experiments/peel/peel.toml -o $(RESULTS)/peel.h5
 	$(PYTHON) figures/ltl_results.py plot $(RESULTS)/peel.h5 -o $(RESULTS)/peel.png
+
+# Several rigid obstacles ([[contact]], paper_notes/obstacles.md): a pressurized ring between two
+# plates (experiments/oring/) and a block pressed into a V-groove (experiments/vgroove/), each
+# run, then drawn (deformed mesh, contact pressure per obstacle) from its HDF5 file.
+oring vgroove: build
+	@mkdir -p $(RESULTS)
+	$(RUN)/ltl_run experiments/$@/$@.toml -o $(RESULTS)/$@.h5
+	$(PYTHON) experiments/$@/plot_$@.py $(RESULTS)/$@.h5 $(RESULTS)/$@.png
 
 # One target per paper figure: run the driver (HDF5 in results/), then plot from the HDF5 only.
 # Figs 3 and 4 draw two readings of the paper's data: figN.png the one the readings study finds

@@ -53,6 +53,7 @@ FIELDS = {
     "contact_topology": ("mesh", "table", "1", "1"),
     "contact_centre": ("mesh", "vector", "m", "m"),
     "contact_area": ("mesh", "scalar", "m", "m^2"),
+    "contact_obstacle": ("mesh", "scalar", "1", "1"),
     "u": ("node", "vector", "m", "m"),
     "E": ("cell", "tensor", "1", "1"),
     "detF": ("cell", "scalar", "1", "1"),
@@ -87,10 +88,17 @@ class Mesh:
     (#facets, nodes per facet), and per contact point contact_centre (#points, dim) and
     contact_area (#points, its weight). The contact points are the facets (discretization.contact
     = "facet-mean") or, when contact_nodes (#points, mesh node of each) is not None, the nodes of
-    the contact surface (the default, "nodal")."""
+    the contact surface (the default, "nodal").
+
+    Several obstacles ([[contact]], paper_notes/obstacles.md): the contact points (and facets)
+    of every obstacle one after the other, contact_obstacle (#points) the obstacle of each (all
+    zeros with one obstacle, whose file has no such dataset); obstacles() is their number and
+    obstacle_points(k) the indices of obstacle k's points, which slice every per-point field
+    (e, lambda_c, beta, contact_pressure, gap, in_contact)."""
 
     def __init__(self, X, cells, cell_volume, contact_facets=None, contact_centre=None,
-                 contact_area=None, cell_type="", contact_boundary="", contact_nodes=None):
+                 contact_area=None, cell_type="", contact_boundary="", contact_nodes=None,
+                 contact_obstacle=None):
         self.X = X
         self.cells = cells
         self.cell_volume = cell_volume
@@ -100,10 +108,28 @@ class Mesh:
         self.cell_type = cell_type
         self.contact_boundary = contact_boundary
         self.contact_nodes = contact_nodes
+        n_points = 0 if contact_area is None else len(contact_area)
+        if contact_nodes is not None:
+            n_points = len(contact_nodes)
+        elif contact_facets is not None and contact_area is None:
+            n_points = len(contact_facets)
+        self.contact_obstacle = (np.asarray(contact_obstacle, dtype=int)
+                                 if contact_obstacle is not None
+                                 else np.zeros(n_points, dtype=int))
 
     @property
     def dim(self):
         return self.X.shape[1]
+
+    def obstacles(self):
+        """The number of obstacles: 0 without contact, 1 for a [contact] table."""
+        if self.contact_facets is None:
+            return 0
+        return int(self.contact_obstacle.max()) + 1 if len(self.contact_obstacle) else 1
+
+    def obstacle_points(self, k):
+        """The indices of the contact points of obstacle k (consecutive)."""
+        return np.flatnonzero(self.contact_obstacle == k)
 
 
 EQUILIBRIUM = ("force_residual", "det_error", "penetration", "det_min")
@@ -265,7 +291,8 @@ def _load(path, f, fields):
                 contact_facets=get("contact_facets"), contact_centre=get("contact_centre"),
                 contact_area=get("contact_area"), cell_type=_value(m.attrs.get("cell_type", "")),
                 contact_boundary=_value(m["contact_facets"].attrs.get("boundary", ""))
-                if "contact_facets" in m else "", contact_nodes=get("contact_nodes"))
+                if "contact_facets" in m else "", contact_nodes=get("contact_nodes"),
+                contact_obstacle=get("contact_obstacle"))
     steps = _read_steps(f["steps"], fields, mesh.dim)
     unconverged = _read_steps(f["unconverged"], fields, mesh.dim) if "unconverged" in f else []
     return Results(path, _attrs(f), mesh, steps, unconverged)

@@ -94,17 +94,21 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
   // section8.md), and there through e (e . N <= g), which u meets up to the constraint residual
   // ubar - e of the converged iterate: there the contact points are checked, each with that
   // residual allowed; every other node is checked against the plane.
-  if (pb.contact) {
-    const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
-    const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
+  // Several obstacles: every node against every plane, each obstacle's points against its own.
+  double worst_excess = -std::numeric_limits<double>::infinity();
+  std::string worst;
+  for (int k = 0; k < static_cast<int>(pb.contacts.size()); ++k) {
+    const ContactCondition& cc = pb.contacts[k];
+    const Eigen::VectorXd N = cc.plane_normal.head(dim);
+    const Eigen::VectorXd p0 = cc.plane_point.head(dim);
     r.inside_tol = kInsideTolerance * r.h;
     std::vector<char> on_surface(nn, 0);
     const ContactPoints* pts = d.points();
     const bool points = pts && s.e.rows() == pts->size();
+    const int r0 = points && !pts->offset.empty() ? pts->offset[k] : 0;
+    const int r1 = points && !pts->offset.empty() ? pts->offset[k + 1] : points ? pts->size() : 0;
     if (points)
-      for (int n : mesh.boundary_nodes(pb.contact->group)) on_surface[n] = 1;
-    double worst_excess = -std::numeric_limits<double>::infinity();
-    std::string worst;
+      for (int n : mesh.boundary_nodes(cc.group)) on_surface[n] = 1;
     // A point inside beyond its tolerance: counted, and described if it is the deepest so far.
     const auto record = [&](double depth, double tol, const auto& where) {
       if (depth <= tol) return;
@@ -123,7 +127,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
     if (points) {
       const Eigen::MatrixXd xbar = pts->mean * x, ubar = pts->mean * s.u;  // #points x dim
       const bool nodal = !pts->nodes.empty();
-      for (int i = 0; i < pts->size(); ++i) {
+      for (int i = r0; i < r1; ++i) {
         const double depth = (xbar.row(i).transpose() - p0).dot(N);
         const double residual = std::abs((ubar.row(i) - s.e.row(i)).dot(N));
         record(depth, r.inside_tol + (std::isfinite(residual) ? residual : 0.0), [&] {
@@ -137,9 +141,12 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
         });
       }
     }
+  }
+  if (!pb.contacts.empty()) {
     if (r.nodes_inside > 0) {
-      r.failures.push_back(cat(r.nodes_inside, " points of the body are inside the obstacle ",
-                               "((x - p0) . N > ", r.inside_tol, " m); the deepest is ", worst));
+      r.failures.push_back(cat(r.nodes_inside, " points of the body are inside the obstacle",
+                               pb.contacts.size() > 1 ? "s" : "", " ((x - p0) . N > ", r.inside_tol,
+                               " m); the deepest is ", worst));
       r.remedies.push_back(
           "the body went through the obstacle (the unilateral condition (1.1) holds on the "
           "contact surface only, and a dead load admits equilibria turned through the plane): "
@@ -219,16 +226,21 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
 
   // 4. Contact: no tension where there is no glue, 0 <= beta <= 1.
   if (const ContactPoints* pts = d.points();
-      pb.contact && pts && pts->size() > 0 && s.lambda_c.rows() == pts->size()) {
+      !pb.contacts.empty() && pts && pts->size() > 0 && s.lambda_c.rows() == pts->size()) {
     const Eigen::VectorXd p = d.contact_pressure(s);
-    const double kappa = pb.contact->adhesion.kappa;
+    // The glue of each point's obstacle.
+    Eigen::VectorXd kappa_of =
+        Eigen::VectorXd::Constant(pts->size(), pb.contacts[0].adhesion.kappa);
+    for (int k = 0; k + 1 < static_cast<int>(pts->offset.size()); ++k)
+      kappa_of.segment(pts->offset[k], pts->offset[k + 1] - pts->offset[k])
+          .setConstant(pb.contacts[k].adhesion.kappa);
     const bool has_beta = s.beta.size() == pts->size();
     const double load = d.dead_load().cwiseAbs().maxCoeff();
     const double p_ref =
         std::max({p.cwiseAbs().maxCoeff(), load / pts->area.minCoeff(), 1e-3 * d.split().C1});
     r.pressure_tol = kPressureTolerance * p_ref;
     for (int i = 0; i < pts->size(); ++i) {
-      const bool glued = kappa > 0 && has_beta && s.beta(i) > kBetaTolerance;
+      const bool glued = kappa_of(i) > 0 && has_beta && s.beta(i) > kBetaTolerance;
       if (glued) continue;
       if (p(i) < r.pressure_min || (std::isnan(p(i)) && !std::isnan(r.pressure_min)))
         r.pressure_min = p(i), r.pressure_point = i;

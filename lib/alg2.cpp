@@ -65,14 +65,15 @@ void Solver::precompute(double R) {
   const double Rq = R * a.q, Rqc = R * a.q_c;
   R_ = R;
   gamma_ = disc_.mean_det() ? 2 * Rq : 0.0;
-  const SpMat K =
+  SpMat K =
       global_matrix(disc_.cells(), disc_.points(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
   // a substep's value scale, kept
   const double scale = global_ ? global_->value_scale() : dist_ ? distributed_value_scale() : 1.0;
   global_.reset();  // release the old factor before the new one is computed
   if (!dist_ || !distributed_global_step(K, scale)) {  // the distributed KSP (alg2_mpi.cpp)
-    global_ =
-        std::make_unique<GlobalStep>(K, disc_.dirichlet(), a.global_solver, &problem().mesh.X);
+    // K is consumed by the global step (freed before the factorization / AMG setup's peak).
+    global_ = std::make_unique<GlobalStep>(std::move(K), disc_.dirichlet(), a.global_solver,
+                                           &problem().mesh.X);
     global_->set_value_scale(scale);
   }
   ++factorizations_;
@@ -81,9 +82,12 @@ void Solver::precompute(double R) {
     if (contact_) {
       contact_->set_Rqc(Rqc);  // the adhesion kernel does not depend on R
     } else {
-      Adhesion adhesion = problem().contact->adhesion;
-      adhesion.dt = problem().time.dt;
-      contact_ = std::make_unique<ContactStep>(*disc_.points(), adhesion, Rqc);
+      std::vector<Adhesion> adhesion;  // each obstacle's glue, with the time step
+      for (const ContactCondition& cc : problem().contacts) {
+        adhesion.push_back(cc.adhesion);
+        adhesion.back().dt = problem().time.dt;
+      }
+      contact_ = std::make_unique<ContactSteps>(disc_.obstacle_points(), adhesion, Rqc);
     }
   }
 }
@@ -97,7 +101,10 @@ State Solver::initial_state() const {
   s.lambda = 2 * disc_.split().C1 * disc_.identity();
   s.e = Eigen::MatrixXd::Zero(n_points, dim);
   s.lambda_c = Eigen::MatrixXd::Zero(n_points, dim);
-  s.beta = Eigen::VectorXd::Constant(n_points, problem().contact ? problem().contact->beta0 : 0.0);
+  s.beta = Eigen::VectorXd::Zero(n_points);
+  for (int k = 0; k < disc_.num_obstacles(); ++k)  // each obstacle's beta_0 on its points
+    s.beta.segment(disc_.points()->offset[k], disc_.obstacle_points()[k].size())
+        .setConstant(problem().contacts[k].beta0);
   return s;
 }
 
@@ -115,10 +122,8 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   T_ = Rq * (s.E - disc_.identity()) + s.lambda - 2 * disc_.split().C1 * disc_.identity();
   rhs_.noalias() = cells.GbarT_vol * T_;
   rhs_ += F_ext_;
-  if (disc_.mean_det()) {  // the pressure's work on the fluctuations, lagged
-    rhs_.noalias() += gamma_ * (disc_.fluctuation_laplacian() * s.u);
-    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_);
-  }
+  if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, lagged
+    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_);
   if (points) rhs_.noalias() += points->meanT_area * (R_ * a.q_c * s.e + s.lambda_c);
   global_->solve(rhs_, s.u);
 
@@ -427,7 +432,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
         break;
       ++report.newton_attempts;
       if (contact_) newton_->set_glue(*contact_, beta_prev);
-      const bool glued = contact_ && contact_->adhesion().glued();
+      const bool glued = contact_ && contact_->glued();
       const State before = glued ? s : State();
       Newton::Result r = newton_->solve(s, F_ext_, a, report, progress);
       if (r.converged && glued && !local_contact_step_holds(s, beta_prev)) {

@@ -23,11 +23,11 @@
 #include <vector>
 
 #include "adaptive_r.hpp"
-#include "contact_step.hpp"
 #include "discretization.hpp"
 #include "fe.hpp"
 #include "global_step.hpp"
 #include "newton.hpp"
+#include "obstacles.hpp"
 #include "problem.hpp"
 #include "state.hpp"
 #include "strain_step.hpp"
@@ -204,10 +204,10 @@ class Solver {
   AdaptiveR adaptive_R_{alg()};  ///< algorithm.adaptive_R (adaptive_r.hpp)
   std::unique_ptr<GlobalStep> global_;
   std::unique_ptr<StrainStep> strain_;
-  std::unique_ptr<ContactStep> contact_;
-  std::unique_ptr<Newton> newton_;  ///< algorithm.solver = "newton" (newton.hpp)
-  double gamma_ = 0;                ///< mean-det's proximal stiffness on the fluctuations, 2 R q
-  Eigen::MatrixXd F_ext_;           ///< #nodes x dim, load_factor_ x the dead loads f, g
+  std::unique_ptr<ContactSteps> contact_;  ///< one local contact step (4.7) per obstacle
+  std::unique_ptr<Newton> newton_;         ///< algorithm.solver = "newton" (newton.hpp)
+  double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q
+  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;
   double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers

@@ -32,9 +32,8 @@ struct Solver::Distribution {
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  SpMatR GbarT_own;   ///< #nodes x dim #owned cells: the owned columns of GbarT_vol
-  SpMatR meanT_own;   ///< #nodes x #owned points: the owned columns of meanT_area
-  SpMatR fluct_rows;  ///< the owned node rows of the fluctuation Laplacian (mean-det)
+  SpMatR GbarT_own;  ///< #nodes x dim #owned cells: the owned columns of GbarT_vol
+  SpMatR meanT_own;  ///< #nodes x #owned points: the owned columns of meanT_area
   std::unique_ptr<DistributedGlobalStep> ksp;
   double scale = 1;
 };
@@ -63,7 +62,10 @@ void Solver::distribute() {
   d.c0 = d.cells[me], d.c1 = d.cells[me + 1];
   d.p0 = d.points[me], d.p1 = d.points[me + 1];
   d.n0 = d.nodes[me], d.n1 = d.nodes[me + 1];
-  d.contact_replicated = points && problem().contact->adhesion.d0 > 0;
+  d.contact_replicated = false;
+  if (points)
+    for (const ContactCondition& c : problem().contacts)
+      d.contact_replicated = d.contact_replicated || c.adhesion.d0 > 0;
   // The global solver: algorithm.global_solver = "cg-amg" the distributed CG + GAMG, else (left
   // out, or "cholesky") MUMPS's distributed Cholesky factorization; the PETSc option
   // -ltl_mpi_replicated: the serial factor on every rank.
@@ -72,7 +74,6 @@ void Solver::distribute() {
                                                             : DistributedGlobalStep::Solver::Mumps;
   d.GbarT_own = disc_.cells().GbarT_vol.middleCols(dim * d.c0, dim * (d.c1 - d.c0));
   if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
-  if (disc_.mean_det()) d.fluct_rows = disc_.fluctuation_laplacian().middleRows(d.n0, d.n1 - d.n0);
 }
 
 Solver::Range Solver::cell_range() const {
@@ -149,10 +150,8 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
                           s.lambda.middleRows(r0, nr) - 2 * disc_.split().C1 * I.middleRows(r0, nr);
   rhs_.noalias() = d.GbarT_own * T_.middleRows(r0, nr);
   if (mpi::rank() == 0) rhs_ += F_ext_;
-  if (disc_.mean_det()) {
-    rhs_.middleRows(d.n0, d.n1 - d.n0).noalias() += gamma_ * (d.fluct_rows * s.u);
-    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, d.c0, d.c1);
-  }
+  if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
+    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, d.c0, d.c1);
   if (points) {
     const int np = d.p1 - d.p0;
     rhs_.noalias() +=
@@ -166,7 +165,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
 
   g.GU.middleRows(r0, nr).noalias() = disc_.cells().Gbar.middleRows(r0, nr) * s.u;
   if (disc_.mean_det()) {
-    disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, d.c0, d.c1);
+    disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, d.c0, d.c1);
     g.J.segment(d.c0, d.c1 - d.c0) = 1.0 - g.J.segment(d.c0, d.c1 - d.c0).array();
   }
   if (points) {
@@ -181,21 +180,26 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
 // ubar_s - lambda_c_s, aa = 0, b = w).
 void Solver::contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c, State& s) const {
   const ContactPoints& points = *disc_.points();
-  const Adhesion& ad = contact_->adhesion();
   const int dim = this->dim();
   const double Rqc = R_ * alg().q_c;
-  Eigen::Vector3d N = Eigen::Vector3d::Zero();
-  N.head(dim) = contact_->normal();
   const Range pr = point_range();
-  for (int sweep = 0; sweep < alg().contact_sweeps; ++sweep)
-    for (int p = pr.first; p < pr.end; ++p) {
-      Eigen::Vector3d av = Eigen::Vector3d::Zero();
-      av.head(dim) = (Rqc * g.ubar.row(p) - lambda_c.row(p)).transpose();
-      const PointSolution sol =
-          ContactStep::solve_point(av, 0.0, ad.w, Rqc, ad.kappa, N, points.gap(p), dim, s.beta(p));
-      s.e.row(p) = sol.e.head(dim).transpose();
-      s.beta(p) = sol.beta;
-    }
+  for (int k = 0; k < contact_->size(); ++k) {  // each obstacle on its own rows (obstacles.hpp)
+    const ContactStep& step = (*contact_)[k];
+    const Adhesion& ad = step.adhesion();
+    Eigen::Vector3d N = Eigen::Vector3d::Zero();
+    N.head(dim) = step.normal();
+    const int first = std::max(pr.first, contact_->offset(k));
+    const int end = std::min(pr.end, contact_->offset(k + 1));
+    for (int sweep = 0; sweep < alg().contact_sweeps; ++sweep)
+      for (int p = first; p < end; ++p) {
+        Eigen::Vector3d av = Eigen::Vector3d::Zero();
+        av.head(dim) = (Rqc * g.ubar.row(p) - lambda_c.row(p)).transpose();
+        const PointSolution sol = ContactStep::solve_point(av, 0.0, ad.w, Rqc, ad.kappa, N,
+                                                           points.gap(p), dim, s.beta(p));
+        s.e.row(p) = sol.e.head(dim).transpose();
+        s.beta(p) = sol.beta;
+      }
+  }
 }
 
 void Solver::make_whole(State& s) const {

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <type_traits>
+#include <vector>
 
 #include "error.hpp"
 
@@ -26,7 +28,9 @@ bool CgAmg::available() {
 
 struct CgAmg::Impl {};
 
-CgAmg::CgAmg(const SpMat& A, const Eigen::MatrixXd&, const std::string& what)
+CgAmg::CgAmg(const SpMat& A, const Eigen::MatrixXd& X, const std::string& what)
+    : CgAmg(SpMatR(A), X, what) {}
+CgAmg::CgAmg(SpMatR&& A, const Eigen::MatrixXd&, const std::string& what)
     : n_(static_cast<int>(A.rows())) {
   throw Error(cat(what, ": algorithm.global_solver = \"cg-amg\" needs PETSc, and this build has ",
                   "none: install it (Debian: apt-get install petsc-dev, or `make test-petsc`) and ",
@@ -74,6 +78,8 @@ double nonzeros(Mat M) {
 
 struct CgAmg::Impl {
   std::string what;
+  SpMatR csr;                        ///< the matrix's arrays, PETSc's A in place
+  std::vector<PetscInt> rows, cols;  ///< their indices as PetscInt, when it is not int
   Mat A = nullptr;
   KSP ksp = nullptr;
   Vec b = nullptr, x = nullptr, r = nullptr;
@@ -87,20 +93,31 @@ struct CgAmg::Impl {
 };
 
 CgAmg::CgAmg(const SpMat& K, const Eigen::MatrixXd& X, const std::string& what)
+    : CgAmg(SpMatR(K), X, what) {}
+
+CgAmg::CgAmg(SpMatR&& K, const Eigen::MatrixXd& X, const std::string& what)
     : impl_(std::make_unique<Impl>()), n_(static_cast<int>(K.rows())) {
   const auto t0 = std::chrono::steady_clock::now();
   initialize_petsc();
   Impl& m = *impl_;
   m.what = what;
   if (X.rows() != n_) throw Error(cat(what, ": ", X.rows(), " coordinates for ", n_, " rows"));
-  {  // the matrix, copied into PETSc's CSR (the Eigen copy is freed at the end of the block)
-    Eigen::SparseMatrix<double, Eigen::RowMajor, PetscInt> R = K;
-    R.makeCompressed();
-    check(MatCreate(PETSC_COMM_SELF, &m.A), what, "MatCreate");
-    check(MatSetSizes(m.A, n_, n_, n_, n_), what, "MatSetSizes");
-    check(MatSetType(m.A, MATSEQAIJ), what, "MatSetType");
-    check(MatSeqAIJSetPreallocationCSR(m.A, R.outerIndexPtr(), R.innerIndexPtr(), R.valuePtr()),
-          what, "MatSeqAIJSetPreallocationCSR");
+  {  // the matrix: PETSc's AIJ on K's own compressed rows (kept in m.csr), no copy of the values
+    static_assert(std::is_same<PetscScalar, double>::value, "a real PETSc build is needed");
+    m.csr.swap(K);
+    m.csr.makeCompressed();
+    PetscInt *rows = nullptr, *cols = nullptr;
+    if constexpr (std::is_same<PetscInt, SpMatR::StorageIndex>::value) {
+      rows = m.csr.outerIndexPtr();
+      cols = m.csr.innerIndexPtr();
+    } else {
+      m.rows.assign(m.csr.outerIndexPtr(), m.csr.outerIndexPtr() + n_ + 1);
+      m.cols.assign(m.csr.innerIndexPtr(), m.csr.innerIndexPtr() + m.csr.nonZeros());
+      rows = m.rows.data();
+      cols = m.cols.data();
+    }
+    check(MatCreateSeqAIJWithArrays(PETSC_COMM_SELF, n_, n_, rows, cols, m.csr.valuePtr(), &m.A),
+          what, "MatCreateSeqAIJWithArrays");
     check(MatSetOption(m.A, MAT_SPD, PETSC_TRUE), what, "MatSetOption");
   }
   {  // the near-null space: the constants and the centred coordinates, orthonormalized (the

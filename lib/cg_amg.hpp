@@ -44,6 +44,9 @@ class CgAmg {
   /// the near-null space of the coordinates X (#rows x dim; the rows' nodes). `what` names the
   /// matrix in errors. Throws Error without PETSc or when PETSc fails.
   CgAmg(const SpMat& A, const Eigen::MatrixXd& X, const std::string& what);
+  /// The same from A in compressed rows, consumed: PETSc's matrix is A's own arrays
+  /// (MatCreateSeqAIJWithArrays, no copy), held until destruction.
+  CgAmg(SpMatR&& A, const Eigen::MatrixXd& X, const std::string& what);
   ~CgAmg();
   CgAmg(const CgAmg&) = delete;
   CgAmg& operator=(const CgAmg&) = delete;

@@ -90,7 +90,10 @@ void read_section(const Section& sec, const Reader& t, Problem& p, int i) {
   if (sec.done) sec.done(t, p);
   for (const Section* c : children) {
     const std::string name = last_of(c->path);
-    if (c->array) {
+    if (c->array && c->one_table && t.node(name) && t.node(name)->is_table()) {
+      c->add(p, t.key(name));  // one [contact] table: the list of one, named "contact"
+      read_section(*c, t.sub(name), p, c->count(p) - 1);
+    } else if (c->array) {
       int j = 0;
       for (const Reader& sub : t.subs(name)) {
         c->add(p, cat(t.key(name), "[", j++, "]"));
@@ -102,6 +105,30 @@ void read_section(const Section& sec, const Reader& t, Problem& p, int i) {
       read_section(*c, sub, p, 0);
     }
   }
+}
+
+/// `[contact]` (one obstacle) and `[[contact]]` (a list of obstacles) are two forms of one key:
+/// refused together, naming both lines, before toml++ reports a redefined table.
+void check_one_contact_form(const std::string& text, const std::string& path) {
+  int table = 0, array = 0, line = 1;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find('\n', start), text.size());
+    std::string l = text.substr(start, end - start);
+    l.erase(std::remove_if(l.begin(), l.end(), [](char c) { return c == ' ' || c == '\t'; }),
+            l.end());
+    if (l.rfind("[[contact]]", 0) == 0 && !array) array = line;
+    if (l.rfind("[contact]", 0) == 0 && !table) table = line;
+    start = end + 1;
+    ++line;
+  }
+  if (table && array)
+    throw Error(cat(path, ":", array,
+                    ": key 'contact': [[contact]] (a list of obstacles) and "
+                    "[contact] (line ",
+                    table,
+                    ", one obstacle) both given: write one "
+                    "[contact] table or a [[contact]] table per obstacle, not both"));
 }
 
 }  // namespace
@@ -118,6 +145,7 @@ Problem load_problem(const std::string& path, const std::vector<std::string>& ov
   try {
     const std::string text = read_text(path);
     check_key_depth(text, path);
+    check_one_contact_form(text, path);
     root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     throw Error(cat(path, ":", e.source().begin.line, ":", e.source().begin.column,
@@ -187,8 +215,8 @@ std::string resolved_configuration(const Problem& p) {
         lines << "\n";
       }
       if (lines.str().empty() && !sec.array) continue;  // e.g. [output], left out
-      if (!sec.path.empty())
-        o << (sec.array ? "\n[[" : "\n[") << sec.path << (sec.array ? "]]\n" : "]\n");
+      const bool array = sec.array && !(sec.one_table && n == 1);
+      if (!sec.path.empty()) o << (array ? "\n[[" : "\n[") << sec.path << (array ? "]]\n" : "]\n");
       o << lines.str();
     }
   }

@@ -130,12 +130,13 @@ Schema build() {
          p.tractions.push_back({"", {}, origin + ".group"});
        },
        nullptr},
-      {"contact", false, false, [](const Problem& p) { return p.contact ? 1 : 0; },
-       [](Problem& p, const std::string&) {
-         p.contact.emplace();
-         p.contact->origin = "contact.group";
+      // [[contact]]: the obstacles; one [contact] table is the list of one (one_table).
+      {"contact", true, false, [](const Problem& p) { return static_cast<int>(p.contacts.size()); },
+       [](Problem& p, const std::string& origin) {
+         p.contacts.emplace_back();
+         p.contacts.back().origin = origin;
        },
-       nullptr},
+       nullptr, true},
       {"algorithm", false, false, one, nullptr, nullptr},
       {"discretization", false, false, one, nullptr, nullptr},
       {"time", false, false, one, nullptr, nullptr},
@@ -252,24 +253,24 @@ Schema build() {
   };
   factor.k.default_doc = "required with table";
   Row eps = row("contact", "eps", "quantity", "1");
-  eps.k.read = [](const Reader& c, Problem& p, int) {
+  eps.k.read = [](const Reader& c, Problem& p, int i) {
     if (!c.has("eps")) return;
     if (c.has("kappa")) c.fail("eps", "give either kappa (= 1/eps) or eps");
     const double e = c.quantity("eps", "1");
     if (!(e > 0)) c.fail("eps", cat("= ", e, ": must be > 0 (use kappa = 0 for no glue)"));
-    p.contact->adhesion.kappa = 1 / e;
+    p.contacts[i].adhesion.kappa = 1 / e;
   };
   eps.k.write = [](const Problem&, int) { return std::string(); };  // written as kappa
   eps.k.range = "> 0";
   eps.k.default_doc = "none";
   Row normal = vector(
-      "contact", "plane_normal", "1", [](Problem& p, int) -> V& { return p.contact->plane_normal; },
-      Required);
+      "contact", "plane_normal", "1",
+      [](Problem& p, int i) -> V& { return p.contacts[i].plane_normal; }, Required);
   const auto read_normal = normal.k.read;
   normal.k.read = [read_normal](const Reader& c, Problem& p, int i) {
     read_normal(c, p, i);
-    if (p.contact->plane_normal.norm() == 0) c.fail("plane_normal", "must not be zero");
-    p.contact->plane_normal.normalize();
+    if (p.contacts[i].plane_normal.norm() == 0) c.fail("plane_normal", "must not be zero");
+    p.contacts[i].plane_normal.normalize();
   };
   Row rho = number("algorithm", "rho", [](Problem& p, int) -> double& { return p.algorithm.rho; });
   rho.k.read = [](const Reader& a, Problem& p, int) {
@@ -291,7 +292,7 @@ Schema build() {
   output.k.default_doc = "`results/<name>.h5`";
 
   const auto A = [](Problem& p) -> AlgorithmParams& { return p.algorithm; };
-  const auto adhesion = [](Problem& p) -> Adhesion& { return p.contact->adhesion; };
+  const auto adhesion = [](Problem& p, int i) -> Adhesion& { return p.contacts[i].adhesion; };
   s.keys = {
       name.doc("experiment name (default results file `results/<name>.h5`); a plain file name "
                "(no `/`, not `..`)"),
@@ -406,34 +407,35 @@ Schema build() {
           .by_default("0")
           .doc("its gradient"),
       string(
-          "contact", "group", [](Problem& p, int) -> std::string& { return p.contact->group; },
+          "contact", "group", [](Problem& p, int i) -> std::string& { return p.contacts[i].group; },
           Required)
           .doc("Gamma_c, the boundary group in contact with / glued to the rigid plane (no "
-               "`[contact]`: no contact)"),
+               "`[contact]`: no contact). Several obstacles: `[[contact]]`, one table per "
+               "plane, each with its own group and glue (paper_notes/obstacles.md)"),
       vector(
           "contact", "plane_point", "m",
-          [](Problem& p, int) -> V& { return p.contact->plane_point; }, Required)
+          [](Problem& p, int i) -> V& { return p.contacts[i].plane_point; }, Required)
           .doc("a point of the rigid plane"),
       normal.range("not zero")
           .doc("the normal of the rigid plane, pointing INTO the obstacle (away from the body); "
                "normalized"),
-      number("contact", "beta0", [](Problem& p, int) -> double& { return p.contact->beta0; })
+      number("contact", "beta0", [](Problem& p, int i) -> double& { return p.contacts[i].beta0; })
           .range("0 ... 1")
           .doc("initial adhesion intensity"),
       quantity("contact", "w", "J/m^2",
-               [adhesion](Problem& p, int) -> double& { return adhesion(p).w; })
+               [adhesion](Problem& p, int i) -> double& { return adhesion(p, i).w; })
           .doc("Dupre energy"),
       quantity("contact", "kappa", "Pa/m",
-               [adhesion](Problem& p, int) -> double& { return adhesion(p).kappa; })
+               [adhesion](Problem& p, int i) -> double& { return adhesion(p, i).kappa; })
           .range(">= 0")
           .doc("glue stiffness `kappa = 1/eps`; 0: no glue"),
       eps.doc("`1/kappa`, instead of kappa (the resolved configuration writes kappa)"),
       quantity("contact", "d0", "1/m",
-               [adhesion](Problem& p, int) -> double& { return adhesion(p).d0; })
+               [adhesion](Problem& p, int i) -> double& { return adhesion(p, i).d0; })
           .doc("dissipation kernel `d(y) = d0 exp(-d0 |y|)`; 0: none"),
       choice<bool>(
           "contact", "kernel", {{"centre", false}, {"exact", true}},
-          [adhesion](Problem& p, int) -> bool& { return adhesion(p).exact_kernel; },
+          [adhesion](Problem& p, int i) -> bool& { return adhesion(p, i).exact_kernel; },
           "expected \"centre\" (the paper's rule) or \"exact\"")
           .doc("`\"centre\"` (the paper's centre-point rule (6.4)-(6.5)) or `\"exact\"` (exact "
                "integral over the facets)"),
@@ -615,7 +617,11 @@ std::string key_table_markdown() {
     const bool array = std::any_of(s.sections.begin(), s.sections.end(), [&](const Section& x) {
       return x.path == k.section && x.array;
     });
+    const bool one_table = std::any_of(s.sections.begin(), s.sections.end(), [&](const Section& x) {
+      return x.path == k.section && x.one_table;
+    });
     const std::string key = k.section.empty() ? k.name
+                            : one_table       ? cat("[", k.section, "] ", k.name)
                             : array           ? cat("[[", k.section, "]] ", k.name)
                                               : cat("[", k.section, "] ", k.name);
     std::string def = k.default_doc;

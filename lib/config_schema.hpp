@@ -65,6 +65,10 @@ struct Section {
   std::function<void(Problem&, const std::string& origin)> add;
   /// After the table's keys are read (e.g. [mesh]: load the mesh, which gives dim).
   std::function<void(const Reader& r, Problem& p)> done;
+  /// An array that also accepts one plain table `[path]` for a list of one element, named
+  /// `path` in messages (not `path[0]`), and written back as `[path]` when it has one element:
+  /// `[contact]` (the paper's one obstacle) or `[[contact]]` (several, paper_notes/obstacles.md).
+  bool one_table = false;
 };
 
 struct Schema {

@@ -31,8 +31,19 @@ struct ContactPoints {
   /// Nodal points only: the mesh node of each point; empty for facet-mean points.
   std::vector<int> nodes;
   Eigen::VectorXd gap;  ///< #points, initial gap g_s = (p0 - x_s) . N to the obstacle plane
-  Eigen::VectorXd N;    ///< dim, unit normal of the obstacle plane, pointing into it
+  /// dim, unit normal of the obstacle plane, pointing into it. The points of several obstacles
+  /// (Discretization::points()) have no one normal: empty there, read `normals`.
+  Eigen::VectorXd N;
+  /// #points x dim: row s is the unit normal N_k of the obstacle k of point s (every row N for
+  /// the points of one obstacle). The constraint of point s is N_k . e_s <= g_s (4.11).
+  Eigen::MatrixXd normals;
+  /// The points of obstacle k are rows offset[k] .. offset[k + 1] - 1 ({0, #points} for one
+  /// obstacle): the points of several obstacles are those of each, one after the other, so that
+  /// a node of two obstacles' groups is two points, one per plane (paper_notes/obstacles.md).
+  std::vector<int> offset;
   int size() const { return static_cast<int>(area.size()); }
+  /// The number of obstacles whose points these are (1 for the points of one obstacle).
+  int obstacles() const { return offset.empty() ? 1 : static_cast<int>(offset.size()) - 1; }
 };
 
 }  // namespace ltl

@@ -285,16 +285,16 @@ double ContactStep::kernel_bytes() const {
 
 /// sum over s' of k_ss' (beta_s' - beta_prev_s'): row s of k is column s of kt.
 static double kernel_row_dot(const Eigen::SparseMatrix<double>& kt, int s,
-                             const Eigen::VectorXd& beta, const Eigen::VectorXd& beta_prev) {
+                             const Eigen::Ref<const Eigen::VectorXd>& beta,
+                             const Eigen::Ref<const Eigen::VectorXd>& beta_prev) {
   double sum = 0.0;
   for (Eigen::SparseMatrix<double>::InnerIterator it(kt, s); it; ++it)
     sum += it.value() * (beta(it.row()) - beta_prev(it.row()));
   return sum;
 }
 
-void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
-                        const Eigen::VectorXd& beta_prev, Eigen::MatrixXd& e, Eigen::VectorXd& beta,
-                        int sweeps) const {
+void ContactStep::solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev, MatRef e,
+                        VecRef beta, int sweeps) const {
   const int n = points_->size(), dim = points_->dim;
   if (ubar.rows() != n || ubar.cols() != dim || lambda_c.rows() != n || lambda_c.cols() != dim ||
       e.rows() != n || e.cols() != dim || beta_prev.size() != n || beta.size() != n)
@@ -323,8 +323,7 @@ void ContactStep::solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lamb
   }
 }
 
-double ContactStep::energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta,
-                           const Eigen::VectorXd& beta_prev) const {
+double ContactStep::energy(ConstMatRef e, ConstVecRef beta, ConstVecRef beta_prev) const {
   const int n = points_->size(), dim = points_->dim;
   if (e.rows() != n || e.cols() != dim || beta.size() != n || beta_prev.size() != n)
     fail("energy(): e must be #points x dim and beta, beta_prev #points");
@@ -345,9 +344,8 @@ double ContactStep::energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta
   return E;
 }
 
-double ContactStep::local_objective(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
-                                    const Eigen::VectorXd& beta_prev, const Eigen::MatrixXd& e,
-                                    const Eigen::VectorXd& beta) const {
+double ContactStep::local_objective(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev,
+                                    ConstMatRef e, ConstVecRef beta) const {
   const int n = points_->size(), dim = points_->dim;
   if (ubar.rows() != n || ubar.cols() != dim || lambda_c.rows() != n || lambda_c.cols() != dim)
     fail("local_objective(): ubar and lambda_c must be #points x dim");

@@ -36,6 +36,13 @@
 
 namespace ltl {
 
+/// The per-point arrays of the local step, as whole matrices or as the rows of one obstacle in
+/// the points of several (Discretization::points(), ContactPoints::offset): no copy.
+using ConstMatRef = const Eigen::Ref<const Eigen::MatrixXd>&;
+using MatRef = Eigen::Ref<Eigen::MatrixXd>;
+using ConstVecRef = const Eigen::Ref<const Eigen::VectorXd>&;
+using VecRef = Eigen::Ref<Eigen::VectorXd>;
+
 /// Result of one point problem (6.1).
 struct PointSolution {
   Eigen::Vector3d e = Eigen::Vector3d::Zero();  ///< only the first dim entries are used
@@ -83,23 +90,20 @@ class ContactStep {
   ///   beta_prev: #points, beta at the previous time step (beta_{p-1})
   ///   e, beta:   in: current iterate, out: updated.
   /// Allocation-free. O(nnz(k)) per sweep: O(#points x neighbours within the cutoff).
-  void solve(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
-             const Eigen::VectorXd& beta_prev, Eigen::MatrixXd& e, Eigen::VectorXd& beta,
+  void solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev, MatRef e, VecRef beta,
              int sweeps = 1) const;
 
   /// The adhesion part of J_p (2.2) on the discrete surface, for given e, beta:
   ///   sum_s |G_s| [ (kappa/2) beta_s^2 |e_s|^2 - w beta_s ]
   ///   + (1/(2 dt)) sum_s sum_s' |G_s| k_ss' (beta_s - beta_prev_s)(beta_s' - beta_prev_s')
   /// (+inf if some beta is outside [0,1] or some e violates e.N <= g beyond round-off).
-  double energy(const Eigen::MatrixXd& e, const Eigen::VectorXd& beta,
-                const Eigen::VectorXd& beta_prev) const;
+  double energy(ConstMatRef e, ConstVecRef beta, ConstVecRef beta_prev) const;
 
   /// [LTL87 (4.7), (4.10)] The whole functional minimized by the local step:
   ///   sum_s |G_s| [ (Rqc/2)|e_s|^2 - a_s.e_s ] + energy(e, beta, beta_prev),
   /// a_s = Rqc ubar_s - lambda_c_s (6.3). Every point update of solve() does not increase it.
-  double local_objective(const Eigen::MatrixXd& ubar, const Eigen::MatrixXd& lambda_c,
-                         const Eigen::VectorXd& beta_prev, const Eigen::MatrixXd& e,
-                         const Eigen::VectorXd& beta) const;
+  double local_objective(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev,
+                         ConstMatRef e, ConstVecRef beta) const;
 
   /// A new augmentation R q_c > 0 (adaptive R); the kernel does not depend on it.
   void set_Rqc(double Rqc);

@@ -10,6 +10,49 @@
 
 namespace ltl {
 
+namespace {
+/// The points of several obstacles, one after the other (ContactPoints::offset): the rows of
+/// `mean` and of every per-point array stacked, `meanT_area` the columns; no one normal N.
+ContactPoints stack_obstacles(const std::vector<ContactPoints>& obstacles, int nn) {
+  ContactPoints all;
+  const int dim = obstacles.front().dim;
+  int n = 0;
+  all.offset = {0};
+  for (const ContactPoints& o : obstacles) all.offset.push_back(n += o.size());
+  all.dim = dim;
+  all.area.resize(n);
+  all.centre.resize(dim, n);
+  all.gap.resize(n);
+  all.normals.resize(n, dim);
+  std::vector<Eigen::Triplet<double>> t, tT;
+  const bool facets = !obstacles.front().vertices.empty();
+  if (facets) all.vertices.assign(obstacles.front().vertices.size(), Eigen::MatrixXd(dim, n));
+  for (std::size_t k = 0; k < obstacles.size(); ++k) {
+    const ContactPoints& o = obstacles[k];
+    const int r0 = all.offset[k], m = o.size();
+    all.area.segment(r0, m) = o.area;
+    all.centre.middleCols(r0, m) = o.centre;
+    all.gap.segment(r0, m) = o.gap;
+    all.normals.middleRows(r0, m) = o.normals;
+    all.nodes.insert(all.nodes.end(), o.nodes.begin(), o.nodes.end());
+    if (facets && o.vertices.size() == all.vertices.size())
+      for (std::size_t v = 0; v < o.vertices.size(); ++v)
+        all.vertices[v].middleCols(r0, m) = o.vertices[v];
+    for (int s = 0; s < m; ++s)
+      for (SpMatR::InnerIterator it(o.mean, s); it; ++it)
+        t.emplace_back(r0 + s, it.col(), it.value());
+    for (int a = 0; a < o.meanT_area.outerSize(); ++a)
+      for (SpMatR::InnerIterator it(o.meanT_area, a); it; ++it)
+        tT.emplace_back(a, r0 + it.col(), it.value());
+  }
+  all.mean.resize(n, nn);
+  all.mean.setFromTriplets(t.begin(), t.end());
+  all.meanT_area.resize(nn, n);
+  all.meanT_area.setFromTriplets(tT.begin(), tT.end());
+  return all;
+}
+}  // namespace
+
 Discretization::Discretization(const Problem& problem) : problem_(problem) {
   const auto t0 = std::chrono::steady_clock::now();
   problem_.validate();
@@ -41,57 +84,42 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
   mean_det_ = problem_.discretization.mean_det && split_.model == MaterialModel::MooneyRivlin &&
               split_.C2 == 0;
   if (mean_det_) {
-    // The table of point gradients: nodes_per_cell x dim per point, nothing else (the cell's
-    // nodes are the mesh's): 8 x 3 doubles per point, 1.5 KB per H8 cell.
-    const int npc = mesh.nodes_per_cell();
-    if (nc > 0) for_each_quadrature_point(mesh, 0, [&](const Eigen::MatrixXd&, double) { ++nq_; });
+    // The reference rule alone (nodes_per_cell x dim per point, for the cell type, not per
+    // cell): the point gradients are recomputed cell by cell from the nodes' positions.
+    rule_ = reference_rule(mesh);
+    nq_ = rule_.size();
     if (nq_ > kMaxPoints)
       throw Error(cat(mesh.source, ": ", nq_, " quadrature points per cell, at most ", kMaxPoints));
-    gq_.resize(npc, static_cast<Eigen::Index>(dim) * nq_ * nc);
-    wq_.resize(static_cast<Eigen::Index>(nq_) * nc);
-    for (int c = 0; c < nc; ++c) {
-      int k = 0;
-      for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double wt) {
-        if (k < nq_) {
-          const Eigen::Index q = static_cast<Eigen::Index>(nq_) * c + k;
-          gq_.middleCols(dim * q, dim) = grad;
-          wq_(q) = wt;
-        }
-        ++k;
-      });
-      if (k != nq_) throw Error(cat(mesh.source, ": cell ", c, " has ", k, " quadrature points"));
-    }
-    const Eigen::Index nq = wq_.size();
-    Sq_.resize(dim * nq, dim);
-    fluctuation_laplacian_ = cells_.laplacian - SpMat(cells_.GbarT_vol * cells_.Gbar);
-    fluctuation_laplacian_.prune(0.0);
   }
 
-  // The contact points, with their initial gaps to the obstacle plane (section 6).
-  if (problem_.contact) {
-    const ContactCondition& cc = *problem_.contact;
-    const Mesh::Boundary& boundary = mesh.boundary(cc.group, "contact.group");
-    points_ = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
-    ContactPoints& pts = *points_;
+  // The contact points of each obstacle, with their initial gaps to its plane (section 6), and
+  // the points of all of them, one obstacle after the other (paper_notes/obstacles.md).
+  const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
+  Eigen::VectorXd centroid = Eigen::VectorXd::Zero(dim);
+  if (!problem_.contacts.empty()) {
+    for (int c = 0; c < nc; ++c) {
+      Eigen::VectorXd xc = Eigen::VectorXd::Zero(dim);
+      for (int a = 0; a < mesh.nodes_per_cell(); ++a)
+        xc += mesh.X.row(mesh.cells(c, a)).transpose();
+      centroid += cells_.vol(c) * xc / mesh.nodes_per_cell();
+    }
+    centroid /= volume_;
+  }
+  for (const ContactCondition& cc : problem_.contacts) {
+    const Mesh::Boundary& boundary = mesh.boundary(cc.group, cc.key("group"));
+    ContactPoints pts = contact_points(mesh, boundary, problem_.discretization.nodal_contact);
     pts.N = cc.plane_normal.head(dim);
+    pts.normals = pts.N.transpose().replicate(pts.size(), 1);
+    pts.offset = {0, pts.size()};
     // Initial gap g_s = (p0 - x_s) . N at each facet centre or node (paper_notes/section6.md).
-    pts.gap.resize(points_->size());
-    for (int f = 0; f < points_->size(); ++f)
-      pts.gap(f) = (cc.plane_point.head(dim) - points_->centre.col(f)).dot(pts.N);
-    const double scale = std::max(1.0, mesh.X.cwiseAbs().maxCoeff());
+    pts.gap.resize(pts.size());
+    for (int f = 0; f < pts.size(); ++f)
+      pts.gap(f) = (cc.plane_point.head(dim) - pts.centre.col(f)).dot(pts.N);
     // The body must start on the admissible side of the plane: its centroid (cell centres
     // weighted by volume) on the side N points away from. With the normal reversed the
     // contact surface is still at the plane but the body lies in the obstacle, and the
     // iteration wanders without converging.
     {
-      Eigen::VectorXd centroid = Eigen::VectorXd::Zero(dim);
-      for (int c = 0; c < nc; ++c) {
-        Eigen::VectorXd xc = Eigen::VectorXd::Zero(dim);
-        for (int a = 0; a < mesh.nodes_per_cell(); ++a)
-          xc += mesh.X.row(mesh.cells(c, a)).transpose();
-        centroid += cells_.vol(c) * xc / mesh.nodes_per_cell();
-      }
-      centroid /= volume_;
       const double side = (centroid - cc.plane_point.head(dim)).dot(pts.N);
       if (side > 1e-10 * scale) {
         std::string n, reversed;
@@ -102,34 +130,36 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
         throw Error(cat(mesh.source,
                         ": the body lies on the obstacle side of the contact plane "
                         "(its centroid is ",
-                        side,
-                        " m from the plane along contact.plane_normal "
-                        "= (",
-                        n,
-                        ")): contact.plane_normal must point into the obstacle, away "
+                        side, " m from the plane along ", cc.key("plane_normal"), " = (", n,
+                        ")): ", cc.key("plane_normal"),
+                        " must point into the obstacle, away "
                         "from the body; reverse it (plane_normal = [",
-                        reversed, "]) or check contact.plane_point"));
+                        reversed, "]) or check ", cc.key("plane_point")));
       }
     }
-    for (int f = 0; f < points_->size(); ++f)
+    for (int f = 0; f < pts.size(); ++f)
       if (pts.gap(f) < -1e-10 * scale)
         throw Error(cat(mesh.source, ": contact ",
                         problem_.discretization.nodal_contact ? "node " : "facet ", f, " of '",
                         cc.group, "' starts inside the obstacle (gap ", pts.gap(f),
-                        " m at its centre): check contact.plane_point and contact.plane_normal "
-                        "(the normal points into the obstacle)"));
+                        " m at its centre): check ", cc.key("plane_point"), " and ",
+                        cc.key("plane_normal"), " (the normal points into the obstacle)"));
     // Every node of the body starts on the admissible side (the contact surface was checked
     // above, facet by facet or node by node).
     for (int n = 0; n < nn; ++n) {
       const double inside = (mesh.X.row(n).transpose() - cc.plane_point.head(dim)).dot(pts.N);
       if (inside > 1e-10 * scale)
         throw Error(cat(mesh.source, ": node ", n, " of the body (at ", mesh.X.row(n),
-                        ") starts inside the obstacle, ", inside,
-                        " m beyond the contact plane: check contact.plane_point and "
-                        "contact.plane_normal (the normal points into the obstacle)"));
+                        ") starts inside the obstacle, ", inside, " m beyond the contact plane",
+                        problem_.contacts.size() > 1 ? " of " + cc.origin : std::string(),
+                        ": check ", cc.key("plane_point"), " and ", cc.key("plane_normal"),
+                        " (the normal points into the obstacle)"));
     }
-    contact_area_ = points_->area.sum();
+    obstacles_.push_back(std::move(pts));
   }
+  // One obstacle: its points are all the points (no copy); several: stacked.
+  if (obstacles_.size() > 1) points_ = stack_obstacles(obstacles_, nn);
+  if (points()) contact_area_ = points()->area.sum();
 
   // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
   bc_.fixed.assign(dim, {});
@@ -162,28 +192,53 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
 //   c_e = (1/|O_e|) sum_k w_k det F_k - det Fbar,   force block p_e (cof F_k - cof Fbar),
 // p_e = lambda_e : E_e / (d det E_e). In 2-D cof is linear, so c_e is the mean of det(delta_k)
 // and the force block p_e cof(delta_k), delta_k = F_k - Fbar. The blocks are transposed tensors;
-// det and cof commute with the transpose.
+// det and cof commute with the transpose. With gamma, the block gains gamma (F_k - Fbar): the
+// cell's part of gamma (L - GbarT_vol Gbar) u, since sum_k w_k grad_k = |O_e| Gbar_e on the
+// rule that assembles L (fe.hpp).
+//
+// The point gradients are recomputed from the cell's nodes at each call (fe.hpp,
+// ReferenceRule): with Xe, ue the cell's positions and displacements and dN_k the reference
+// gradients, J_k^T = dN_k^T Xe, (grad u)^T = J_k^-T dN_k^T ue, w_k = w_ref det J_k; the force
+// on node a is w_k dN_k(a, :) J_k^-1 S_k. Nothing per cell or per point is stored.
 namespace {
-template <int d>
-void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
-                      const Eigen::VectorXd& wq, const Eigen::VectorXd& vol, int nq,
-                      const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                      const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force, int e0,
-                      int e1) {
+template <int d, int npc>
+struct FluctuationKernel {
   using Mat = Eigen::Matrix<double, d, d>;
-  using Nodal = Eigen::Matrix<double, Eigen::Dynamic, d, 0, 10, d>;  // <= 10 nodes: no heap
-  const int npc = static_cast<int>(cells.cols());
-#pragma omp parallel for schedule(static)
-  for (int e = e0; e < e1; ++e) {
-    Nodal ue(npc, d);
-    for (int a = 0; a < npc; ++a) ue.row(a) = u.row(cells(e, a));
-    // The point gradients, transposed blocks: (grad u)^T at point q = gq_q^T ue.
-    Mat G[Discretization::kMaxPoints];
+  using Nodal = Eigen::Matrix<double, npc, d>;
+  Eigen::Matrix<double, npc, d> dN[Discretization::kMaxPoints];
+  double wref[Discretization::kMaxPoints];
+  int nq = 0;
+  const Eigen::MatrixXi& cells;
+  const Eigen::MatrixXd& X;
+  const Eigen::VectorXd& vol;
+
+  FluctuationKernel(const ReferenceRule& rule, const Mesh& mesh, const Eigen::VectorXd& v)
+      : nq(rule.size()), cells(mesh.cells), X(mesh.X), vol(v) {
+    for (int k = 0; k < nq; ++k) {
+      dN[k] = rule.dN[k];
+      wref[k] = rule.w[k];
+    }
+  }
+
+  /// Cell e: returns c_e; with fe, the cell's nodal force (p_e and gamma as above).
+  double operator()(int e, const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
+                    const Eigen::MatrixXd* E, double gamma, double* fe) const {
+    Eigen::Matrix<double, npc, 2 * d> XU;  // [Xe ue]
+    for (int a = 0; a < npc; ++a) {
+      const int n = cells(e, a);
+      XU.row(a).template head<d>() = X.row(n);
+      XU.row(a).template tail<d>() = u.row(n);
+    }
+    Mat G[Discretization::kMaxPoints], JTinv[Discretization::kMaxPoints];
+    double w[Discretization::kMaxPoints];
     Mat Fbar = Mat::Zero();
     for (int k = 0; k < nq; ++k) {
-      const int q = nq * e + k;
-      G[k].noalias() = gq.middleCols<d>(d * q).transpose() * ue;
-      Fbar += wq(q) * G[k];
+      const Eigen::Matrix<double, d, 2 * d> H = dN[k].transpose() * XU;  // [J^T  dN^T ue]
+      const Mat JT = H.template leftCols<d>();
+      JTinv[k] = JT.inverse();
+      w[k] = wref[k] * JT.determinant();
+      G[k].noalias() = JTinv[k] * H.template rightCols<d>();
+      Fbar += w[k] * G[k];
     }
     Fbar /= vol(e);
     Fbar.diagonal().array() += 1.0;
@@ -192,58 +247,75 @@ void fluctuation_loop(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
       const Mat Ee = E->block<d, d>(d * e, 0);
       p = (lambda->block<d, d>(d * e, 0).cwiseProduct(Ee)).sum() / (d * Ee.determinant());
     }
-    const Mat cof_bar = (d == 3 && force) ? cofactor<d>(Fbar) : Mat::Zero();
+    const Mat cof_bar = (d == 3 && fe) ? cofactor<d>(Fbar) : Mat::Zero();
+    Eigen::Map<Nodal> force(fe ? fe : nullptr);
+    if (fe) force.setZero();
     double mean_det = 0;
     for (int k = 0; k < nq; ++k) {
-      const int q = nq * e + k;
       Mat F = G[k];
       F.diagonal().array() += 1.0;
+      Mat S;
       if constexpr (d == 2) {  // the linear term cancels exactly: det and cof of delta directly
-        mean_det += wq(q) * (F - Fbar).determinant();
-        if (force) force->block<d, d>(d * q, 0) = p * cofactor<d>(F - Fbar);
+        mean_det += w[k] * (F - Fbar).determinant();
+        if (fe) S = p * cofactor<d>(F - Fbar);
       } else {
-        mean_det += wq(q) * F.determinant();
-        if (force) force->block<d, d>(d * q, 0) = p * (cofactor<d>(F) - cof_bar);
+        mean_det += w[k] * F.determinant();
+        if (fe) S = p * (cofactor<d>(F) - cof_bar);
+      }
+      if (fe) {
+        if (gamma != 0) S += gamma * (F - Fbar);
+        const Mat M = w[k] * (JTinv[k].transpose() * S);
+        force.noalias() += dN[k] * M;
       }
     }
-    if (c) (*c)(e) = d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
+    return d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
   }
-}
+};
 
-/// force(node a of cell e) += sum over the cell's points q of w_q gq_q(a, :) S_q (the transpose
-/// of the point-gradient operator applied to the point blocks S).
-template <int d>
-void scatter_points(const Eigen::MatrixXi& cells, const Eigen::MatrixXd& gq,
-                    const Eigen::VectorXd& wq, int nq, const Eigen::MatrixXd& S,
-                    Eigen::MatrixXd& force, int e0, int e1) {
-  const int npc = static_cast<int>(cells.cols());
-  for (int e = e0; e < e1; ++e)
-    for (int k = 0; k < nq; ++k) {
-      const int q = nq * e + k;
-      const Eigen::Matrix<double, d, d> Sq = wq(q) * S.block<d, d>(d * q, 0);
-      for (int a = 0; a < npc; ++a)
-        force.row(cells(e, a)).noalias() += gq.block<1, d>(a, d * q) * Sq;
+/// c (when non-null) and force += the cells' nodal forces (when non-null). The cells run in
+/// parallel; the forces are summed onto the nodes block by block, in cell order, from a buffer of
+/// kBlock cells (memory per block, not per cell). On the cells first <= e < end.
+template <int d, int npc>
+void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::MatrixXd& u,
+                      const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
+                      Eigen::VectorXd* c, Eigen::MatrixXd* force, std::vector<double>& buffer,
+                      int first, int end) {
+  constexpr int kBlock = 2048, kNodal = npc * d;
+  if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
+  for (int b0 = first; b0 < end; b0 += kBlock) {
+    const int b1 = std::min(end, b0 + kBlock);
+#pragma omp parallel for schedule(static)
+    for (int e = b0; e < b1; ++e) {
+      double* fe = force ? buffer.data() + static_cast<std::size_t>(e - b0) * kNodal : nullptr;
+      const double ce = kernel(e, u, lambda, E, gamma, fe);
+      if (c) (*c)(e) = ce;
     }
+    if (!force) continue;
+    for (int e = b0; e < b1; ++e) {
+      const Eigen::Map<const Eigen::Matrix<double, npc, d>> fe(
+          buffer.data() + static_cast<std::size_t>(e - b0) * kNodal);
+      for (int a = 0; a < npc; ++a) force->row(kernel.cells(e, a)) += fe.row(a);
+    }
+  }
 }
 }  // namespace
 
 void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                                  const Eigen::MatrixXd* E, Eigen::VectorXd* c,
-                                 Eigen::MatrixXd* force, int first, int end) const {
-  // The point gradients are recomputed per cell from the table gq_ and the cell's nodal u (no
-  // per-point buffer of them is kept: memory per cell, not speed, limits the 3-D problems).
-  const Eigen::MatrixXi& cells = problem_.mesh.cells;
-  Eigen::MatrixXd* S = force ? &Sq_ : nullptr;
+                                 Eigen::MatrixXd* force, double gamma, int first, int end) const {
   if (end < 0) end = num_cells();
+  // The point gradients are recomputed per cell from the nodes' positions (no per-cell or
+  // per-point table: memory per cell, not speed, limits the 3-D problems).
+  const Mesh& mesh = problem_.mesh;
   if (dim() == 2)
-    fluctuation_loop<2>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S, first, end);
+    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
+                           force, buffer_, first, end);
+  else if (mesh.nodes_per_cell() == 10)
+    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
+                            c, force, buffer_, first, end);
   else
-    fluctuation_loop<3>(cells, gq_, wq_, cells_.vol, nq_, u, lambda, E, c, S, first, end);
-  if (!force) return;
-  if (dim() == 2)
-    scatter_points<2>(cells, gq_, wq_, nq_, Sq_, *force, first, end);
-  else
-    scatter_points<3>(cells, gq_, wq_, nq_, Sq_, *force, first, end);
+    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
+                           force, buffer_, first, end);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
@@ -295,31 +367,40 @@ Discretization::Stresses Discretization::stresses(const State& s) const {
   return out;
 }
 
-namespace {
-/// -lambda_c . N per contact point: the nominal contact pressure (Pa), before any reading.
-Eigen::VectorXd nominal_pressure(const Problem& problem, const State& s) {
-  if (!problem.contact) return Eigen::VectorXd(0);
-  return -(s.lambda_c * problem.contact->plane_normal.head(problem.mesh.dim));
+Eigen::VectorXd Discretization::normal_component(const Eigen::MatrixXd& v) const {
+  const ContactPoints* pts = points();
+  if (!pts) return Eigen::VectorXd(0);
+  if (pts->N.size()) return v * pts->N;  // one obstacle
+  return v.cwiseProduct(pts->normals).rowwise().sum();
 }
-}  // namespace
 
 Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
-  const Eigen::VectorXd p = nominal_pressure(problem_, s);
-  const ContactPoints* points = this->points();
-  if (!points || points->nodes.empty()) return p;
-  // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp).
-  return consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contact->group),
-                                   *points, p);
+  const ContactPoints* pts = points();
+  if (!pts) return Eigen::VectorXd(0);
+  // -lambda_c . N_k per contact point: the nominal contact pressure (Pa), before any reading.
+  Eigen::VectorXd p = normal_component(s.lambda_c);
+  p = -p;
+  if (pts->nodes.empty()) return p;
+  // Nodal contact: read consistently on P2 triangle faces (derived_fields.hpp), per obstacle.
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    const int r0 = pts->offset[k], m = obstacles_[k].size();
+    p.segment(r0, m) =
+        consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contacts[k].group),
+                                  obstacles_[k], p.segment(r0, m));
+  }
+  return p;
 }
 
 Eigen::VectorXd Discretization::contact_forces(const State& s) const {
-  if (!problem_.contact || !points()) return Eigen::VectorXd(0);
-  return points()->area.cwiseProduct(nominal_pressure(problem_, s));
+  const ContactPoints* pts = points();
+  if (!pts) return Eigen::VectorXd(0);
+  return pts->area.cwiseProduct(-normal_component(s.lambda_c));
 }
 
 Eigen::VectorXd Discretization::contact_gap(const State& s) const {
-  if (!points_) return {};
-  return points_->gap - s.e * points_->N;
+  const ContactPoints* pts = points();
+  if (!pts) return {};
+  return pts->gap - normal_component(s.e);
 }
 
 double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) const {

@@ -44,7 +44,19 @@ class Discretization {
   /// contact surface ("nodal"), with their weights, positions, the map from nodal values (mean)
   /// and the initial gap g_s = (p0 - x_s) . N >= 0 of each to the obstacle plane (section 6);
   /// null without contact.
-  const ContactPoints* points() const { return points_ ? &*points_ : nullptr; }
+  /// Several obstacles ([[contact]], paper_notes/obstacles.md): the points of each obstacle,
+  /// one after the other (ContactPoints::offset, ContactPoints::normals), a node of two groups
+  /// being one point of each; the global step (4.5) sums R q_c M^T |G| M over all of them.
+  const ContactPoints* points() const {
+    return obstacles_.size() == 1 ? &obstacles_.front() : points_ ? &*points_ : nullptr;
+  }
+  /// The contact points of obstacle k alone (problem().contacts[k]), with its plane's normal N
+  /// and gaps: rows points()->offset[k] .. offset[k + 1] - 1 of points(). Empty without contact.
+  const std::vector<ContactPoints>& obstacle_points() const { return obstacles_; }
+  int num_obstacles() const { return static_cast<int>(obstacles_.size()); }
+  /// N_k . v_s per contact point s (v: #points x dim, e.g. e or lambda_c), N_k the normal of the
+  /// obstacle of s.
+  Eigen::VectorXd normal_component(const Eigen::MatrixXd& v) const;
   /// Per component, the sorted nodes whose displacement is prescribed, and their values.
   const DirichletData& dirichlet() const { return bc_; }
   /// The consistent dead loads f (body force) and g (tractions) at load factor 1, #nodes x dim
@@ -62,9 +74,6 @@ class Discretization {
   /// i.e. plane strain with the pointwise C2 split, or C2 = 0 in 3-D).
   bool mean_det() const { return mean_det_; }
   static constexpr int kMaxPoints = 27;  ///< quadrature points per cell (mean-det), at most
-  /// L - GbarT_vol Gbar (#nodes x #nodes): the energy of the intra-cell fluctuation of grad u;
-  /// mean-det only.
-  const SpMat& fluctuation_laplacian() const { return fluctuation_laplacian_; }
   /// [(2.7), discretization.md] Mean-det incompressibility: with delta = grad u - Gbar_e u the
   /// intra-cell fluctuation, (1/|O_e|) integral det F = det(Fbar_e) + c_e(u) with
   ///   c_e = (1/|O_e|) integral det F - det(Fbar_e)   (= the mean of det(delta) in 2-D),
@@ -77,12 +86,14 @@ class Discretization {
   /// cof E : E = d det E); zero when !mean_det(). ALG2 adds it, lagged, to the right-hand side
   /// of (4.1).
   Eigen::MatrixXd fluctuation_force(const State& s) const;
-  /// The allocation-free kernel of the two above: c (#cells) and/or force (#nodes x dim, added
-  /// to, not overwritten) at u, with p_e from lambda and E when force is wanted. On the cells
-  /// first <= e < end (end < 0: all; a rank's block when distributed, alg2_mpi.cpp).
+  /// The allocation-free kernel of the two above (after its first call): c (#cells) and/or
+  /// force (#nodes x dim, added to, not overwritten) at u, with p_e from lambda and E when force
+  /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
+  /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell. On the
+  /// cells first <= e < end (end < 0: all; a rank's block when distributed, alg2_mpi.cpp).
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
-                   int first = 0, int end = -1) const;
+                   double gamma = 0, int first = 0, int end = -1) const;
 
   // Outputs at a state, per cell (transposed-block layout like E) or per contact point.
   /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
@@ -99,7 +110,7 @@ class Discretization {
     Eigen::VectorXd sigma33, pressure;
   };
   Stresses stresses(const State& s) const;
-  /// Nominal contact pressure per contact point, p_c = -lambda_c . N (Pa; > 0 where the body
+  /// Nominal contact pressure per contact point, p_c = -lambda_c . N_k (Pa; > 0 where the body
   /// presses): the one definition, which the measures (lib/measures.hpp) use. With nodal contact
   /// on P2 triangle faces, read consistently from the point forces (derived_fields.hpp:
   /// consistent_nodal_pressure), so that a uniform pressure reads uniform.
@@ -121,20 +132,18 @@ class Discretization {
   Problem problem_;
   Material split_;
   CellOperators cells_;
-  std::optional<ContactPoints> points_;
+  std::optional<ContactPoints> points_;  ///< several obstacles only: their points stacked
+  std::vector<ContactPoints> obstacles_;
   DirichletData bc_;
   Eigen::MatrixXd F_dead_, Id_;
   Eigen::VectorXd vol_rows_;
   double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
-  // Mean-det: the physical gradients at the cell quadrature points, nodes_per_cell x dim per
-  // point (point q = nq_ e + k of cell e in columns dim q .. dim q + dim - 1), their weights,
-  // and the work buffer of the per-point force blocks (dim x dim per point).
+  // Mean-det: the reference rule of the cell type (the point gradients are recomputed per cell
+  // from the nodes' positions), and the work buffer of the nodal forces of a block of cells.
   bool mean_det_ = false;
   int nq_ = 0;
-  Eigen::MatrixXd gq_;
-  Eigen::VectorXd wq_;
-  SpMat fluctuation_laplacian_;
-  mutable Eigen::MatrixXd Sq_;
+  ReferenceRule rule_;
+  mutable std::vector<double> buffer_;
 };
 
 }  // namespace ltl

@@ -184,7 +184,32 @@ void for_each_facet_point(const Mesh& mesh, const Eigen::MatrixXi& facets, int f
   }
 }
 
+template <int NPC, int DIM, class Rule, class Shape>
+ReferenceRule reference_points(const Rule& rule, Shape shape) {
+  ReferenceRule r;
+  Eigen::Matrix<double, NPC, 1> N;
+  Eigen::Matrix<double, NPC, DIM> dN;
+  for (const auto& p : rule) {
+    shape(p, N, dN);
+    r.dN.push_back(dN);
+    r.w.push_back(p.w);
+  }
+  return r;
+}
+
 }  // namespace
+
+ReferenceRule reference_rule(const Mesh& mesh) {
+  if (mesh.dim == 2)
+    return reference_points<6, 2>(
+        kTriangleRule, [](const QPoint& p, auto& N, auto& dN) { p2_triangle(p.xi, p.eta, N, dN); });
+  if (mesh.nodes_per_cell() == 10)
+    return reference_points<10, 3>(kTetRule, [](const QPoint& p, auto& N, auto& dN) {
+      p2_tetrahedron(p.xi, p.eta, p.zeta, N, dN);
+    });
+  return reference_points<8, 3>(
+      kHexRule, [](const QPoint& p, auto& N, auto& dN) { h8(p.xi, p.eta, p.zeta, N, dN); });
+}
 
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit) {
@@ -195,14 +220,54 @@ void for_each_quadrature_point(const Mesh& mesh, int c,
   });
 }
 
+// Assembled in place, without triplet lists: the Laplacian's pattern (nodes sharing a cell) from
+// the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
+// which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.
 CellOperators cell_operators(const Mesh& mesh) {
   const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
+  const int nn = mesh.num_nodes();
   CellOperators ops;
   ops.vol.resize(nc);
-  std::vector<Eigen::Triplet<double>> g, lap;
-  g.reserve(static_cast<std::size_t>(nc) * dim * npc);
-  lap.reserve(static_cast<std::size_t>(nc) * npc * npc);
+  // The cells around each node, then the pattern of L column by column (count, then fill).
+  std::vector<int> first(static_cast<std::size_t>(nn) + 1, 0), around;
+  for (int c = 0; c < nc; ++c)
+    for (int a = 0; a < npc; ++a) ++first[mesh.cells(c, a) + 1];
+  for (int i = 0; i < nn; ++i) first[i + 1] += first[i];
+  around.resize(first[nn]);
+  {
+    std::vector<int> next(first.begin(), first.end() - 1);
+    for (int c = 0; c < nc; ++c)
+      for (int a = 0; a < npc; ++a) around[next[mesh.cells(c, a)]++] = c;
+  }
+  std::vector<int> neighbours;
+  auto column = [&](int j) {  // the sorted nodes sharing a cell with node j
+    neighbours.clear();
+    for (int k = first[j]; k < first[j + 1]; ++k)
+      for (int a = 0; a < npc; ++a) neighbours.push_back(mesh.cells(around[k], a));
+    std::sort(neighbours.begin(), neighbours.end());
+    neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
+  };
+  SpMat& L = ops.laplacian;
+  L.resize(nn, nn);
+  L.outerIndexPtr()[0] = 0;
+  for (int j = 0; j < nn; ++j) {
+    column(j);
+    L.outerIndexPtr()[j + 1] = L.outerIndexPtr()[j] + static_cast<int>(neighbours.size());
+  }
+  L.resizeNonZeros(L.outerIndexPtr()[nn]);
+  for (int j = 0; j < nn; ++j) {
+    column(j);
+    std::copy(neighbours.begin(), neighbours.end(), L.innerIndexPtr() + L.outerIndexPtr()[j]);
+  }
+  std::fill(L.valuePtr(), L.valuePtr() + L.nonZeros(), 0.0);
+  std::vector<int>().swap(around);
+  std::vector<int>().swap(first);
+  // The integrals of the gradients, rows dim c + j, with the cell's nodes in increasing order.
+  SpMatR Gint(dim * nc, nn);
+  Gint.resizeNonZeros(static_cast<Eigen::Index>(dim) * nc * npc);
+  for (int r = 0; r <= dim * nc; ++r) Gint.outerIndexPtr()[r] = r * npc;
   Eigen::MatrixXd gint(npc, dim), Ke(npc, npc);
+  std::vector<int> order(npc);
   for (int c = 0; c < nc; ++c) {
     double vol = 0;
     gint.setZero();
@@ -213,19 +278,24 @@ CellOperators cell_operators(const Mesh& mesh) {
       Ke.noalias() += w * grad * grad.transpose();
     });
     ops.vol(c) = vol;
-    for (int a = 0; a < npc; ++a) {
-      for (int j = 0; j < dim; ++j) g.emplace_back(dim * c + j, mesh.cells(c, a), gint(a, j));
-      for (int b = 0; b < npc; ++b) lap.emplace_back(mesh.cells(c, a), mesh.cells(c, b), Ke(a, b));
-    }
+    for (int a = 0; a < npc; ++a) order[a] = a;
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return mesh.cells(c, a) < mesh.cells(c, b); });
+    for (int j = 0; j < dim; ++j)
+      for (int k = 0; k < npc; ++k) {
+        const Eigen::Index at = static_cast<Eigen::Index>(dim * c + j) * npc + k;
+        Gint.innerIndexPtr()[at] = mesh.cells(c, order[k]);
+        Gint.valuePtr()[at] = gint(order[k], j);
+      }
+    for (int a = 0; a < npc; ++a)
+      for (int b = 0; b < npc; ++b) L.coeffRef(mesh.cells(c, a), mesh.cells(c, b)) += Ke(a, b);
   }
-  SpMatR Gint(dim * nc, mesh.num_nodes());
-  Gint.setFromTriplets(g.begin(), g.end());
   ops.GbarT_vol = Gint.transpose();
-  Eigen::VectorXd inv_vol(dim * nc);
-  for (int c = 0; c < nc; ++c) inv_vol.segment(dim * c, dim).setConstant(1.0 / ops.vol(c));
-  ops.Gbar = inv_vol.asDiagonal() * Gint;
-  ops.laplacian.resize(mesh.num_nodes(), mesh.num_nodes());
-  ops.laplacian.setFromTriplets(lap.begin(), lap.end());
+  // Gbar = diag(1 / |O_e|) Gint, scaled in place.
+  for (int r = 0; r < dim * nc; ++r)
+    for (SpMatR::InnerIterator it(Gint, r); it; ++it)
+      it.valueRef() = (1.0 / ops.vol(r / dim)) * it.value();
+  ops.Gbar.swap(Gint);
   return ops;
 }
 

@@ -11,14 +11,32 @@
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <functional>
+#include <vector>
 
 #include "contact_points.hpp"
 #include "mesh.hpp"
 
 namespace ltl {
 
-/// Cell operators.
+/// Cell operators. Moved, not copied, when a Discretization is handed to a Solver: Eigen 3.4's
+/// SparseMatrix has no move constructor, so the moves swap the matrices (a copy would keep two
+/// sets of them resident through the setup).
 struct CellOperators {
+  CellOperators() = default;
+  CellOperators(const CellOperators&) = default;
+  CellOperators& operator=(const CellOperators&) = default;
+  CellOperators(CellOperators&& o) noexcept { swap(o); }
+  CellOperators& operator=(CellOperators&& o) noexcept {
+    swap(o);
+    return *this;
+  }
+  void swap(CellOperators& o) noexcept {
+    vol.swap(o.vol);
+    Gbar.swap(o.Gbar);
+    GbarT_vol.swap(o.GbarT_vol);
+    laplacian.swap(o.laplacian);
+  }
+
   Eigen::VectorXd vol;  ///< #cells, |O_e|
   /// (dim * #cells) x #nodes: row dim*e + j of Gbar * U is the j-th column of the mean
   /// gradient, i.e. (Gbar * U)(dim*e + j, i) = mean of d u_i / d x_j over cell e (U: #nodes x dim).
@@ -41,6 +59,19 @@ CellOperators cell_operators(const Mesh& mesh);
 /// the elasticity matrix of section 7.
 void for_each_quadrature_point(const Mesh& mesh, int c,
                                const std::function<void(const Eigen::MatrixXd&, double)>& visit);
+/// The quadrature rule of for_each_quadrature_point on the reference cell of the mesh's cell
+/// type: per point k, the gradients of the shape functions with respect to the reference
+/// coordinates, dN[k] (#nodes_per_cell x dim), and the reference weight w[k]. On cell c, with Xe
+/// its nodes' positions (#nodes_per_cell x dim) and J = Xe^T dN[k], the physical gradients are
+/// dN[k] J^-1 and the weight w[k] det J: what for_each_quadrature_point visits, recomputed from
+/// the coordinates instead of stored (8 points x 8 nodes x 3 doubles per H8 cell).
+struct ReferenceRule {
+  std::vector<Eigen::MatrixXd> dN;
+  std::vector<double> w;
+  int size() const { return static_cast<int>(w.size()); }
+};
+ReferenceRule reference_rule(const Mesh& mesh);
+
 ContactPoints facet_mean_points(const Mesh& mesh, const Mesh::Boundary& boundary);
 
 /// The contact "points" of a nodal (collocation) contact condition on a boundary part: one point

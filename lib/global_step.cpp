@@ -12,14 +12,56 @@
 
 namespace ltl {
 
+// Assembled in the Laplacian's pattern, which holds every term's (nodes sharing a cell; a
+// contact facet's nodes share its cell): one copy of L, the mean-gradient term added cell by
+// cell, the contact term (surface-sized) entry by entry; no sparse product or sum of the size of
+// K is formed.
 SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, double C1, double Rq,
                     double Rqc) {
-  SpMat K = 2 * C1 * cells.laplacian;
-  SpMat mean_grad = SpMat(cells.GbarT_vol * cells.Gbar);
-  K += Rq * mean_grad;
+  SpMat K = cells.laplacian;
+  K.makeCompressed();
+  for (Eigen::Index k = 0; k < K.nonZeros(); ++k) K.valuePtr()[k] *= 2 * C1;
+  // The entry (i, j) of the pattern, or nullptr.
+  auto entry = [&K](int i, int j) -> double* {
+    const int *begin = K.innerIndexPtr() + K.outerIndexPtr()[j],
+              *end = K.innerIndexPtr() + K.outerIndexPtr()[j + 1];
+    const int* at = std::lower_bound(begin, end, i);
+    return at != end && *at == i ? K.valuePtr() + (at - K.innerIndexPtr()) : nullptr;
+  };
+  // R q sum_e |O_e| Gbar_e^T Gbar_e: cell e's rows of Gbar hold its nodes, in the same order.
+  const int nc = static_cast<int>(cells.vol.size());
+  const int dim = nc > 0 ? static_cast<int>(cells.Gbar.rows() / nc) : 1;
+  for (int c = 0; c < nc; ++c) {
+    const Eigen::Index r0 = cells.Gbar.outerIndexPtr()[dim * c];
+    const int npc = static_cast<int>(cells.Gbar.outerIndexPtr()[dim * c + 1] - r0);
+    const int* node = cells.Gbar.innerIndexPtr() + r0;
+    for (int a = 0; a < npc; ++a)
+      for (int b = 0; b < npc; ++b) {
+        double m = 0;
+        for (int j = 0; j < dim; ++j) {
+          const double* g = cells.Gbar.valuePtr() + cells.Gbar.outerIndexPtr()[dim * c + j];
+          m += g[a] * g[b];
+        }
+        double* at = entry(node[a], node[b]);
+        if (!at)  // cell_operators' layout: L holds every pair of nodes of a cell
+          throw Error(cat("global matrix (4.5): nodes ", node[a], " and ", node[b], " of cell ", c,
+                          " are not in the Laplacian's pattern"));
+        *at += Rq * cells.vol(c) * m;
+      }
+  }
   if (points && points->size() > 0) {
-    SpMat mean = SpMat(points->meanT_area * points->mean);
-    K += Rqc * mean;
+    const SpMat mean = SpMat(points->meanT_area * points->mean);
+    bool in_pattern = true;
+    for (int j = 0; j < mean.outerSize() && in_pattern; ++j)
+      for (SpMat::InnerIterator it(mean, j); it; ++it)
+        if (!entry(static_cast<int>(it.row()), j)) in_pattern = false;
+    if (in_pattern) {
+      for (int j = 0; j < mean.outerSize(); ++j)
+        for (SpMat::InnerIterator it(mean, j); it; ++it)
+          *entry(static_cast<int>(it.row()), j) += Rqc * it.value();
+    } else {
+      K += Rqc * mean;
+    }
   }
   K.prune(0.0);
   return K;
@@ -41,18 +83,21 @@ struct GlobalStep::Group {
 
 namespace {
 
-/// K restricted to the free nodes of a Dirichlet set (lower triangle only, or both), and the
-/// constant shift K_fd u_d of its components.
+/// K restricted to the free nodes of a Dirichlet set, and the constant shift K_fd u_d of its
+/// components. Cholesky: Kff, the lower triangle in compressed columns; CG + AMG: KffR, both
+/// triangles in compressed rows (the rows of K itself, PETSc's layout). Both are written in
+/// place in two passes over K (count, then fill), without a triplet list: the free nodes keep
+/// their order, so the entries arrive sorted.
 struct Restricted {
   std::vector<int> free_nodes, local;
   SpMat Kff;
+  SpMatR KffR;
   Eigen::MatrixXd shift;
 };
 
-Restricted restrict_to_free(const SpMat& K, const DirichletData& bc,
-                            const std::vector<int>& components, bool lower_only) {
+void restrict_to_free(const SpMat& K, const DirichletData& bc, const std::vector<int>& components,
+                      bool lower_only, Restricted& r) {
   const int n = static_cast<int>(K.rows());
-  Restricted r;
   std::vector<char> is_fixed(n, 0);
   for (int i : bc.fixed[components[0]]) is_fixed[i] = 1;
   r.local.assign(n, -1);
@@ -62,24 +107,50 @@ Restricted restrict_to_free(const SpMat& K, const DirichletData& bc,
       r.free_nodes.push_back(i);
     }
   const int nf = static_cast<int>(r.free_nodes.size()), nc = static_cast<int>(components.size());
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(K.nonZeros());
   r.shift = Eigen::MatrixXd::Zero(nf, nc);
+  // Pass 1: the shift, and the entries per column (lower) or per row (both triangles).
+  std::vector<int> count(static_cast<std::size_t>(nf) + 1, 0);
   for (int col = 0; col < n; ++col)
     for (SpMat::InnerIterator it(K, col); it; ++it) {
       const int row = static_cast<int>(it.row());
       if (r.local[row] < 0) continue;
       if (r.local[col] >= 0) {
         if (!lower_only || r.local[row] >= r.local[col])
-          t.emplace_back(r.local[row], r.local[col], it.value());
+          ++count[1 + (lower_only ? r.local[col] : r.local[row])];
       } else {
         for (int k = 0; k < nc; ++k)
           r.shift(r.local[row], k) += it.value() * bc.value(col, components[k]);
       }
     }
-  r.Kff.resize(nf, nf);
-  r.Kff.setFromTriplets(t.begin(), t.end());
-  return r;
+  for (int i = 0; i < nf; ++i) count[i + 1] += count[i];
+  auto fill = [&](auto& M) {  // pass 2: the entries, at count[outer]++
+    M.resize(nf, nf);
+    M.resizeNonZeros(count[nf]);
+    std::copy(count.begin(), count.end(), M.outerIndexPtr());
+    for (int col = 0; col < n; ++col) {
+      const int lc = r.local[col];
+      if (lc < 0) continue;
+      for (SpMat::InnerIterator it(K, col); it; ++it) {
+        const int lr = r.local[it.row()];
+        if (lr < 0 || (lower_only && lr < lc)) continue;
+        const int outer = lower_only ? lc : lr, inner = lower_only ? lr : lc;
+        M.innerIndexPtr()[count[outer]] = inner;
+        M.valuePtr()[count[outer]++] = it.value();
+      }
+    }
+  };
+  if (lower_only)
+    fill(r.Kff);
+  else
+    fill(r.KffR);
+}
+
+/// The name of a Dirichlet set's matrix in errors.
+std::string describe(const std::vector<int>& components, int free_nodes) {
+  std::string comps;
+  for (int c : components) comps += std::string(comps.empty() ? "" : ", ") + "xyz"[c];
+  return cat("global matrix (4.5), displacement component(s) ", comps, " (", free_nodes,
+             " free nodes)");
 }
 
 }  // namespace
@@ -90,11 +161,16 @@ double GlobalStep::predicted_factor_nonzeros(const SpMat& K, const DirichletData
   std::size_t fewest = 0;
   for (std::size_t i = 1; i < bc.fixed.size(); ++i)
     if (bc.fixed[i].size() < bc.fixed[fewest].size()) fewest = i;
-  const Restricted r = restrict_to_free(K, bc, {static_cast<int>(fewest)}, true);
+  Restricted r;
+  restrict_to_free(K, bc, {static_cast<int>(fewest)}, true, r);
   return static_cast<double>(sets.size()) * Cholesky::predicted_nonzeros(r.Kff);
 }
 
 GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver,
+                       const Eigen::MatrixXd* X)
+    : GlobalStep(SpMat(K), bc, solver, X) {}
+
+GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
                        const Eigen::MatrixXd* X)
     : bc_(bc) {
   const int n = static_cast<int>(K.rows()), dim = static_cast<int>(bc.fixed.size());
@@ -129,27 +205,37 @@ GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver sol
   solver_ = solver;
   if (solver_ == GlobalSolver::CgAmg && (!X || X->rows() != n))
     throw Error(cat("global matrix (4.5): CG + AMG needs the ", n, " nodes' coordinates"));
+  if (solver_ == GlobalSolver::CgAmg) {
+    // Every Dirichlet set's matrix first, then K freed, then the hierarchies one by one: K is
+    // not resident while GAMG's setup reaches its peak (the restricted matrices are the
+    // hierarchies' finest operators, held by PETSc in place).
+    std::vector<Restricted> rs(groups_.size());
+    for (int gi : process) restrict_to_free(K, bc, groups_[gi]->components, false, rs[gi]);
+    SpMat().swap(K);
+    for (int gi : process) {
+      Group& g = *groups_[gi];
+      Restricted& r = rs[gi];
+      const int nf = static_cast<int>(r.free_nodes.size());
+      // The rows in the mesh's order; the hierarchy on the free nodes' coordinates.
+      Eigen::MatrixXd Xf(nf, X->cols());
+      for (int k = 0; k < nf; ++k) Xf.row(k) = X->row(r.free_nodes[k]);
+      g.amg = std::make_unique<CgAmg>(std::move(r.KffR), Xf, describe(g.components, nf));
+      g.node = std::move(r.free_nodes);
+      g.shift = std::move(r.shift);
+      std::vector<int>().swap(r.local);
+      g.b.resize(nf);
+      g.x.resize(nf);
+    }
+    return;
+  }
   std::vector<int> base_order;        // mesh nodes in the fill-reducing order of the first group
   std::vector<char> base_free(n, 0);  // free nodes of the first group
   for (int gi : process) {
     Group& g = *groups_[gi];
-    const bool cg = solver_ == GlobalSolver::CgAmg;
-    Restricted r = restrict_to_free(K, bc, g.components, !cg);
+    Restricted r;
+    restrict_to_free(K, bc, g.components, true, r);
+    if (gi == process.back()) SpMat().swap(K);  // the last set's matrix is made: K is done
     const int nf = static_cast<int>(r.free_nodes.size()), nc = g.cols();
-    std::string comps;
-    for (int c : g.components) comps += std::string(comps.empty() ? "" : ", ") + "xyz"[c];
-    const std::string what =
-        cat("global matrix (4.5), displacement component(s) ", comps, " (", nf, " free nodes)");
-    if (cg) {  // the rows in the mesh's order; the hierarchy on the free nodes' coordinates
-      Eigen::MatrixXd Xf(nf, X->cols());
-      for (int k = 0; k < nf; ++k) Xf.row(k) = X->row(r.free_nodes[k]);
-      g.amg = std::make_unique<CgAmg>(r.Kff, Xf, what);
-      g.node = r.free_nodes;
-      g.shift = r.shift;
-      g.b.resize(nf);
-      g.x.resize(nf);
-      continue;
-    }
     bool induced = !base_order.empty();
     for (int i = 0; i < n && induced; ++i)
       if (r.local[i] >= 0 && !base_free[i]) induced = false;
@@ -160,7 +246,7 @@ GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver sol
         if (r.local[node] >= 0) order.push_back(r.local[node]);
     }
     g.factor = std::make_unique<Cholesky>(
-        r.Kff, nc, what,
+        r.Kff, nc, describe(g.components, nf),
         "Most likely a rigid motion is not removed: fix part of the boundary, add a symmetry "
         "plane, or give the contact surface q_c > 0.",
         order);

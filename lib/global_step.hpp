@@ -53,6 +53,10 @@ class GlobalStep {
   /// AMG's near-null space and is required), or Auto (the rule above).
   GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
              const Eigen::MatrixXd* X = nullptr);
+  /// The same, K consumed: freed as soon as the restricted matrices are made (before the last
+  /// factorization, before any AMG setup), so that it is not resident at the setup's peak.
+  GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
+             const Eigen::MatrixXd* X = nullptr);
   ~GlobalStep();
   GlobalStep(const GlobalStep&) = delete;
   GlobalStep& operator=(const GlobalStep&) = delete;

@@ -15,22 +15,26 @@ Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
   return in;
 }
 
-ContactMeasures contact_measures(const Discretization& d, const State& s, int axis) {
+ContactMeasures contact_measures(const Discretization& d, const State& s, int axis, int k) {
   ContactMeasures m;
   const Problem& pb = d.problem();
-  if (!pb.contact || !d.points()) return m;
+  if (pb.contacts.empty() || !d.points() || k < 0 || k >= d.num_obstacles()) return m;
   const ContactPoints& points = *d.points();
+  // Obstacle k's rows of the points (all of them with one obstacle).
+  const int r0 = points.offset.empty() ? 0 : points.offset[k];
+  const int r1 = points.offset.empty() ? points.size() : points.offset[k + 1];
   const Eigen::MatrixXd x = pb.mesh.X + s.u;        // deformed nodes
   const Eigen::MatrixXd xp = points.mean * x;       // deformed contact points
   const Eigen::VectorXd p = d.contact_pressure(s);  // nominal contact pressure
   const Eigen::VectorXd f = d.contact_forces(s);    // point forces
-  const Eigen::VectorXi in = contact_set(p);
-  m.points = points.size();
-  m.p_max = p.size() ? p.maxCoeff() : 0.0;
+  const Eigen::VectorXi in = contact_set(p.segment(r0, r1 - r0));
+  m.points = r1 - r0;
+  m.p_max = m.points ? p.segment(r0, r1 - r0).maxCoeff() : 0.0;
   double M0 = 0, M2 = 0;
-  for (int i = 0; i < points.size(); ++i) {
+  for (int i = r0; i < r1; ++i) {
     m.force += f(i);
-    if (!in(i)) continue;
+    m.resultant.head(pb.mesh.dim) += points.area(i) * s.lambda_c.row(i).transpose();
+    if (!in(i - r0)) continue;
     ++m.in_contact;
     m.area += points.area(i);
     for (SpMatR::InnerIterator it(points.mean, i); it; ++it)
@@ -39,13 +43,13 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
     M2 += points.area(i) * p(i) * xp(i, axis) * xp(i, axis);
   }
   m.a_moment = M0 > 0 ? 2 * std::sqrt(M2 / M0) : 0.0;
-  m.penetration = max_penetration(d, s);
+  m.penetration = penetration_of(d, s, k);
   return m;
 }
 
 Eigen::VectorXd opening(const Problem& pb, const State& s) {
-  if (!pb.contact) return Eigen::VectorXd(0);
-  const Eigen::VectorXd N = pb.contact->plane_normal.head(pb.mesh.dim).normalized();
+  if (pb.contacts.empty()) return Eigen::VectorXd(0);
+  const Eigen::VectorXd N = pb.contacts.front().plane_normal.head(pb.mesh.dim).normalized();
   return -(s.e * N);
 }
 
@@ -53,7 +57,7 @@ PeelMeasures peel_measures(const Problem& pb, const ContactPoints& points, const
                            int axis) {
   PeelMeasures m;
   m.points = points.size();
-  if (!pb.contact || s.beta.size() != points.size() || m.points == 0) return m;
+  if (pb.contacts.empty() || s.beta.size() != points.size() || m.points == 0) return m;
   for (int i = 0; i < m.points; ++i) {
     const double x = points.centre(axis, i);
     if (s.beta(i) < kDebondedBeta) {
@@ -66,7 +70,10 @@ PeelMeasures peel_measures(const Problem& pb, const ContactPoints& points, const
   m.beta_min = s.beta.minCoeff();
   m.beta_max = s.beta.maxCoeff();
   m.beta_l2 = std::sqrt(points.area.dot(s.beta.cwiseAbs2()) / points.area.sum());
-  const Eigen::VectorXd o = opening(pb, s);
+  // -e . N_k per point: each point's own obstacle with several (ContactPoints::normals).
+  const Eigen::VectorXd o = points.obstacles() > 1
+                                ? Eigen::VectorXd(-s.e.cwiseProduct(points.normals).rowwise().sum())
+                                : opening(pb, s);
   m.max_opening = o.maxCoeff(&m.max_opening_at);
   m.max_opening_x = points.centre(axis, m.max_opening_at);
   return m;
@@ -77,10 +84,20 @@ StepMeasures step_measures(const Discretization& d, const State& s, int axis) {
   const Problem& pb = d.problem();
   const ContactPoints* points = d.points();
   m.max_displacement = s.u.size() ? s.u.rowwise().norm().maxCoeff() : 0.0;
-  if (!pb.contact || !points) return m;
+  if (pb.contacts.empty() || !points) return m;
   m.contact = contact_measures(d, s, axis);
-  m.in_contact = contact_set(d.contact_pressure(s));
-  if (pb.contact->adhesion.kappa > 0 && s.beta.size() == points->size() && points->size() > 0)
+  for (int k = 1; k < d.num_obstacles(); ++k)
+    m.obstacles.push_back(contact_measures(d, s, axis, k));
+  // The contact set per point, each obstacle's against its own peak pressure.
+  const Eigen::VectorXd p = d.contact_pressure(s);
+  m.in_contact.resize(p.size());
+  for (int k = 0; k < d.num_obstacles(); ++k) {
+    const int r0 = points->offset[k], n = points->offset[k + 1] - r0;
+    m.in_contact.segment(r0, n) = contact_set(p.segment(r0, n));
+  }
+  const bool glued = std::any_of(pb.contacts.begin(), pb.contacts.end(),
+                                 [](const ContactCondition& c) { return c.adhesion.kappa > 0; });
+  if (glued && s.beta.size() == points->size() && points->size() > 0)
     m.peel = peel_measures(pb, *points, s, axis);
   return m;
 }
@@ -90,6 +107,32 @@ std::vector<StoredMeasure> stored_measures(const StepMeasures& m, int dim) {
   const std::string force = plane ? "N/m" : "N", area = plane ? "m" : "m^2";
   std::vector<StoredMeasure> out = {
       {"max_displacement", m.max_displacement, "m", "max over nodes of |u|"}};
+  // Several obstacles: obstacle 0 under the names of one, obstacle k >= 1 suffixed "_k"; and the
+  // resultant force of each on the body, for the balance of forces.
+  const int n_obstacles = m.contact ? 1 + static_cast<int>(m.obstacles.size()) : 0;
+  for (int k = 0; k < n_obstacles; ++k) {
+    const ContactMeasures* c = k == 0 ? &*m.contact : &m.obstacles[k - 1];
+    const std::string sfx = k == 0 ? "" : cat("_", k),
+                      of = k == 0 ? "" : cat(" (obstacle ", k, ")");
+    if (k > 0) {
+      out.insert(
+          out.end(),
+          {{"contact_points" + sfx, double(c->points), "1", "number of contact points" + of},
+           {"in_contact_count" + sfx, double(c->in_contact), "1", "points in the contact set" + of},
+           {"p_max" + sfx, c->p_max, "Pa", "peak nominal contact pressure max p" + of},
+           {"contact_force" + sfx, c->force, force,
+            "sum over the contact points of w p (plane strain: per metre of depth)" + of},
+           {"contact_area" + sfx, c->area, area,
+            "sum of the weights w of the points in the contact set" + of},
+           {"contact_penetration" + sfx, c->penetration, "m",
+            "max over the contact surface's nodes of (x - p0) . N" + of}});
+    }
+    if (n_obstacles > 1)
+      for (int i = 0; i < dim; ++i)
+        out.push_back({cat("contact_resultant_", "xyz"[i], sfx), c->resultant(i), force,
+                       cat("component ", "xyz"[i],
+                           " of the force of the obstacle on the body, sum w lambda_c", of)});
+  }
   if (const auto& c = m.contact) {
     const std::string set = cat(
         "the contact set (p > kContactThreshold * p_max, kContactThreshold = ", kContactThreshold,
@@ -139,8 +182,8 @@ int node_at(const Mesh& mesh, const Eigen::VectorXd& X) {
 }
 
 double load_along_normal(const Problem& pb, const Eigen::MatrixXd& f_ext) {
-  if (!pb.contact) return 0;
-  return (f_ext * pb.contact->plane_normal.head(pb.mesh.dim)).sum();
+  if (pb.contacts.empty()) return 0;
+  return (f_ext * pb.contacts.front().plane_normal.head(pb.mesh.dim)).sum();
 }
 
 Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::MatrixXd& f_ext,
@@ -189,15 +232,23 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
   return m;
 }
 
-double max_penetration(const Discretization& d, const State& s) {
+double penetration_of(const Discretization& d, const State& s, int k) {
   const Problem& pb = d.problem();
   double pen = -INFINITY;
-  if (!pb.contact) return pen;
+  if (k < 0 || k >= static_cast<int>(pb.contacts.size())) return pen;
+  const ContactCondition& cc = pb.contacts[k];
   const int dim = pb.mesh.dim;
-  const Eigen::VectorXd N = pb.contact->plane_normal.head(dim);
-  const Eigen::VectorXd p0 = pb.contact->plane_point.head(dim);
-  for (int n : pb.mesh.boundary_nodes(pb.contact->group))
+  const Eigen::VectorXd N = cc.plane_normal.head(dim);
+  const Eigen::VectorXd p0 = cc.plane_point.head(dim);
+  for (int n : pb.mesh.boundary_nodes(cc.group))
     pen = std::max(pen, (pb.mesh.X.row(n) + s.u.row(n) - p0.transpose()).dot(N));
+  return pen;
+}
+
+double max_penetration(const Discretization& d, const State& s) {
+  double pen = -INFINITY;
+  for (int k = 0; k < static_cast<int>(d.problem().contacts.size()); ++k)
+    pen = std::max(pen, penetration_of(d, s, k));
   return pen;
 }
 

@@ -65,12 +65,17 @@ struct ContactMeasures {
   double a_moment = 0;     ///< 2 sqrt(M2 / M0), M0 = sum w_i p_i, M2 = sum w_i p_i x_i^2, x_i
                            ///< the deformed coordinate along `axis` of point i (smooth in h)
   double penetration = 0;  ///< max over the contact surface's nodes of (x - p0) . N (> 0: inside)
+  /// sum_i w_i lambda_c_i: the force of the obstacle on the body (N/m in plane strain, N;
+  /// lambda_c is the support's traction, section6.md); its component along -N is `force` without
+  /// glue. The balance of forces of several obstacles: their resultants and the loads sum to 0.
+  Eigen::Vector3d resultant = Eigen::Vector3d::Zero();
 };
 
 /// [LTL87 (1.1), (4.11)] The contact measures at a state over the discretization's contact
 /// points (none without a contact surface); `axis` is the coordinate along which the contact
 /// zone's half-width is measured (x1 for Figs 5-6).
-ContactMeasures contact_measures(const Discretization& d, const State& s, int axis = 0);
+/// Several obstacles (paper_notes/obstacles.md): those of obstacle k, over its own points.
+ContactMeasures contact_measures(const Discretization& d, const State& s, int axis = 0, int k = 0);
 
 /// [LTL87 (4.11)] The opening of each contact point, -e_i . N (m): the contact displacement
 /// away from the support (e . N <= 0 is the non-penetration of (1.1); > 0: lifted off).
@@ -100,7 +105,8 @@ PeelMeasures peel_measures(const Problem& problem, const ContactPoints& points, 
 /// measures when it is glued (kappa = 1/eps > 0, the state carrying beta per point), and the
 /// largest nodal displacement.
 struct StepMeasures {
-  std::optional<ContactMeasures> contact;
+  std::optional<ContactMeasures> contact;  ///< of obstacle 0 (the one obstacle of the paper)
+  std::vector<ContactMeasures> obstacles;  ///< of obstacles 1, 2, ... (stored suffixed "_k")
   std::optional<PeelMeasures> peel;
   Eigen::VectorXi in_contact;   ///< contact_set() per contact point (empty without contact)
   double max_displacement = 0;  ///< max over nodes of |u| (m)
@@ -149,9 +155,12 @@ struct EquilibriumMeasure {
 EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
                                        const State& s);
 
-/// Max over the contact group's nodes of (x - x_0) . N, the deformed node's distance behind the
-/// obstacle plane (m; > 0: penetration); -inf without contact.
+/// Max over the obstacles and their contact groups' nodes of (x - x_0) . N, the deformed node's
+/// distance behind the obstacle plane (m; > 0: penetration); -inf without contact.
 double max_penetration(const Discretization& d, const State& s);
+/// The same for obstacle k alone: max over its group's nodes of (x - p0_k) . N_k. A node behind
+/// ANY obstacle is inadmissible: max_penetration is the max over the obstacles.
+double penetration_of(const Discretization& d, const State& s, int k);
 
 /// The stopping test of `algorithm.stopping = "equilibrium"` (4.5): the largest of
 /// - the force residual on the free dofs (equilibrium_residual) relative to a force scale: the

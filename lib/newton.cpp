@@ -115,15 +115,15 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
       if (r >= 0 && c >= 0 && r >= c) fluct_pos_.emplace_back(position(r, c), it.value());
     }
   if (const ContactPoints* pts = disc.points()) {
-    const Eigen::VectorXd& N = disc.points()->N;
+    const Eigen::MatrixXd& N = pts->normals;  // row k: N_k of the obstacle of point k
     const int np = pts->size();
     point_dofs_.resize(np), point_coef_.resize(np), point_pos_.resize(np);
     for (int k = 0; k < np; ++k) {
       for (SpMatR::InnerIterator it(pts->mean, k); it; ++it)
         for (int j = 0; j < d; ++j)
-          if (free_[d * it.col() + j] >= 0 && N(j) != 0) {
+          if (free_[d * it.col() + j] >= 0 && N(k, j) != 0) {
             point_dofs_[k].push_back(free_[d * it.col() + j]);
-            point_coef_[k].push_back(it.value() * N(j));
+            point_coef_[k].push_back(it.value() * N(k, j));
           }
       const std::vector<int>& f = point_dofs_[k];
       for (int a : f)
@@ -153,14 +153,14 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
     }
   }
   if (const ContactPoints* pts = disc_.points()) {
-    const Eigen::VectorXd N = disc_.points()->N;
     Eigen::MatrixXd lc = s.lambda_c;  // #points x dim; with glue, less the glue's force
     if (glued_) {
       x.beta = s.beta;
       for (int k = 0; k < pts->size(); ++k)
         lc.row(k) += glue_.kappa * s.beta(k) * s.beta(k) * s.e.row(k);
     }
-    x.mu = pts->area.cwiseProduct((-(lc * N)).cwiseMax(0.0));
+    // mu_s = |G_s| max(0, -lambda_c_s . N_k): the force of point s's obstacle k.
+    x.mu = pts->area.cwiseProduct((-disc_.normal_component(lc)).cwiseMax(0.0));
   }
   return x;
 }
@@ -186,9 +186,8 @@ void Newton::to_state(const Unknowns& x, State& s) const {
   }
   if (const ContactPoints* pts = disc_.points()) {
     s.e = pts->mean * x.u;
-    const Eigen::VectorXd N = disc_.points()->N;
     for (int k = 0; k < pts->size(); ++k)
-      s.lambda_c.row(k) = -(x.mu(k) / pts->area(k)) * N.transpose();
+      s.lambda_c.row(k) = -(x.mu(k) / pts->area(k)) * pts->normals.row(k);
     if (glued_) {
       s.beta = x.beta;
       for (int k = 0; k < pts->size(); ++k)
@@ -307,10 +306,10 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
   Ru += fluct_ * uflat - Fflat;
   // The contact forces: mu_s N (x) mean_s, the reaction of the plane (1.1).
   if (const ContactPoints* pts = disc_.points()) {
-    const Eigen::VectorXd& N = disc_.points()->N;
+    const Eigen::MatrixXd& N = pts->normals;  // row s: N_k of the obstacle of point s
     for (int s = 0; s < pts->size(); ++s)
       for (SpMatR::InnerIterator it(pts->mean, s); it; ++it)
-        for (int i = 0; i < d; ++i) Ru(d * it.col() + i) += x.mu(s) * it.value() * N(i);
+        for (int i = 0; i < d; ++i) Ru(d * it.col() + i) += x.mu(s) * it.value() * N(s, i);
   }
   add_glue_force(x, Ru);
 }
@@ -368,7 +367,6 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
   const int d = dim_, nc = disc_.num_cells();
   const ContactPoints* pts = disc_.points();
   const int np = pts ? pts->size() : 0;
-  const Eigen::VectorXd N = pts ? disc_.points()->N : Eigen::VectorXd();
   const Eigen::VectorXd& vol = disc_.cells().vol;
   Result result;
   const double wall0 = report.history.empty() ? 0.0 : report.history.back().wall;
@@ -408,7 +406,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     }
     double c2 = 0;
     if (pts) {
-      gapv = (pts->mean * y.u) * N - disc_.points()->gap;  // N . ubar - g (> 0: penetration)
+      // N_k . ubar_s - g_s (> 0: penetration), per (point, obstacle)
+      gapv = disc_.normal_component(pts->mean * y.u) - pts->gap;
       for (int k = 0; k < np; ++k) {
         comp(k) = y.mu(k) - std::max(0.0, y.mu(k) + c_(k) * gapv(k));
         c2 += comp(k) * comp(k);
@@ -465,7 +464,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     IterationRecord rec;
     auto t0 = clock_type::now();
     // The active set of the semismooth step: mu_s + c_s (N . ubar_s - g_s) > 0.
-    if (pts) gapv = (pts->mean * x.u) * N - disc_.points()->gap;
+    if (pts) gapv = disc_.normal_component(pts->mean * x.u) - pts->gap;
     if (glued_) gb = glue_gradient(x);
     prev_active = active;
     int nA = 0;

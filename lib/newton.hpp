@@ -38,8 +38,8 @@
 #include <string>
 #include <vector>
 
-#include "contact_step.hpp"
 #include "discretization.hpp"
+#include "obstacles.hpp"
 #include "problem.hpp"
 #include "state.hpp"
 
@@ -61,7 +61,9 @@ class Newton {
   /// The glue of this time step (kappa, w, dt, the kernel k_ss' of the local step (6.4)-(6.5))
   /// and beta at the previous step: to be set before unknowns(), residual() and solve() on a
   /// glued problem (the Solver does it at every step).
-  void set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_prev);
+  /// Several obstacles: the glue of one only (Problem::validate refuses glued obstacles among
+  /// several under solver = "newton").
+  void set_glue(const ContactSteps& contact, const Eigen::VectorXd& beta_prev);
   /// [(2.2)] The beta-derivative of the discrete functional over |G_s|, at e_s = ubar_s:
   ///   g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - beta_prev_s'),
   /// the stationarity of the local step's point problem (6.1)-(6.5) in gamma. Empty without glue.

@@ -167,10 +167,13 @@ Newton::ScatterPtr Newton::new_scatter() {
   return ScatterPtr(new Scatter);
 }
 
-void Newton::set_glue(const ContactStep& contact, const Eigen::VectorXd& beta_prev) {
-  const Adhesion& ad = contact.adhesion();
-  glued_ = ad.glued();
+void Newton::set_glue(const ContactSteps& steps, const Eigen::VectorXd& beta_prev) {
+  glued_ = steps.glued();
   if (!glued_) return;
+  if (steps.size() != 1)
+    throw Error("Newton: glue on one of several obstacles (refused by Problem::validate)");
+  const ContactStep& contact = steps[0];
+  const Adhesion& ad = contact.adhesion();
   const int np = disc_.points()->size();
   glue_.kappa = ad.kappa, glue_.w = ad.w, glue_.dt = ad.dt;
   if (glue_.k.rows() != np) glue_.k = contact.kernel();
@@ -271,16 +274,16 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
     if (free_[k] >= 0) rhs(free_[k]) = -Ru(k);
   for (int e = 0; e < np_; ++e) rhs(nfree_ + e) = G(e);
   if (pts) {
-    const Eigen::VectorXd& N = disc_.points()->N;
+    const Eigen::MatrixXd& N = pts->normals;  // row k: N_k of the obstacle of point k
     for (int k = 0, a = 0; k < npts; ++k) {
       if (!active[k]) continue;
       const int r = nfree_ + np_ + a++;
       bool any = false;
       for (SpMatR::InnerIterator i(pts->mean, k); i; ++i)
         for (int j = 0; j < d; ++j)
-          if (free_[d * i.col() + j] >= 0 && N(j) != 0) {
-            kkt.emplace_back(free_[d * i.col() + j], r, i.value() * N(j));
-            kkt.emplace_back(r, free_[d * i.col() + j], i.value() * N(j));
+          if (free_[d * i.col() + j] >= 0 && N(k, j) != 0) {
+            kkt.emplace_back(free_[d * i.col() + j], r, i.value() * N(k, j));
+            kkt.emplace_back(r, free_[d * i.col() + j], i.value() * N(k, j));
             any = true;
           }
       if (any)

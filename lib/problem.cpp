@@ -64,6 +64,20 @@ double mean_facet_size(const Mesh& mesh, const Mesh::Boundary& b) {
   return nf > 0 ? sum / static_cast<double>(nf) : 0.0;
 }
 
+// The mean size of the contact facets of every obstacle (weighted by their counts; the one
+// group's mean with one obstacle); 0 when no contact group exists in the mesh.
+double mean_contact_facet_size(const Problem& p) {
+  double sum = 0, n = 0;
+  for (const ContactCondition& cc : p.contacts) {
+    if (!p.mesh.has_boundary(cc.group)) continue;
+    const Mesh::Boundary& b = p.mesh.boundary(cc.group);
+    const double nf = static_cast<double>(b.facets.rows());
+    sum += nf * mean_facet_size(p.mesh, b);
+    n += nf;
+  }
+  return n > 0 ? sum / n : 0.0;
+}
+
 // Mean cell size (|bounding box| / #cells)^(1/dim), for a problem without contact.
 double mean_cell_size(const Mesh& mesh) {
   const Eigen::VectorXd ext = mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff();
@@ -113,17 +127,16 @@ void derive_algorithm_defaults(Problem& p, bool has_R, bool has_q, bool has_q_c)
   if (!has_R) a.R = default_Rq(p) / a.q;
   if (!(a.R_min > 0)) a.R_min = std::min(a.R, default_Rq(p) / a.q);
   if (!has_q_c) {
-    a.h = p.contact && p.mesh.has_boundary(p.contact->group)
-              ? mean_facet_size(p.mesh, p.mesh.boundary(p.contact->group))
-              : mean_cell_size(p.mesh);
+    a.h = mean_contact_facet_size(p);
+    if (!(a.h > 0)) a.h = mean_cell_size(p.mesh);
     if (!(a.h > 0)) a.h = 1;  // a degenerate mesh: validate() and the mesh checks report it
     a.q_c = a.q / ((p.mesh.dim == 2 ? 1 : 3) * a.h);
     // With glue the local contact step (4.7) also holds the glue stiffness kappa = 1/eps: with
     // R q_c well below kappa, beta jumps between 0 and 1 from one iteration to the next and the
     // iteration stalls (a glued block pulled off the plane, kappa = 1e9 Pa/m: q / h = 4e7 Pa/m
     // hits the cap, q_c >= 1.5e8 converges). R q_c >= kappa: as stiff as the glue.
-    if (p.contact && p.contact->adhesion.kappa > 0)
-      a.q_c = std::max(a.q_c, p.contact->adhesion.kappa / a.R);
+    for (const ContactCondition& cc : p.contacts)  // the stiffest glue of the obstacles
+      if (cc.adhesion.kappa > 0) a.q_c = std::max(a.q_c, cc.adhesion.kappa / a.R);
   }
 }
 
@@ -152,11 +165,12 @@ void check_symmetry_planes(const Problem& problem) {
   const double size = (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).maxCoeff();
   for (const auto& d : problem.dirichlet) {
     if (d.components.size() != 1) continue;  // [[fixed]], [[displacement]]: every component
-    if (problem.contact && d.group == problem.contact->group)
-      throw KeyError(d.origin, cat("group '", d.group,
-                                   "' is both a symmetry plane and the contact surface (a "
-                                   "symmetry condition there clamps the sliding, as [[fixed]] "
-                                   "would)"));
+    for (const ContactCondition& cc : problem.contacts)
+      if (d.group == cc.group)
+        throw KeyError(d.origin, cat("group '", d.group,
+                                     "' is both a symmetry plane and the contact surface (a "
+                                     "symmetry condition there clamps the sliding, as [[fixed]] "
+                                     "would)"));
     // The distance of the nodes from the plane (line) that fits them best: the direction of
     // least spread of their coordinates.
     const std::vector<int> nodes = mesh.boundary_nodes(d.group, d.origin);
@@ -183,11 +197,8 @@ void check_symmetry_planes(const Problem& problem) {
 void check_stiffness_balance(const Problem& problem) {
   const AlgorithmParams& a = problem.algorithm;
   const double C1 = problem.material.C1;
-  const bool contact = problem.contact && problem.mesh.has_boundary(problem.contact->group);
-  const double h =
-      a.h > 0   ? a.h
-      : contact ? mean_facet_size(problem.mesh, problem.mesh.boundary(problem.contact->group))
-                : 0.0;
+  const double h = a.h > 0 ? a.h : mean_contact_facet_size(problem);
+  const bool contact = mean_contact_facet_size(problem) > 0;  // a contact group in the mesh
   // The laws in principal stretches derive C1 from their shear modulus: named as given.
   const MaterialModel model = problem.material.model;
   const std::string modulus =
@@ -411,30 +422,28 @@ void Problem::validate() const {
   check_load_factor_scale(*this);
   check_conflicting_supports(*this);
 
-  if (contact) {
-    const ContactCondition& cc = *contact;
-    const auto& b = mesh.boundary(cc.group, "contact.group");
-    require(b.facets.rows() > 0, "contact.group", cat("'", cc.group, "' has no facets"));
-    require(cc.plane_point.allFinite(), "contact.plane_point", "must be finite");
-    require(cc.plane_normal.allFinite(), "contact.plane_normal", "must be finite");
+  for (const ContactCondition& cc : contacts) {
+    const auto& b = mesh.boundary(cc.group, cc.key("group"));
+    require(b.facets.rows() > 0, cc.key("group"), cat("'", cc.group, "' has no facets"));
+    require(cc.plane_point.allFinite(), cc.key("plane_point"), "must be finite");
+    require(cc.plane_normal.allFinite(), cc.key("plane_normal"), "must be finite");
     require(std::isfinite(cc.adhesion.w) && std::isfinite(cc.adhesion.kappa) &&
                 std::isfinite(cc.adhesion.d0),
-            std::isfinite(cc.adhesion.w)
-                ? std::isfinite(cc.adhesion.kappa) ? "contact.d0" : "contact.kappa"
-                : "contact.w",
+            std::isfinite(cc.adhesion.w) ? cc.key(std::isfinite(cc.adhesion.kappa) ? "d0" : "kappa")
+                                         : cc.key("w"),
             "must be finite");
-    require(cc.beta0 >= 0 && cc.beta0 <= 1, "contact.beta0",
+    require(cc.beta0 >= 0 && cc.beta0 <= 1, cc.key("beta0"),
             cat("= ", cc.beta0, ": the adhesion intensity must be in [0, 1]"));
-    require(cc.adhesion.w >= 0, "contact.w", cat("= ", cc.adhesion.w, " J/m^2: must be >= 0"));
-    require(cc.adhesion.kappa >= 0, "contact.kappa",
+    require(cc.adhesion.w >= 0, cc.key("w"), cat("= ", cc.adhesion.w, " J/m^2: must be >= 0"));
+    require(cc.adhesion.kappa >= 0, cc.key("kappa"),
             cat("= ", cc.adhesion.kappa,
                 " Pa/m: kappa = 1/eps must be >= 0 (eps < 0 is not a "
                 "glue)"));
-    require(cc.adhesion.d0 >= 0, "contact.d0", cat("= ", cc.adhesion.d0, " 1/m: must be >= 0"));
-    require(std::abs(cc.plane_normal.norm() - 1) < 1e-12, "contact.plane_normal",
+    require(cc.adhesion.d0 >= 0, cc.key("d0"), cat("= ", cc.adhesion.d0, " 1/m: must be >= 0"));
+    require(std::abs(cc.plane_normal.norm() - 1) < 1e-12, cc.key("plane_normal"),
             "must be a unit vector");
     require(!(cc.adhesion.exact_kernel && cc.adhesion.d0 > 0 && discretization.nodal_contact),
-            "contact.kernel",
+            cc.key("kernel"),
             "= \"exact\" integrates the kernel over facets: it needs discretization.contact = "
             "\"facet-mean\" (the nodal contact has no facets)");
     // Every contact facet must lie on the boundary of the mesh.
@@ -444,7 +453,7 @@ void Problem::validate() const {
       std::vector<int> key;
       for (int k = 0; k < corners; ++k) key.push_back(b.facets(f, k));
       std::sort(key.begin(), key.end());
-      require(boundary_keys.count(key) > 0, "contact.group",
+      require(boundary_keys.count(key) > 0, cc.key("group"),
               cat("'", cc.group, "' facet ", f, " (nodes ", key[0], ", ", key[1],
                   corners > 2 ? ", ..." : "",
                   ") is not on the boundary of the body: the contact "
@@ -455,9 +464,54 @@ void Problem::validate() const {
       if (d.group == cc.group && static_cast<int>(d.components.size()) == dim)
         throw KeyError(d.origin,
                        cat("group '", d.group, "' is both fixed and the contact surface"));
-    check_sliding();
   }
+  check_shared_glue();
+  if (contacts.size() > 1 && algorithm.solver == NonlinearSolver::Newton)
+    for (const ContactCondition& cc : contacts)
+      require(!(cc.adhesion.kappa > 0), "algorithm.solver",
+              cat("= \"newton\" with ", contacts.size(), " obstacles, ", cc.origin,
+                  " glued (kappa > 0): the Newton phase holds the glue of one obstacle only; "
+                  "set algorithm.solver = \"alg2\" (paper_notes/obstacles.md)"));
+  if (!contacts.empty()) check_sliding();
   check_symmetry_planes(*this);
+}
+
+void Problem::check_shared_glue() const {
+  const auto glued = [](const ContactCondition& cc) { return cc.adhesion.kappa > 0; };
+  for (std::size_t a = 0; a < contacts.size(); ++a)
+    for (std::size_t b = a + 1; b < contacts.size(); ++b) {
+      const ContactCondition &A = contacts[a], &B = contacts[b];
+      if (!glued(A) && !glued(B)) continue;
+      // The contact points of each: nodes (nodal contact) or facets as sorted node sets.
+      std::set<std::vector<int>> pa;
+      const auto points = [&](const ContactCondition& cc) {
+        std::vector<std::vector<int>> out;
+        if (discretization.nodal_contact) {
+          for (int n : mesh.boundary_nodes(cc.group, cc.key("group"))) out.push_back({n});
+        } else {
+          const auto& F = mesh.boundary(cc.group, cc.key("group")).facets;
+          for (Eigen::Index f = 0; f < F.rows(); ++f) {
+            std::vector<int> key;
+            for (Eigen::Index k = 0; k < F.cols(); ++k) key.push_back(F(f, k));
+            std::sort(key.begin(), key.end());
+            out.push_back(key);
+          }
+        }
+        return out;
+      };
+      for (const auto& k : points(A)) pa.insert(k);
+      for (const auto& k : points(B))
+        if (pa.count(k))
+          throw KeyError(
+              glued(B) ? B.key("kappa") : A.key("kappa"),
+              cat("obstacles ", A.origin, " (group '", A.group, "') and ", B.origin, " (group '",
+                  B.group, "') share the contact ", k.size() == 1 ? "node " : "facet of nodes ",
+                  k[0], k.size() > 1 ? ", ..." : "", " at (", mesh.X(k[0], 0), ", ",
+                  mesh.X(k[0], 1), mesh.dim == 3 ? cat(", ", mesh.X(k[0], 2)) : std::string(),
+                  ") and one of them is glued: the glued local step (6.1)-(6.8) has one beta and "
+                  "one plane per point, and at a point of two obstacles it is not defined here; "
+                  "glue neither at a shared point (paper_notes/obstacles.md)"));
+    }
 }
 
 // A frictionless contact plane blocks only the normal displacement; the global matrix (4.5)
@@ -466,9 +520,15 @@ void Problem::validate() const {
 // wanders along it. The sliding motions are u = t + theta N x (x - c) with t . N = 0 (and, in
 // 3-D, a rotation about the normal); a Dirichlet component c at node x_i removes those with
 // u_c(x_i) != 0. Refused when the remaining space is not {0}, unless glue holds the surface.
+//
+// Several obstacles (paper_notes/obstacles.md): the rigid motions u = t + omega x (x - c) (3 in
+// 2-D, 6 in 3-D) whose normal component N_k . u vanishes at every node of each frictionless
+// obstacle's group, every component at a glued one's, and every prescribed component: the
+// null space of those rows is refused as above, naming the motion.
 void Problem::check_sliding() const {
-  if (!contact) return;
-  const ContactCondition& cc = *contact;
+  if (contacts.size() > 1) return check_sliding_obstacles();
+  if (contacts.empty()) return;
+  const ContactCondition& cc = contacts.front();
   if (cc.adhesion.kappa > 0 && cc.beta0 > 0) return;  // glued: the glue holds every component
   const int dim = mesh.dim;
   const Eigen::Vector3d N = cc.plane_normal;
@@ -517,13 +577,68 @@ void Problem::check_sliding() const {
     else
       what = cat("turn about the normal of the contact plane");
     throw KeyError(
-        "contact.group",
+        cc.key("group"),
         cat("'", cc.group, "': the body is free to ", what,
             ": a frictionless contact plane (no glue: kappa = 0 or beta0 = 0) blocks only "
             "the normal displacement, and no [[fixed]], [[symmetry]] or [[displacement]] "
             "condition removes this rigid motion; add one (e.g. a [[symmetry]] plane "
             "with that component) or glue the surface"));
   }
+}
+
+void Problem::check_sliding_obstacles() const {
+  const int dim = mesh.dim, np = dim == 2 ? 3 : 6;  // (t, theta) in 2-D, (t, omega) in 3-D
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  c.head(dim) = mesh.X.colwise().mean().transpose();
+  const double L =
+      std::max(1e-300, (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).maxCoeff());
+  // d u(x) / d parameters: 3 x np, u = t + omega x (x - c) / L (2-D: omega = theta e3).
+  const auto motion = [&](int node) {
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    x.head(dim) = mesh.X.row(node).transpose();
+    const Eigen::Vector3d r = (x - c) / L;
+    Eigen::MatrixXd D = Eigen::MatrixXd::Zero(3, np);
+    D.block(0, 0, dim, dim).setIdentity();
+    if (dim == 2) {
+      D(0, 2) = -r(1), D(1, 2) = r(0);
+    } else {  // omega x r = -[r]x omega
+      D.block(0, 3, 3, 3) << 0, r(2), -r(1), -r(2), 0, r(0), r(1), -r(0), 0;
+    }
+    return D;
+  };
+  Eigen::MatrixXd AtA = Eigen::MatrixXd::Zero(np, np);
+  const auto add = [&](const Eigen::RowVectorXd& row) { AtA += row.transpose() * row; };
+  for (const auto& d : dirichlet)
+    for (int node : mesh.boundary_nodes(d.group, d.origin)) {
+      const Eigen::MatrixXd D = motion(node);
+      for (int comp : d.components) add(D.row(comp));
+    }
+  for (const ContactCondition& cc : contacts) {
+    const bool glued = cc.adhesion.kappa > 0 && cc.beta0 > 0;
+    for (int node : mesh.boundary_nodes(cc.group, cc.key("group"))) {
+      const Eigen::MatrixXd D = motion(node);
+      if (glued)
+        for (int i = 0; i < dim; ++i) add(D.row(i));
+      else
+        add(cc.plane_normal.transpose() * D);
+    }
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(AtA);
+  const double scale = std::max(1.0, AtA.diagonal().maxCoeff());
+  if (es.eigenvalues()(0) > 1e-10 * scale) return;
+  const Eigen::VectorXd v = es.eigenvectors().col(0);
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  t.head(dim) = v.head(dim);
+  const std::string what =
+      t.norm() > 1e-6 ? cat("translate in the direction ", direction_name(t.normalized(), dim))
+                      : std::string("turn rigidly");
+  std::string groups;
+  for (const ContactCondition& cc : contacts)
+    groups += cat(groups.empty() ? "" : ", ", cc.origin, " '", cc.group, "'");
+  throw KeyError("contact", cat("the body is free to ", what, " along every obstacle (", groups,
+                                "): a frictionless plane blocks only its normal displacement, and "
+                                "no [[fixed]], [[symmetry]] or [[displacement]] condition removes "
+                                "this rigid motion; add one or glue a surface"));
 }
 
 }  // namespace ltl

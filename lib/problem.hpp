@@ -35,14 +35,19 @@ struct Traction {
   std::string origin;
 };
 
-/// The contact surface Gamma_c with a rigid plane, and its glue [LTL87 (1.1)-(1.3), (4.11)].
+/// One rigid obstacle: the contact surface Gamma_c of the body with a rigid plane, and its glue
+/// [LTL87 (1.1)-(1.3), (4.11)]. A problem has a list of them (`[[contact]]`, or one `[contact]`
+/// table; paper_notes/obstacles.md): the paper's one plane is the list of one.
 struct ContactCondition {
   std::string group;
   Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();   ///< a point of the obstacle plane (m)
   Eigen::Vector3d plane_normal = Eigen::Vector3d::Zero();  ///< unit, pointing into the obstacle
   Adhesion adhesion;   ///< w, kappa = 1/eps, d0, kernel rule (dt is set from the time step)
   double beta0 = 1.0;  ///< initial adhesion intensity beta_0 in [0, 1]
-  std::string origin;
+  /// The key of its table in messages: "contact" (one `[contact]` table) or "contact[k]".
+  std::string origin = "contact";
+  /// The key of one of its entries, e.g. key("group") = "contact.group" or "contact[1].group".
+  std::string key(const std::string& name) const { return origin + "." + name; }
 };
 
 /// Multiplier update of the iteration.
@@ -179,7 +184,8 @@ struct Problem {
   std::vector<Traction> tractions;
   Eigen::Vector3d body_force = Eigen::Vector3d::Zero();  ///< f (N/m^3)
   LoadRamp ramp;  ///< the load factor of each time step (multiplies f and g)
-  std::optional<ContactCondition> contact;
+  /// The rigid obstacles, each a plane with its contact group and glue (empty: no contact).
+  std::vector<ContactCondition> contacts;
   AlgorithmParams algorithm;
   DiscretizationChoice discretization;
   TimeStepping time;
@@ -196,6 +202,13 @@ struct Problem {
   /// Refuses a body free to slide along a frictionless contact plane (or, in 3-D, to turn about
   /// its normal): a rigid motion the Dirichlet data do not remove; names the free direction.
   void check_sliding() const;
+  /// check_sliding() with several obstacles: the rigid motions tangent to every frictionless
+  /// plane at its group's nodes (and free at the glued ones' nodes) that no Dirichlet datum holds.
+  void check_sliding_obstacles() const;
+  /// Two obstacles whose contact groups share a contact point (a node with nodal contact, a facet
+  /// with facet-mean): refused when either is glued (paper_notes/obstacles.md: the paper's glue
+  /// has one beta per point and one plane); names both obstacles and the point.
+  void check_shared_glue() const;
 };
 
 /// The default ALG2 parameters, derived from the material and the mesh for those of R, q, q_c the

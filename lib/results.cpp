@@ -143,4 +143,33 @@ std::string ResultsFile::read_attribute(const std::string& path, const std::stri
   return read_string_attr(root.get(), name, path, "/").value_or("");
 }
 
+ContactOutput contact_output(const Mesh& mesh, const std::vector<std::string>& groups,
+                             const ContactPoints* points, Mesh::Boundary& storage) {
+  ContactOutput out;
+  if (groups.empty()) return out;
+  if (groups.size() == 1) {
+    out.facets = &mesh.boundary(groups.front());
+  } else {  // the facets of every obstacle's group, one after the other
+    storage.name.clear();
+    out.facet_offset = {0};
+    Eigen::Index rows = 0;
+    for (const std::string& g : groups) rows += mesh.boundary(g).facets.rows();
+    storage.facets.resize(rows, mesh.nodes_per_facet());
+    for (const std::string& g : groups) {
+      const Eigen::MatrixXi& F = mesh.boundary(g).facets;
+      storage.facets.middleRows(out.facet_offset.back(), F.rows()) = F;
+      out.facet_offset.push_back(out.facet_offset.back() + static_cast<int>(F.rows()));
+      storage.name += (storage.name.empty() ? "" : ",") + g;
+    }
+    out.facets = &storage;
+  }
+  if (points) {
+    out.centre = points->centre;
+    out.area = points->area;
+    out.nodes = points->nodes;
+    if (groups.size() > 1) out.offset = points->offset;
+  }
+  return out;
+}
+
 }  // namespace ltl

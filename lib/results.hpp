@@ -55,6 +55,7 @@
 #include <string>
 #include <vector>
 
+#include "contact_points.hpp"
 #include "mesh.hpp"
 #include "problem.hpp"
 #include "results_info.hpp"
@@ -108,7 +109,18 @@ struct ContactOutput {
   /// nodes' positions; without, not written.
   Eigen::MatrixXd centre;
   Eigen::VectorXd area;  ///< weight of each contact point (empty: not written)
+  /// Several obstacles (paper_notes/obstacles.md): the points of obstacle k are offset[k] ..
+  /// offset[k + 1] - 1 and its facets facet_offset[k] .. facet_offset[k + 1] - 1 (`facets` holds
+  /// every obstacle's, one after the other); written as /mesh/contact_obstacle (the obstacle of
+  /// each point). Empty, or one obstacle: the layout of one contact surface.
+  std::vector<int> offset, facet_offset;
 };
+
+/// The contact output of the obstacles `groups` of `mesh` with their contact points (null: none):
+/// one group's boundary, or with several their facets one after the other in `storage` (which
+/// must outlive the output).
+ContactOutput contact_output(const Mesh& mesh, const std::vector<std::string>& groups,
+                             const ContactPoints* points, Mesh::Boundary& storage);
 
 /// How ResultsFile::create starts a file.
 struct ResultsOptions {

@@ -65,6 +65,9 @@ inline constexpr Field kFields[] = {
     {"contact_area", Location::Mesh, Shape::Scalar, Source::Other, Pad33::None, "m", "m^2",
      "weight of each contact point: facet measure, or integral of the node's shape function "
      "over the contact surface (plane strain: per metre of depth)"},
+    {"contact_obstacle", Location::Mesh, Shape::Scalar, Source::Other, Pad33::None, "1", "1",
+     "several obstacles ([[contact]]) only: the obstacle (0, 1, ...) of each contact point; the "
+     "points of obstacle k are consecutive, and every per-point field splits by it"},
     {"u", Location::Node, Shape::Vector, Source::State, Pad33::Zero, "m", "m",
      "displacement of the nodes (#nodes, dim)"},
     {"E", Location::Cell, Shape::Tensor, Source::State, Pad33::One, "1", "1",

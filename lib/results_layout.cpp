@@ -324,18 +324,29 @@ Sizes write_mesh(hid_t f, const Mesh& mesh, const RunInfo& info, const ResultsOp
     if (!nodes.empty()) {
       write_ints(f, "/mesh/contact_nodes", {un(n_points)}, nodes, dim, path);
       // The facets in the numbering of the contact points: the contact grid of the XDMF files.
+      // Several obstacles: each obstacle's facets in the numbering of its own points (a node of
+      // two groups is one point of each).
+      const bool several = contact.offset.size() > 2;
+      const std::vector<int> po = several ? contact.offset : std::vector<int>{0, n_points};
+      const std::vector<int> fo =
+          several ? contact.facet_offset : std::vector<int>{0, static_cast<int>(F.rows())};
+      if (fo.size() != po.size() || fo.back() != F.rows() || po.back() != n_points)
+        fail(path, "contact offsets do not match the contact points and facets");
       std::vector<int> local(F.size(), -1), index(nn, -1);
-      for (int k = 0; k < n_points; ++k) {
-        const int node = nodes[k];
-        if (node < 0 || node >= nn) fail(path, cat("contact node ", node, " does not exist"));
-        index[node] = k;
-      }
-      for (Eigen::Index i = 0; i < F.rows(); ++i)
-        for (Eigen::Index j = 0; j < F.cols(); ++j) {
-          local[i * F.cols() + j] = index[F(i, j)];
-          if (local[i * F.cols() + j] < 0)
-            fail(path, cat("node ", F(i, j), " of contact facet ", i, " is not a contact node"));
+      for (std::size_t o = 0; o + 1 < po.size(); ++o) {
+        std::fill(index.begin(), index.end(), -1);
+        for (int k = po[o]; k < po[o + 1]; ++k) {
+          const int node = nodes[k];
+          if (node < 0 || node >= nn) fail(path, cat("contact node ", node, " does not exist"));
+          index[node] = k;
         }
+        for (Eigen::Index i = fo[o]; i < fo[o + 1]; ++i)
+          for (Eigen::Index j = 0; j < F.cols(); ++j) {
+            local[i * F.cols() + j] = index[F(i, j)];
+            if (local[i * F.cols() + j] < 0)
+              fail(path, cat("node ", F(i, j), " of contact facet ", i, " is not a contact node"));
+          }
+      }
       write_ints(f, "/mesh/contact_topology", {un(F.rows()), un(F.cols())}, local, dim, path);
       if (contact.centre.size() == 0)  // the contact points' positions: the contact grid's geometry
         for (int k = 0; k < n_points; ++k) centre.row(k) = mesh.X.row(nodes[k]);
@@ -347,6 +358,13 @@ Sizes write_mesh(hid_t f, const Mesh& mesh, const RunInfo& info, const ResultsOp
       write_doubles(f, "/mesh/contact_centre", {un(n_points), un(dim)}, rows_of(centre), dim, path);
     if (contact.area.size())
       write_doubles(f, "/mesh/contact_area", {un(n_points)}, vec(contact.area), dim, path);
+    if (contact.offset.size() > 2) {  // several obstacles: the obstacle of each contact point
+      std::vector<int> obstacle(n_points, 0);
+      for (std::size_t o = 0; o + 1 < contact.offset.size(); ++o)
+        for (int k = contact.offset[o]; k < contact.offset[o + 1] && k < n_points; ++k)
+          obstacle[k] = static_cast<int>(o);
+      write_ints(f, "/mesh/contact_obstacle", {un(n_points)}, obstacle, dim, path);
+    }
   }
   create_group(f, "/steps", path);
   return {dim, nn, nc, n_points, contact.facets != nullptr};

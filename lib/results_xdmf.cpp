@@ -184,6 +184,13 @@ std::string xdmf_text(std::int64_t file_id, const std::string& file, bool contac
       // The deformation gradient also under its name F (the dataset keeps the code's name E).
       if (std::string(row.name) == "E") attribute("F", "Tensor", where, cat(count, " 3 3"), ds);
     }
+    // Several obstacles: the obstacle of each contact point (0, 1, ...), to split the fields.
+    if (contact && has("/mesh/contact_obstacle")) {
+      o << "        <Attribute Name=\"obstacle\" AttributeType=\"Scalar\" Center=\"" << at
+        << "\">\n";
+      item("          ", cat(n_points), true, "/mesh/contact_obstacle");
+      o << "        </Attribute>\n";
+    }
     o << "      </Grid>\n";
   }
   if (series) o << "    </Grid>\n";

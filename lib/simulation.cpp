@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -239,7 +240,9 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
 /// can).
 std::string subdivision_refused(const Solver& solver, double f0, double f1) {
   const Problem& problem = solver.problem();
-  if (problem.contact && problem.contact->adhesion.d0 > 0 && problem.contact->adhesion.glued())
+  if (std::any_of(problem.contacts.begin(), problem.contacts.end(), [](const ContactCondition& c) {
+        return c.adhesion.d0 > 0 && c.adhesion.glued();
+      }))
     return "not subdivided: glue with dissipation (contact.d0 > 0), whose term (6.4)-(6.5) "
            "divides by the time step dt of the solver: a substep of the load would dissipate as "
            "over the whole dt";
@@ -436,12 +439,11 @@ void ResultsWriter::append(const TimeStep& step) {
     ResultsOptions options;
     options.commit = false;
     options.cell_volume = solver.discretization().cells().vol;
-    if (problem.contact) options.contact.facets = &problem.mesh.boundary(problem.contact->group);
-    if (const ContactPoints* points = solver.discretization().points()) {
-      options.contact.centre = points->centre;
-      options.contact.area = points->area;
-      options.contact.nodes = points->nodes;
-    }
+    std::vector<std::string> groups;  // one per obstacle
+    for (const ContactCondition& cc : problem.contacts) groups.push_back(cc.group);
+    Mesh::Boundary facets;  // several obstacles: their facets, one after the other
+    options.contact =
+        contact_output(problem.mesh, groups, solver.discretization().points(), facets);
     return ResultsFile::create(output, problem.mesh, info, options);
   };
   for (const StepAttempt& a : step.attempts) summary_.solver_seconds += a.seconds;

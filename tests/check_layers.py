@@ -29,8 +29,8 @@ LAYERS = [
     ("leaf", "error hash mpi_comm cofactor signed_svd state material adhesion contact_points "
              "version stored_measure log_newton interrupt geometry_guard hdf5_io results_info"),
     ("fe/mesh", "mesh fe cholesky cg_amg derived_fields"),
-    ("steps", "strain_step strain_principal contact_step adhesion_kernel global_step mpi_global "
-              "anderson"),
+    ("steps", "strain_step strain_principal contact_step obstacles adhesion_kernel global_step "
+              "mpi_global anderson"),
     ("problem", "problem config config_toml config_rows config_schema"),
     ("discretization", "discretization"),
     ("measures", "measures admissibility reactions"),

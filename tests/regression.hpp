@@ -87,9 +87,9 @@ inline std::vector<Metric> evaluate(const Case& c, const std::string& source_dir
   std::vector<Metric> last;
   summary = run(p, options, [&](const Solver& solver, int, const State& s) {
     last.clear();
-    if (!p.contact) return;
+    if (p.contacts.empty()) return;
     const Eigen::VectorXd gap = solver.discretization().contact_gap(s);
-    if (p.contact->adhesion.kappa > 0) {
+    if (p.contacts[0].adhesion.kappa > 0) {
       // Adhesion: the peel measures of lib/measures.hpp (beta profile, the damage front at
       // beta < kDamagedBeta, the opening of the contact surface); the stored keys floor the
       // front (none: 0) and the opening at 0.

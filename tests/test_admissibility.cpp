@@ -217,7 +217,7 @@ TEST(Admissibility, Eq1_1_TensionWithoutGlueIsRefusedAndAcceptedWithGlue) {
   // A tension of 50 kPa at one contact node of the block (p = -lambda_c . N = -50 kPa).
   const auto& r = converged_block();
   const Discretization& d = r.solver->discretization();
-  const Eigen::VectorXd N = d.problem().contact->plane_normal.head(2);
+  const Eigen::VectorXd N = d.problem().contacts[0].plane_normal.head(2);
   State s = r.s;
   const int i = 3;
   s.lambda_c.row(i) = 50e3 * N.transpose();
@@ -231,8 +231,8 @@ TEST(Admissibility, Eq1_1_TensionWithoutGlueIsRefusedAndAcceptedWithGlue) {
   EXPECT_TRUE(contains(a.message(), cat("at contact point ", i, " (reference"))) << a.message();
   // With glue holding that point (kappa > 0, beta = 1) the same tension is the glue's.
   Problem glued = d.problem();
-  glued.contact->adhesion.kappa = 1e9;
-  glued.contact->beta0 = 1;
+  glued.contacts[0].adhesion.kappa = 1e9;
+  glued.contacts[0].beta0 = 1;
   const Discretization dg(glued);
   s.beta.setOnes();
   EXPECT_TRUE(check_admissibility(dg, s).admissible()) << check_admissibility(dg, s).message();
@@ -307,7 +307,7 @@ TEST(Admissibility, Eq1_1_InadmissibleConvergedStepEndsTheRunAndIsSavedApart) {
   cc.plane_normal = Eigen::Vector3d(0, -1, 0);
   cc.beta0 = 0;
   cc.origin = "test";
-  p.contact = cc;
+  p.contacts = {cc};
   p.algorithm = ltl::testing::tight(4 * (C1 + C2));
   p.algorithm.tol = 1e-10;
   const fs::path dir = ltl::testing::temp_dir("admissibility_run");

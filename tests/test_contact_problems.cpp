@@ -44,7 +44,7 @@ ContactCondition plane_contact(const std::string& group, const Eigen::Vector3d& 
 // facet mean of u), rather than from the local variable e_s (Solver::contact_gap): at
 // convergence they agree up to the tolerance, and this one is what the body actually does.
 Eigen::VectorXd mean_gap(const Solver& solver, const State& s) {
-  const Eigen::VectorXd N = solver.problem().contact->plane_normal.head(solver.dim());
+  const Eigen::VectorXd N = solver.problem().contacts[0].plane_normal.head(solver.dim());
   const Eigen::MatrixXd ubar = solver.discretization().points()->mean * s.u;    // #points x dim
   const Eigen::VectorXd g0 = solver.discretization().contact_gap(s) + s.e * N;  // initial gap g_s
   return g0 - ubar * N;
@@ -98,10 +98,10 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   p.tractions = {top};
   if (d == 2) {
     p.dirichlet = {{"left", {0}, {}, "test"}};
-    p.contact = plane_contact("bottom", N);
+    p.contacts = {plane_contact("bottom", N)};
   } else {
     p.dirichlet = {{"x0", {0}, {}, "test"}, {"y0", {1}, {}, "test"}};
-    p.contact = plane_contact("z0", N);
+    p.contacts = {plane_contact("z0", N)};
   }
   p.algorithm = alg;
   const Solved r = solve_one_step(p);
@@ -132,7 +132,7 @@ void expect_block_on_plane(const Mesh& mesh, const Material& material, const Com
   ASSERT_GT(pc.size(), 0);
   const double worst_p = (pc.array() - exact.p).abs().maxCoeff() / exact.p;
   EXPECT_LT(worst_p, 1e-6);
-  const Eigen::VectorXd Nd = p.contact->plane_normal.head(d);
+  const Eigen::VectorXd Nd = p.contacts[0].plane_normal.head(d);
   double worst_t = 0;
   for (int f = 0; f < pc.size(); ++f) {
     const Eigen::VectorXd lc = s.lambda_c.row(f).transpose();
@@ -242,7 +242,7 @@ namespace {
 // Returns the number of facets in contact (p_s > tol_p p_max).
 int expect_signorini(const Solver& solver, const State& s, double L, double tol_g, double tol_p) {
   const int d = solver.dim();
-  const Eigen::VectorXd N = solver.problem().contact->plane_normal.head(d);
+  const Eigen::VectorXd N = solver.problem().contacts[0].plane_normal.head(d);
   const Eigen::VectorXd p = solver.discretization().contact_pressure(s),
                         gap = solver.discretization().contact_gap(s), gap_u = mean_gap(solver, s);
   const double p_max = p.maxCoeff();

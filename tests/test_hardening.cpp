@@ -651,15 +651,10 @@ TEST(Hardening, OutOfMemoryIsAMessage) {
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_NE(r.err.find("out of memory"), std::string::npos) << r.err;
   EXPECT_EQ(changes(before, snapshot(f.dir)), "");
-  // That mesh is now refused before it is made (predicted); a smaller one, which the estimate
-  // lets through (about 49 000 cells against the 67 000 that 600 MB leave room for at 4 kB per
-  // cell), still runs out of memory in the factorization: a message naming it, exit 1.
-  const Outcome small =
-      f.run("case.toml -q -o out.h5 --set mesh.parameters.n=150 --set mesh.parameters.nd=150",
-            "ulimit -v 600000 &&");
-  EXPECT_EQ(small.status, 1) << small.err;
-  EXPECT_NE(small.err.find("out of memory"), std::string::npos) << small.err;
-  EXPECT_EQ(changes(before, snapshot(f.dir)), "");
+  // That mesh is refused before it is made (predicted). A smaller one that the estimate lets
+  // through (n = nd = 150, about 49 000 cells under 600 MB) used to run out of memory in the
+  // factorization; its setup now fits (paper_notes/hardening.md, "Mesh size against memory"),
+  // so no quick out-of-memory case is left between the estimate and the setup.
 #endif
 }
 

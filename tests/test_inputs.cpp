@@ -230,8 +230,8 @@ TEST(SetOverrides, ReachListEntries) {
   EXPECT_EQ(p.tractions[0].group, "top");
   // An entry of a plain array.
   const Problem q = load_problem(kBlock, {"contact.plane_point[1]=\"-1 mm\""});
-  EXPECT_EQ(q.contact->plane_point(1), -1e-3);
-  EXPECT_EQ(q.contact->plane_point(0), 0.0);
+  EXPECT_EQ(q.contacts[0].plane_point(1), -1e-3);
+  EXPECT_EQ(q.contacts[0].plane_point(0), 0.0);
 }
 
 struct BadInput {

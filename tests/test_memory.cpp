@@ -164,7 +164,7 @@ Problem long_strip(int nx, bool glue) {
     cc.adhesion.d0 = 1000.0;
   }
   cc.origin = "test";
-  p.contact = cc;
+  p.contacts = {cc};
   p.time.dt = 1.0;
   p.algorithm = ltl::testing::tight(2 * 130e3);
   p.algorithm.max_iter = 3;

@@ -334,9 +334,9 @@ TEST(Stopping, Eq3_2_EquilibriumErrorSeesIncompatibleStrainsAndPenetration) {
   EXPECT_GE(equilibrium_error(disc, F, s), 1e-5 * (1 - 1e-6));
   s = eq.state;
   const double L = std::pow(disc.volume(), 1.0 / disc.dim());
-  const Eigen::VectorXd N = p.contact->plane_normal.head(disc.dim());
+  const Eigen::VectorXd N = p.contacts[0].plane_normal.head(disc.dim());
   int n = -1;  // the contact node nearest the plane (in contact)
-  for (int a : p.mesh.boundary_nodes(p.contact->group))
+  for (int a : p.mesh.boundary_nodes(p.contacts[0].group))
     if (n < 0 || (p.mesh.X.row(a) + s.u.row(a)).dot(N) > (p.mesh.X.row(n) + s.u.row(n)).dot(N))
       n = a;
   s.u.row(n) += 1e-4 * L * N.transpose();
@@ -353,9 +353,9 @@ TEST(Newton, Eq2_2_GlueTermsAreDerivativesOfTheDiscreteFunctional) {
   p.algorithm.solver = NonlinearSolver::Newton;
   const Discretization disc(p);
   Newton newton(disc);
-  Adhesion adhesion = p.contact->adhesion;
+  Adhesion adhesion = p.contacts[0].adhesion;
   adhesion.dt = p.time.dt;
-  const ContactStep contact(*disc.points(), adhesion, 1.0);
+  const ContactSteps contact(disc.obstacle_points(), {adhesion}, 1.0);
   const ContactPoints& pts = *disc.points();
   const int np = pts.size(), d = disc.dim(), nn = disc.num_nodes();
   std::mt19937 g(7);

@@ -340,7 +340,7 @@ Problem glued_square() {
   cc.plane_normal = Eigen::Vector3d(0, -1, 0);
   cc.adhesion.kappa = 1e9;
   cc.origin = "test";
-  p.contact = cc;
+  p.contacts = {cc};
   return p;
 }
 
@@ -407,7 +407,7 @@ TEST(Output, StoredMeasuresEqualTheInMemoryOnes) {
       admissibility = check_admissibility(solver.discretization(), s);
     });
     ASSERT_TRUE(last.contact) << config;
-    EXPECT_EQ(last.peel.has_value(), p.contact->adhesion.kappa > 0) << config;
+    EXPECT_EQ(last.peel.has_value(), p.contacts[0].adhesion.kappa > 0) << config;
     const auto stored = ResultsFile::read_last_step(o.output);
     ASSERT_TRUE(stored);
     std::vector<StoredMeasure> expected = stored_measures(last, p.mesh.dim);

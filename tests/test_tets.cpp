@@ -317,7 +317,7 @@ void expect_pressed_block(bool nodal) {
   cc.plane_normal = -Eigen::Vector3d::UnitZ();
   cc.beta0 = 0.0;
   cc.origin = "test";
-  p.contact = cc;
+  p.contacts = {cc};
   p.discretization.nodal_contact = nodal;
   p.algorithm = ltl::testing::tight(8 * (C1 + C2));
   p.algorithm.tol = 1e-11;

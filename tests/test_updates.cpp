@@ -89,7 +89,7 @@ TEST(Updates, Eq3_2_FixedPointDoesNotDependOnRqQcRho) {
     c.plane_point << 0, 1.5, 0;
     c.plane_normal << 0, 1, 0;
     c.beta0 = 0;
-    p.contact = c;
+    p.contacts = {c};
     p.algorithm.update = a.update;
     p.algorithm.R = a.R;
     p.algorithm.q = a.q;

@@ -339,7 +339,7 @@ std::pair<double, double> write_cost(const ltl::Solver& solver, const ltl::State
   const ltl::Discretization& d = solver.discretization();
   ltl::ResultsOptions options;
   options.cell_volume = d.cells().vol;
-  if (pb.contact) options.contact.facets = &pb.mesh.boundary(pb.contact->group);
+  if (!pb.contacts.empty()) options.contact.facets = &pb.mesh.boundary(pb.contacts[0].group);
   if (d.points()) {
     options.contact.centre = d.points()->centre;
     options.contact.area = d.points()->area;
@@ -409,8 +409,8 @@ int run_case(const Case& c, int iters, int warm) {
     double factor_bytes = 0;
     for (int k = 0; k < gs.num_factors(); ++k) factor_bytes += 8.0 * gs.factor(k).entries();
     put("factor_bytes", factor_bytes);
-    if (problem.contact) {
-      ltl::Adhesion adhesion = problem.contact->adhesion;
+    if (!problem.contacts.empty()) {
+      ltl::Adhesion adhesion = problem.contacts[0].adhesion;
       adhesion.dt = problem.time.dt;
       const ltl::ContactStep cs(*solver.discretization().points(), adhesion, 1.0);
       put("kernel_bytes", cs.kernel_bytes());

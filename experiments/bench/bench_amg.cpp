@@ -6,7 +6,10 @@
 //           the factor or of the hierarchy, the cost of the global solve per ALG2 iteration (one
 //           triangular solve per factor, or CG to the inexact tolerance of lib/cg_amg.hpp,
 //           warm-started), the CG iterations per solve, and the peak resident memory with the
-//           bytes per cell outside the factor / hierarchy; the setup's phases (mesh,
+//           bytes per cell outside the factor / hierarchy (the peak, the resident memory
+//           and malloc's live bytes while iterating), the bytes per contact point (the points'
+//           arrays and the contact kernel), the largest gutter that fits in 24 GB from these
+//           measured numbers (fits_24GB_cells); the setup's phases (mesh,
 //           discretization, precompute) with the peak reached by the end of each, and the cost
 //           of an ALG2 iteration split into its phases (global solve, local strain step, contact
 //           step, update). --predict also prints, without factorizing, CHOLMOD's AMD count of
@@ -19,7 +22,8 @@
 //           memory (VmHWM) is its own. The 10^6-cell row of performance.md (one command line):
 //               OMP_NUM_THREADS=1 bench_amg --warm 2 --iters 3 --min-cells 900000
 //                   --max-cells 1000000 --solvers cg-amg --also-predict
-//           (about 4 min and 10 GB; its Cholesky case would need 23-29 GB: not in 24 GB).
+//           (about 2-4 min and 4.6 GB, 10 GB before the memory layout of performance.md's
+//           second pass; its Cholesky case would need 23-29 GB: not in 24 GB).
 //           Needs a build with PETSc for the CG + AMG rows (they are reported as not run
 //           otherwise). Counts (bytes, iterations) do not depend on the load
 //           of the machine; times do: the load average is printed beside them.
@@ -30,6 +34,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -39,6 +44,7 @@
 #include "alg2.hpp"
 #include "cg_amg.hpp"
 #include "config.hpp"
+#include "contact_step.hpp"
 #include "global_step.hpp"
 
 namespace {
@@ -158,13 +164,44 @@ int run_case(const Gutter& g, const std::string& solver_name, int iters, int war
   const double peak = status_mb("VmHWM:"), rss = status_mb("VmRSS:");
   const double live = live_mb();
   auto per_cell = [&](double mb) { return ((mb - base) * 1048576.0 - store_bytes) / g.cells(); };
+  // Per contact point: what the contact surface stores (the points' arrays and averaging
+  // operators, lib/contact_points.hpp, and the contact step's adhesion kernel), counted from
+  // the objects' sizes.
+  const ltl::ContactPoints* pts = solver.discretization().points();
+  const int n_points = pts ? pts->size() : 0;
+  double point_bytes = 0;
+  if (pts) {
+    auto sparse = [](const ltl::SpMatR& M) {
+      return 12.0 * static_cast<double>(M.nonZeros()) + 4.0 * (M.outerSize() + 1);
+    };
+    point_bytes = 8.0 * (pts->area.size() + pts->centre.size() + pts->gap.size()) +
+                  sparse(pts->mean) + sparse(pts->meanT_area) + 4.0 * pts->nodes.size();
+    for (const Eigen::MatrixXd& v : pts->vertices) point_bytes += 8.0 * v.size();
+    ltl::Adhesion adhesion = problem.contacts.front().adhesion;
+    adhesion.dt = problem.time.dt;
+    point_bytes += ltl::ContactStep(*pts, adhesion, 1.0).kernel_bytes();
+  }
+  // The largest gutter that fits in 24 GB (GiB, as VmHWM counts), from this case's measured
+  // numbers: base + (peak rest per cell) N + store(N), the store (AMG hierarchy) linear in N
+  // (measured N^0.99-1.02, performance.md), the factor as N^1.28 (measured from 102 400 to
+  // 302 500 cells, performance.md); bisection on N.
+  const double rest_b = per_cell(peak), budget = 24.0 * 1073741824.0 - base * 1048576.0;
+  const double store_exp = cg ? 1.0 : 1.28;
+  auto need = [&](double n) {
+    return rest_b * n + store_bytes * std::pow(n / static_cast<double>(g.cells()), store_exp);
+  };
+  double lo = 0, hi = 1e12;
+  for (int k = 0; k < 200 && hi - lo > 1; ++k)
+    (need((lo + hi) / 2) > budget ? hi : lo) = (lo + hi) / 2;
   std::printf(
       "RESULT %s %s cells=%ld nodes=%d factors=%d setup_s=%.3f store_MB=%.1f solve_ms=%.3f "
       "cg_its_per_solve=%.2f base_MB=%.0f peak_MB=%.0f rss_MB=%.0f peak_rest_B_per_cell=%.0f "
-      "rss_rest_B_per_cell=%.0f live_rest_B_per_cell=%.0f load=%s\n",
+      "rss_rest_B_per_cell=%.0f live_rest_B_per_cell=%.0f store_B_per_cell=%.0f "
+      "contact_points=%d contact_B_per_point=%.0f fits_24GB_cells=%.3g load=%s\n",
       g.name().c_str(), cg ? "cg-amg" : "cholesky", g.cells(), problem.mesh.num_nodes(),
       gs.num_factors(), setup, store_bytes / 1e6, per_call_ms, its, base, peak, rss, per_cell(peak),
-      per_cell(rss), (live * 1048576.0 - store_bytes) / g.cells(), loadavg().c_str());
+      per_cell(rss), (live * 1048576.0 - store_bytes) / g.cells(), store_bytes / g.cells(),
+      n_points, n_points > 0 ? point_bytes / n_points : 0.0, lo, loadavg().c_str());
   std::printf(
       "SETUP %s %s mesh_s=%.2f disc_s=%.2f precompute_s=%.2f (of which %s %.2f) "
       "peak_MB_after_mesh=%.0f after_disc=%.0f after_precompute=%.0f live_MB_after_mesh=%.0f "
