@@ -170,21 +170,25 @@ GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver sol
                        const Eigen::MatrixXd* X)
     : GlobalStep(SpMat(K), bc, solver, X) {}
 
+std::vector<std::vector<int>> components_by_dirichlet_set(const DirichletData& bc) {
+  std::vector<std::vector<int>> groups;
+  std::map<std::vector<int>, std::size_t> by_set;
+  for (int i = 0; i < static_cast<int>(bc.fixed.size()); ++i) {
+    const auto [it, fresh] = by_set.emplace(bc.fixed[i], groups.size());
+    if (fresh) groups.emplace_back();
+    groups[it->second].push_back(i);
+  }
+  return groups;
+}
+
 GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
                        const Eigen::MatrixXd* X)
     : bc_(bc) {
-  const int n = static_cast<int>(K.rows()), dim = static_cast<int>(bc.fixed.size());
+  const int n = static_cast<int>(K.rows());
   // One group per distinct Dirichlet set.
-  std::map<std::vector<int>, int> by_set;
-  for (int i = 0; i < dim; ++i) {
-    auto it = by_set.find(bc.fixed[i]);
-    if (it == by_set.end()) {
-      by_set[bc.fixed[i]] = static_cast<int>(groups_.size());
-      groups_.push_back(std::make_unique<Group>());
-      groups_.back()->components.push_back(i);
-    } else {
-      groups_[it->second]->components.push_back(i);
-    }
+  for (std::vector<int>& components : components_by_dirichlet_set(bc)) {
+    groups_.push_back(std::make_unique<Group>());
+    groups_.back()->components = std::move(components);
   }
   // Fill-reducing ordering: the best (least nnz(L)) of AMD, METIS and CHOLMOD's nested
   // dissection, computed once for the group with the fewest fixed nodes and induced on the other

@@ -39,6 +39,11 @@ struct DirichletData {
   Eigen::MatrixXd value;
 };
 
+/// The displacement components grouped by Dirichlet set, in order of first appearance: the
+/// components of one group share K restricted to their free nodes, hence one factor (or one
+/// AMG hierarchy, or one distributed KSP).
+std::vector<std::vector<int>> components_by_dirichlet_set(const DirichletData& bc);
+
 /// [LTL87 (4.5)] K = 2 C1 L + R q Gbar^T diag(|O|) Gbar + R q_c M^T diag(|G|) M, with L the
 /// Laplacian, Gbar the mean gradient, M the facet mean (pass nullptr when there is no contact).
 SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, double C1, double Rq,

@@ -62,18 +62,11 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
                                              const Eigen::MatrixXd& X, Solver solver)
     : bc_(bc), solver_(solver) {
   const auto t0 = std::chrono::steady_clock::now();
-  const int n = static_cast<int>(K.rows()), dim = static_cast<int>(bc.fixed.size());
+  const int n = static_cast<int>(K.rows());
   const int P = mpi::size(), me = mpi::rank();
-  std::map<std::vector<int>, int> by_set;
-  for (int i = 0; i < dim; ++i) {
-    auto it = by_set.find(bc.fixed[i]);
-    if (it == by_set.end()) {
-      by_set[bc.fixed[i]] = static_cast<int>(groups_.size());
-      groups_.push_back(std::make_unique<Group>());
-      groups_.back()->components.push_back(i);
-    } else {
-      groups_[it->second]->components.push_back(i);
-    }
+  for (std::vector<int>& components : components_by_dirichlet_set(bc)) {
+    groups_.push_back(std::make_unique<Group>());
+    groups_.back()->components = std::move(components);
   }
   PetscReal rtol = kRtol;
   PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_rtol", &rtol, nullptr);
