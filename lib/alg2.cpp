@@ -179,10 +179,9 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
   rec.t_strain += seconds_since(t0);
   if (contact_) {
     t0 = clock_type::now();
-    if (point_range().end - point_range().first < disc_.points()->size())  // distributed
-      contact_owned(g, lambda_c, s);
-    else
-      contact_->solve(g.ubar, lambda_c, beta_prev, s.e, s.beta, alg().contact_sweeps);
+    const Range points = point_range();  // this rank's points (all unless distributed)
+    contact_->solve(g.ubar, lambda_c, beta_prev, s.e, s.beta, alg().contact_sweeps, points.first,
+                    points.end);
     rec.t_contact += seconds_since(t0);
   }
   if (dist_) {

@@ -190,8 +190,6 @@ class Solver {
   /// Phase 1 when distributed: the right-hand side's owned parts summed over the ranks, the
   /// distributed solve, then the owned rows of Gbar u, ubar and J.
   void global_phase_distributed(State& s, GlobalOutput& g);
-  /// The contact step (4.7) on the owned points, independent when d0 = 0.
-  void contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c, State& s) const;
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
   /// The owned blocks of E, lambda (and e, lambda_c, beta) gathered: the whole state everywhere.

@@ -175,33 +175,6 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   }
 }
 
-// [LTL87 (4.7), (6.1)-(6.8)] Without dissipation (d0 = 0) the points do not see each other:
-// each owned point solves its own (6.1)-(6.2), exactly as ContactStep::solve does (a = R q_c
-// ubar_s - lambda_c_s, aa = 0, b = w).
-void Solver::contact_owned(const GlobalOutput& g, const Eigen::MatrixXd& lambda_c, State& s) const {
-  const ContactPoints& points = *disc_.points();
-  const int dim = this->dim();
-  const double Rqc = R_ * alg().q_c;
-  const Range pr = point_range();
-  for (int k = 0; k < contact_->size(); ++k) {  // each obstacle on its own rows (obstacles.hpp)
-    const ContactStep& step = (*contact_)[k];
-    const Adhesion& ad = step.adhesion();
-    Eigen::Vector3d N = Eigen::Vector3d::Zero();
-    N.head(dim) = step.normal();
-    const int first = std::max(pr.first, contact_->offset(k));
-    const int end = std::min(pr.end, contact_->offset(k + 1));
-    for (int sweep = 0; sweep < alg().contact_sweeps; ++sweep)
-      for (int p = first; p < end; ++p) {
-        Eigen::Vector3d av = Eigen::Vector3d::Zero();
-        av.head(dim) = (Rqc * g.ubar.row(p) - lambda_c.row(p)).transpose();
-        const PointSolution sol = ContactStep::solve_point(av, 0.0, ad.w, Rqc, ad.kappa, N,
-                                                           points.gap(p), dim, s.beta(p));
-        s.e.row(p) = sol.e.head(dim).transpose();
-        s.beta(p) = sol.beta;
-      }
-  }
-}
-
 void Solver::make_whole(State& s) const {
   const Distribution& d = *dist_;
   const int dim = this->dim();

@@ -294,8 +294,9 @@ static double kernel_row_dot(const Eigen::SparseMatrix<double>& kt, int s,
 }
 
 void ContactStep::solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev, MatRef e,
-                        VecRef beta, int sweeps) const {
+                        VecRef beta, int sweeps, int first, int end) const {
   const int n = points_->size(), dim = points_->dim;
+  if (end < 0) end = n;
   if (ubar.rows() != n || ubar.cols() != dim || lambda_c.rows() != n || lambda_c.cols() != dim ||
       e.rows() != n || e.cols() != dim || beta_prev.size() != n || beta.size() != n)
     fail("solve(): ubar, lambda_c, e must be #points x dim and beta_prev, beta #points (dim = " +
@@ -303,7 +304,7 @@ void ContactStep::solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta
   const double dt = adhesion_.dt, w = adhesion_.w, kappa = adhesion_.kappa;
   const bool dissipation = adhesion_.d0 > 0.0;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
-    for (int s = 0; s < n; ++s) {
+    for (int s = first; s < end; ++s) {
       Vector3d a = Vector3d::Zero();
       a.head(dim) = (Rqc_ * ubar.row(s) - lambda_c.row(s)).transpose();  // (6.3)
       double aa = 0.0, b = w;

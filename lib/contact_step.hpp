@@ -89,9 +89,11 @@ class ContactStep {
   ///   lambda_c:  #points x dim, current multiplier
   ///   beta_prev: #points, beta at the previous time step (beta_{p-1})
   ///   e, beta:   in: current iterate, out: updated.
+  /// Only the points first <= s < end are updated (end < 0: all; a rank's block when the
+  /// points are distributed, which is exact without dissipation, where they are independent).
   /// Allocation-free. O(nnz(k)) per sweep: O(#points x neighbours within the cutoff).
   void solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev, MatRef e, VecRef beta,
-             int sweeps = 1) const;
+             int sweeps = 1, int first = 0, int end = -1) const;
 
   /// The adhesion part of J_p (2.2) on the discrete surface, for given e, beta:
   ///   sum_s |G_s| [ (kappa/2) beta_s^2 |e_s|^2 - w beta_s ]

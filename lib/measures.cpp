@@ -21,8 +21,7 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
   if (pb.contacts.empty() || !d.points() || k < 0 || k >= d.num_obstacles()) return m;
   const ContactPoints& points = *d.points();
   // Obstacle k's rows of the points (all of them with one obstacle).
-  const int r0 = points.offset.empty() ? 0 : points.offset[k];
-  const int r1 = points.offset.empty() ? points.size() : points.offset[k + 1];
+  const int r0 = points.offset[k], r1 = points.offset[k + 1];
   const Eigen::MatrixXd x = pb.mesh.X + s.u;        // deformed nodes
   const Eigen::MatrixXd xp = points.mean * x;       // deformed contact points
   const Eigen::VectorXd p = d.contact_pressure(s);  // nominal contact pressure

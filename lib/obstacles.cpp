@@ -54,12 +54,16 @@ ContactSteps::ContactSteps(const std::vector<ContactPoints>& obstacles,
 }
 
 void ContactSteps::solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev, MatRef e,
-                         VecRef beta, int sweeps) const {
-  if (steps_.size() == 1) return steps_.front().solve(ubar, lambda_c, beta_prev, e, beta, sweeps);
+                         VecRef beta, int sweeps, int first, int end) const {
+  if (steps_.size() == 1)
+    return steps_.front().solve(ubar, lambda_c, beta_prev, e, beta, sweeps, first, end);
+  if (end < 0) end = offset_.back();
   for (std::size_t k = 0; k < steps_.size(); ++k) {
     const int r0 = offset_[k], m = offset_[k + 1] - r0;
+    const int lo = std::max(first, r0) - r0, hi = std::min(end, r0 + m) - r0;
+    if (lo >= hi) continue;
     steps_[k].solve(ubar.middleRows(r0, m), lambda_c.middleRows(r0, m), beta_prev.segment(r0, m),
-                    e.middleRows(r0, m), beta.segment(r0, m), sweeps);
+                    e.middleRows(r0, m), beta.segment(r0, m), sweeps, lo, hi);
   }
 }
 

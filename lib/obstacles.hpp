@@ -43,9 +43,10 @@ class ContactSteps {
   ContactSteps(const std::vector<ContactPoints>& obstacles, const std::vector<Adhesion>& adhesion,
                double Rqc);
 
-  /// ContactStep::solve on each obstacle's rows: (4.7), Gauss-Seidel within each obstacle.
+  /// ContactStep::solve on each obstacle's rows: (4.7), Gauss-Seidel within each obstacle; only
+  /// the stacked rows first <= s < end (end < 0: all).
   void solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev, MatRef e, VecRef beta,
-             int sweeps = 1) const;
+             int sweeps = 1, int first = 0, int end = -1) const;
   /// The adhesion part of J_p (2.2), summed over the obstacles (ContactStep::energy).
   double energy(ConstMatRef e, ConstVecRef beta, ConstVecRef beta_prev) const;
   void set_Rqc(double Rqc);
