@@ -7,7 +7,8 @@
 //
 // Built with MPI (-DLTL_WITH_MPI=ON, build-mpi/), `mpirun -n P ltl_run ...` distributes ALG2
 // over the P ranks (lib/alg2_mpi.cpp, paper_notes/mpi.md): rank 0 alone prints and writes the
-// results file, with the serial layout.
+// results file, with the serial layout; --resume continues a file written by any number of ranks
+// (rank 0 reads it and sends the state to the others).
 //
 // Every configuration key is described in experiments/README.md.
 #include <cstdio>
@@ -22,11 +23,7 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);  // the configuration, validated
   ltl::RunOptions options = ltl::run_options(cmd, problem);
   const bool ranks = ltl::mpi::size() > 1;
-  if (ranks && options.resume)
-    throw ltl::Error(
-        "--resume under mpirun with more than one rank is not supported yet: "
-        "resume with one rank (paper_notes/mpi.md)");
-  if (ranks && ltl::mpi::rank() != 0) {  // rank 0 writes the results file and prints
+  if (ranks && ltl::mpi::rank() != 0) {  // rank 0 reads, writes the results file and prints
     options.output.clear();
     options.verbosity = 0;
   }

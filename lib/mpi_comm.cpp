@@ -58,6 +58,7 @@ void abort(int code) {
 }
 void barrier() {}
 void sum(double*, long) {}
+void broadcast(double*, long) {}
 void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
   lo = hi = v;
 }
@@ -141,6 +142,15 @@ void sum(double* x, long n) {
   check(MPI_Allreduce(MPI_IN_PLACE, x, static_cast<int>(n), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD),
         "MPI_Allreduce");
   traffic_.bytes += 8.0 * n;
+  traffic_.calls += 1;
+  traffic_.seconds += seconds_since(t0);
+}
+
+void broadcast(double* x, long n) {
+  if (!up || size_ == 1) return;
+  const auto t0 = clock_type::now();
+  check(MPI_Bcast(x, static_cast<int>(n), MPI_DOUBLE, 0, MPI_COMM_WORLD), "MPI_Bcast");
+  if (rank_ != 0) traffic_.bytes += 8.0 * n;
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);
 }

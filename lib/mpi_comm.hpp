@@ -43,6 +43,8 @@ std::vector<int> blocks(int n, int ranks);
 
 /// In place: x[i] = sum over ranks of x[i].
 void sum(double* x, long n);
+/// In place: every rank gets rank 0's x[0 .. n) (a resumed run's start, read by rank 0 alone).
+void broadcast(double* x, long n);
 /// Over the ranks: the smallest and the largest of v (the check that every rank holds the same).
 void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi);
 

@@ -19,6 +19,7 @@
 #include "hash.hpp"
 #include "interrupt.hpp"
 #include "measures.hpp"
+#include "mpi_comm.hpp"
 #include "output_guard.hpp"
 #include "reactions.hpp"
 #include "results.hpp"
@@ -365,6 +366,18 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity,
   return step;
 }
 
+// --resume under mpirun: rank 0's resume point (the next step and the whole state of the last
+// step written, as a serial run stores it) sent to every rank, so that a file written by any
+// number of ranks resumes on any other number. Returns the next step.
+static int resume_across_ranks(State& s, int next_step) {
+  double p = next_step;
+  mpi::broadcast(&p, 1);
+  for (Eigen::MatrixXd* m : {&s.u, &s.E, &s.lambda, &s.e, &s.lambda_c})
+    mpi::broadcast(m->data(), m->size());
+  mpi::broadcast(s.beta.data(), s.beta.size());
+  return static_cast<int>(p);
+}
+
 struct ResultsWriter::File {
   std::optional<ResultsFile> results;  ///< open once resumed or once the first step is written
   std::optional<OutputLock> lock;      ///< held while the writer lives
@@ -379,13 +392,19 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
       start_(solver.initial_state()) {
   const Problem& problem = problem_;
   summary_.setup_seconds = solver.setup_seconds();
-  if (options.resume && options.output.empty()) throw Error("--resume needs a results file");
+  // Under mpirun only rank 0 has the results file (ltl_run): it reads the resume point, and the
+  // other ranks receive it (resume_across_ranks below).
+  const bool reader = mpi::rank() == 0;
+  if (options.resume && reader && options.output.empty())
+    throw Error("--resume needs a results file");
   if (!options.output.empty()) {
     check_output_path(problem, options.output);
     file_->lock.emplace(options.output);
   }
   int p0 = 1;
-  if (options.resume) {
+  if (options.resume && !reader) {
+    p0 = resume_across_ranks(start_, 0);
+  } else if (options.resume) {
     const std::string& out = options.output;
     const ResumePoint resumed = resume_point(problem, out, ids_, start_);
     start_ = resumed.state;
@@ -396,6 +415,7 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
                     change.c_str());
     file_->results = ResultsFile::open(out);
     file_->results->set_status("running");
+    if (mpi::size() > 1) resume_across_ranks(start_, p0);
   }
   first_ = p0;
   const int P = problem.time.steps;

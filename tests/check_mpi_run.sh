@@ -1,7 +1,10 @@
 #!/bin/sh
 # ltl_run under mpirun -n 2 (an MPI build): the glued Fig 3 problem, two steps, gives the serial
 # run's iteration counts, rank 0 alone prints them and writes the results file, and a failing
-# run (an unreadable configuration) ends every rank with a non-zero status.
+# run (an unreadable configuration) ends every rank with a non-zero status. Resume across rank
+# counts: one step on 2 ranks (--stop-after 1), resumed on 3 ranks (oversubscribed) and, from the
+# same first step, on 1 rank: step 2 takes the serial iteration count and ends within 1e-8 of the
+# serial u (relative), in both files.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -20,6 +23,33 @@ echo "iterations per step: serial $serial, 2 ranks $ranks"
 [ "$(grep -c '^step' "$tmp/ranks.txt")" = 2 ] || fail "the step lines are not printed once each"
 [ -f "$tmp/ranks.h5" ] || fail "no results file"
 [ "$(ls "$tmp" | grep -c '\.h5$')" = 2 ] || fail "more than one results file per run"
+cfg="$src/experiments/fig3/fig3.toml"
+"$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --set time.steps=2 --stop-after 1 -o "$tmp/r.h5" \
+  > /dev/null || fail "mpirun -n 2 ltl_run --stop-after 1"
+cp "$tmp/r.h5" "$tmp/r1.h5"
+"$mpiexec" -n 3 --oversubscribe "$run" "$cfg" --set time.steps=2 --resume -o "$tmp/r.h5" \
+  > "$tmp/r3.txt" || fail "mpirun -n 3 ltl_run --resume of a 2-rank file"
+"$run" "$cfg" --set time.steps=2 --resume -o "$tmp/r1.h5" > "$tmp/r1.txt" ||
+  fail "ltl_run --resume (one process) of a 2-rank file"
+for f in r3 r1; do
+  it=$(grep '^step' "$tmp/$f.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1/' | tr '\n' ' ')
+  [ "$(grep -c '^step' "$tmp/$f.txt")" = 1 ] || fail "$f: resumed run did not compute step 2 alone"
+  [ "$it" = "$(echo "$serial" | cut -d' ' -f2) " ] || fail "$f: step 2 took $it iterations, serial $serial"
+done
+/usr/bin/python3 - "$tmp" "$src/figures" <<'PY' || fail "resumed u differs from the serial u"
+import sys
+sys.path.insert(0, sys.argv[2])
+import numpy as np
+import ltl_results as lr
+tmp = sys.argv[1]
+ref = lr.load(tmp + "/serial.h5").step(2).fields["u"]
+for name in ("r", "r1"):
+    res = lr.load(tmp + "/" + name + ".h5")
+    assert len(res.steps) == 2, (name, len(res.steps))
+    d = np.abs(res.step(2).fields["u"] - ref).max() / np.abs(ref).max()
+    print("resumed %s.h5: step 2, relative difference in u %.3g" % (name, d))
+    assert d <= 1e-8, d
+PY
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"
