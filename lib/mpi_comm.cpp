@@ -68,6 +68,9 @@ void gather(double*, const std::vector<int>&) {}
 double petsc_bytes_received() {
   return 0;
 }
+double petsc_messages_received() {
+  return 0;
+}
 bool option(const char*) {
   return false;
 }
@@ -222,6 +225,9 @@ void gather(double* x, const std::vector<int>& offset) {
 
 double petsc_bytes_received() {
   return petsc_irecv_len + petsc_recv_len;
+}
+double petsc_messages_received() {
+  return petsc_irecv_ct + petsc_recv_ct;
 }
 bool option(const char* name) {
   PetscBool set = PETSC_FALSE;

@@ -64,6 +64,8 @@ Traffic traffic();
 /// PETSc's own point-to-point payload received by this rank since the start (its log counters:
 /// the distributed KSP), and its count of reductions.
 double petsc_bytes_received();
+/// ... and the count of those messages (point-to-point receives).
+double petsc_messages_received();
 double petsc_reductions();
 
 /// Is the PETSc option `name` set (PETSC_OPTIONS in the environment, e.g. "-ltl_mpi_replicated")?

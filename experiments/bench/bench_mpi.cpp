@@ -102,7 +102,7 @@ int bench(int argc, char** argv) {
   const Eigen::VectorXd beta_prev = s.beta;
   double wall0 = 0, wall = 0, tg = 0, ts = 0, tc = 0, tu = 0;
   ltl::mpi::Traffic c0;
-  double petsc0 = 0, ksp_s0 = 0;
+  double petsc0 = 0, msgs0 = 0, red0 = 0, ksp_s0 = 0;
   long ksp_it0 = 0, ksp_solves0 = 0;
   int n = 0;
   solver.solve_step(s, beta_prev, [&](const ltl::IterationRecord& rec) {
@@ -118,6 +118,8 @@ int bench(int argc, char** argv) {
     wall0 = rec.wall;
     c0 = ltl::mpi::traffic();
     petsc0 = ltl::mpi::petsc_bytes_received();
+    msgs0 = ltl::mpi::petsc_messages_received();
+    red0 = ltl::mpi::petsc_reductions();
     const ltl::RankShare r = solver.rank_share();
     ksp_s0 = r.ksp_seconds;
     ksp_it0 = r.ksp_iterations;
@@ -130,6 +132,8 @@ int bench(int argc, char** argv) {
   const double bytes_ours = max_of((c1.bytes - c0.bytes) / timed);
   const double calls_ours = max_of((c1.calls - c0.calls) / timed);
   const double bytes_petsc = max_of((ltl::mpi::petsc_bytes_received() - petsc0) / timed);
+  const double msgs_petsc = max_of((ltl::mpi::petsc_messages_received() - msgs0) / timed);
+  const double reductions = max_of((ltl::mpi::petsc_reductions() - red0) / timed);
   const long solves = r.ksp_solves - ksp_solves0;
   const double its = solves > 0 ? double(r.ksp_iterations - ksp_it0) / solves : 0.0;
   const std::vector<double> peak = all_ranks(ltl::mpi::peak_resident_bytes() / 1048576.0);
@@ -144,15 +148,16 @@ int bench(int argc, char** argv) {
         "MPI label=%s ranks=%d solver=%s cells=%d nodes=%d setup_s=%.2f timed=%d "
         "ms_per_it=%.2f global=%.2f (ksp %.2f, collectives %.2f) strain=%.2f contact=%.2f "
         "update=%.2f ksp_its_per_solve=%.1f bytes_per_it_ours=%.0f calls_per_it=%.0f "
-        "bytes_per_it_petsc=%.0f ghosts=%.0f peak_MB_per_rank=%s load=%s\n",
+        "bytes_per_it_petsc=%.0f messages_per_it_petsc=%.0f reductions_per_it_petsc=%.0f "
+        "ghosts=%.0f peak_MB_per_rank=%s load=%s\n",
         label.c_str(), P,
         all ? (r.replicated_cholesky ? "replicated-cholesky"
                : r.mumps             ? "mumps"
                                      : "cg-gamg")
             : "serial",
         problem.mesh.num_cells(), problem.mesh.num_nodes(), setup, timed, t_it, t_g, t_ksp, t_coll,
-        t_s, t_c, t_u, its, bytes_ours, calls_ours, bytes_petsc, ghosts, peaks.c_str(),
-        loadavg().c_str());
+        t_s, t_c, t_u, its, bytes_ours, calls_ours, bytes_petsc, msgs_petsc, reductions, ghosts,
+        peaks.c_str(), loadavg().c_str());
   std::fflush(stdout);
   return 0;
 }
