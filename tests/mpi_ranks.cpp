@@ -21,6 +21,7 @@
 #include "config.hpp"
 #include "hash.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_newton.hpp"
 #include "results.hpp"
 #include "simulation.hpp"
 #include "testing.hpp"
@@ -116,9 +117,91 @@ TEST(Mpi, Eq4_1to4_4_Fig5AndersonSerialAnswer) {
   expect_serial_answer("Fig 5 Anderson", kFig5, {"algorithm.acceleration=anderson"}, "cholesky");
 }
 
-/// The default solver: distributed ALG2, then the Newton phase replicated on every rank.
-TEST(Mpi, Eq4_1to4_4_Fig5NewtonPhaseReplicated) {
+/// One step with the Newton phase (algorithm.solver = "newton"), solved like the time loop does
+/// (with DistributedNewtonScope), and the Newton solves it made (the counters' change).
+struct NewtonOutcome {
+  State state;
+  StepReport report;
+  NewtonSolveStats solves;
+};
+NewtonOutcome newton_step(const std::string& config, std::vector<std::string> overrides,
+                          Ranks ranks) {
+  overrides.push_back("algorithm.solver=newton");
+  const Problem p = load_problem(ltl::testing::source_path(config), overrides);
+  Solver solver(Discretization(p), ranks);
+  NewtonOutcome out;
+  out.state = solver.initial_state();
+  const Eigen::VectorXd beta_prev = out.state.beta;
+  const NewtonSolveStats before = newton_solve_stats();
+  {
+    const DistributedNewtonScope scope(solver.distributed());
+    out.report = solver.solve_step(out.state, beta_prev);
+  }
+  const NewtonSolveStats& after = newton_solve_stats();
+  out.solves.cholmod_factorizations = after.cholmod_factorizations - before.cholmod_factorizations;
+  out.solves.umfpack_factorizations = after.umfpack_factorizations - before.umfpack_factorizations;
+  out.solves.mumps_analyses = after.mumps_analyses - before.mumps_analyses;
+  out.solves.mumps_factorizations = after.mumps_factorizations - before.mumps_factorizations;
+  out.solves.mumps_solves = after.mumps_solves - before.mumps_solves;
+  out.solves.mumps_lu_analyses = after.mumps_lu_analyses - before.mumps_lu_analyses;
+  out.solves.mumps_lu_factorizations =
+      after.mumps_lu_factorizations - before.mumps_lu_factorizations;
+  return out;
+}
+
+/// [(2.2), (2.7), (1.1)] The Newton phase of a distributed Solver solves its linear systems by
+/// MUMPS over the ranks (mpi_newton.hpp): the serial answer to 1e-8 in u with the same
+/// iteration counts (ALG2's and Newton's), the same state on every rank, and MUMPS's solves
+/// counted where the serial solver counts CHOLMOD's (augmented) or UMFPACK's (lu: the glued
+/// KKT system); none of the serial ones in the distributed run (no silent fall-back).
+void expect_distributed_newton(const std::string& name, const std::string& config,
+                               const std::vector<std::string>& overrides, bool lu) {
+  const NewtonOutcome serial = newton_step(config, overrides, Ranks::One);
+  const NewtonOutcome dist = newton_step(config, overrides, Ranks::All);
+  const double rel = relative(dist.state.u, serial.state.u);
+  if (mpi::rank() == 0)
+    std::cout << name << " (distributed Newton solves), " << mpi::size()
+              << " rank(s): |u - u_serial| / |u_serial| = " << rel << "; iterations "
+              << dist.report.iterations << " (serial " << serial.report.iterations << "), Newton "
+              << dist.report.newton_iterations << " (serial " << serial.report.newton_iterations
+              << "); MUMPS: " << dist.solves.mumps_analyses << " analyses, "
+              << dist.solves.mumps_factorizations << " factorizations, " << dist.solves.mumps_solves
+              << " solves, " << dist.solves.mumps_lu_factorizations << " LU ("
+              << dist.solves.mumps_lu_analyses
+              << " analyses); serial: " << serial.solves.cholmod_factorizations << " CHOLMOD, "
+              << serial.solves.umfpack_factorizations << " UMFPACK\n";
+  EXPECT_TRUE(serial.report.converged) << serial.report.status;
+  EXPECT_TRUE(dist.report.converged) << dist.report.status;
+  EXPECT_LE(rel, 1e-8) << name << ": relative difference in u on rank " << mpi::rank();
+  EXPECT_EQ(dist.report.iterations, serial.report.iterations) << name;
+  EXPECT_EQ(dist.report.newton_iterations, serial.report.newton_iterations) << name;
+  EXPECT_GT(dist.report.newton_iterations, 0) << name;
+  EXPECT_TRUE(same_on_every_rank(dist.state)) << name << ": the ranks' states differ";
+  // The distributed factorizations were used, the serial ones not.
+  EXPECT_EQ(dist.solves.cholmod_factorizations, 0) << name;
+  EXPECT_EQ(dist.solves.umfpack_factorizations, 0) << name;
+  EXPECT_EQ(serial.solves.mumps_factorizations + serial.solves.mumps_lu_factorizations, 0);
+  if (lu) {
+    EXPECT_GT(dist.solves.mumps_lu_factorizations, 0) << name;
+    EXPECT_EQ(dist.solves.mumps_lu_factorizations, serial.solves.umfpack_factorizations);
+  } else {
+    EXPECT_GT(dist.solves.mumps_factorizations, 0) << name;
+    EXPECT_EQ(dist.solves.mumps_factorizations, serial.solves.cholmod_factorizations);
+    EXPECT_GE(dist.solves.mumps_analyses, 1) << name;
+    EXPECT_LE(dist.solves.mumps_analyses, dist.report.newton_attempts) << name;
+  }
+}
+TEST(Mpi, Eq2_2_Eq2_7_Fig5NewtonPhaseDistributed) {
+  expect_distributed_newton("Fig 5 with Newton", kFig5, {}, false);
+}
+TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepNewtonPhaseDistributedLU) {
+  expect_distributed_newton("glued Fig 3 step with Newton", kFig3, {"time.steps=1"}, true);
+}
+/// The same through the time loop (run: ltl_run's path), which holds the scope itself.
+TEST(Mpi, Eq4_1to4_4_Fig5NewtonPhaseThroughTheTimeLoop) {
+  const long before = newton_solve_stats().mumps_factorizations;
   expect_serial_answer("Fig 5 with Newton", kFig5, {"algorithm.solver=newton"}, "cholesky");
+  EXPECT_GT(newton_solve_stats().mumps_factorizations, before);
 }
 
 /// Converged (13720 iterations): with the serial factor on every rank (-ltl_mpi_replicated), the
