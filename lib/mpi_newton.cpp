@@ -243,9 +243,9 @@ bool DistributedCholesky::factorize(const SpMat& L) {
   ++st.mumps_factorizations;
   bool ok = !f.failed();
   if (ok) {
-    PetscInt neg = 0, zero = 0, pos = 0;
-    check(MatGetInertia(f.F, &neg, &zero, &pos), f.what, "MatGetInertia");
-    ok = neg == 0 && zero == 0;
+    PetscInt neg = 0;  // INFOG(12); a zero pivot is MUMPS's failure (INFOG(1) = -10) above
+    check(MatGetInertia(f.F, &neg, nullptr, nullptr), f.what, "MatGetInertia");
+    ok = neg == 0;
   } else {  // a failed MUMPS instance is not factorized again: analyze afresh next time
     f.reset();
     m.analyzed = false;

@@ -7,7 +7,10 @@
 // step converged, with the distributed MUMPS Cholesky and with CG + GAMG; the coarse gutter
 // (Fig 6, 50 cells) converged with the replicated factor, and with MUMPS and CG + GAMG for its
 // first kCapped iterations (converged, 13720 iterations at ~5 ms each on 2 ranks of the loaded
-// machine: LTL_MPI_FULL=1 runs them).
+// machine: LTL_MPI_FULL=1 runs them). The Newton phase (algorithm.solver = "newton") of Fig 5
+// and of a glued Fig 3 step with its linear systems by MUMPS over the ranks (mpi_newton.hpp):
+// the serial answer, the same ALG2 and Newton iteration counts, and the counters of the solves
+// (MUMPS's used, CHOLMOD's and UMFPACK's not).
 #include <gtest/gtest.h>
 
 #include <algorithm>
