@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -200,6 +201,50 @@ TEST(Mpi, Eq2_2_Eq2_7_Fig5NewtonPhaseDistributed) {
 TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepNewtonPhaseDistributedLU) {
   expect_distributed_newton("glued Fig 3 step with Newton", kFig3, {"time.steps=1"}, true);
 }
+/// [(2.2), (2.7), (1.1)] The distributed factorizations alone: on the tridiagonal (-1, 2, -1)
+/// (its lower triangle, Newton's storage) shifted by s, MUMPS's symmetric factorization reports
+/// positive definite iff the smallest eigenvalue 2 - 2 cos(pi / (n + 1)) + s is positive (the
+/// inertia: the decision CHOLMOD's LL' makes in the serial solver), and solves it; the LU solves
+/// a nonsymmetric matrix. Nodes on a line, in reverse order (the slab order permutes them).
+TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
+  const int n = 40;
+  Eigen::MatrixXd X(n, 1);
+  std::vector<int> free_of_dof(n);
+  for (int i = 0; i < n; ++i) X(i, 0) = n - i, free_of_dof[i] = i;
+  auto tridiagonal = [&](double shift, double upper, bool lower_only) {
+    std::vector<Eigen::Triplet<double>> t;
+    for (int i = 0; i < n; ++i) {
+      t.emplace_back(i, i, 2 + shift);
+      if (i > 0) t.emplace_back(i, i - 1, -1.0);
+      if (i > 0 && !lower_only) t.emplace_back(i - 1, i, upper);
+    }
+    SpMat A(n, n);
+    A.setFromTriplets(t.begin(), t.end());
+    return A;
+  };
+  Eigen::VectorXd b(n);
+  for (int i = 0; i < n; ++i) b(i) = std::sin(0.3 * i) + 1;
+  const double lowest = 2 - 2 * std::cos(M_PI / (n + 1));
+  DistributedCholesky chol(NewtonRows(free_of_dof, 1, X, 0));
+  for (double shift : {1e-3, -0.5 * lowest, -1.0, 0.5 * lowest}) {
+    const SpMat L = tridiagonal(shift, -1.0, true);
+    const bool ok = chol.factorize(L);
+    EXPECT_EQ(ok, shift > -lowest) << "shift " << shift;
+    if (!ok) continue;
+    Eigen::VectorXd x;
+    chol.solve(b, x);
+    const SpMat A = tridiagonal(shift, -1.0, false);
+    EXPECT_LE((A * x - b).norm(), 1e-12 * b.norm() * (1 + x.norm())) << "shift " << shift;
+  }
+  DistributedLU lu;
+  for (double upper : {-0.3, 0.7}) {  // the same pattern, new values: refactorized
+    const SpMat A = tridiagonal(0.1, upper, false);
+    Eigen::VectorXd x;
+    ASSERT_TRUE(lu.solve(A, NewtonRows(free_of_dof, 1, X, 0), b, x));
+    EXPECT_LE((A * x - b).norm(), 1e-12 * b.norm() * (1 + x.norm()));
+  }
+}
+
 /// The same through the time loop (run: ltl_run's path), which holds the scope itself.
 TEST(Mpi, Eq4_1to4_4_Fig5NewtonPhaseThroughTheTimeLoop) {
   const long before = newton_solve_stats().mumps_factorizations;

@@ -41,19 +41,29 @@ double max_of(double v) {
   return m;
 }
 
+const char* kUsage = "usage: bench_mpi_newton CONFIG [--serial] [key=value]...\n";
+
 int bench(int argc, char** argv) {
-  if (argc < 2) {
-    std::printf("usage: bench_mpi_newton CONFIG [--serial] [key=value]...\n");
-    return 2;
-  }
   bool serial = false;
   std::vector<std::string> overrides = {"algorithm.solver=newton"};
-  for (int i = 2; i < argc; ++i) {
+  for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--serial")
+    if (a == "--help" || a == "-h") {
+      if (ltl::mpi::rank() == 0) std::printf("%s", kUsage);
+      return 0;
+    }
+    if (a == "--serial") {
       serial = true;
-    else
+    } else if (a.rfind("-", 0) == 0) {
+      std::fprintf(stderr, "bench_mpi_newton: unknown option %s\n%s", a.c_str(), kUsage);
+      return 2;
+    } else if (i > 1) {
       overrides.push_back(a);
+    }
+  }
+  if (argc < 2 || std::string(argv[1]).rfind("-", 0) == 0) {
+    std::fprintf(stderr, "%s", kUsage);
+    return 2;
   }
   const ltl::Problem problem = ltl::load_problem(argv[1], overrides);
   ltl::Solver solver(ltl::Discretization(problem), serial ? ltl::Ranks::One : ltl::Ranks::All);
