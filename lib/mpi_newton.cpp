@@ -19,9 +19,6 @@ namespace ltl {
 namespace {
 thread_local bool scope_on = false;
 NewtonSolveStats stats_;
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 }  // namespace
 
 NewtonSolveStats& newton_solve_stats() {
@@ -96,6 +93,10 @@ bool DistributedNewtonScope::active() {
 
 namespace {
 using SpMat = Eigen::SparseMatrix<double>;
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 void check(PetscErrorCode ierr, const char* what, const char* call) {
   if (ierr) throw Error(cat(what, ": PETSc's ", call, " failed (PETSc error ", ierr, ")"));
