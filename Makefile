@@ -56,7 +56,7 @@ mpi-build:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y petsc-dev; else \
 	  echo "run as root: apt-get install -y petsc-dev"; exit 1; fi; }
 	@cmake -S . -B $(MPI_BUILD) -DCMAKE_BUILD_TYPE=Release -DLTL_WITH_MPI=ON > /dev/null
-	@cmake --build $(MPI_BUILD) -j $(JOBS) --target ltl_run mpi_ranks bench_mpi
+	@cmake --build $(MPI_BUILD) -j $(JOBS) --target ltl_run mpi_ranks bench_mpi bench_mpi_newton
 
 test-mpi: mpi-build
 	cd $(MPI_BUILD) && ctest --output-on-failure -L mpi

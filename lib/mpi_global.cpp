@@ -16,6 +16,14 @@
 
 namespace ltl {
 
+std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X) {
+  Eigen::Index axis = 0;
+  (X.colwise().maxCoeff() - X.colwise().minCoeff()).maxCoeff(&axis);
+  std::stable_sort(nodes.begin(), nodes.end(),
+                   [&](int a, int b) { return X(a, axis) < X(b, axis); });
+  return nodes;
+}
+
 #ifndef LTL_HAVE_MPI
 
 struct DistributedGlobalStep::Group {};
@@ -79,10 +87,7 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
     for (int i : bc.fixed[g.components[0]]) fixed[i] = 1;
     for (int i = 0; i < n; ++i)
       if (!fixed[i]) g.node.push_back(i);
-    Eigen::Index axis = 0;
-    (X.colwise().maxCoeff() - X.colwise().minCoeff()).maxCoeff(&axis);
-    std::stable_sort(g.node.begin(), g.node.end(),
-                     [&](int a, int b) { return X(a, axis) < X(b, axis); });
+    g.node = slab_order(std::move(g.node), X);
     for (std::size_t k = 0; k < g.node.size(); ++k) local[g.node[k]] = static_cast<int>(k);
     const int nf = static_cast<int>(g.node.size()), nc = static_cast<int>(g.components.size());
     g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",

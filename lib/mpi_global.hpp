@@ -22,6 +22,10 @@
 
 namespace ltl {
 
+/// The nodes in the order of their coordinate in X (#nodes x dim) along the mesh's longest extent
+/// (stable): the slabs of the distributed rows, here and in the Newton phase (mpi_newton.hpp).
+std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X);
+
 class DistributedGlobalStep {
  public:
   static constexpr double kRtol = 1e-12;

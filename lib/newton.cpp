@@ -500,7 +500,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     // The glued system is solved by LU (newton.hpp); so is an indefinite augmented tangent (a
     // saddle of the energy on the constraints, e.g. a compressed block under a dead load).
     bool solved = !glued_ && augmented_step(base, Ru, G, gapv, active, damping, *scatter, dx);
-    if (!solved) solved = lu_step(base, Ru, G, gapv, active, bstate, damping, dx);
+    if (!solved) solved = lu_step(base, Ru, G, gapv, active, bstate, damping, *scatter, dx);
     rec.t_global = seconds_since(t0);
     // A step not taken (singular system, or no decrease of the merit): recorded with the
     // residuals of the point it stays at, which is tried again with 10 times the damping; false

@@ -119,17 +119,20 @@ class Newton {
     void operator()(Scatter* w) const;
   };
   using ScatterPtr = std::unique_ptr<Scatter, ScatterDeleter>;
-  static ScatterPtr new_scatter();
+  /// The work of a Newton phase; in a distributed Solver's step (DistributedNewtonScope) with
+  /// MUMPS's factorizations over the MPI ranks (mpi_newton.hpp).
+  ScatterPtr new_scatter() const;
   bool augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
                       const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
                       Scatter& work, Eigen::VectorXd& dx) const;
   /// The KKT system of a Newton step assembled in full (u free dofs, p, the active contact
   /// forces, and with glue every beta; bstate: -1/+1 beta at its bound 0/1, 0 free) and solved by
-  /// UMFPACK's LU (newton_kkt.cpp): the glued step, and the fall-back of augmented_step. dx in
-  /// the same layout, beta last. False when singular.
+  /// UMFPACK's LU (newton_kkt.cpp; MUMPS's with work.mumps_lu): the glued step, and the
+  /// fall-back of augmented_step. dx in the same layout, beta last. False when singular.
   bool lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
                const Eigen::VectorXd& gap, const std::vector<int>& active,
-               const std::vector<int>& bstate, double damping, Eigen::VectorXd& dx) const;
+               const std::vector<int>& bstate, double damping, Scatter& work,
+               Eigen::VectorXd& dx) const;
   /// The glue's terms of the KKT system (newton_kkt.cpp): the u-u block, the u-beta coupling,
   /// the beta rows (ob: the first beta row), their right-hand side -|G_s| g_s.
   void add_glue_kkt(const Unknowns& x, const std::vector<int>& bstate, int ob,

@@ -1,9 +1,12 @@
 // Newton's method on ALG2's discrete problem (newton.hpp): the linear system of a step, by the
 // augmented Lagrangian (CHOLMOD) or in full by sparse LU, and the glue's terms [LTL87 (2.2)].
+// In a distributed Solver both by MUMPS over the MPI ranks (mpi_newton.hpp).
 #include <Eigen/CholmodSupport>
 #include <Eigen/UmfPackSupport>
+#include <chrono>
 
 #include "error.hpp"
+#include "mpi_newton.hpp"
 #include "newton.hpp"
 
 namespace ltl {
@@ -11,6 +14,9 @@ namespace ltl {
 namespace {
 using Triplets = std::vector<Eigen::Triplet<double>>;
 using Factor = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 /// Calls emit(dof_a, dof_b, v) for the glue's block of the tangent in u, dof numbering d a + i:
 ///   sum_s |G_s| kappa beta_s^2 (mean_s (x) mean_s) (x) I_dim,
@@ -30,12 +36,16 @@ void for_each_glue_uu(const ContactPoints& pts, const Eigen::VectorXd& beta, dou
 }  // namespace
 
 // The work of augmented_step kept across Newton iterations: the matrix (pattern_'s), its
-// factor (analyzed once), the cells' constraint gradients.
+// factor (analyzed once), the cells' constraint gradients. In a distributed Solver the factor and
+// the LU are MUMPS's over the ranks (mpi_newton.hpp), with the LU's rows.
 struct Newton::Scatter {
   SpMat A;
   Factor llt;
   bool analyzed = false;
   std::vector<Eigen::VectorXd> be;  ///< per cell, dG_e/du on the cell's local dofs
+  std::unique_ptr<DistributedCholesky> mumps;
+  std::unique_ptr<DistributedLU> mumps_lu;
+  std::unique_ptr<NewtonRows> lu_rows;
 };
 
 // [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
@@ -95,13 +105,24 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   }
   if (damping > 0)
     for (int k = 0; k < nfree_; ++k) A[diag_pos_[k]] += damping * std::abs(diag(k));
-  if (!w.analyzed) {
-    w.llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
-    w.llt.analyzePattern(w.A);
-    w.analyzed = true;
+  NewtonSolveStats& st = newton_solve_stats();
+  auto t0 = std::chrono::steady_clock::now();
+  if (w.mumps) {
+    if (!w.mumps->factorize(w.A)) return false;
+  } else {
+    if (!w.analyzed) {
+      w.llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
+      w.llt.analyzePattern(w.A);
+      w.analyzed = true;
+      ++st.cholmod_analyses;
+      st.cholmod_analysis_s += seconds_since(t0);
+      t0 = std::chrono::steady_clock::now();
+    }
+    w.llt.factorize(w.A);
+    ++st.cholmod_factorizations;
+    st.cholmod_factor_s += seconds_since(t0);
+    if (w.llt.info() != Eigen::Success) return false;
   }
-  w.llt.factorize(w.A);
-  if (w.llt.info() != Eigen::Success) return false;
   // The multiplier sweeps: B du = sum over the cell's free dofs, B^T dp scattered back.
   Eigen::VectorXd r1(nfree_), du, rhs(nfree_);
   for (int k = 0; k < static_cast<int>(free_.size()); ++k)
@@ -133,7 +154,14 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
       for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
         rhs(point_dofs_[k][a]) -= point_coef_[k][a] * y;
     }
-    du = w.llt.solve(rhs);
+    if (w.mumps) {
+      w.mumps->solve(rhs, du);
+    } else {
+      t0 = std::chrono::steady_clock::now();
+      du = w.llt.solve(rhs);
+      ++st.cholmod_solves;
+      st.cholmod_solve_s += seconds_since(t0);
+    }
     double worst = 0;
     for (int e = 0; e < np; ++e) {
       const double c1 = Bdu(e, du) + G(e);
@@ -163,8 +191,14 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
 void Newton::ScatterDeleter::operator()(Scatter* w) const {
   delete w;
 }
-Newton::ScatterPtr Newton::new_scatter() {
-  return ScatterPtr(new Scatter);
+Newton::ScatterPtr Newton::new_scatter() const {
+  ScatterPtr w(new Scatter);
+  if (DistributedNewtonScope::active()) {  // a distributed Solver's step (mpi_newton.hpp)
+    w->mumps =
+        std::make_unique<DistributedCholesky>(NewtonRows(free_, dim_, disc_.problem().mesh.X, 0));
+    w->mumps_lu = std::make_unique<DistributedLU>();
+  }
+  return w;
 }
 
 void Newton::set_glue(const ContactSteps& steps, const Eigen::VectorXd& beta_prev) {
@@ -238,7 +272,8 @@ void Newton::add_glue_kkt(const Unknowns& x, const std::vector<int>& bstate, int
 // dbeta_s = 0.
 bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
                      const Eigen::VectorXd& gap, const std::vector<int>& active,
-                     const std::vector<int>& bstate, double damping, Eigen::VectorXd& dx) const {
+                     const std::vector<int>& bstate, double damping, Scatter& w,
+                     Eigen::VectorXd& dx) const {
   const int d = dim_, np_ = incompressible_ ? disc_.num_cells() : 0;
   const ContactPoints* pts = disc_.points();
   const int npts = static_cast<int>(active.size());
@@ -295,10 +330,18 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
   if (nb) add_glue_kkt(base, bstate, nfree_ + np_ + nA, kkt, rhs);
   SpMat A(n, n);
   A.setFromTriplets(kkt.begin(), kkt.end());
+  if (w.mumps_lu) {  // the u rows in slabs, the others in blocks (mpi_newton.hpp)
+    if (!w.lu_rows || static_cast<int>(w.lu_rows->perm.size()) != n)
+      w.lu_rows = std::make_unique<NewtonRows>(free_, d, disc_.problem().mesh.X, n - nfree_);
+    return w.mumps_lu->solve(A, *w.lu_rows, rhs, dx);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
   Eigen::UmfPackLU<SpMat> lu;
   lu.compute(A);
+  ++newton_solve_stats().umfpack_factorizations;
   if (lu.info() != Eigen::Success) return false;
   dx = lu.solve(rhs);
+  newton_solve_stats().umfpack_s += seconds_since(t0);
   return dx.allFinite();
 }
 

@@ -30,7 +30,7 @@ LAYERS = [
              "version stored_measure log_newton interrupt geometry_guard hdf5_io results_info"),
     ("fe/mesh", "mesh fe cholesky cg_amg derived_fields"),
     ("steps", "strain_step strain_principal contact_step obstacles adhesion_kernel global_step "
-              "mpi_global anderson"),
+              "mpi_global mpi_newton anderson"),
     ("problem", "problem config config_toml config_rows config_schema"),
     ("discretization", "discretization"),
     ("measures", "measures admissibility reactions"),

@@ -7,10 +7,14 @@
 // step converged, with the distributed MUMPS Cholesky and with CG + GAMG; the coarse gutter
 // (Fig 6, 50 cells) converged with the replicated factor, and with MUMPS and CG + GAMG for its
 // first kCapped iterations (converged, 13720 iterations at ~5 ms each on 2 ranks of the loaded
-// machine: LTL_MPI_FULL=1 runs them).
+// machine: LTL_MPI_FULL=1 runs them). The Newton phase (algorithm.solver = "newton") of Fig 5
+// and of a glued Fig 3 step with its linear systems by MUMPS over the ranks (mpi_newton.hpp):
+// the serial answer, the same ALG2 and Newton iteration counts, and the counters of the solves
+// (MUMPS's used, CHOLMOD's and UMFPACK's not).
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -21,6 +25,7 @@
 #include "config.hpp"
 #include "hash.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_newton.hpp"
 #include "results.hpp"
 #include "simulation.hpp"
 #include "testing.hpp"
@@ -116,9 +121,135 @@ TEST(Mpi, Eq4_1to4_4_Fig5AndersonSerialAnswer) {
   expect_serial_answer("Fig 5 Anderson", kFig5, {"algorithm.acceleration=anderson"}, "cholesky");
 }
 
-/// The default solver: distributed ALG2, then the Newton phase replicated on every rank.
-TEST(Mpi, Eq4_1to4_4_Fig5NewtonPhaseReplicated) {
+/// One step with the Newton phase (algorithm.solver = "newton"), solved like the time loop does
+/// (with DistributedNewtonScope), and the Newton solves it made (the counters' change).
+struct NewtonOutcome {
+  State state;
+  StepReport report;
+  NewtonSolveStats solves;
+};
+NewtonOutcome newton_step(const std::string& config, std::vector<std::string> overrides,
+                          Ranks ranks) {
+  overrides.push_back("algorithm.solver=newton");
+  const Problem p = load_problem(ltl::testing::source_path(config), overrides);
+  Solver solver(Discretization(p), ranks);
+  NewtonOutcome out;
+  out.state = solver.initial_state();
+  const Eigen::VectorXd beta_prev = out.state.beta;
+  const NewtonSolveStats before = newton_solve_stats();
+  {
+    const DistributedNewtonScope scope(solver.distributed());
+    out.report = solver.solve_step(out.state, beta_prev);
+  }
+  const NewtonSolveStats& after = newton_solve_stats();
+  out.solves.cholmod_factorizations = after.cholmod_factorizations - before.cholmod_factorizations;
+  out.solves.umfpack_factorizations = after.umfpack_factorizations - before.umfpack_factorizations;
+  out.solves.mumps_analyses = after.mumps_analyses - before.mumps_analyses;
+  out.solves.mumps_factorizations = after.mumps_factorizations - before.mumps_factorizations;
+  out.solves.mumps_solves = after.mumps_solves - before.mumps_solves;
+  out.solves.mumps_lu_analyses = after.mumps_lu_analyses - before.mumps_lu_analyses;
+  out.solves.mumps_lu_factorizations =
+      after.mumps_lu_factorizations - before.mumps_lu_factorizations;
+  return out;
+}
+
+/// [(2.2), (2.7), (1.1)] The Newton phase of a distributed Solver solves its linear systems by
+/// MUMPS over the ranks (mpi_newton.hpp): the serial answer to 1e-8 in u with the same
+/// iteration counts (ALG2's and Newton's), the same state on every rank, and MUMPS's solves
+/// counted where the serial solver counts CHOLMOD's (augmented) or UMFPACK's (lu: the glued
+/// KKT system); none of the serial ones in the distributed run (no silent fall-back).
+void expect_distributed_newton(const std::string& name, const std::string& config,
+                               const std::vector<std::string>& overrides, bool lu) {
+  const NewtonOutcome serial = newton_step(config, overrides, Ranks::One);
+  const NewtonOutcome dist = newton_step(config, overrides, Ranks::All);
+  const double rel = relative(dist.state.u, serial.state.u);
+  if (mpi::rank() == 0)
+    std::cout << name << " (distributed Newton solves), " << mpi::size()
+              << " rank(s): |u - u_serial| / |u_serial| = " << rel << "; iterations "
+              << dist.report.iterations << " (serial " << serial.report.iterations << "), Newton "
+              << dist.report.newton_iterations << " (serial " << serial.report.newton_iterations
+              << "); MUMPS: " << dist.solves.mumps_analyses << " analyses, "
+              << dist.solves.mumps_factorizations << " factorizations, " << dist.solves.mumps_solves
+              << " solves, " << dist.solves.mumps_lu_factorizations << " LU ("
+              << dist.solves.mumps_lu_analyses
+              << " analyses); serial: " << serial.solves.cholmod_factorizations << " CHOLMOD, "
+              << serial.solves.umfpack_factorizations << " UMFPACK\n";
+  EXPECT_TRUE(serial.report.converged) << serial.report.status;
+  EXPECT_TRUE(dist.report.converged) << dist.report.status;
+  EXPECT_LE(rel, 1e-8) << name << ": relative difference in u on rank " << mpi::rank();
+  EXPECT_EQ(dist.report.iterations, serial.report.iterations) << name;
+  EXPECT_EQ(dist.report.newton_iterations, serial.report.newton_iterations) << name;
+  EXPECT_GT(dist.report.newton_iterations, 0) << name;
+  EXPECT_TRUE(same_on_every_rank(dist.state)) << name << ": the ranks' states differ";
+  // The distributed factorizations were used, the serial ones not.
+  EXPECT_EQ(dist.solves.cholmod_factorizations, 0) << name;
+  EXPECT_EQ(dist.solves.umfpack_factorizations, 0) << name;
+  EXPECT_EQ(serial.solves.mumps_factorizations + serial.solves.mumps_lu_factorizations, 0);
+  if (lu) {
+    EXPECT_GT(dist.solves.mumps_lu_factorizations, 0) << name;
+    EXPECT_EQ(dist.solves.mumps_lu_factorizations, serial.solves.umfpack_factorizations);
+  } else {
+    EXPECT_GT(dist.solves.mumps_factorizations, 0) << name;
+    EXPECT_EQ(dist.solves.mumps_factorizations, serial.solves.cholmod_factorizations);
+    EXPECT_GE(dist.solves.mumps_analyses, 1) << name;
+    EXPECT_LE(dist.solves.mumps_analyses, dist.report.newton_attempts) << name;
+  }
+}
+TEST(Mpi, Eq2_2_Eq2_7_Fig5NewtonPhaseDistributed) {
+  expect_distributed_newton("Fig 5 with Newton", kFig5, {}, false);
+}
+TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepNewtonPhaseDistributedLU) {
+  expect_distributed_newton("glued Fig 3 step with Newton", kFig3, {"time.steps=1"}, true);
+}
+/// [(2.2), (2.7), (1.1)] The distributed factorizations alone: on the tridiagonal (-1, 2, -1)
+/// (its lower triangle, Newton's storage) shifted by s, MUMPS's symmetric factorization reports
+/// positive definite iff the smallest eigenvalue 2 - 2 cos(pi / (n + 1)) + s is positive (the
+/// inertia: the decision CHOLMOD's LL' makes in the serial solver), and solves it; the LU solves
+/// a nonsymmetric matrix. Nodes on a line, in reverse order (the slab order permutes them).
+TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
+  const int n = 40;
+  Eigen::MatrixXd X(n, 1);
+  std::vector<int> free_of_dof(n);
+  for (int i = 0; i < n; ++i) X(i, 0) = n - i, free_of_dof[i] = i;
+  auto tridiagonal = [&](double shift, double upper, bool lower_only) {
+    std::vector<Eigen::Triplet<double>> t;
+    for (int i = 0; i < n; ++i) {
+      t.emplace_back(i, i, 2 + shift);
+      if (i > 0) t.emplace_back(i, i - 1, -1.0);
+      if (i > 0 && !lower_only) t.emplace_back(i - 1, i, upper);
+    }
+    SpMat A(n, n);
+    A.setFromTriplets(t.begin(), t.end());
+    return A;
+  };
+  Eigen::VectorXd b(n);
+  for (int i = 0; i < n; ++i) b(i) = std::sin(0.3 * i) + 1;
+  const double lowest = 2 - 2 * std::cos(M_PI / (n + 1));
+  DistributedCholesky chol(NewtonRows(free_of_dof, 1, X, 0));
+  for (double shift : {1e-3, -0.5 * lowest, -1.0, 0.5 * lowest}) {
+    const SpMat L = tridiagonal(shift, -1.0, true);
+    const bool ok = chol.factorize(L);
+    EXPECT_EQ(ok, shift > -lowest) << "shift " << shift;
+    if (!ok) continue;
+    Eigen::VectorXd x;
+    chol.solve(b, x);
+    const SpMat A = tridiagonal(shift, -1.0, false);
+    EXPECT_LE((A * x - b).norm(), 1e-12 * b.norm() * (1 + x.norm())) << "shift " << shift;
+  }
+  DistributedLU lu;
+  for (double upper : {-0.3, 0.7}) {  // the same pattern, new values: refactorized
+    const SpMat A = tridiagonal(0.1, upper, false);
+    Eigen::VectorXd x;
+    ASSERT_TRUE(lu.solve(A, NewtonRows(free_of_dof, 1, X, 0), b, x));
+    EXPECT_LE((A * x - b).norm(), 1e-12 * b.norm() * (1 + x.norm()));
+  }
+}
+
+/// The same through the time loop (run: ltl_run's path), which holds the scope itself.
+TEST(Mpi, Eq4_1to4_4_Fig5NewtonPhaseThroughTheTimeLoop) {
+  const long before = newton_solve_stats().mumps_factorizations;
   expect_serial_answer("Fig 5 with Newton", kFig5, {"algorithm.solver=newton"}, "cholesky");
+  EXPECT_GT(newton_solve_stats().mumps_factorizations, before);
 }
 
 /// Converged (13720 iterations): with the serial factor on every rank (-ltl_mpi_replicated), the

@@ -1,0 +1,120 @@
+//              The Newton phase on MPI ranks: the cost of a linear solve (paper_notes/mpi.md)
+//
+// What:     one step of CONFIG with algorithm.solver = "newton" (ALG2, then Newton), and the
+//           cost of Newton's linear solves (lib/mpi_newton.hpp): the symbolic analysis (once per
+//           Newton phase), the numeric factorization (once per Newton step) and the solves (5-7
+//           multiplier sweeps per step) of the augmented tangent, and the full KKT system's LU
+//           when it is used; serial (CHOLMOD, UMFPACK) with --serial, else distributed over the
+//           ranks of mpirun (MUMPS). Times are the largest over the ranks, with the load average.
+//
+// Run:      mpirun -n P build-mpi/experiments/bench_mpi_newton CONFIG [--serial] [key=value]...
+//           e.g. the gutter at level 2 (`refinement fig6`'s mesh, 2 160 H8):
+//           bench_mpi_newton experiments/fig6/fig6.toml mesh.parameters.nt=4
+//               mesh.parameters.na=18 mesh.parameters.nl=30
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "alg2.hpp"
+#include "config.hpp"
+#include "error.hpp"
+#include "mpi_comm.hpp"
+#include "mpi_newton.hpp"
+
+namespace {
+
+std::string loadavg() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + "/" + b + "/" + c;
+}
+
+double max_of(double v) {
+  std::vector<double> x(ltl::mpi::size(), 0.0);
+  x[ltl::mpi::rank()] = v;
+  ltl::mpi::sum(x.data(), static_cast<long>(x.size()));
+  double m = 0;
+  for (double y : x) m = std::max(m, y);
+  return m;
+}
+
+const char* kUsage = "usage: bench_mpi_newton CONFIG [--serial] [key=value]...\n";
+
+int bench(int argc, char** argv) {
+  bool serial = false;
+  std::vector<std::string> overrides = {"algorithm.solver=newton"};
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      if (ltl::mpi::rank() == 0) std::printf("%s", kUsage);
+      return 0;
+    }
+    if (a == "--serial") {
+      serial = true;
+    } else if (a.rfind("-", 0) == 0) {
+      std::fprintf(stderr, "bench_mpi_newton: unknown option %s\n%s", a.c_str(), kUsage);
+      return 2;
+    } else if (i > 1) {
+      overrides.push_back(a);
+    }
+  }
+  if (argc < 2 || std::string(argv[1]).rfind("-", 0) == 0) {
+    std::fprintf(stderr, "%s", kUsage);
+    return 2;
+  }
+  const ltl::Problem problem = ltl::load_problem(argv[1], overrides);
+  ltl::Solver solver(ltl::Discretization(problem), serial ? ltl::Ranks::One : ltl::Ranks::All);
+  ltl::State s = solver.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  const ltl::DistributedNewtonScope scope(solver.distributed());
+  const auto t0 = std::chrono::steady_clock::now();
+  const ltl::StepReport r = solver.solve_step(s, beta_prev);
+  const double wall =
+      max_of(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  const ltl::NewtonSolveStats st = ltl::newton_solve_stats();
+  auto per = [](double s, long n) { return n > 0 ? max_of(s) / n : 0.0; };
+  if (ltl::mpi::rank() == 0) {
+    std::printf("%s: %d cells, %d nodes, %d rank(s), %s; %s\n", problem.name.c_str(),
+                solver.discretization().num_cells(), solver.discretization().num_nodes(),
+                ltl::mpi::size(), serial ? "serial" : "distributed", r.status.c_str());
+    std::printf("  iterations %d (Newton %d, %d phase(s)), step wall %.3f s, load %s\n",
+                r.iterations, r.newton_iterations, r.newton_attempts, wall, loadavg().c_str());
+  }
+  // Collective: every rank computes the maxima.
+  const double ca = per(st.cholmod_analysis_s, st.cholmod_analyses);
+  const double cf = per(st.cholmod_factor_s, st.cholmod_factorizations);
+  const double cs = per(st.cholmod_solve_s, st.cholmod_solves);
+  const double ul = per(st.umfpack_s, st.umfpack_factorizations);
+  const double ma = per(st.mumps_analysis_s, st.mumps_analyses);
+  const double mf = per(st.mumps_factor_s, st.mumps_factorizations);
+  const double ms = per(st.mumps_solve_s, st.mumps_solves);
+  const double ml = per(st.mumps_lu_s, st.mumps_lu_factorizations);
+  if (ltl::mpi::rank() == 0) {
+    std::printf(
+        "  CHOLMOD: %ld analyses %.4f s, %ld factorizations %.4f s, %ld solves %.5f s each\n",
+        st.cholmod_analyses, ca, st.cholmod_factorizations, cf, st.cholmod_solves, cs);
+    std::printf("  UMFPACK: %ld LU (analysis + factorization + solve) %.4f s each\n",
+                st.umfpack_factorizations, ul);
+    std::printf(
+        "  MUMPS:   %ld analyses %.4f s, %ld factorizations %.4f s, %ld solves %.5f s each\n",
+        st.mumps_analyses, ma, st.mumps_factorizations, mf, st.mumps_solves, ms);
+    std::printf("  MUMPS LU: %ld (%ld analyses), %.4f s each\n", st.mumps_lu_factorizations,
+                st.mumps_lu_analyses, ml);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ltl::mpi::Session session(&argc, &argv);
+  try {
+    return bench(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_mpi_newton: %s\n", e.what());
+    ltl::mpi::abort(1);
+  }
+}

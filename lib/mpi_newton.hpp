@@ -1,0 +1,107 @@
+// The linear systems of the Newton phase (newton.hpp, newton_kkt.cpp) as distributed PETSc
+// factorizations over the MPI ranks (lib/mpi_comm.hpp), for a Solver built with Ranks::All:
+//
+//   - the augmented tangent K + kappa (B^T W B + C^T W_c C) of the Newton step (the KKT
+//     conditions of (2.2) with (2.7), (1.1); CHOLMOD's LL' in the serial solver) by MUMPS's
+//     symmetric factorization (KSPPREONLY + PCCHOLESKY on an MPIAIJ matrix, analyzed once per
+//     Newton phase, factorized numerically at each step). MUMPS runs its symmetric indefinite
+//     LDL' (SYM = 2) and the inertia says whether the matrix is positive definite, the answer
+//     CHOLMOD's failure gives in the serial solver (then the step falls back to the LU);
+//   - the full KKT system (u, p, the active mu, with glue every beta; UMFPACK's LU in the serial
+//     solver) by MUMPS's LU (KSPPREONLY + PCLU), analyzed again only when its pattern changes.
+//
+// The rows are split like the distributed global step's (mpi_global.hpp): the nodes with a free
+// dof in the order of their coordinate along the mesh's longest extent (slabs, slab_order),
+// blocks of them per rank (mpi::blocks), a node's free dofs on its rank; the KKT system's other
+// rows (p, mu, beta) in blocks of their index. Every rank still assembles the whole matrix
+// (replicated assembly) and inserts only its own rows; the right-hand side is whole on every
+// rank and the solution is gathered to every rank (mpi::gather), so that the rest of Newton
+// stays replicated and identical on every rank.
+//
+// Without LTL_WITH_MPI the solvers are not compiled (their constructors throw) and
+// DistributedNewtonScope::active() is always false: the serial Newton is unchanged.
+#pragma once
+
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+#include <memory>
+#include <vector>
+
+namespace ltl {
+
+/// Newton's linear solves in this process since the start (or the last reset): the serial ones
+/// (CHOLMOD, UMFPACK) and the distributed ones (MUMPS), with their seconds. Analysis = symbolic
+/// factorization; the LU's are counted with its factorizations (UMFPACK does both at once).
+struct NewtonSolveStats {
+  long cholmod_analyses = 0, cholmod_factorizations = 0, cholmod_solves = 0;
+  long umfpack_factorizations = 0;
+  long mumps_analyses = 0, mumps_factorizations = 0, mumps_solves = 0;
+  long mumps_lu_analyses = 0, mumps_lu_factorizations = 0;
+  double cholmod_analysis_s = 0, cholmod_factor_s = 0, cholmod_solve_s = 0, umfpack_s = 0;
+  double mumps_analysis_s = 0, mumps_factor_s = 0, mumps_solve_s = 0, mumps_lu_s = 0;
+};
+NewtonSolveStats& newton_solve_stats();
+
+/// While one is alive on this thread with on = true, the Newton phases started here solve their
+/// linear systems distributed (the time loop, simulation.cpp, holds one per step with
+/// Solver::distributed()). The PETSc option -ltl_mpi_newton_replicated keeps them replicated.
+class DistributedNewtonScope {
+ public:
+  explicit DistributedNewtonScope(bool on);
+  ~DistributedNewtonScope();
+  DistributedNewtonScope(const DistributedNewtonScope&) = delete;
+  DistributedNewtonScope& operator=(const DistributedNewtonScope&) = delete;
+  /// In an MPI build, inside a scope with on = true, without -ltl_mpi_newton_replicated.
+  static bool active();
+
+ private:
+  bool previous_;
+};
+
+/// The rows of the distributed Newton systems: the free dofs (dim * #nodes, interleaved; -1:
+/// fixed) in slab order, blocks of nodes per rank; `extra` further rows in blocks of their
+/// index. perm[k]: the global PETSc row of system row k (free dofs first, then the extra rows);
+/// offset: the ranks' blocks of PETSc rows.
+struct NewtonRows {
+  std::vector<int> perm, offset;
+  NewtonRows(const std::vector<int>& free_of_dof, int dim, const Eigen::MatrixXd& X, int extra);
+};
+
+/// The augmented tangent on the free dofs (Newton's pattern: lower triangle, column-major) by
+/// MUMPS over every rank. Collective.
+class DistributedCholesky {
+ public:
+  /// The rows of the pattern's matrix (nfree x nfree). Analyzes at the first factorize.
+  explicit DistributedCholesky(NewtonRows rows);
+  ~DistributedCholesky();
+  DistributedCholesky(const DistributedCholesky&) = delete;
+  DistributedCholesky& operator=(const DistributedCholesky&) = delete;
+  /// The owned rows of A (lower triangle; both triangles inserted), factorized. False when A is
+  /// not positive definite (a negative or zero pivot, or MUMPS failed): the same on every rank.
+  bool factorize(const Eigen::SparseMatrix<double>& A);
+  /// x = A^{-1} b, b whole on every rank, x whole on every rank.
+  void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The full KKT system by MUMPS's LU over every rank, analyzed again when its pattern changes.
+class DistributedLU {
+ public:
+  DistributedLU();
+  ~DistributedLU();
+  DistributedLU(const DistributedLU&) = delete;
+  DistributedLU& operator=(const DistributedLU&) = delete;
+  /// A x = b, A (compressed, whole on every rank) with the rows `rows`; x whole on every rank.
+  /// False when A is singular (MUMPS failed): the same on every rank.
+  bool solve(const Eigen::SparseMatrix<double>& A, const NewtonRows& rows, const Eigen::VectorXd& b,
+             Eigen::VectorXd& x);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ltl
