@@ -30,11 +30,13 @@ class DistributedGlobalStep {
   /// factor).
   enum class Solver { CgGamg, Mumps };
 
-  /// K: the whole (replicated) matrix of (4.5); bc: the Dirichlet sets; X: the #nodes x dim
-  /// reference coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error
-  /// without MPI (a build without LTL_WITH_MPI) or when PETSc fails.
+  /// K: the whole (replicated) matrix of (4.5), or with `parts` this rank's part of it (the
+  /// sum over its cells, Discretization on a cell range): the parts of the ranks add up to K,
+  /// and no rank holds the whole. bc: the Dirichlet sets; X: the #nodes x dim reference
+  /// coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error without MPI
+  /// (a build without LTL_WITH_MPI) or when PETSc fails.
   DistributedGlobalStep(const SpMat& K, const DirichletData& bc, const Eigen::MatrixXd& X,
-                        Solver solver = Solver::CgGamg);
+                        Solver solver = Solver::CgGamg, bool parts = false);
   ~DistributedGlobalStep();
   DistributedGlobalStep(const DistributedGlobalStep&) = delete;
   DistributedGlobalStep& operator=(const DistributedGlobalStep&) = delete;
