@@ -1,8 +1,9 @@
 // The global step (4.1), i.e. the linear problem (4.5), as ONE distributed PETSc KSP over the MPI
 // ranks (lib/mpi_comm.hpp): conjugate gradients preconditioned by smoothed-aggregation AMG
-// (GAMG) on an MPIAIJ matrix, each rank assembling its contiguous block of rows, the hierarchy set
-// up once per Dirichlet set (like the factor it replaces, global_step.hpp), with the near-null
-// space of cg_amg.hpp (the constants and the centred coordinates, orthonormalized).
+// (GAMG), or MUMPS's Cholesky, on an MPIAIJ matrix whose contiguous blocks of rows the ranks own;
+// each rank adds its cells' part of K (or, given the whole K, its own rows), the hierarchy or
+// the factor set up once per Dirichlet set (like the serial factor, global_step.hpp), with the
+// near-null space of cg_amg.hpp (the constants and the centred coordinates, orthonormalized).
 //
 // Unlike the serial CG + AMG (cg_amg.hpp, inexact), every solve here is converged tightly,
 // ||b - K x|| <= kRtol ||b|| from the warm start (the previous iterate), so that the distributed
