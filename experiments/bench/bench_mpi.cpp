@@ -8,7 +8,11 @@
 //           collectives (Allreduce, Allgatherv) and in KSPSolve; the bytes received per rank and
 //           iteration by our collectives and by PETSc's messages; the KSP iterations per solve;
 //           the peak resident memory of every rank (VmHWM). Times are the largest over the
-//           ranks; the load average is printed beside them.
+//           ranks; the load average is printed beside them. A second line, "MEM ...": the
+//           resident size (VmRSS / VmHWM, MB, largest rank) after each setup phase (start, mesh
+//           read, solver set up, iterated) and the bytes per cell the largest rank holds
+//           (Solver::holdings). PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every
+//           rank (the memory before the partition of the operators, paper_notes/mpi.md).
 //
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi NT NA NL [--iters N] [--warm N]
 //               [--solver mumps|cg-amg] [--distribute 1] [--label TEXT]
