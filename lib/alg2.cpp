@@ -17,7 +17,7 @@ double seconds_since(clock_type::time_point t0) {
 }
 }  // namespace
 
-Solver::Solver(const Problem& problem) : Solver(Discretization(problem)) {}
+Solver::Solver(const Problem& problem, Ranks ranks) : Solver(discretize(problem, ranks), ranks) {}
 
 Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(discretization)) {
   const auto t0 = clock_type::now();
@@ -65,8 +65,8 @@ void Solver::precompute(double R) {
   const double Rq = R * a.q, Rqc = R * a.q_c;
   R_ = R;
   gamma_ = disc_.mean_det() ? 2 * Rq : 0.0;
-  SpMat K =
-      global_matrix(disc_.cells(), disc_.points(), disc_.split().C1 + gamma_ / 2, Rq - gamma_, Rqc);
+  SpMat K = global_matrix(disc_.cells(), points_in_K(), disc_.split().C1 + gamma_ / 2, Rq - gamma_,
+                          Rqc);  // this rank's part when the discretization is partial
   // a substep's value scale, kept
   const double scale = global_ ? global_->value_scale() : dist_ ? distributed_value_scale() : 1.0;
   global_.reset();  // release the old factor before the new one is computed

@@ -38,6 +38,16 @@ namespace ltl {
 /// an MPI build (lib/alg2_mpi.cpp, paper_notes/mpi.md).
 enum class Ranks { One, All };
 
+/// What this process holds, in bytes (Solver::holdings; the breakdown of paper_notes/mpi.md).
+struct Holdings {
+  int cells_with_operators = 0;  ///< cells whose rows of Gbar are not empty
+  double mesh = 0;         ///< the mesh in the discretization's problem: X, cells, boundary facets
+  double operators = 0;    ///< Gbar, GbarT_vol, the Laplacian, vol (the solver's copies too)
+  double cell_arrays = 0;  ///< dense per-cell arrays: identity, volume rows, the work arrays
+  double node_arrays = 0;  ///< dense per-node arrays: dead loads, Dirichlet values, rhs
+  double contact = 0;      ///< the contact points' operators and arrays
+};
+
 /// What this rank holds and did in a distributed solver (Ranks::All; zeros otherwise).
 struct RankShare {
   int cells = 0, points = 0;         ///< owned cells and contact points
@@ -51,8 +61,12 @@ struct RankShare {
 class Solver {
  public:
   /// Discretizes the problem (discretization.hpp), then the precompute: assembles K with R q and
-  /// factorizes it once [LTL87 (4.5)].
-  explicit Solver(const Problem& problem);
+  /// factorizes it once [LTL87 (4.5)]. Ranks::All with plain ALG2 (algorithm.solver = "alg2")
+  /// and the distributed KSP: each rank discretizes its block of cells only (Discretization on
+  /// a cell range: Gbar, GbarT_vol, the Laplacian and its part of K of its cells; memory per
+  /// rank ~1/P, paper_notes/mpi.md). With the Newton phase or the replicated factor the whole
+  /// discretization, on every rank.
+  explicit Solver(const Problem& problem, Ranks ranks = Ranks::One);
   /// The same from a discretization built beforehand. Ranks::All (an MPI build, lib/mpi_comm.hpp)
   /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): every rank holds the whole
   /// discretization, computes its block of cells and contact points, and ends each iteration
@@ -91,6 +105,9 @@ class Solver {
   int global_factors() const { return global_ ? global_->num_factors() : 0; }
   bool distributed() const { return dist_ != nullptr; }
   RankShare rank_share() const;
+  /// The bytes this process holds in the discretization and the solver's arrays (not PETSc's
+  /// or the factor's).
+  Holdings holdings() const;
   const Eigen::MatrixXd& external_load() const { return F_ext_; }
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
   /// external_load() = factor x the assembled dead loads f, g, and the prescribed displacements
@@ -177,6 +194,13 @@ class Solver {
     int first, end;
   };
   void distribute();
+  /// The discretization a Solver on `ranks` builds (a rank's block of cells, or every cell).
+  static Discretization discretize(const Problem& problem, Ranks ranks);
+  /// The contact points whose term R q_c M^T |G| M goes into this rank's part of K: all of them
+  /// unless the discretization is partial, then on rank 0 alone.
+  const ContactPoints* points_in_K() const;
+  /// Does the discretization hold exactly this rank's cells (so that GbarT_vol is its part)?
+  bool owns_only_its_cells() const;
   /// The cells, and the contact points, whose local steps and updates this rank computes (all
   /// of them unless distributed; all points when the contact step is replicated).
   Range cell_range() const;

@@ -1,10 +1,16 @@
 // ALG2 [LTL87 (4.1)-(4.4)] distributed over the MPI ranks (Solver with Ranks::All; an MPI build,
 // lib/mpi_comm.hpp). The first slice of the distribution (paper_notes/mpi.md):
 //
-//   - REPLICATED: the mesh, the discretization, the operators and the state. Every rank reads
-//     and discretizes the whole problem (memory per rank does not fall yet) and ends every
-//     iteration with the whole state, so that Anderson, the stopping tests, the Newton phase and
-//     the output are the serial ones, identical on every rank.
+//   - PARTITIONED (plain ALG2, Solver(Problem, Ranks::All)): the cell operators. Each rank
+//     discretizes its block of cells only (Discretization on a cell range: Gbar, GbarT_vol, the
+//     Laplacian of its cells) and assembles its part of K (4.5), which the distributed KSP sums
+//     (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over cells of the measures
+//     (equilibrium residual, energy) add the ranks' parts. With the Newton phase, or the
+//     replicated factor, the whole discretization on every rank (as before).
+//   - REPLICATED: the mesh, the per-cell and per-node dense arrays and the state. Every rank
+//     reads the whole problem and ends every iteration with the whole state, so that Anderson,
+//     the stopping tests, the Newton phase and the output are the serial ones, identical on
+//     every rank.
 //   - DISTRIBUTED: the cells and the contact points, in contiguous blocks (mpi::blocks). A rank
 //     computes, on its own blocks: the global step's per-cell right-hand side
 //     Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R q_c e + lambda_c] (4.1),
@@ -32,7 +38,9 @@ struct Solver::Distribution {
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  SpMatR GbarT_own;  ///< #nodes x dim #owned cells: the owned columns of GbarT_vol
+  /// #nodes x dim #owned cells: the owned columns of GbarT_vol (a copy; empty when the
+  /// discretization holds the owned cells only: then GbarT_vol itself)
+  SpMatR GbarT_own;
   SpMatR meanT_own;  ///< #nodes x #owned points: the owned columns of meanT_area
   std::unique_ptr<DistributedGlobalStep> ksp;
   double scale = 1;
@@ -72,8 +80,35 @@ void Solver::distribute() {
   d.use_ksp = !mpi::option("-ltl_mpi_replicated");
   d.ksp_solver = alg().global_solver == GlobalSolver::CgAmg ? DistributedGlobalStep::Solver::CgGamg
                                                             : DistributedGlobalStep::Solver::Mumps;
-  d.GbarT_own = disc_.cells().GbarT_vol.middleCols(dim * d.c0, dim * (d.c1 - d.c0));
+  if (disc_.partial() && (disc_.first_cell() != d.c0 || disc_.end_cell() != d.c1))
+    throw Error(cat("a discretization of the cells [", disc_.first_cell(), ", ", disc_.end_cell(),
+                    ") on the rank of the cells [", d.c0, ", ", d.c1, ")"));
+  if (disc_.partial() && !d.use_ksp)
+    throw Error("the replicated factor needs the whole discretization (Solver(Discretization))");
+  if (!owns_only_its_cells())
+    d.GbarT_own = disc_.cells().GbarT_vol.middleCols(dim * d.c0, dim * (d.c1 - d.c0));
   if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
+}
+
+// The rank's block of cells (mpi::blocks): its operators alone, unless the Newton phase (which
+// assembles its tangent on the whole discretization, newton.hpp) or the replicated serial factor
+// (-ltl_mpi_replicated: K whole on every rank) needs every cell. The PETSc option
+// -ltl_mpi_whole builds the whole discretization on every rank anyway (the memory before the
+// partition, bench_mpi).
+Discretization Solver::discretize(const Problem& problem, Ranks ranks) {
+  if (ranks == Ranks::One || problem.algorithm.solver == NonlinearSolver::Newton ||
+      mpi::option("-ltl_mpi_replicated") || mpi::option("-ltl_mpi_whole"))
+    return Discretization(problem);
+  const std::vector<int> cells = mpi::blocks(problem.mesh.num_cells(), mpi::size());
+  return Discretization(problem, cells[mpi::rank()], cells[mpi::rank() + 1]);
+}
+
+const ContactPoints* Solver::points_in_K() const {
+  return disc_.partial() && mpi::rank() != 0 ? nullptr : disc_.points();
+}
+
+bool Solver::owns_only_its_cells() const {
+  return dist_ && disc_.first_cell() == dist_->c0 && disc_.end_cell() == dist_->c1;
 }
 
 Solver::Range Solver::cell_range() const {
@@ -97,8 +132,8 @@ bool Solver::distributed_global_step(const SpMat& K, double scale) {
   d.scale = scale;
   if (!d.use_ksp) return false;
   d.ksp.reset();
-  d.ksp =
-      std::make_unique<DistributedGlobalStep>(K, disc_.dirichlet(), problem().mesh.X, d.ksp_solver);
+  d.ksp = std::make_unique<DistributedGlobalStep>(K, disc_.dirichlet(), problem().mesh.X,
+                                                  d.ksp_solver, disc_.partial());
   d.ksp->set_value_scale(scale);
   return true;
 }
@@ -148,7 +183,10 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const Eigen::MatrixXd& I = disc_.identity();
   T_.middleRows(r0, nr) = Rq * (s.E.middleRows(r0, nr) - I.middleRows(r0, nr)) +
                           s.lambda.middleRows(r0, nr) - 2 * disc_.split().C1 * I.middleRows(r0, nr);
-  rhs_.noalias() = d.GbarT_own * T_.middleRows(r0, nr);
+  if (owns_only_its_cells())  // GbarT_vol's columns are the owned cells' (the same products)
+    rhs_.noalias() = disc_.cells().GbarT_vol * T_;
+  else
+    rhs_.noalias() = d.GbarT_own * T_.middleRows(r0, nr);
   if (mpi::rank() == 0) rhs_ += F_ext_;
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, d.c0, d.c1);
@@ -185,6 +223,48 @@ void Solver::make_whole(State& s) const {
     mpi::gather_rows(s.lambda_c, d.points, 1);
     mpi::gather_rows(s.beta, d.points);
   }
+}
+
+}  // namespace ltl
+
+namespace ltl {
+
+namespace {
+template <class Sparse>
+double bytes_of_sparse(const Sparse& A) {  // values and indices, compressed
+  return 12.0 * A.nonZeros() + 4.0 * (A.outerSize() + 1);
+}
+template <class Dense>
+double bytes_of(const Dense& A) {
+  return 8.0 * A.size();
+}
+}  // namespace
+
+Holdings Solver::holdings() const {
+  Holdings h;
+  const Mesh& mesh = problem().mesh;
+  h.mesh = bytes_of(mesh.X) + 4.0 * mesh.cells.size();
+  for (const Mesh::Boundary& b : mesh.boundaries) h.mesh += 4.0 * b.facets.size();
+  const CellOperators& c = disc_.cells();
+  h.operators = bytes_of_sparse(c.Gbar) + bytes_of_sparse(c.GbarT_vol) +
+                bytes_of_sparse(c.laplacian) + bytes_of(c.vol);
+  if (dist_) h.operators += bytes_of_sparse(dist_->GbarT_own);
+  const int dim = this->dim();
+  for (int e = 0; e < disc_.num_cells(); ++e)
+    if (c.Gbar.outerIndexPtr()[dim * e + 1] > c.Gbar.outerIndexPtr()[dim * e])
+      ++h.cells_with_operators;
+  h.cell_arrays = bytes_of(disc_.identity()) + bytes_of(disc_.volume_rows()) + bytes_of(T_) +
+                  bytes_of(global_out_.GU) + bytes_of(global_out_.J) + bytes_of(prev_.E) +
+                  bytes_of(half_.lambda) + bytes_of(w_cell_);
+  h.node_arrays = bytes_of(disc_.dead_load()) + bytes_of(F_ext_) +
+                  bytes_of(disc_.dirichlet().value) + bytes_of(rhs_);
+  if (const ContactPoints* p = disc_.points()) {
+    h.contact = bytes_of_sparse(p->mean) + bytes_of_sparse(p->meanT_area) + bytes_of(p->area) +
+                bytes_of(p->centre) + bytes_of(p->gap) + bytes_of(p->normals) +
+                bytes_of(global_out_.ubar) + bytes_of(w_point_);
+    if (dist_) h.contact += bytes_of_sparse(dist_->meanT_own);
+  }
+  return h;
 }
 
 }  // namespace ltl

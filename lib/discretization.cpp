@@ -7,6 +7,7 @@
 #include "cofactor.hpp"
 #include "derived_fields.hpp"
 #include "error.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
@@ -53,11 +54,14 @@ ContactPoints stack_obstacles(const std::vector<ContactPoints>& obstacles, int n
 }
 }  // namespace
 
-Discretization::Discretization(const Problem& problem) : problem_(problem) {
+Discretization::Discretization(const Problem& problem, int first, int end)
+    : problem_(problem), first_(first), end_(end) {
   const auto t0 = std::chrono::steady_clock::now();
   problem_.validate();
   const Mesh& mesh = problem_.mesh;
   const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+  if (end_ < 0) end_ = nc;
+  partial_ = first_ != 0 || end_ != nc;
 
   // The split (2.5)-(2.6) of W: C1 |F|^2 in the global quadratic, the rest local. In plane strain
   // the incompressible Mooney-Rivlin C2 term is C2 (|F|^2 + 1) on det F = 1, so by default it
@@ -68,7 +72,7 @@ Discretization::Discretization(const Problem& problem) : problem_(problem) {
     split_.C2 = 0;
   }
 
-  cells_ = cell_operators(mesh);
+  cells_ = cell_operators(mesh, first_, end_);
   volume_ = cells_.vol.sum();
   Id_ = Eigen::MatrixXd::Zero(dim * nc, dim);
   vol_rows_.resize(dim * nc);
@@ -416,6 +420,11 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   const Eigen::MatrixXd GU = cells_.Gbar * s.u;
   const double grad2 = (s.u.transpose() * (cells_.laplacian * s.u)).trace();
   const double mean2 = (GU.array().square().colwise() * vol_rows_.array()).sum();
+  if (partial_) {  // the owned cells' parts of the gradient terms summed over the ranks
+    double parts[2] = {grad2, mean2};
+    mpi::sum(parts, 2);
+    return J + m.C1 * (parts[0] - parts[1]) - (F.array() * s.u.array()).sum();
+  }
   return J + m.C1 * (grad2 - mean2) - (F.array() * s.u.array()).sum();
 }
 
@@ -434,8 +443,14 @@ Eigen::MatrixXd Discretization::energy_gradient(const Eigen::MatrixXd& u,
       P.block<3, 3>(3 * c, 0) = m.dW(Fc).transpose();
     }
   }
-  Eigen::MatrixXd g =
-      cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU) - F;
+  Eigen::MatrixXd g;
+  if (partial_) {  // the owned cells' part summed over the ranks
+    g = cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU);
+    mpi::sum(g.data(), g.size());
+    g -= F;
+  } else {
+    g = cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU) - F;
+  }
   for (int c = 0; c < d; ++c)
     for (int i : bc_.fixed[c]) g(i, c) = 0;
   return g;

@@ -25,7 +25,13 @@ class Discretization {
  public:
   /// Validates the problem and builds every discrete operator; throws a clear Error naming the
   /// group, facet or node on inconsistent data (e.g. a contact point starting inside the plane).
-  explicit Discretization(const Problem& problem);
+  explicit Discretization(const Problem& problem) : Discretization(problem, 0, -1) {}
+  /// The same with the cell operators (Gbar, GbarT_vol, the Laplacian) of the cells
+  /// first <= c < end only (end < 0: every cell): a rank's block of a distributed run
+  /// (alg2_mpi.cpp, paper_notes/mpi.md), the rest of the discretization whole. Then the sums
+  /// over cells (elastic_energy, energy_gradient, measures.cpp's equilibrium residual) add the
+  /// owned cells' parts over the MPI ranks, and are collective.
+  Discretization(const Problem& problem, int first, int end);
 
   const Problem& problem() const { return problem_; }
   /// Wall-clock seconds the constructor took (part of the run's setup time).
@@ -33,6 +39,11 @@ class Discretization {
   int dim() const { return problem_.mesh.dim; }
   int num_cells() const { return problem_.mesh.num_cells(); }
   int num_nodes() const { return problem_.mesh.num_nodes(); }
+  /// The cells whose operators this discretization holds: first_cell() <= c < end_cell(); all of
+  /// them unless partial().
+  int first_cell() const { return first_; }
+  int end_cell() const { return end_; }
+  bool partial() const { return partial_; }
 
   /// The material as split between the global and the local steps (2.5)-(2.6):
   /// problem().material, except that in plane strain with DiscretizationChoice::c2_pointwise the
@@ -130,6 +141,8 @@ class Discretization {
 
  private:
   Problem problem_;
+  int first_ = 0, end_ = 0;  ///< the cells with operators (all unless partial_)
+  bool partial_ = false;
   Material split_;
   CellOperators cells_;
   std::optional<ContactPoints> points_;  ///< several obstacles only: their points stacked

@@ -5,6 +5,7 @@
 
 #include "admissibility.hpp"
 #include "error.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
@@ -190,8 +191,14 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   const CellOperators& c = d.cells();
   const double C1 = d.split().C1;
   const Eigen::MatrixXd GU = c.Gbar * s.u;
-  Eigen::MatrixXd r =
-      c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - f_ext;
+  Eigen::MatrixXd r;
+  if (d.partial()) {  // the owned cells' part, summed over the ranks (collective)
+    r = c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU);
+    mpi::sum(r.data(), r.size());
+    r -= f_ext;
+  } else {
+    r = c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - f_ext;
+  }
   if (d.points()) r -= d.points()->meanT_area * s.lambda_c;
   if (d.mean_det()) r -= d.fluctuation_force(s);
   return r;
@@ -267,11 +274,13 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   const bool incompressible = d.problem().material.incompressible();
   const Eigen::VectorXd c =
       incompressible ? d.fluctuation_det(s.u) : Eigen::VectorXd::Zero(d.num_cells());
-  for (int e = 0; e < d.num_cells(); ++e) {
+  // The cells whose Gbar this rank holds (all unless partial), the largest over the ranks.
+  for (int e = d.first_cell(); e < d.end_cell(); ++e) {
     const Small F = I + GU.middleRows(dim * e, dim);
     err = std::max(err, (F - s.E.middleRows(dim * e, dim)).cwiseAbs().maxCoeff());
     if (incompressible) err = std::max(err, std::abs(F.determinant() + c(e) - 1));
   }
+  if (d.partial()) mpi::max(&err, 1);
   return std::max(err, max_penetration(d, s) / std::pow(d.volume(), 1.0 / dim));
 }
 

@@ -32,12 +32,23 @@ Traffic traffic() {
   return traffic_;
 }
 
-double peak_resident_bytes() {
+namespace {
+double status_bytes(const char* key) {  // a "Key:   N kB" line of /proc/self/status
   std::ifstream in("/proc/self/status");
   std::string line;
+  const std::size_t n = std::strlen(key);
   while (std::getline(in, line))
-    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::atof(line.c_str() + 6);
+    if (line.compare(0, n, key) == 0) return 1024.0 * std::atof(line.c_str() + n);
   return 0;
+}
+}  // namespace
+
+double peak_resident_bytes() {
+  return status_bytes("VmHWM:");
+}
+
+double resident_bytes() {
+  return status_bytes("VmRSS:");
 }
 
 #ifndef LTL_HAVE_MPI
@@ -58,6 +69,7 @@ void abort(int code) {
 }
 void barrier() {}
 void sum(double*, long) {}
+void max(double*, long) {}
 void broadcast(double*, long) {}
 void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
   lo = hi = v;
@@ -143,6 +155,16 @@ void sum(double* x, long n) {
   if (!up || size_ == 1) return;
   const auto t0 = clock_type::now();
   check(MPI_Allreduce(MPI_IN_PLACE, x, static_cast<int>(n), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD),
+        "MPI_Allreduce");
+  traffic_.bytes += 8.0 * n;
+  traffic_.calls += 1;
+  traffic_.seconds += seconds_since(t0);
+}
+
+void max(double* x, long n) {
+  if (!up || size_ == 1) return;
+  const auto t0 = clock_type::now();
+  check(MPI_Allreduce(MPI_IN_PLACE, x, static_cast<int>(n), MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD),
         "MPI_Allreduce");
   traffic_.bytes += 8.0 * n;
   traffic_.calls += 1;

@@ -43,6 +43,8 @@ std::vector<int> blocks(int n, int ranks);
 
 /// In place: x[i] = sum over ranks of x[i].
 void sum(double* x, long n);
+/// In place: x[i] = the largest over the ranks of x[i].
+void max(double* x, long n);
 /// In place: every rank gets rank 0's x[0 .. n) (a resumed run's start, read by rank 0 alone).
 void broadcast(double* x, long n);
 /// Over the ranks: the smallest and the largest of v (the check that every rank holds the same).
@@ -76,5 +78,7 @@ void set_option(const char* name, bool on);
 
 /// Peak resident memory of this process (VmHWM, bytes; 0 where /proc is missing).
 double peak_resident_bytes();
+/// Resident memory of this process now (VmRSS, bytes; 0 where /proc is missing).
+double resident_bytes();
 
 }  // namespace ltl::mpi

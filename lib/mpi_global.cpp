@@ -29,7 +29,7 @@ std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X) {
 struct DistributedGlobalStep::Group {};
 
 DistributedGlobalStep::DistributedGlobalStep(const SpMat&, const DirichletData& bc,
-                                             const Eigen::MatrixXd&, Solver solver)
+                                             const Eigen::MatrixXd&, Solver solver, bool)
     : bc_(bc), solver_(solver) {
   throw Error(
       "the distributed global step needs MPI and PETSc: build with -DLTL_WITH_MPI=ON "
@@ -67,7 +67,7 @@ struct DistributedGlobalStep::Group {
 };
 
 DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData& bc,
-                                             const Eigen::MatrixXd& X, Solver solver)
+                                             const Eigen::MatrixXd& X, Solver solver, bool parts)
     : bc_(bc), solver_(solver) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(K.rows());
@@ -95,32 +95,68 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
     g.offset = mpi::blocks(nf, P);
     const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
     g.x.assign(nf, 0.0);
-    // The owned rows of K_ff (K is symmetric: row i is column i), global columns in the free
-    // numbering, sorted, and the shift.
-    std::vector<PetscInt> ia(own + 1, 0), ja;
-    std::vector<PetscScalar> va;
-    std::vector<std::pair<PetscInt, PetscScalar> > row;
-    g.shift = Eigen::MatrixXd::Zero(own, nc);
-    for (int r = 0; r < own; ++r) {
-      row.clear();
-      for (SpMat::InnerIterator it(K, g.node[f0 + r]); it; ++it) {
-        const int m = static_cast<int>(it.row());
-        if (local[m] >= 0) {
-          row.emplace_back(local[m], it.value());
-        } else {
-          for (int k = 0; k < nc; ++k) g.shift(r, k) += it.value() * bc.value(m, g.components[k]);
+    // K_ff into PETSc's matrix, K_fd u_d into the shift (K is symmetric: row i is column i, the
+    // columns in the free numbering): each rank adds the rows it holds, every row of its part of
+    // K (parts), else its own block of rows; the rows of other ranks travel at the assembly
+    // (ADD_VALUES). First into MATPREALLOCATOR (the exact pattern), then into the matrix.
+    std::vector<PetscInt> cols;
+    std::vector<PetscScalar> vals;
+    std::vector<Vec> shift(nc, nullptr);
+    auto add_rows = [&](Mat M, bool with_shift) {
+      for (int j = 0; j < n; ++j) {
+        const PetscInt row = local[j];
+        if (row < 0 || (!parts && (row < f0 || row >= f1))) continue;
+        cols.clear();
+        vals.clear();
+        for (SpMat::InnerIterator it(K, j); it; ++it) {
+          const int m = static_cast<int>(it.row());
+          if (local[m] >= 0) {
+            cols.push_back(local[m]);
+            vals.push_back(it.value());
+          } else if (with_shift) {
+            for (int k = 0; k < nc; ++k)
+              check(
+                  VecSetValue(shift[k], row, it.value() * bc.value(m, g.components[k]), ADD_VALUES),
+                  g.what, "VecSetValue");
+          }
         }
+        if (!cols.empty())
+          check(MatSetValues(M, 1, &row, static_cast<PetscInt>(cols.size()), cols.data(),
+                             vals.data(), ADD_VALUES),
+                g.what, "MatSetValues");
       }
-      std::sort(row.begin(), row.end());
-      for (const auto& [col, v] : row) {
-        ja.push_back(col);
-        va.push_back(v);
-      }
-      ia[r + 1] = static_cast<PetscInt>(ja.size());
+      check(MatAssemblyBegin(M, MAT_FINAL_ASSEMBLY), g.what, "MatAssemblyBegin");
+      check(MatAssemblyEnd(M, MAT_FINAL_ASSEMBLY), g.what, "MatAssemblyEnd");
+    };
+    {
+      Mat pattern = nullptr;
+      check(MatCreate(PETSC_COMM_WORLD, &pattern), g.what, "MatCreate");
+      check(MatSetSizes(pattern, own, own, nf, nf), g.what, "MatSetSizes");
+      check(MatSetType(pattern, MATPREALLOCATOR), g.what, "MatSetType");
+      check(MatSetUp(pattern), g.what, "MatSetUp");
+      add_rows(pattern, false);
+      check(MatCreate(PETSC_COMM_WORLD, &g.A), g.what, "MatCreate");
+      check(MatSetSizes(g.A, own, own, nf, nf), g.what, "MatSetSizes");
+      check(MatSetType(g.A, MATMPIAIJ), g.what, "MatSetType");
+      check(MatPreallocatorPreallocate(pattern, PETSC_TRUE, g.A), g.what,
+            "MatPreallocatorPreallocate");
+      MatDestroy(&pattern);
     }
-    check(MatCreateMPIAIJWithArrays(PETSC_COMM_WORLD, own, own, nf, nf, ia.data(), ja.data(),
-                                    va.data(), &g.A),
-          g.what, "MatCreateMPIAIJWithArrays");
+    for (Vec& v : shift) {
+      check(VecCreateMPI(PETSC_COMM_WORLD, own, nf, &v), g.what, "VecCreateMPI");
+      check(VecSet(v, 0.0), g.what, "VecSet");
+    }
+    add_rows(g.A, true);
+    g.shift = Eigen::MatrixXd::Zero(own, nc);
+    for (int k = 0; k < nc; ++k) {
+      check(VecAssemblyBegin(shift[k]), g.what, "VecAssemblyBegin");
+      check(VecAssemblyEnd(shift[k]), g.what, "VecAssemblyEnd");
+      const PetscScalar* a = nullptr;
+      check(VecGetArrayRead(shift[k], &a), g.what, "VecGetArrayRead");
+      for (int r = 0; r < own; ++r) g.shift(r, k) = a[r];
+      check(VecRestoreArrayRead(shift[k], &a), g.what, "VecRestoreArrayRead");
+      VecDestroy(&shift[k]);
+    }
     check(MatSetOption(g.A, MAT_SPD, PETSC_TRUE), g.what, "MatSetOption");
     {  // the near-null space (cg_amg.hpp): constants and centred coordinates, orthonormalized
       std::vector<Eigen::VectorXd> basis;
@@ -150,34 +186,43 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
       MatNullSpaceDestroy(&nsp);
       for (Vec& v : vecs) VecDestroy(&v);
     }
-    check(KSPCreate(PETSC_COMM_WORLD, &g.ksp), g.what, "KSPCreate");
-    check(KSPSetOperators(g.ksp, g.A, g.A), g.what, "KSPSetOperators");
-    PC pc;
-    check(KSPGetPC(g.ksp, &pc), g.what, "KSPGetPC");
-    if (solver == Solver::Mumps) {  // factored once (KSPSetUp), then one triangular pair per solve
-      check(KSPSetType(g.ksp, KSPPREONLY), g.what, "KSPSetType");
-      check(PCSetType(pc, PCCHOLESKY), g.what, "PCSetType");
-      check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), g.what, "PCFactorSetMatSolverType");
-    } else {
-      check(KSPSetType(g.ksp, KSPCG), g.what, "KSPSetType");
-      check(KSPSetNormType(g.ksp, KSP_NORM_UNPRECONDITIONED), g.what, "KSPSetNormType");
-      check(KSPSetInitialGuessNonzero(g.ksp, PETSC_TRUE), g.what, "KSPSetInitialGuessNonzero");
-      check(PCSetType(pc, PCGAMG), g.what, "PCSetType");
-      check(PCGAMGSetType(pc, PCGAMGAGG), g.what, "PCGAMGSetType");
-      check(KSPSetTolerances(g.ksp, rtol, 0.0, PETSC_DEFAULT, 5000), g.what, "KSPSetTolerances");
-    }
-    check(KSPSetFromOptions(g.ksp), g.what, "KSPSetFromOptions");
-    PCType type = nullptr;
-    PCGetType(pc, &type);
-    if (type && std::string(type) == PCCHOLESKY) {
-      // MUMPS's workspace estimate is short on several ranks (INFOG(1) = -9 on 4 ranks of the
-      // 1 080-cell gutter): twice the estimate (ICNTL(14) = 100 %, percent more).
+    // MUMPS's workspace: its own estimate plus 20 % (ICNTL(14) = 20, MUMPS's default) first;
+    // when that is short (INFOG(1) = -9 on 4 ranks of the 1 080-cell gutter: the factor reports
+    // an error, the same on every rank) the KSP is set up again with twice the estimate (100 %).
+    // Twice the estimate from the start cost rank 0 87 MB more on 2 ranks of the 102 400-cell
+    // gutter (paper_notes/mpi.md).
+    for (const int extra : {20, 100}) {
+      if (g.ksp) KSPDestroy(&g.ksp);
+      check(KSPCreate(PETSC_COMM_WORLD, &g.ksp), g.what, "KSPCreate");
+      check(KSPSetOperators(g.ksp, g.A, g.A), g.what, "KSPSetOperators");
+      PC pc;
+      check(KSPGetPC(g.ksp, &pc), g.what, "KSPGetPC");
+      if (solver == Solver::Mumps) {  // factored once (KSPSetUp), then a triangular pair a solve
+        check(KSPSetType(g.ksp, KSPPREONLY), g.what, "KSPSetType");
+        check(PCSetType(pc, PCCHOLESKY), g.what, "PCSetType");
+        check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), g.what, "PCFactorSetMatSolverType");
+      } else {
+        check(KSPSetType(g.ksp, KSPCG), g.what, "KSPSetType");
+        check(KSPSetNormType(g.ksp, KSP_NORM_UNPRECONDITIONED), g.what, "KSPSetNormType");
+        check(KSPSetInitialGuessNonzero(g.ksp, PETSC_TRUE), g.what, "KSPSetInitialGuessNonzero");
+        check(PCSetType(pc, PCGAMG), g.what, "PCSetType");
+        check(PCGAMGSetType(pc, PCGAMGAGG), g.what, "PCGAMGSetType");
+        check(KSPSetTolerances(g.ksp, rtol, 0.0, PETSC_DEFAULT, 5000), g.what, "KSPSetTolerances");
+      }
+      check(KSPSetFromOptions(g.ksp), g.what, "KSPSetFromOptions");
+      PCType type = nullptr;
+      PCGetType(pc, &type);
       Mat F = nullptr;
-      check(PCFactorSetUpMatSolverType(pc), g.what, "PCFactorSetUpMatSolverType");
-      check(PCFactorGetMatrix(pc, &F), g.what, "PCFactorGetMatrix");
-      check(MatMumpsSetIcntl(F, 14, 100), g.what, "MatMumpsSetIcntl");
+      if (type && std::string(type) == PCCHOLESKY) {
+        check(PCFactorSetUpMatSolverType(pc), g.what, "PCFactorSetUpMatSolverType");
+        check(PCFactorGetMatrix(pc, &F), g.what, "PCFactorGetMatrix");
+        check(MatMumpsSetIcntl(F, 14, extra), g.what, "MatMumpsSetIcntl");
+      }
+      check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the factor or the AMG hierarchy)");
+      MatFactorError error = MAT_FACTOR_NOERROR;
+      if (F) check(MatFactorGetError(F, &error), g.what, "MatFactorGetError");
+      if (error == MAT_FACTOR_NOERROR) break;
     }
-    check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the AMG hierarchy)");
     check(MatCreateVecs(g.A, &g.xv, &g.b), g.what, "MatCreateVecs");
     Mat Ad = nullptr, Ao = nullptr;
     const PetscInt* colmap = nullptr;

@@ -1,8 +1,9 @@
 // The global step (4.1), i.e. the linear problem (4.5), as ONE distributed PETSc KSP over the MPI
 // ranks (lib/mpi_comm.hpp): conjugate gradients preconditioned by smoothed-aggregation AMG
-// (GAMG) on an MPIAIJ matrix, each rank assembling its contiguous block of rows, the hierarchy set
-// up once per Dirichlet set (like the factor it replaces, global_step.hpp), with the near-null
-// space of cg_amg.hpp (the constants and the centred coordinates, orthonormalized).
+// (GAMG), or MUMPS's Cholesky, on an MPIAIJ matrix whose contiguous blocks of rows the ranks own;
+// each rank adds its cells' part of K (or, given the whole K, its own rows), the hierarchy or
+// the factor set up once per Dirichlet set (like the serial factor, global_step.hpp), with the
+// near-null space of cg_amg.hpp (the constants and the centred coordinates, orthonormalized).
 //
 // Unlike the serial CG + AMG (cg_amg.hpp, inexact), every solve here is converged tightly,
 // ||b - K x|| <= kRtol ||b|| from the warm start (the previous iterate), so that the distributed
@@ -34,11 +35,13 @@ class DistributedGlobalStep {
   /// factor).
   enum class Solver { CgGamg, Mumps };
 
-  /// K: the whole (replicated) matrix of (4.5); bc: the Dirichlet sets; X: the #nodes x dim
-  /// reference coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error
-  /// without MPI (a build without LTL_WITH_MPI) or when PETSc fails.
+  /// K: the whole (replicated) matrix of (4.5), or with `parts` this rank's part of it (the
+  /// sum over its cells, Discretization on a cell range): the parts of the ranks add up to K,
+  /// and no rank holds the whole. bc: the Dirichlet sets; X: the #nodes x dim reference
+  /// coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error without MPI
+  /// (a build without LTL_WITH_MPI) or when PETSc fails.
   DistributedGlobalStep(const SpMat& K, const DirichletData& bc, const Eigen::MatrixXd& X,
-                        Solver solver = Solver::CgGamg);
+                        Solver solver = Solver::CgGamg, bool parts = false);
   ~DistributedGlobalStep();
   DistributedGlobalStep(const DistributedGlobalStep&) = delete;
   DistributedGlobalStep& operator=(const DistributedGlobalStep&) = delete;

@@ -495,20 +495,26 @@ void ResultsWriter::append(const TimeStep& step) {
                                 p, " (t = ", p * problem.time.dt, " s): ", report.status,
                                 "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
                                 ". Nothing was written as a result for this step", saved);
-    if (!saved.empty())
-      file->save_unconverged(step_data(solver, step), msg);
-    else if (file)
+    // A discretization on a cell range (a rank's block) sums its measures over the ranks: every
+    // rank computes the step's data, rank 0 writes it.
+    if (!saved.empty() || solver.discretization().partial()) {
+      const StepData data = step_data(solver, step);
+      if (!saved.empty()) file->save_unconverged(data, msg);
+    } else if (file)
       file->set_status(msg);
     throw Error(cat(
         problem.name, ": ", msg, file && p > 1 ? cat("; ", output, " keeps steps 1..", p - 1) : "",
         ".",
         unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor(), step)));
   }
+  std::optional<StepData> data;  // collective with a partial discretization (above)
+  if (solver.discretization().partial()) data = step_data(solver, step);
   if (!output.empty()) {
     const bool existed = file.has_value();
     try {
       if (!file) file = create_file();
-      file->append(step_data(solver, step), p == P ? "complete" : "running");
+      if (!data) data = step_data(solver, step);
+      file->append(*data, p == P ? "complete" : "running");
     } catch (const Error& e) {
       // A write that fails (a full disk) keeps the previous file whole; its status must not say
       // "running" for ever: it is rewritten (same size as the file kept) when there is room.

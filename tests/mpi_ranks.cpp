@@ -24,6 +24,7 @@
 
 #include "config.hpp"
 #include "hash.hpp"
+#include "measures.hpp"
 #include "mpi_comm.hpp"
 #include "mpi_newton.hpp"
 #include "results.hpp"
@@ -45,7 +46,7 @@ struct Outcome {
 /// A run of `config` (every step), serial or over every rank; verbosity 0, nothing written.
 Outcome solve(const std::string& config, const std::vector<std::string>& overrides, Ranks ranks) {
   const Problem p = load_problem(ltl::testing::source_path(config), overrides);
-  Solver solver(Discretization(p), ranks);
+  Solver solver(p, ranks);
   RunOptions options;
   options.verbosity = 0;
   const RunSummary summary = run(solver, options);
@@ -277,7 +278,7 @@ void expect_same_iterates(const std::string& global_solver) {
   ov.push_back("algorithm.max_iter=" + std::to_string(kCapped));
   auto capped = [&](Ranks ranks) {
     const Problem p = load_problem(ltl::testing::source_path(kFig6), ov);
-    Solver solver(Discretization(p), ranks);
+    Solver solver(p, ranks);
     State s = solver.initial_state();
     const Eigen::VectorXd beta_prev = s.beta;
     const StepReport r = solver.solve_step(s, beta_prev);
@@ -304,6 +305,46 @@ TEST(Mpi, Eq4_1to4_4_CoarseGutterSameIteratesCgGamg) {
   expect_same_iterates("cg-amg");
 }
 
+/// Each rank holds the operators of its own block of cells only (Discretization on a cell range,
+/// plain ALG2): its cells with rows of Gbar are its block (mpi::blocks), the blocks' Gbar
+/// entries add up to the serial Gbar's (no cell on two ranks), and on several ranks a rank's
+/// Laplacian and operators are a fraction of the serial ones. Fails when every rank builds the
+/// whole discretization.
+TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
+  const Solver serial(p, Ranks::One);
+  const Solver dist(p, Ranks::All);
+  const std::vector<int> cells = mpi::blocks(p.mesh.num_cells(), mpi::size());
+  const int P = mpi::size(), me = mpi::rank();
+  EXPECT_EQ(dist.holdings().cells_with_operators, cells[me + 1] - cells[me]);
+  EXPECT_EQ(serial.holdings().cells_with_operators, p.mesh.num_cells());
+  double nnz = static_cast<double>(dist.discretization().cells().Gbar.nonZeros());
+  mpi::sum(&nnz, 1);
+  EXPECT_EQ(nnz, static_cast<double>(serial.discretization().cells().Gbar.nonZeros()));
+  const double L = dist.discretization().cells().laplacian.nonZeros();
+  const double L_serial = serial.discretization().cells().laplacian.nonZeros();
+  if (P > 1) {
+    EXPECT_LT(L, L_serial);
+    EXPECT_LT(dist.holdings().operators, serial.holdings().operators);
+  }
+  // The sums over cells add the ranks' parts: the serial energy gradient and equilibrium
+  // residual at any u (here a random one, rank 0's).
+  Eigen::MatrixXd u = 1e-3 * Eigen::MatrixXd::Random(p.mesh.num_nodes(), p.mesh.dim);
+  mpi::broadcast(u.data(), u.size());
+  const Eigen::MatrixXd& F = serial.external_load();
+  const Eigen::MatrixXd g = serial.discretization().energy_gradient(u, F);
+  EXPECT_LE((dist.discretization().energy_gradient(u, F) - g).norm(), 1e-12 * g.norm());
+  State s = serial.initial_state();
+  s.u = u;
+  const Eigen::MatrixXd r = equilibrium_residual(serial.discretization(), F, s);
+  EXPECT_LE((equilibrium_residual(dist.discretization(), F, s) - r).norm(), 1e-12 * r.norm());
+  if (me == 0)
+    std::cout << "coarse gutter, " << P << " rank(s): rank 0 holds the operators of "
+              << dist.holdings().cells_with_operators << " of " << p.mesh.num_cells() << " cells, "
+              << dist.holdings().operators << " B (serial " << serial.holdings().operators
+              << " B), Laplacian " << L << " of " << L_serial << " entries\n";
+}
+
 /// The check of the tests above finds a rank whose state differs by one bit.
 TEST(Mpi, CheckFindsARankThatDiffers) {
   const Outcome dist = solve(kFig3, {"time.steps=1"}, Ranks::All);
@@ -324,7 +365,7 @@ TEST(Mpi, RankZeroWritesTheResultsFile) {
   }
   mpi::barrier();
   const Problem p = load_problem(ltl::testing::source_path(kFig3), {"time.steps=2"});
-  Solver solver(Discretization(p), Ranks::All);
+  Solver solver(p, Ranks::All);
   RunOptions options;
   options.verbosity = 0;
   if (mpi::rank() == 0) options.output = path;

@@ -8,7 +8,11 @@
 //           collectives (Allreduce, Allgatherv) and in KSPSolve; the bytes received per rank and
 //           iteration by our collectives and by PETSc's messages; the KSP iterations per solve;
 //           the peak resident memory of every rank (VmHWM). Times are the largest over the
-//           ranks; the load average is printed beside them.
+//           ranks; the load average is printed beside them. A second line, "MEM ...": the
+//           resident size (VmRSS / VmHWM, MB, largest rank) after each setup phase (start, mesh
+//           read, solver set up, iterated) and the bytes per cell the largest rank holds
+//           (Solver::holdings). PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every
+//           rank (the memory before the partition of the operators, paper_notes/mpi.md).
 //
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi NT NA NL [--iters N] [--warm N]
 //               [--solver mumps|cg-amg] [--distribute 1] [--label TEXT]
@@ -23,6 +27,7 @@
 
 #include "alg2.hpp"
 #include "config.hpp"
+#include "error.hpp"
 #include "mpi_comm.hpp"
 
 namespace {
@@ -92,11 +97,21 @@ int bench(int argc, char** argv) {
                                  "algorithm.solver=alg2",
                                  "algorithm.max_iter=" + std::to_string(iters + warm)};
   if (solver_name == "cg-amg") ov.push_back("algorithm.global_solver=\"cg-amg\"");
+  // The resident memory (VmRSS, then VmHWM) after each setup phase, the largest over the ranks.
+  std::string phases;
+  auto phase = [&](const char* name) {
+    const double rss = max_of(ltl::mpi::resident_bytes() / 1048576.0);
+    const double hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
+    phases += ltl::cat(" ", name, "=", static_cast<int>(rss), "/", static_cast<int>(hwm));
+  };
+  phase("start");
   const ltl::Problem problem =
       ltl::load_problem(std::string(LTL_SOURCE_DIR) + "/experiments/fig6/fig6.toml", ov);
+  phase("mesh");
   const int P = ltl::mpi::size();
   const bool all = P > 1 || distribute;
-  ltl::Solver solver(ltl::Discretization(problem), all ? ltl::Ranks::All : ltl::Ranks::One);
+  ltl::Solver solver(problem, all ? ltl::Ranks::All : ltl::Ranks::One);
+  phase("solver");
   const double setup = max_of(solver.setup_seconds());
   ltl::State s = solver.initial_state();
   const Eigen::VectorXd beta_prev = s.beta;
@@ -125,6 +140,7 @@ int bench(int argc, char** argv) {
     ksp_it0 = r.ksp_iterations;
     ksp_solves0 = r.ksp_solves;
   });
+  phase("iterated");
   const int timed = n - warm;
   const ltl::mpi::Traffic c1 = ltl::mpi::traffic();
   const ltl::RankShare r = solver.rank_share();
@@ -140,6 +156,16 @@ int bench(int argc, char** argv) {
   const double ghosts = max_of(static_cast<double>(r.ghosts));
   std::string peaks;
   for (double p : peak) peaks += (peaks.empty() ? "" : ",") + std::to_string(static_cast<int>(p));
+  // What the largest rank holds, bytes per cell (Solver::holdings).
+  const ltl::Holdings h = solver.holdings();
+  const double nc = problem.mesh.num_cells();
+  const std::string held =
+      ltl::cat("mesh=", static_cast<int>(max_of(h.mesh) / nc),
+               " operators=", static_cast<int>(max_of(h.operators) / nc),
+               " cell_arrays=", static_cast<int>(max_of(h.cell_arrays) / nc),
+               " node_arrays=", static_cast<int>(max_of(h.node_arrays) / nc),
+               " contact=", static_cast<int>(max_of(h.contact) / nc),
+               " cells_with_operators=", static_cast<int>(max_of(h.cells_with_operators)));
   // Every collective before the print, on every rank.
   const double t_it = ms(wall - wall0), t_g = ms(tg), t_ksp = ms(r.ksp_seconds - ksp_s0),
                t_coll = ms(c1.seconds - c0.seconds), t_s = ms(ts), t_c = ms(tc), t_u = ms(tu);
@@ -149,7 +175,8 @@ int bench(int argc, char** argv) {
         "ms_per_it=%.2f global=%.2f (ksp %.2f, collectives %.2f) strain=%.2f contact=%.2f "
         "update=%.2f ksp_its_per_solve=%.1f bytes_per_it_ours=%.0f calls_per_it=%.0f "
         "bytes_per_it_petsc=%.0f messages_per_it_petsc=%.0f reductions_per_it_petsc=%.0f "
-        "ghosts=%.0f peak_MB_per_rank=%s load=%s\n",
+        "ghosts=%.0f peak_MB_per_rank=%s load=%s\n"
+        "MEM label=%s ranks=%d rss/hwm_MB_after:%s held_B_per_cell: %s\n",
         label.c_str(), P,
         all ? (r.replicated_cholesky ? "replicated-cholesky"
                : r.mumps             ? "mumps"
@@ -157,7 +184,7 @@ int bench(int argc, char** argv) {
             : "serial",
         problem.mesh.num_cells(), problem.mesh.num_nodes(), setup, timed, t_it, t_g, t_ksp, t_coll,
         t_s, t_c, t_u, its, bytes_ours, calls_ours, bytes_petsc, msgs_petsc, reductions, ghosts,
-        peaks.c_str(), loadavg().c_str());
+        peaks.c_str(), loadavg().c_str(), label.c_str(), P, phases.c_str(), held.c_str());
   std::fflush(stdout);
   return 0;
 }
