@@ -52,7 +52,10 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   if (points) {
     global_out_.ubar.resize(n_points, dim);
   }
-  if (a.solver == NonlinearSolver::Newton) newton_ = std::make_unique<Newton>(disc_);
+  if (a.solver == NonlinearSolver::Newton) {
+    newton_ = std::make_unique<Newton>(disc_);
+    newton_->set_distributed(distributed());  // its linear systems over the ranks (mpi_newton)
+  }
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
 }
 

@@ -17,19 +17,11 @@
 namespace ltl {
 
 namespace {
-thread_local bool scope_on = false;
 NewtonSolveStats stats_;
 }  // namespace
 
 NewtonSolveStats& newton_solve_stats() {
   return stats_;
-}
-
-DistributedNewtonScope::DistributedNewtonScope(bool on) : previous_(scope_on) {
-  scope_on = on;
-}
-DistributedNewtonScope::~DistributedNewtonScope() {
-  scope_on = previous_;
 }
 
 NewtonRows::NewtonRows(const std::vector<int>& free_of_dof, int d, const Eigen::MatrixXd& X,
@@ -61,7 +53,7 @@ NewtonRows::NewtonRows(const std::vector<int>& free_of_dof, int d, const Eigen::
 
 #ifndef LTL_HAVE_MPI
 
-bool DistributedNewtonScope::active() {
+bool distributed_newton_solves() {
   return false;
 }
 
@@ -87,8 +79,8 @@ bool DistributedLU::solve(const Eigen::SparseMatrix<double>&, const NewtonRows&,
 
 #else
 
-bool DistributedNewtonScope::active() {
-  return scope_on && !mpi::option("-ltl_mpi_newton_replicated");
+bool distributed_newton_solves() {
+  return !mpi::option("-ltl_mpi_newton_replicated");
 }
 
 namespace {

@@ -19,7 +19,7 @@
 // stays replicated and identical on every rank.
 //
 // Without LTL_WITH_MPI the solvers are not compiled (their constructors throw) and
-// DistributedNewtonScope::active() is always false: the serial Newton is unchanged.
+// distributed_newton_solves() is false: the serial Newton is unchanged.
 #pragma once
 
 #include <Eigen/Dense>
@@ -42,21 +42,10 @@ struct NewtonSolveStats {
 };
 NewtonSolveStats& newton_solve_stats();
 
-/// While one is alive on this thread with on = true, the Newton phases started here solve their
-/// linear systems distributed (the time loop, simulation.cpp, holds one per step with
-/// Solver::distributed()). The PETSc option -ltl_mpi_newton_replicated keeps them replicated.
-class DistributedNewtonScope {
- public:
-  explicit DistributedNewtonScope(bool on);
-  ~DistributedNewtonScope();
-  DistributedNewtonScope(const DistributedNewtonScope&) = delete;
-  DistributedNewtonScope& operator=(const DistributedNewtonScope&) = delete;
-  /// In an MPI build, inside a scope with on = true, without -ltl_mpi_newton_replicated.
-  static bool active();
-
- private:
-  bool previous_;
-};
+/// Are the distributed solves available to a distributed Solver's Newton phase
+/// (Newton::set_distributed)? In an MPI build, unless the PETSc option
+/// -ltl_mpi_newton_replicated keeps them replicated.
+bool distributed_newton_solves();
 
 /// The rows of the distributed Newton systems: the free dofs (dim * #nodes, interleaved; -1:
 /// fixed) in slab order, blocks of nodes per rank; `extra` further rows in blocks of their

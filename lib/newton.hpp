@@ -64,6 +64,10 @@ class Newton {
   /// Several obstacles: the glue of one only (Problem::validate refuses glued obstacles among
   /// several under solver = "newton").
   void set_glue(const ContactSteps& contact, const Eigen::VectorXd& beta_prev);
+  /// The Newton phase of a distributed Solver (Ranks::All; the Solver sets it): its linear
+  /// systems are then solved over the ranks (mpi_newton.hpp), unless the PETSc option
+  /// -ltl_mpi_newton_replicated keeps them replicated.
+  void set_distributed(bool on) { distributed_ = on; }
   /// [(2.2)] The beta-derivative of the discrete functional over |G_s|, at e_s = ubar_s:
   ///   g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - beta_prev_s'),
   /// the stationarity of the local step's point problem (6.1)-(6.5) in gamma. Empty without glue.
@@ -119,7 +123,7 @@ class Newton {
     void operator()(Scatter* w) const;
   };
   using ScatterPtr = std::unique_ptr<Scatter, ScatterDeleter>;
-  /// The work of a Newton phase; in a distributed Solver's step (DistributedNewtonScope) with
+  /// The work of a Newton phase; for a distributed Solver's Newton (set_distributed) with
   /// MUMPS's factorizations over the MPI ranks (mpi_newton.hpp).
   ScatterPtr new_scatter() const;
   bool augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
@@ -176,6 +180,7 @@ class Newton {
     Eigen::VectorXd beta_prev, a;
   };
   bool glued_ = false;
+  bool distributed_ = false;  ///< set_distributed
   Glue glue_;
 };
 

@@ -193,7 +193,7 @@ void Newton::ScatterDeleter::operator()(Scatter* w) const {
 }
 Newton::ScatterPtr Newton::new_scatter() const {
   ScatterPtr w(new Scatter);
-  if (DistributedNewtonScope::active()) {  // a distributed Solver's step (mpi_newton.hpp)
+  if (distributed_ && distributed_newton_solves()) {  // a distributed Solver (mpi_newton.hpp)
     w->mumps =
         std::make_unique<DistributedCholesky>(NewtonRows(free_, dim_, disc_.problem().mesh.X, 0));
     w->mumps_lu = std::make_unique<DistributedLU>();

@@ -20,7 +20,6 @@
 #include "interrupt.hpp"
 #include "measures.hpp"
 #include "mpi_comm.hpp"
-#include "mpi_newton.hpp"
 #include "output_guard.hpp"
 #include "reactions.hpp"
 #include "results.hpp"
@@ -211,9 +210,6 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   };
   TimeStep step;
   step.p = p;
-  // A distributed Solver's Newton phase solves its linear systems over the ranks
-  // (mpi_newton.hpp).
-  const DistributedNewtonScope newton_ranks(solver.distributed());
   step.report = solver.solve_step(state, beta_prev, progress);
   step.state = &state;
   StepReport& report = step.report;

@@ -123,7 +123,8 @@ TEST(Mpi, Eq4_1to4_4_Fig5AndersonSerialAnswer) {
 }
 
 /// One step with the Newton phase (algorithm.solver = "newton"), solved like the time loop does
-/// (with DistributedNewtonScope), and the Newton solves it made (the counters' change).
+/// (a distributed Solver's Newton solves over the ranks), and the Newton solves it made (the
+/// counters' change).
 struct NewtonOutcome {
   State state;
   StepReport report;
@@ -138,10 +139,7 @@ NewtonOutcome newton_step(const std::string& config, std::vector<std::string> ov
   out.state = solver.initial_state();
   const Eigen::VectorXd beta_prev = out.state.beta;
   const NewtonSolveStats before = newton_solve_stats();
-  {
-    const DistributedNewtonScope scope(solver.distributed());
-    out.report = solver.solve_step(out.state, beta_prev);
-  }
+  out.report = solver.solve_step(out.state, beta_prev);
   const NewtonSolveStats& after = newton_solve_stats();
   out.solves.cholmod_factorizations = after.cholmod_factorizations - before.cholmod_factorizations;
   out.solves.umfpack_factorizations = after.umfpack_factorizations - before.umfpack_factorizations;

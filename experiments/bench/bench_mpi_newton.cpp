@@ -69,7 +69,6 @@ int bench(int argc, char** argv) {
   ltl::Solver solver(ltl::Discretization(problem), serial ? ltl::Ranks::One : ltl::Ranks::All);
   ltl::State s = solver.initial_state();
   const Eigen::VectorXd beta_prev = s.beta;
-  const ltl::DistributedNewtonScope scope(solver.distributed());
   const auto t0 = std::chrono::steady_clock::now();
   const ltl::StepReport r = solver.solve_step(s, beta_prev);
   const double wall =
