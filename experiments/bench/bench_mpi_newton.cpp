@@ -33,12 +33,8 @@ std::string loadavg() {
 }
 
 double max_of(double v) {
-  std::vector<double> x(ltl::mpi::size(), 0.0);
-  x[ltl::mpi::rank()] = v;
-  ltl::mpi::sum(x.data(), static_cast<long>(x.size()));
-  double m = 0;
-  for (double y : x) m = std::max(m, y);
-  return m;
+  ltl::mpi::max(&v, 1);
+  return v;
 }
 
 const char* kUsage = "usage: bench_mpi_newton CONFIG [--serial] [key=value]...\n";
