@@ -2,8 +2,11 @@
 // XDMF for ParaView). The figure drivers run the same recipe with the paper's configurations
 // and then print their figure's numbers.
 //
-//   build/experiments/ltl_run CONFIG.toml [-o RESULTS.h5] [--set key=value]... [--resume]
-//                             [--stop-after N] [-v | -q]
+//   build/experiments/ltl_run CONFIG.toml [-o RESULTS.h5] [--set key=value]...
+//                             [--resume | --init FILE] [--stop-after N] [-v | -q]
+//
+// --init FILE: the nested start, from the last step of a results file of another (coarser) mesh
+// of the same body (lib/nested_start.hpp).
 //
 // Built with MPI (-DLTL_WITH_MPI=ON, build-mpi/), `mpirun -n P ltl_run ...` distributes ALG2
 // over the P ranks (lib/alg2_mpi.cpp, paper_notes/mpi.md): rank 0 alone prints and writes the

@@ -11,7 +11,9 @@ namespace ltl {
 
 namespace {
 
-bool simplex(const Mesh& mesh) { return mesh.dim == 2 || mesh.nodes_per_cell() == 10; }
+bool simplex(const Mesh& mesh) {
+  return mesh.dim == 2 || mesh.nodes_per_cell() == 10;
+}
 
 /// The reference cell's centre.
 Eigen::Vector3d centre(const Mesh& mesh) {
@@ -79,7 +81,8 @@ PointLocator::PointLocator(const Mesh& mesh) : mesh_(mesh), dim_(mesh.dim) {
   const long nb = static_cast<long>(n_(0)) * n_(1) * n_(2);
   start_.assign(nb + 1, 0);
   auto for_buckets = [&](int c, auto&& f) {
-    const Eigen::Vector3i a = bucket_of(lo.row(c).transpose()), b = bucket_of(hi.row(c).transpose());
+    const Eigen::Vector3i a = bucket_of(lo.row(c).transpose()),
+                          b = bucket_of(hi.row(c).transpose());
     for (int i = a(0); i <= b(0); ++i)
       for (int j = a(1); j <= b(1); ++j)
         for (int k = a(2); k <= b(2); ++k) f(bucket({i, j, k}));
@@ -170,7 +173,8 @@ PointLocator::Hit PointLocator::locate(const Eigen::VectorXd& x) const {
   // them holds a cell.
   const int widest = n_.maxCoeff();
   for (int ring = 1; ring <= widest; ++ring) {
-    const Eigen::Vector3i lo = (b.array() - ring).max(0), hi = (b.array() + ring).min(n_.array() - 1);
+    const Eigen::Vector3i lo = (b.array() - ring).max(0),
+                          hi = (b.array() + ring).min(n_.array() - 1);
     for (int i = lo(0); i <= hi(0); ++i)
       for (int j = lo(1); j <= hi(1); ++j)
         for (int k = lo(2); k <= hi(2); ++k)

@@ -41,12 +41,11 @@ double cell_pressure(const Material& m, const Eigen::MatrixXd& E, const Eigen::M
 }  // namespace
 
 std::string NestedStart::summary() const {
-  return cat("nested start from ", source, " (step ", source_step, ", load factor ",
-             source_load_factor, ", ", source_cells, " cells): ", clamped_nodes,
-             " node(s) and ", clamped_centroids,
-             " cell centroid(s) outside the source mesh took the closest cell's value (at most ",
-             max_outside, " m outside, ", max_outside_relative, " of that cell's size), ",
-             seconds, " s");
+  return cat(
+      "nested start from ", source, " (step ", source_step, ", load factor ", source_load_factor,
+      ", ", source_cells, " cells): ", clamped_nodes, " node(s) and ", clamped_centroids,
+      " cell centroid(s) outside the source mesh took the closest cell's value (at most ",
+      max_outside, " m outside, ", max_outside_relative, " of that cell's size), ", seconds, " s");
 }
 
 NestedStart nested_start(const Solver& solver, const std::string& path, const std::string& key) {
@@ -148,7 +147,8 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
         double best_d = std::numeric_limits<double>::infinity();
         for (int j = 0; j < n_src; ++j) {
           if (same_obstacles && source.contact_obstacle(j) != k) continue;
-          const double dist = (source.contact_centre.row(j) - pts->centre.col(q).transpose()).norm();
+          const double dist =
+              (source.contact_centre.row(j) - pts->centre.col(q).transpose()).norm();
           if (dist < best_d) best_d = dist, best = j;
         }
         if (best < 0) continue;
@@ -161,8 +161,7 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
       }
     }
   }
-  out.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
 

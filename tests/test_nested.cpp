@@ -156,9 +156,10 @@ TEST(Nested, CoarseToFineGutterStartsNewtonNextToTheSolution) {
   const ltl::RunSummary nested = ltl::run(solver2, quiet);
   const double sag = rest.state.u.col(1).cwiseAbs().maxCoeff();
   const double gap = (start.state.u - rest.state.u).cwiseAbs().maxCoeff();
-  std::printf("  level 1 -> 2x finer: Newton %d outer iterations from rest, %d nested; start %.3g "
-              "of the sag away\n",
-              rest.iterations.at(0), nested.iterations.at(0), gap / sag);
+  std::printf(
+      "  level 1 -> 2x finer: Newton %d outer iterations from rest, %d nested; start %.3g "
+      "of the sag away\n",
+      rest.iterations.at(0), nested.iterations.at(0), gap / sag);
   EXPECT_LT(gap, 0.15 * sag);
   EXPECT_LT(nested.iterations.at(0), rest.iterations.at(0));
   EXPECT_LT((nested.state.u - rest.state.u).cwiseAbs().maxCoeff(), 1e-4 * sag);
