@@ -109,7 +109,7 @@ TEST(Nested, InverseMapRecoversRandomPointsOfDistortedHexahedra) {
   }
 }
 
-TEST(Nested, SameMeshStartFromAConvergedStateStopsInOneOrTwoIterations) {
+TEST(Nested, Eq4_1to4_3_SameMeshStartFromAConvergedStateStopsInOneOrTwoIterations) {
   // A converged state (Newton, force residual <= 1e-6) transferred to the same mesh is the
   // state itself: ALG2 + Anderson stops at once where it needs hundreds of iterations from rest.
   const fs::path dir = ltl::testing::temp_dir("nested_same");
