@@ -2,8 +2,11 @@
 // XDMF for ParaView). The figure drivers run the same recipe with the paper's configurations
 // and then print their figure's numbers.
 //
-//   build/experiments/ltl_run CONFIG.toml [-o RESULTS.h5] [--set key=value]... [--resume]
-//                             [--stop-after N] [-v | -q]
+//   build/experiments/ltl_run CONFIG.toml [-o RESULTS.h5] [--set key=value]...
+//                             [--resume | --init FILE] [--stop-after N] [-v | -q]
+//
+// --init FILE: the nested start, from the last step of a results file of another (coarser) mesh
+// of the same body (lib/nested_start.hpp).
 //
 // Built with MPI (-DLTL_WITH_MPI=ON, build-mpi/), `mpirun -n P ltl_run ...` distributes ALG2
 // over the P ranks (lib/alg2_mpi.cpp, paper_notes/mpi.md): rank 0 alone prints and writes the
@@ -23,6 +26,13 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);  // the configuration, validated
   ltl::RunOptions options = ltl::run_options(cmd, problem);
   const bool ranks = ltl::mpi::size() > 1;
+  if (ranks && !options.init.empty())
+    throw ltl::Error(
+        "--init under mpirun with more than one rank is not supported yet (a rank discretizes "
+        "its own cells only; the nested start needs every cell's mean gradient): run step 1 with "
+        "--init and --stop-after 1 "
+        "on one process, then continue its results file with --resume on P ranks "
+        "(paper_notes/nested.md)");
   if (ranks && ltl::mpi::rank() != 0) {  // rank 0 reads, writes the results file and prints
     options.output.clear();
     options.verbosity = 0;

@@ -51,11 +51,13 @@ char g_program[256] = "ltl";
 
 void usage(const std::string& program, const std::string& default_config, FILE* to = stderr) {
   std::fprintf(to,
-               "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume] [--stop-after N]"
-               " [-v | -q]\n"
+               "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume | --init FILE]"
+               " [--stop-after N] [-v | -q]\n"
                "  -o FILE         results file (default: results/<name>.h5)\n"
                "  --set key=value override a configuration value, e.g. --set algorithm.R=4\n"
                "  --resume        continue from the last step stored in the results file\n"
+               "  --init FILE     start from the last step of FILE, a results file computed on\n"
+               "                  another mesh of the same body (nested start)\n"
                "  --stop-after N  compute N more steps and stop (the file can be resumed)\n"
                "  -v / -q         print every iteration / print nothing\n",
                program.c_str(), default_config.empty() ? "CONFIG.toml" : "[CONFIG.toml]");
@@ -68,7 +70,7 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
-    if ((a == "-o" || a == "--set" || a == "--stop-after") && !has_value) {
+    if ((a == "-o" || a == "--set" || a == "--stop-after" || a == "--init") && !has_value) {
       std::fprintf(stderr, "%s: %s needs a value\n", program, a.c_str());
       return 2;
     }
@@ -83,6 +85,12 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
       cmd.overrides.push_back(argv[++i]);
     } else if (a == "--resume") {
       options.resume = true;
+    } else if (a == "--init") {
+      options.init = argv[++i];
+      if (options.init.empty()) {
+        std::fprintf(stderr, "%s: --init '': the results file name is empty\n", program);
+        return 2;
+      }
     } else if (a == "--stop-after") {
       // The whole argument must be a number >= 1: "3abc", "-1", "0" and overflow are refused.
       const char* text = argv[++i];
@@ -111,6 +119,13 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
       usage(cmd.program, default_config);
       return 2;
     }
+  }
+  if (options.resume && !options.init.empty()) {
+    std::fprintf(stderr,
+                 "%s: --resume and --init exclude each other (--resume continues the results "
+                 "file's own steps; --init starts a new run from another file)\n",
+                 program);
+    return 2;
   }
   if (cmd.config.empty()) cmd.config = default_config;
   if (cmd.config.empty()) {

@@ -1,7 +1,7 @@
 // The command line shared by the generic runner (ltl_run) and the figure drivers:
 //
-//   PROGRAM [CONFIG.toml] [-o RESULTS.h5] [--set key=value]... [--resume] [--stop-after N]
-//           [-v | -q]
+//   PROGRAM [CONFIG.toml] [-o RESULTS.h5] [--set key=value]... [--resume | --init FILE]
+//           [--stop-after N] [-v | -q]
 //
 // Exit status: 0 when every time step converged, 1 on any error (bad input, failed
 // factorization, divergence), 2 on bad command-line usage, 128 + N when stopped by signal N
@@ -27,7 +27,8 @@ struct CommandLine {
   std::vector<std::string> overrides;  ///< --set key=value, in order
   std::string output;                  ///< -o (empty: the configuration's output.file, else
                                        ///< results/<name>.h5)
-  RunOptions options;  ///< --resume, --stop-after, -v / -q (options.output: see run_options)
+  /// --resume, --init, --stop-after, -v / -q (options.output: see run_options)
+  RunOptions options;
 };
 
 /// Parses the command line (usage errors: a message and exit status 2; -h: usage, 0), then

@@ -220,6 +220,26 @@ void for_each_quadrature_point(const Mesh& mesh, int c,
   });
 }
 
+void reference_shape(const Mesh& mesh, const Eigen::Vector3d& xi, Eigen::VectorXd& N,
+                     Eigen::MatrixXd& dN) {
+  if (mesh.dim == 2) {
+    Eigen::Matrix<double, 6, 1> n;
+    Eigen::Matrix<double, 6, 2> d;
+    p2_triangle(xi(0), xi(1), n, d);
+    N = n, dN = d;
+  } else if (mesh.nodes_per_cell() == 10) {
+    Eigen::Matrix<double, 10, 1> n;
+    Eigen::Matrix<double, 10, 3> d;
+    p2_tetrahedron(xi(0), xi(1), xi(2), n, d);
+    N = n, dN = d;
+  } else {
+    Eigen::Matrix<double, 8, 1> n;
+    Eigen::Matrix<double, 8, 3> d;
+    h8(xi(0), xi(1), xi(2), n, d);
+    N = n, dN = d;
+  }
+}
+
 // Assembled in place, without triplet lists: the Laplacian's pattern (nodes sharing a cell) from
 // the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
 // which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.

@@ -75,6 +75,14 @@ struct ReferenceRule {
 };
 ReferenceRule reference_rule(const Mesh& mesh);
 
+/// The shape functions of the mesh's cell type at the reference point xi (its first dim
+/// entries): N (#nodes_per_cell) and their gradients with respect to the reference coordinates,
+/// dN (#nodes_per_cell x dim), in the node order of Mesh::cells. Reference cells: the unit
+/// triangle and tetrahedron (P2), the cube [-1, 1]^3 (H8). For the isoparametric map
+/// x(xi) = Xe^T N(xi) at points other than the quadrature points (lib/mesh_transfer.hpp).
+void reference_shape(const Mesh& mesh, const Eigen::Vector3d& xi, Eigen::VectorXd& N,
+                     Eigen::MatrixXd& dN);
+
 ContactPoints facet_mean_points(const Mesh& mesh, const Mesh::Boundary& boundary);
 
 /// The contact "points" of a nodal (collocation) contact condition on a boundary part: one point

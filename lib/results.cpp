@@ -137,6 +137,11 @@ std::optional<StoredStep> ResultsFile::read_last_step(const std::string& path) {
   return layout::read_last_step(f.get(), path);
 }
 
+StoredMesh ResultsFile::read_mesh(const std::string& path) {
+  Handle f = open_committed(path);
+  return layout::read_mesh(f.get(), path);
+}
+
 std::string ResultsFile::read_attribute(const std::string& path, const std::string& name) {
   Handle f = open_committed(path);
   Handle root = open_group(f.get(), "/", path);

@@ -142,6 +142,16 @@ struct StoredStep {
   std::map<std::string, double> measures;  ///< /steps/N/measures (empty in older files)
 };
 
+/// The mesh of a results file (for a start from another mesh, lib/nested_start.hpp): /mesh/X,
+/// /mesh/cells (mesh.source = the file, no boundary parts) and, with a contact surface, the
+/// reference position of each contact point (#points x dim, /mesh/contact_centre; empty when
+/// the file has none) and its obstacle (/mesh/contact_obstacle; empty: one obstacle).
+struct StoredMesh {
+  Mesh mesh;
+  Eigen::MatrixXd contact_centre;
+  Eigen::VectorXi contact_obstacle;
+};
+
 class ResultsFile {
  public:
   /// Creates `path` (replacing it), writing the root attributes, the mesh and, with
@@ -174,6 +184,8 @@ class ResultsFile {
   /// missing file, not HDF5, not a results file (no /mesh or /steps group), bad datasets.
   /// Without a contact surface, e and lambda_c are dim x 0 and beta is empty.
   static std::optional<StoredStep> read_last_step(const std::string& path);
+  /// The mesh stored in `path` (errors name the file, as read_last_step's).
+  static StoredMesh read_mesh(const std::string& path);
   /// Reads root attribute `name` (empty string if absent; an Error if the file cannot be read).
   static std::string read_attribute(const std::string& path, const std::string& name);
 

@@ -566,4 +566,33 @@ std::optional<StoredStep> read_last_step(hid_t f, const std::string& path) {
   return out;
 }
 
+StoredMesh read_mesh(hid_t f, const std::string& path) {
+  expect_results_file(f, path);
+  const Sizes n = sizes_of(f, path);
+  StoredMesh out;
+  Mesh& m = out.mesh;
+  m.dim = n.dim;
+  m.source = path;
+  m.X = from_rows(read_array<double>(f, "/mesh/X", path).data, n.nodes, n.dim);
+  const Array<int> cells = read_array<int>(f, "/mesh/cells", path);
+  const int npc = static_cast<int>(cells.dims[1]);
+  m.cells.resize(n.cells, npc);
+  for (int c = 0; c < n.cells; ++c)
+    for (int a = 0; a < npc; ++a) m.cells(c, a) = cells.data[static_cast<std::size_t>(c) * npc + a];
+  if (n.cells > 0 && (m.cells.minCoeff() < 0 || m.cells.maxCoeff() >= n.nodes))
+    fail(path, "bad mesh: /mesh/cells refers to nodes that do not exist");
+  if (n.contact && exists(f, "/mesh/contact_centre", path)) {
+    const Array<double> c = read_array<double>(f, "/mesh/contact_centre", path);
+    expect_shape(c, {static_cast<hsize_t>(n.points), static_cast<hsize_t>(n.dim)},
+                 "/mesh/contact_centre", path);
+    out.contact_centre = from_rows(c.data, n.points, n.dim);
+  }
+  if (n.contact && exists(f, "/mesh/contact_obstacle", path)) {
+    const Array<int> k = read_array<int>(f, "/mesh/contact_obstacle", path);
+    expect_shape(k, {static_cast<hsize_t>(n.points)}, "/mesh/contact_obstacle", path);
+    out.contact_obstacle = Eigen::Map<const Eigen::VectorXi>(k.data.data(), n.points);
+  }
+  return out;
+}
+
 }  // namespace ltl::layout

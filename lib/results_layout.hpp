@@ -50,4 +50,7 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
 /// The last complete step of an open results file (nullopt if it has none).
 std::optional<StoredStep> read_last_step(hid_t f, const std::string& file);
 
+/// The mesh of an open results file (ResultsFile::read_mesh).
+StoredMesh read_mesh(hid_t f, const std::string& file);
+
 }  // namespace ltl::layout

@@ -20,6 +20,7 @@
 #include "interrupt.hpp"
 #include "measures.hpp"
 #include "mpi_comm.hpp"
+#include "nested_start.hpp"
 #include "output_guard.hpp"
 #include "reactions.hpp"
 #include "results.hpp"
@@ -417,6 +418,23 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
     file_->results->set_status("running");
     if (mpi::size() > 1) resume_across_ranks(start_, p0);
   }
+  if (!options.init.empty()) {  // --init: the nested start (lib/nested_start.hpp)
+    if (options.resume) throw Error("--resume and --init exclude each other");
+    std::error_code ec;
+    if (!options.output.empty() && fs::exists(options.output) &&
+        fs::equivalent(options.output, options.init, ec))
+      throw Error(cat(options.output, ": refusing to write the results over the file of --init (",
+                      options.init, "); choose another output path"));
+    const NestedStart nested = nested_start(solver, options.init);
+    start_ = nested.state;
+    const double f1 = problem.ramp.factor(1, problem.time.dt);
+    if (options.verbosity > 0) {
+      std::printf("%s: %s\n", problem.name.c_str(), nested.summary().c_str());
+      if (std::abs(nested.source_load_factor - f1) > 1e-12)
+        std::printf("%s: note: the source step is at load factor %g, this run's step 1 at %g\n",
+                    problem.name.c_str(), nested.source_load_factor, f1);
+    }
+  }
   first_ = p0;
   const int P = problem.time.steps;
   last_ = options.stop_after > 0 && options.stop_after <= P - p0 ? p0 + options.stop_after - 1 : P;
@@ -456,6 +474,7 @@ void ResultsWriter::append(const TimeStep& step) {
     for (const auto& [key, value] : ids_) info.attributes[key] = value;
     info.attributes["code_version"] = code_version();
     info.attributes["git_version"] = git_version();
+    if (!options_.init.empty()) info.attributes["initial_from"] = options_.init;
     ResultsOptions options;
     options.commit = false;
     options.cell_volume = solver.discretization().cells().vol;

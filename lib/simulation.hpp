@@ -27,6 +27,9 @@ struct RunOptions {
   int verbosity = 1;    ///< 0: silent, 1: one line per step (and per 50 iterations), 2: every
                         ///< iteration
   int stop_after = 0;   ///< stop (as if interrupted) after this many steps; 0: run to the end
+  /// --init: start from the last step of this results file, computed on another mesh of the
+  /// same body (lib/nested_start.hpp); the run computes its own steps 1..P. Not with resume.
+  std::string init;
 };
 
 struct RunSummary {
@@ -119,7 +122,8 @@ class ResultsWriter {
   ResultsWriter& operator=(const ResultsWriter&) = delete;
   ~ResultsWriter();
 
-  /// The solver's initial state, or the last step stored in the file on --resume.
+  /// The solver's initial state, the last step stored in the file on --resume, or the nested
+  /// start from options.init (lib/nested_start.hpp).
   State start_state() const { return start_; }
   /// The first step to compute: 1, or one after the file's last step on --resume.
   int next_step() const { return first_; }

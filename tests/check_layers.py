@@ -28,7 +28,7 @@ import tempfile
 LAYERS = [
     ("leaf", "error hash mpi_comm cofactor signed_svd state material adhesion contact_points "
              "version stored_measure log_newton interrupt geometry_guard hdf5_io results_info"),
-    ("fe/mesh", "mesh fe cholesky cg_amg derived_fields"),
+    ("fe/mesh", "mesh fe cholesky cg_amg derived_fields mesh_transfer"),
     ("steps", "strain_step strain_principal contact_step obstacles adhesion_kernel global_step "
               "mpi_global mpi_newton anderson"),
     ("problem", "problem config config_toml config_rows config_schema"),
@@ -36,7 +36,7 @@ LAYERS = [
     ("measures", "measures admissibility reactions"),
     ("solver", "alg2 alg2_mpi adaptive_r newton newton_kkt fixed_point iteration signorini"),
     ("results", "results results_commit results_fields results_layout results_xdmf"),
-    ("simulation", "simulation output_guard"),
+    ("simulation", "simulation output_guard nested_start"),
     ("cli", "cli"),
 ]
 

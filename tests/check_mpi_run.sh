@@ -4,7 +4,8 @@
 # run (an unreadable configuration) ends every rank with a non-zero status. Resume across rank
 # counts: one step on 2 ranks (--stop-after 1), resumed on 3 ranks (oversubscribed) and, from the
 # same first step, on 1 rank: step 2 takes the serial iteration count and ends within 1e-8 of the
-# serial u (relative), in both files.
+# serial u (relative), in both files. --init (the nested start) under mpirun -n 2 is refused
+# with a message.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -50,6 +51,11 @@ for name in ("r", "r1"):
     print("resumed %s.h5: step 2, relative difference in u %.3g" % (name, d))
     assert d <= 1e-8, d
 PY
+if "$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --init "$tmp/serial.h5" -o "$tmp/i.h5" \
+  > /dev/null 2> "$tmp/init.txt"; then
+  fail "--init under mpirun -n 2 exited 0 (not supported yet: it must be refused)"
+fi
+grep -q -- "--init under mpirun" "$tmp/init.txt" || fail "--init under mpirun: no clear message"
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"

@@ -67,13 +67,13 @@ TEST(Adhesion, RestartGivesTheUninterruptedAnswer) {
   const auto dir = ltl::testing::temp_dir("restart");
   const std::string a = (dir / "a.h5").string(), b = (dir / "b.h5").string();
   const Problem p = fig3(5);
-  RunOptions full{a, false, 0, 0};
+  RunOptions full{a, false, 0, 0, ""};
   const RunSummary sa = run(p, full);
-  RunOptions first{b, false, 0, 2};  // stopped after 2 steps, as if killed
+  RunOptions first{b, false, 0, 2, ""};  // stopped after 2 steps, as if killed
   const RunSummary s1 = run(p, first);
   EXPECT_EQ(s1.last_step, 2);
   EXPECT_EQ(ResultsFile::read_last_step(b)->p, 2);
-  RunOptions rest{b, true, 0, 0};
+  RunOptions rest{b, true, 0, 0, ""};
   const RunSummary sb = run(p, rest);
   EXPECT_EQ(sb.first_step, 3);
   EXPECT_EQ(sb.last_step, 5);
