@@ -172,6 +172,28 @@ double Material::W(const Eigen::Matrix2d& F2) const {
   return W(embed(F2));
 }
 
+// [LTL87 (4.6)] lambda = 2 C1 F - dW(F) + p cof F, the stationarity of the strain step at F.
+Eigen::MatrixXd Material::multiplier(const Eigen::MatrixXd& F, double p) const {
+  if (F.rows() == 2) {
+    const Eigen::Matrix2d F2 = F;
+    return 2 * C1 * F2 - dW(F2) + p * cofactor<2>(F2);
+  }
+  const Eigen::Matrix3d F3 = F;
+  return 2 * C1 * F3 - dW(F3) + p * cofactor<3>(F3);
+}
+
+double Material::pressure(const Eigen::MatrixXd& E, const Eigen::MatrixXd& lambda) const {
+  Eigen::MatrixXd dWE(E.rows(), E.cols()), C(E.rows(), E.cols());
+  if (E.rows() == 2) {
+    dWE = dW(Eigen::Matrix2d(E));
+    C = cofactor<2>(Eigen::Matrix2d(E));
+  } else {
+    dWE = dW(Eigen::Matrix3d(E));
+    C = cofactor<3>(Eigen::Matrix3d(E));
+  }
+  return (lambda - 2 * C1 * E + dWE).cwiseProduct(C).sum() / C.squaredNorm();
+}
+
 Eigen::Matrix2d Material::dW(const Eigen::Matrix2d& F2) const {
   return dW(embed(F2)).topLeftCorner<2, 2>();
 }

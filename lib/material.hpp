@@ -94,6 +94,14 @@ struct Material {
   /// domain.
   Eigen::Matrix3d d2W(const Eigen::Matrix3d& F, const Eigen::Matrix3d& H) const;
   Eigen::Matrix2d d2W(const Eigen::Matrix2d& F2, const Eigen::Matrix2d& H2) const;
+  /// [LTL87 (4.6)] On a material as split (Discretization::split, P = 2 C1 E - lambda): the
+  /// multiplier lambda = 2 C1 F - dW(F) + p cof F for which the local strain step returns E = F,
+  /// p the pressure (0 without the constraint); F is 2 x 2 (plane strain) or 3 x 3. The state
+  /// of a displacement (Newton::to_state, the nested start).
+  Eigen::MatrixXd multiplier(const Eigen::MatrixXd& F, double p) const;
+  /// The pressure of a cell's E and lambda: the least-squares p of lambda = multiplier(E, p)
+  /// (Newton::unknowns, the nested start).
+  double pressure(const Eigen::MatrixXd& E, const Eigen::MatrixXd& lambda) const;
 
   /// [LTL87 (1.5), (1.1)] Plane strain: the out-of-plane Cauchy stress sigma33 of a state with
   /// in-plane gradient F2 and in-plane first Piola-Kirchhoff stress P2 (e.g. the solver's

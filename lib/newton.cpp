@@ -133,24 +133,13 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
 }
 
 Newton::Unknowns Newton::unknowns(const State& s) const {
-  const int d = dim_, nc = disc_.num_cells();
+  const int nc = disc_.num_cells();
   Unknowns x;
   x.u = s.u;
   const Material& m = disc_.split();
   if (incompressible_) {
     x.p.resize(nc);
-    for (int e = 0; e < nc; ++e) {
-      const Eigen::MatrixXd E = cell_tensor(s.E, e), L = cell_tensor(s.lambda, e);
-      Eigen::MatrixXd dW(d, d), C(d, d);
-      if (d == 2) {
-        dW = m.dW(Eigen::Matrix2d(E));
-        C = cofactor<2>(Eigen::Matrix2d(E));
-      } else {
-        dW = m.dW(Eigen::Matrix3d(E));
-        C = cofactor<3>(Eigen::Matrix3d(E));
-      }
-      x.p(e) = (L - 2 * m.C1 * E + dW).cwiseProduct(C).sum() / C.squaredNorm();
-    }
+    for (int e = 0; e < nc; ++e) x.p(e) = m.pressure(cell_tensor(s.E, e), cell_tensor(s.lambda, e));
   }
   if (const ContactPoints* pts = disc_.points()) {
     Eigen::MatrixXd lc = s.lambda_c;  // #points x dim; with glue, less the glue's force
@@ -173,14 +162,7 @@ void Newton::to_state(const Unknowns& x, State& s) const {
   for (int e = 0; e < nc; ++e) {
     Eigen::MatrixXd F = GU.block(d * e, 0, d, d).transpose();
     F.diagonal().array() += 1.0;
-    Eigen::MatrixXd L(d, d);
-    if (d == 2) {
-      const Eigen::Matrix2d F2 = F;
-      L = 2 * m.C1 * F2 - m.dW(F2) + (incompressible_ ? x.p(e) : 0.0) * cofactor<2>(F2);
-    } else {
-      const Eigen::Matrix3d F3 = F;
-      L = 2 * m.C1 * F3 - m.dW(F3) + (incompressible_ ? x.p(e) : 0.0) * cofactor<3>(F3);
-    }
+    const Eigen::MatrixXd L = m.multiplier(F, incompressible_ ? x.p(e) : 0.0);
     s.E.block(d * e, 0, d, d) = F.transpose();
     s.lambda.block(d * e, 0, d, d) = L.transpose();
   }
