@@ -26,13 +26,6 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   const ltl::Problem problem = ltl::load_problem(cmd);  // the configuration, validated
   ltl::RunOptions options = ltl::run_options(cmd, problem);
   const bool ranks = ltl::mpi::size() > 1;
-  if (ranks && !options.init.empty())
-    throw ltl::Error(
-        "--init under mpirun with more than one rank is not supported yet (a rank discretizes "
-        "its own cells only; the nested start needs every cell's mean gradient): run step 1 with "
-        "--init and --stop-after 1 "
-        "on one process, then continue its results file with --resume on P ranks "
-        "(paper_notes/nested.md)");
   if (ranks && ltl::mpi::rank() != 0) {  // rank 0 reads, writes the results file and prints
     options.output.clear();
     options.verbosity = 0;

@@ -4,41 +4,11 @@
 #include <cmath>
 #include <limits>
 
-#include "cofactor.hpp"
 #include "error.hpp"
 #include "mesh_transfer.hpp"
 #include "results.hpp"
 
 namespace ltl {
-
-namespace {
-
-/// The law's multiplier at the strain F with the pressure p: lambda = 2 C1 F - dW(F) + p cof F,
-/// the lambda for which the local strain step (4.6) at E = F is stationary (Newton::to_state).
-Eigen::MatrixXd law_multiplier(const Material& m, const Eigen::MatrixXd& F, double p) {
-  if (F.rows() == 2) {
-    const Eigen::Matrix2d F2 = F;
-    return 2 * m.C1 * F2 - m.dW(F2) + p * cofactor<2>(F2);
-  }
-  const Eigen::Matrix3d F3 = F;
-  return 2 * m.C1 * F3 - m.dW(F3) + p * cofactor<3>(F3);
-}
-
-/// The pressure of a cell from its E and lambda: the least-squares p of
-/// lambda = 2 C1 E - dW(E) + p cof E (Newton::unknowns).
-double cell_pressure(const Material& m, const Eigen::MatrixXd& E, const Eigen::MatrixXd& L) {
-  Eigen::MatrixXd dW(E.rows(), E.cols()), C(E.rows(), E.cols());
-  if (E.rows() == 2) {
-    dW = m.dW(Eigen::Matrix2d(E));
-    C = cofactor<2>(Eigen::Matrix2d(E));
-  } else {
-    dW = m.dW(Eigen::Matrix3d(E));
-    C = cofactor<3>(Eigen::Matrix3d(E));
-  }
-  return (L - 2 * m.C1 * E + dW).cwiseProduct(C).sum() / C.squaredNorm();
-}
-
-}  // namespace
 
 std::string NestedStart::summary() const {
   return cat(
@@ -55,6 +25,17 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   const Mesh& mesh = problem.mesh;
   const int d = mesh.dim, nc = mesh.num_cells();
   const std::string where = cat(key, " ", path, ": ");
+  if (disc.partial())
+    throw Error(
+        cat(key,
+            ": the nested start needs every cell's mean gradient, and this discretization holds "
+            "the cells [",
+            disc.first_cell(), ", ", disc.end_cell(), ") of ", nc,
+            " only (plain ALG2 "
+            "under mpirun with more than one rank, paper_notes/mpi.md): run step 1 with ",
+            key,
+            " and --stop-after 1 on one process, then continue its results file with --resume on P "
+            "ranks"));
   StoredMesh source;
   std::optional<StoredStep> last;
   try {
@@ -120,10 +101,10 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
       centroid /= mesh.nodes_per_cell();
       const PointLocator::Hit hit = locate.locate(centroid);
       out.clamped_centroids += !hit.inside();
-      p = cell_pressure(law, cell_tensor(src.E, hit.cell), cell_tensor(src.lambda, hit.cell));
+      p = law.pressure(cell_tensor(src.E, hit.cell), cell_tensor(src.lambda, hit.cell));
     }
     s.E.block(d * e, 0, d, d) = F.transpose();
-    s.lambda.block(d * e, 0, d, d) = law_multiplier(law, F, p).transpose();
+    s.lambda.block(d * e, 0, d, d) = law.multiplier(F, p).transpose();
   }
 
   // Contact (4.7): e = ubar projected onto N . e <= g; lambda_c and beta from the nearest source
