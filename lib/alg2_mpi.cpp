@@ -225,10 +225,6 @@ void Solver::make_whole(State& s) const {
   }
 }
 
-}  // namespace ltl
-
-namespace ltl {
-
 namespace {
 template <class Sparse>
 double bytes_of_sparse(const Sparse& A) {  // values and indices, compressed
