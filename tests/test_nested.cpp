@@ -161,7 +161,8 @@ TEST(Nested, CoarseToFineGutterStartsNewtonNextToTheSolution) {
       "of the sag away\n",
       rest.iterations.at(0), nested.iterations.at(0), gap / sag);
   EXPECT_LT(gap, 0.15 * sag);
-  EXPECT_LT(nested.iterations.at(0), rest.iterations.at(0));
+  // Measured 11 against 35: at most half (a start that only helped a little would fail).
+  EXPECT_LE(2 * nested.iterations.at(0), rest.iterations.at(0));
   EXPECT_LT((nested.state.u - rest.state.u).cwiseAbs().maxCoeff(), 1e-4 * sag);
   fs::remove_all(dir);
 }
