@@ -27,7 +27,8 @@ install: build
 test: build
 	cd $(BUILD) && OMP_NUM_THREADS=2 ctest --output-on-failure -j $(JOBS)
 
-# The CG + AMG global step's tests (tests/test_cg_amg.cpp) with PETSc: installs Debian's
+# The CG + AMG global step's tests (tests/test_cg_amg.cpp) and those of Newton's Krylov solves
+# (tests/test_newton_krylov.cpp) with PETSc: installs Debian's
 # petsc-dev (as root; otherwise prints the command), builds with it and runs them; a PETSc that
 # is still missing fails them (LTL_REQUIRE_PETSC). `make test` never needs PETSc: there these
 # tests report themselves skipped. .ci/deps.sh does not install it.
@@ -39,10 +40,10 @@ petsc-build:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y petsc-dev; else \
 	  echo "run as root: apt-get install -y petsc-dev"; exit 1; fi; }
 	@cmake -S . -B $(PETSC_BUILD) -DCMAKE_BUILD_TYPE=Release -DLTL_WITH_PETSC=ON > /dev/null
-	@cmake --build $(PETSC_BUILD) -j $(JOBS) --target test_cg_amg bench_amg
+	@cmake --build $(PETSC_BUILD) -j $(JOBS) --target test_cg_amg test_newton_krylov bench_amg
 
 test-petsc: petsc-build
-	cd $(PETSC_BUILD) && LTL_REQUIRE_PETSC=1 OMP_NUM_THREADS=2 ctest --output-on-failure -j $(JOBS) -R CgAmg
+	cd $(PETSC_BUILD) && LTL_REQUIRE_PETSC=1 OMP_NUM_THREADS=2 ctest --output-on-failure -j $(JOBS) -R 'CgAmg|NewtonKrylov'
 
 # ALG2 over MPI ranks (optional; lib/alg2_mpi.cpp, paper_notes/mpi.md): its own build in
 # build-mpi/ with -DLTL_WITH_MPI=ON (PETSc with its MPI: installs petsc-dev as root, else prints
@@ -56,10 +57,14 @@ mpi-build:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y petsc-dev; else \
 	  echo "run as root: apt-get install -y petsc-dev"; exit 1; fi; }
 	@cmake -S . -B $(MPI_BUILD) -DCMAKE_BUILD_TYPE=Release -DLTL_WITH_MPI=ON > /dev/null
-	@cmake --build $(MPI_BUILD) -j $(JOBS) --target ltl_run mpi_ranks bench_mpi bench_mpi_newton
+	@cmake --build $(MPI_BUILD) -j $(JOBS) --target ltl_run mpi_ranks bench_mpi bench_mpi_newton \
+	  test_cg_amg test_newton_krylov
 
+# The MPI build has PETSc: its tests also run the PETSc ones (CG + AMG, Newton's Krylov solves),
+# which `make test` reports skipped.
 test-mpi: mpi-build
-	cd $(MPI_BUILD) && ctest --output-on-failure -L mpi
+	cd $(MPI_BUILD) && ctest --output-on-failure -L mpi && \
+	  LTL_REQUIRE_PETSC=1 ctest --output-on-failure -j $(JOBS) -R 'CgAmg|NewtonKrylov'
 
 # The cost of a distributed ALG2 iteration on refined gutters, 1, 2 and 4 (oversubscribed)
 # ranks, strong and weak scaling: the phases, the bytes each rank receives per iteration, the

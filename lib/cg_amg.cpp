@@ -49,6 +49,15 @@ void check(PetscErrorCode ierr, const std::string& what, const char* call) {
   if (ierr) throw Error(cat(what, ": PETSc's ", call, " failed (PETSc error ", ierr, ")"));
 }
 
+/// Nonzeros of a PETSc matrix.
+double nonzeros(Mat M) {
+  MatInfo info;
+  if (MatGetInfo(M, MAT_LOCAL, &info)) return 0.0;
+  return info.nz_used;
+}
+
+}  // namespace
+
 /// PETSc (and MPI, a singleton process) initialized once, on the first CG + AMG step, without
 /// PETSc's signal handlers (the drivers' own handling of interrupts stays in charge) and with
 /// errors returned to us rather than printed; finalized at exit.
@@ -66,15 +75,6 @@ void initialize_petsc() {
   }();
   (void)ready;
 }
-
-/// Nonzeros of a PETSc matrix.
-double nonzeros(Mat M) {
-  MatInfo info;
-  if (MatGetInfo(M, MAT_LOCAL, &info)) return 0.0;
-  return info.nz_used;
-}
-
-}  // namespace
 
 struct CgAmg::Impl {
   std::string what;

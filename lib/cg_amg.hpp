@@ -28,6 +28,11 @@
 
 namespace ltl {
 
+/// PETSc (and MPI, a singleton process) initialized once, on first use, without PETSc's signal
+/// handlers and with errors returned rather than printed; finalized at exit. Defined only in a
+/// build with PETSc (LTL_HAVE_PETSC).
+void initialize_petsc();
+
 class CgAmg {
  public:
   /// Relative reduction of the warm start's residual asked of each solve (the inexactness).

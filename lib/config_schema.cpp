@@ -551,7 +551,9 @@ Schema build() {
                "near-null space), set up once, warm-started, each solve reducing the warm start's "
                "residual 1000 times; for meshes whose factor does not fit in memory; needs a build "
                "with PETSc (`make test-petsc`), else a clear error. `\"auto\"`: CG + AMG only "
-               "with PETSc, above 200 000 nodes and a predicted factor above 4 GB"),
+               "with PETSc, above 200 000 nodes and a predicted factor above 4 GB. With "
+               "`solver = \"newton\"` and CG + AMG, the Newton phase's linear systems are solved "
+               "by GMRES with an AMG V-cycle too, not factorized (lib/newton_krylov.hpp)"),
       number(
           "algorithm", "newton_switch",
           [A](Problem& p, int) -> double& { return A(p).newton_switch; }, Positive)

@@ -30,8 +30,9 @@
 namespace ltl {
 
 /// Newton's linear solves in this process since the start (or the last reset): the serial ones
-/// (CHOLMOD, UMFPACK) and the distributed ones (MUMPS), with their seconds. Analysis = symbolic
-/// factorization; the LU's are counted with its factorizations (UMFPACK does both at once).
+/// (CHOLMOD, UMFPACK, the Krylov ones) and the distributed ones (MUMPS), with their seconds.
+/// Analysis = symbolic factorization; the LU's are counted with its factorizations (UMFPACK does
+/// both at once).
 struct NewtonSolveStats {
   long cholmod_analyses = 0, cholmod_factorizations = 0, cholmod_solves = 0;
   long umfpack_factorizations = 0;
@@ -39,6 +40,10 @@ struct NewtonSolveStats {
   long mumps_lu_analyses = 0, mumps_lu_factorizations = 0;
   double cholmod_analysis_s = 0, cholmod_factor_s = 0, cholmod_solve_s = 0, umfpack_s = 0;
   double mumps_analysis_s = 0, mumps_factor_s = 0, mumps_solve_s = 0, mumps_lu_s = 0;
+  /// The Krylov solves (newton_krylov.hpp): solves, GMRES iterations, the most in one solve,
+  /// the AMG set-ups' and the iterations' seconds, failures (not converged).
+  long krylov_solves = 0, krylov_iterations = 0, krylov_max_iterations = 0, krylov_failures = 0;
+  double krylov_setup_s = 0, krylov_solve_s = 0;
 };
 NewtonSolveStats& newton_solve_stats();
 

@@ -21,7 +21,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-Newton::Newton(const Discretization& disc) : disc_(disc) {
+Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(krylov) {
   const Mesh& mesh = disc.problem().mesh;
   dim_ = disc.dim();
   const int d = dim_, nc = disc.num_cells(), nn = disc.num_nodes();
@@ -79,6 +79,25 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
     c_ = 0.02 * C1 * pts->area / h;
   }
 
+  // The contact points' free dofs and their coefficients in N . ubar_s.
+  if (const ContactPoints* pts = disc.points()) {
+    const Eigen::MatrixXd& N = pts->normals;  // row k: N_k of the obstacle of point k
+    const int np = pts->size();
+    point_dofs_.resize(np), point_coef_.resize(np), point_pos_.resize(np);
+    for (int k = 0; k < np; ++k)
+      for (SpMatR::InnerIterator it(pts->mean, k); it; ++it)
+        for (int j = 0; j < d; ++j)
+          if (free_[d * it.col() + j] >= 0 && N(k, j) != 0) {
+            point_dofs_[k].push_back(free_[d * it.col() + j]);
+            point_coef_[k].push_back(it.value() * N(k, j));
+          }
+  }
+  if (krylov_) {  // PETSc's matrix holds its own pattern (newton_krylov.hpp)
+    dof_of_free_.resize(nfree_);
+    for (int k = 0; k < static_cast<int>(free_.size()); ++k)
+      if (free_[k] >= 0) dof_of_free_[free_[k]] = k;
+    return;
+  }
   // The pattern of the augmented tangent: every pair of free dofs of a cell (lower triangle), the
   // diagonal; the constraint rows (cells, contact points) and the fluctuation term stay inside.
   const int dn = d * npc_;
@@ -114,22 +133,9 @@ Newton::Newton(const Discretization& disc) : disc_(disc) {
       const int r = free_[it.row()], c = free_[it.col()];
       if (r >= 0 && c >= 0 && r >= c) fluct_pos_.emplace_back(position(r, c), it.value());
     }
-  if (const ContactPoints* pts = disc.points()) {
-    const Eigen::MatrixXd& N = pts->normals;  // row k: N_k of the obstacle of point k
-    const int np = pts->size();
-    point_dofs_.resize(np), point_coef_.resize(np), point_pos_.resize(np);
-    for (int k = 0; k < np; ++k) {
-      for (SpMatR::InnerIterator it(pts->mean, k); it; ++it)
-        for (int j = 0; j < d; ++j)
-          if (free_[d * it.col() + j] >= 0 && N(k, j) != 0) {
-            point_dofs_[k].push_back(free_[d * it.col() + j]);
-            point_coef_[k].push_back(it.value() * N(k, j));
-          }
-      const std::vector<int>& f = point_dofs_[k];
-      for (int a : f)
-        for (int b : f) point_pos_[k].push_back(a >= b ? position(a, b) : -1);
-    }
-  }
+  for (std::size_t k = 0; k < point_dofs_.size(); ++k)
+    for (int a : point_dofs_[k])
+      for (int b : point_dofs_[k]) point_pos_[k].push_back(a >= b ? position(a, b) : -1);
 }
 
 Newton::Unknowns Newton::unknowns(const State& s) const {
@@ -481,8 +487,12 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     Eigen::VectorXd dx;
     // The glued system is solved by LU (newton.hpp); so is an indefinite augmented tangent (a
     // saddle of the energy on the constraints, e.g. a compressed block under a dead load).
-    bool solved = !glued_ && augmented_step(base, Ru, G, gapv, active, damping, *scatter, dx);
-    if (!solved) solved = lu_step(base, Ru, G, gapv, active, bstate, damping, *scatter, dx);
+    // Krylov solves: inexact Newton, the relative residual asked tightening with the merit. Their
+    // failure is answered by damping, not by the LU (a factorization that would not fit).
+    const double rtol = std::clamp(1e-2 * cur.merit, 1e-10, 1e-4);
+    bool solved = !glued_ && augmented_step(base, Ru, G, gapv, active, damping, rtol, *scatter, dx);
+    if (!solved && (!krylov_ || glued_))
+      solved = lu_step(base, Ru, G, gapv, active, bstate, damping, *scatter, dx);
     rec.t_global = seconds_since(t0);
     // A step not taken (singular system, or no decrease of the merit): recorded with the
     // residuals of the point it stays at, which is tried again with 10 times the damping; false

@@ -48,8 +48,11 @@ namespace ltl {
 class Newton {
  public:
   /// The per-cell data (nodes, mean gradients, the points of the incompressibility constraint)
-  /// and the constant part of the tangent. disc must outlive the object.
-  explicit Newton(const Discretization& disc);
+  /// and the constant part of the tangent. disc must outlive the object. krylov: the linear
+  /// systems by GMRES with an AMG V-cycle (newton_krylov.hpp) instead of CHOLMOD's factor, for a
+  /// run whose global step is CG + AMG (the Solver sets it); then the factor's pattern is not
+  /// built.
+  explicit Newton(const Discretization& disc, bool krylov = false);
 
   /// The unknowns of the discrete problem: u (#nodes x dim), a pressure per cell (empty for the
   /// compressible law), a force per contact point (N in 3-D, N/m in plane strain), and with glue
@@ -126,9 +129,15 @@ class Newton {
   /// The work of a Newton phase; for a distributed Solver's Newton (set_distributed) with
   /// MUMPS's factorizations over the MPI ranks (mpi_newton.hpp).
   ScatterPtr new_scatter() const;
+  /// rtol: the relative residual asked of a Krylov solve (inexact Newton).
   bool augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
                       const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
-                      Scatter& work, Eigen::VectorXd& dx) const;
+                      double rtol, Scatter& work, Eigen::VectorXd& dx) const;
+  /// The same system by GMRES (newton_krylov.hpp): the tangent, augmented by a moderate multiple
+  /// of the constraints' projections, assembled into PETSc's matrix; false when GMRES fails.
+  bool krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
+                   const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
+                   double rtol, Scatter& work, Eigen::VectorXd& dx) const;
   /// The KKT system of a Newton step assembled in full (u free dofs, p, the active contact
   /// forces, and with glue every beta; bstate: -1/+1 beta at its bound 0/1, 0 free) and solved by
   /// UMFPACK's LU (newton_kkt.cpp; MUMPS's with work.mumps_lu): the glued step, and the
@@ -180,7 +189,9 @@ class Newton {
     Eigen::VectorXd beta_prev, a;
   };
   bool glued_ = false;
-  bool distributed_ = false;  ///< set_distributed
+  bool distributed_ = false;      ///< set_distributed
+  bool krylov_ = false;           ///< the constructor's krylov
+  std::vector<int> dof_of_free_;  ///< per free index its dof (krylov_ only)
   Glue glue_;
 };
 

@@ -8,6 +8,7 @@
 #include "error.hpp"
 #include "mpi_newton.hpp"
 #include "newton.hpp"
+#include "newton_krylov.hpp"
 
 namespace ltl {
 
@@ -46,14 +47,16 @@ struct Newton::Scatter {
   std::unique_ptr<DistributedCholesky> mumps;
   std::unique_ptr<DistributedLU> mumps_lu;
   std::unique_ptr<NewtonRows> lu_rows;
+  std::unique_ptr<NewtonKrylov> krylov;  ///< the Krylov solves (Newton's krylov_)
 };
 
 // [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
 // K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_.
 bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
                             const Eigen::VectorXd& G, const Eigen::VectorXd& gap,
-                            const std::vector<int>& active, double damping, Scatter& w,
+                            const std::vector<int>& active, double damping, double rtol, Scatter& w,
                             Eigen::VectorXd& dx) const {
+  if (w.krylov) return krylov_step(base, Ru, G, gap, active, damping, rtol, w, dx);
   const int d = dim_, nc = disc_.num_cells(), dn = d * npc_;
   const int np = incompressible_ ? nc : 0, npts = static_cast<int>(active.size());
   if (w.A.size() == 0) w.A = pattern_;
@@ -188,15 +191,168 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   return true;
 }
 
+// The system of augmented_step by GMRES (newton_krylov.hpp): A = K + kappa (B^T W B + C^T Wc C)
+// with a moderate kappa (the AMG V-cycle must see A; a multiple of K's mean diagonal a, PETSc
+// option -ltl_newton_penalty, default 10), the rows scaled by d = a sqrt(W) (forces) and the
+// multipliers by 1 / d (lengths). The Schur complement's inverse is -(kappa W + S0^{-1}) / d^2
+// with S0 = |O_e| / mu for a cell (the pressure mass over the shear modulus mu = 2 C1, as for the
+// divergence: B_e du is the cell's volume change) and C diag(A)^{-1} C^T for a contact point.
+bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
+                         const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
+                         double rtol, Scatter& w, Eigen::VectorXd& dx) const {
+  const int d = dim_, nc = disc_.num_cells(), dn = d * npc_, ndof = static_cast<int>(free_.size());
+  const int np = incompressible_ ? nc : 0, npts = static_cast<int>(active.size());
+  NewtonKrylov& kr = *w.krylov;
+  const auto t0 = std::chrono::steady_clock::now();
+  kr.zero();
+  w.be.resize(np);
+  Eigen::VectorXd diag = Eigen::VectorXd::Zero(ndof);
+  std::vector<int> dofs(dn);
+  auto cell_dofs = [&](int e) {
+    for (int r = 0; r < dn; ++r) {
+      const int k = d * nodes_[static_cast<std::size_t>(e) * npc_ + r / d] + r % d;
+      dofs[r] = free_[k] >= 0 ? k : -1;
+    }
+  };
+  const CellSink sink = [&](int e, const Eigen::MatrixXd& Ke, const Eigen::VectorXd& be) {
+    cell_dofs(e);
+    kr.add(dn, dofs.data(), Ke.data());  // symmetric: its storage order does not matter
+    for (int r = 0; r < dn; ++r)
+      if (dofs[r] >= 0) diag(dofs[r]) += Ke(r, r);
+    if (np) w.be[e] = be;
+  };
+  if (d == 2)
+    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+  else
+    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+  {  // the fluctuation term, symmetric: column k is row k
+    std::vector<int> cols;
+    std::vector<double> vals;
+    for (int k = 0; k < fluct_.outerSize(); ++k) {
+      if (free_[k] < 0) continue;
+      cols.clear(), vals.clear();
+      for (SpMat::InnerIterator it(fluct_, k); it; ++it)
+        if (free_[it.row()] >= 0) {
+          cols.push_back(static_cast<int>(it.row()));
+          vals.push_back(it.value());
+          if (it.row() == k) diag(k) += it.value();
+        }
+      kr.add_row(k, static_cast<int>(cols.size()), cols.data(), vals.data());
+    }
+  }
+  double a = 0;
+  for (int k = 0; k < ndof; ++k)
+    if (free_[k] >= 0) a += std::abs(diag(k));
+  a = nfree_ ? a / nfree_ : 1.0;
+  const double kappa = NewtonKrylov::option("-ltl_newton_penalty", 10.0) * a;
+  const double mu = 2 * disc_.split().C1;
+  const Eigen::VectorXd& vol = disc_.cells().vol;
+  // The constraint rows, scaled, and their part of A and of the right-hand side.
+  std::vector<int> act;
+  for (int k = 0; k < npts; ++k)
+    if (active[k] && !point_dofs_[k].empty()) act.push_back(k);
+  const int m = np + static_cast<int>(act.size());
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(ndof), g(m), sinv(m), scale(m);
+  for (int k = 0; k < ndof; ++k)
+    if (free_[k] >= 0) f(k) = -Ru(k);
+  std::vector<Eigen::Triplet<double>> tg;
+  tg.reserve(static_cast<std::size_t>(np) * dn);
+  Eigen::MatrixXd blk(dn, dn);
+  for (int e = 0; e < np; ++e) {
+    cell_dofs(e);
+    const Eigen::VectorXd& be = w.be[e];
+    double b2 = 0;
+    for (int r = 0; r < dn; ++r)
+      if (dofs[r] >= 0) b2 += be(r) * be(r);
+    const double W = 1 / std::max(b2, 1e-300);
+    blk.noalias() = (kappa * W) * be * be.transpose();
+    kr.add(dn, dofs.data(), blk.data());
+    scale(e) = a * std::sqrt(W);
+    for (int r = 0; r < dn; ++r)
+      if (dofs[r] >= 0) {
+        tg.emplace_back(e, dofs[r], -scale(e) * be(r));
+        f(dofs[r]) -= kappa * W * G(e) * be(r);
+      }
+    g(e) = scale(e) * G(e);
+    sinv(e) = -(kappa * W + mu / vol(e)) / (scale(e) * scale(e));
+  }
+  for (int j = 0; j < static_cast<int>(act.size()); ++j) {
+    const int k = act[j], row = np + j;
+    const std::vector<double>& cf = point_coef_[k];
+    const int n = static_cast<int>(cf.size());
+    std::vector<int> pd(n);
+    double c2 = 0, s0 = 0;
+    for (int q = 0; q < n; ++q) {
+      pd[q] = dof_of_free_[point_dofs_[k][q]];
+      c2 += cf[q] * cf[q];
+      s0 += cf[q] * cf[q] / std::max(std::abs(diag(pd[q])), 1e-300);
+    }
+    const double Wc = 1 / c2;
+    Eigen::MatrixXd pb(n, n);
+    for (int p = 0; p < n; ++p)
+      for (int q = 0; q < n; ++q) pb(p, q) = kappa * Wc * cf[p] * cf[q];
+    kr.add(n, pd.data(), pb.data());
+    scale(row) = a * std::sqrt(Wc);
+    for (int q = 0; q < n; ++q) {
+      tg.emplace_back(row, pd[q], scale(row) * cf[q]);
+      f(pd[q]) -= kappa * Wc * gap(k) * cf[q];
+    }
+    g(row) = -scale(row) * gap(k);
+    sinv(row) = -(kappa * Wc + 1 / s0) / (scale(row) * scale(row));
+  }
+  if (damping > 0)
+    for (int k = 0; k < ndof; ++k)
+      if (free_[k] >= 0) {
+        const double v = damping * std::abs(diag(k));
+        kr.add_row(k, 1, &k, &v);
+      }
+  kr.finish(a);
+  SpMatR Gs(m, ndof);
+  Gs.setFromTriplets(tg.begin(), tg.end());
+  std::vector<Eigen::Triplet<double>>().swap(tg);
+  NewtonSolveStats& st = newton_solve_stats();
+  st.krylov_setup_s += seconds_since(t0);  // the assembly, and below the AMG set-up
+  Eigen::VectorXd du, dq;
+  const NewtonKrylov::Result r = kr.solve(Gs, sinv, f, g, rtol, du, dq);
+  ++st.krylov_solves;
+  st.krylov_iterations += r.iterations;
+  st.krylov_max_iterations = std::max<long>(st.krylov_max_iterations, r.iterations);
+  st.krylov_setup_s += r.setup_seconds;
+  st.krylov_solve_s += r.solve_seconds;
+  if (!r.converged || !du.allFinite() || !dq.allFinite()) {
+    ++st.krylov_failures;
+    return false;
+  }
+  int nA = 0;
+  for (int k = 0; k < npts; ++k) nA += active[k];
+  dx = Eigen::VectorXd::Zero(nfree_ + np + nA);
+  for (int k = 0; k < ndof; ++k)
+    if (free_[k] >= 0) dx(free_[k]) = du(k);
+  for (int e = 0; e < np; ++e) dx(nfree_ + e) = scale(e) * dq(e);
+  for (int k = 0, i = 0, j = 0; k < npts; ++k) {
+    if (!active[k]) continue;
+    if (j < static_cast<int>(act.size()) && act[j] == k) {
+      dx(nfree_ + np + i) = scale(np + j) * dq(np + j);
+      ++j;
+    }
+    ++i;
+  }
+  return true;
+}
+
 void Newton::ScatterDeleter::operator()(Scatter* w) const {
   delete w;
 }
 Newton::ScatterPtr Newton::new_scatter() const {
   ScatterPtr w(new Scatter);
-  if (distributed_ && distributed_newton_solves()) {  // a distributed Solver (mpi_newton.hpp)
+  if (distributed_ && distributed_newton_solves() && !krylov_) {  // mpi_newton.hpp
     w->mumps =
         std::make_unique<DistributedCholesky>(NewtonRows(free_, dim_, disc_.problem().mesh.X, 0));
     w->mumps_lu = std::make_unique<DistributedLU>();
+  } else if (krylov_) {
+    std::vector<char> fixed(free_.size());
+    for (std::size_t k = 0; k < free_.size(); ++k) fixed[k] = free_[k] < 0;
+    w->krylov = std::make_unique<NewtonKrylov>(dim_, disc_.problem().mesh.X, nodes_, npc_, fixed);
   }
   return w;
 }

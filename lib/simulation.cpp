@@ -20,6 +20,7 @@
 #include "interrupt.hpp"
 #include "measures.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_newton.hpp"  // NewtonSolveStats
 #include "nested_start.hpp"
 #include "output_guard.hpp"
 #include "reactions.hpp"
@@ -611,6 +612,13 @@ RunSummary run(Solver& solver, const RunOptions& options,
     std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
                 summary.first_step, summary.last_step, summary.setup_seconds,
                 summary.solver_seconds, options.output.c_str());
+  if (const NewtonSolveStats& st = newton_solve_stats(); options.verbosity > 0 && st.krylov_solves)
+    std::printf(
+        "%s: Newton's Krylov solves (newton_krylov.hpp): %ld, GMRES iterations %.1f per solve "
+        "(at most %ld), %ld not converged; assembly and AMG set-up %.1f s, GMRES %.1f s\n",
+        problem.name.c_str(), st.krylov_solves,
+        static_cast<double>(st.krylov_iterations) / st.krylov_solves, st.krylov_max_iterations,
+        st.krylov_failures, st.krylov_setup_s, st.krylov_solve_s);
   if (options.verbosity > 0 && summary.failed_attempts > 0) {
     std::string which;
     for (std::size_t k = 0; k < summary.substeps.size(); ++k)

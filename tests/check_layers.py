@@ -28,7 +28,7 @@ import tempfile
 LAYERS = [
     ("leaf", "error hash mpi_comm cofactor signed_svd state material adhesion contact_points "
              "version stored_measure log_newton interrupt geometry_guard hdf5_io results_info"),
-    ("fe/mesh", "mesh fe cholesky cg_amg derived_fields mesh_transfer"),
+    ("fe/mesh", "mesh fe cholesky cg_amg newton_krylov derived_fields mesh_transfer"),
     ("steps", "strain_step strain_principal contact_step obstacles adhesion_kernel global_step "
               "mpi_global mpi_newton anderson"),
     ("problem", "problem config config_toml config_rows config_schema"),
