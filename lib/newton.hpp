@@ -133,8 +133,9 @@ class Newton {
   bool augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
                       const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
                       double rtol, Scatter& work, Eigen::VectorXd& dx) const;
-  /// The same system by GMRES (newton_krylov.hpp): the tangent, augmented by a moderate multiple
-  /// of the constraints' projections, assembled into PETSc's matrix; false when GMRES fails.
+  /// [(2.2), (2.7), (1.1)] The same system by GMRES (newton_krylov.hpp): the tangent, augmented
+  /// by a moderate multiple of the constraints' projections, assembled into PETSc's matrix;
+  /// false when GMRES fails.
   bool krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
                    const Eigen::VectorXd& gap, const std::vector<int>& active, double damping,
                    double rtol, Scatter& work, Eigen::VectorXd& dx) const;

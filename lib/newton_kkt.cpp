@@ -276,11 +276,14 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
     g(e) = scale(e) * G(e);
     sinv(e) = -(kappa * W + mu / vol(e)) / (scale(e) * scale(e));
   }
+  std::vector<int> pd;  // a point's dofs and block, reused
+  Eigen::MatrixXd pb;
   for (int j = 0; j < static_cast<int>(act.size()); ++j) {
     const int k = act[j], row = np + j;
     const std::vector<double>& cf = point_coef_[k];
     const int n = static_cast<int>(cf.size());
-    std::vector<int> pd(n);
+    pd.resize(n);
+    pb.resize(n, n);
     double c2 = 0, s0 = 0;
     for (int q = 0; q < n; ++q) {
       pd[q] = dof_of_free_[point_dofs_[k][q]];
@@ -288,7 +291,6 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
       s0 += cf[q] * cf[q] / std::max(std::abs(diag(pd[q])), 1e-300);
     }
     const double Wc = 1 / c2;
-    Eigen::MatrixXd pb(n, n);
     for (int p = 0; p < n; ++p)
       for (int q = 0; q < n; ++q) pb(p, q) = kappa * Wc * cf[p] * cf[q];
     kr.add(n, pd.data(), pb.data());
