@@ -19,14 +19,6 @@ namespace {
 
 using namespace ltl;
 
-#define LTL_NEEDS_PETSC()                                                        \
-  do {                                                                           \
-    if (!CgAmg::available()) {                                                   \
-      if (std::getenv("LTL_REQUIRE_PETSC")) FAIL() << "built without PETSc";     \
-      GTEST_SKIP() << "built without PETSc (make test-petsc installs and runs)"; \
-    }                                                                            \
-  } while (0)
-
 /// The global matrix of the unit box (n^3 distorted H8) with z0 clamped, and the box's nodes.
 struct BoxSystem {
   Mesh mesh;

@@ -21,14 +21,6 @@ namespace {
 
 using namespace ltl;
 
-#define LTL_NEEDS_PETSC()                                                        \
-  do {                                                                           \
-    if (!NewtonKrylov::available()) {                                            \
-      if (std::getenv("LTL_REQUIRE_PETSC")) FAIL() << "built without PETSc";     \
-      GTEST_SKIP() << "built without PETSc (make test-petsc installs and runs)"; \
-    }                                                                            \
-  } while (0)
-
 // [(2.7)] The KKT system [A, G^T; G, 0] (du, dq) = (f, g) of a distorted box (2 x 2 x 2 H8, the
 // face z0 prescribed) with a random SPD cell matrix per cell, a random fluctuation row and three
 // random constraint rows: GMRES to 1e-12 equals the dense solution of the same system, assembled

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "alg2.hpp"
+#include "cg_amg.hpp"  // CgAmg::available, for LTL_NEEDS_PETSC
 #include "mesh.hpp"
 #include "problem.hpp"
 
@@ -25,6 +26,16 @@
 #ifndef LTL_BINARY_DIR
 #define LTL_BINARY_DIR "build"
 #endif
+
+/// In a test that needs PETSc (CG + AMG, Newton's Krylov solves): SKIPPED in a build without it,
+/// unless LTL_REQUIRE_PETSC is set (`make test-petsc`, `make test-mpi`), where it fails.
+#define LTL_NEEDS_PETSC()                                                        \
+  do {                                                                           \
+    if (!::ltl::CgAmg::available()) {                                            \
+      if (std::getenv("LTL_REQUIRE_PETSC")) FAIL() << "built without PETSc";     \
+      GTEST_SKIP() << "built without PETSc (make test-petsc installs and runs)"; \
+    }                                                                            \
+  } while (0)
 
 namespace ltl::testing {
 
