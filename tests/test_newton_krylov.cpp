@@ -112,6 +112,7 @@ Eigen::MatrixXd newton_u(const std::string& config, std::vector<std::string> ove
   const NewtonSolveStats& after = newton_solve_stats();
   used->krylov_solves = after.krylov_solves - before.krylov_solves;
   used->krylov_iterations = after.krylov_iterations - before.krylov_iterations;
+  used->krylov_failures = after.krylov_failures - before.krylov_failures;
   used->cholmod_factorizations = after.cholmod_factorizations - before.cholmod_factorizations;
   used->umfpack_factorizations = after.umfpack_factorizations - before.umfpack_factorizations;
   return summary.state.u;
@@ -127,14 +128,18 @@ void expect_same_newton_state(const std::string& config, const std::vector<std::
   const double rel = (u_krylov - u_direct).norm() / u_direct.norm();
   std::cout << config << ": |u_krylov - u_direct| / |u_direct| = " << rel << ", "
             << krylov.krylov_solves << " Krylov solves, " << krylov.krylov_iterations
-            << " GMRES iterations\n";
+            << " GMRES iterations; " << direct.cholmod_factorizations << " factorizations\n";
   EXPECT_LE(rel, 1e-8) << config << ": Newton with Krylov solves against the factorizations";
   EXPECT_EQ(direct.krylov_solves, 0);
   if (glued) {  // the glued system is solved by LU on either path (newton.hpp)
     EXPECT_EQ(krylov.krylov_solves, 0);
     EXPECT_GT(krylov.umfpack_factorizations, 0);
   } else {
+    // Every Krylov solve converged and gave a step as good as the factor's: one solve per
+    // factorization of the direct run (a step rejected or damped would add one).
     EXPECT_GT(krylov.krylov_solves, 0);
+    EXPECT_EQ(krylov.krylov_failures, 0);
+    EXPECT_EQ(krylov.krylov_solves, direct.cholmod_factorizations);
     EXPECT_EQ(krylov.cholmod_factorizations, 0) << "the tangent was factorized";
     EXPECT_EQ(krylov.umfpack_factorizations, 0) << "the KKT system was factorized";
   }
