@@ -19,7 +19,8 @@ number, computed once by lib/measures.hpp: contact force, half-width, debonding 
 ...) is Step.measures (name -> float), Step.measure_units and Step.measure_descriptions (name ->
 str), and Step.in_contact (bool per contact point); figure scripts read these and never
 recompute a definition or threshold. r.steps holds results only: the last
-iterate of a step that did not converge (/unconverged) is in r.unconverged, apart, for diagnosis.
+iterate of a step that did not converge (/unconverged) is in r.unconverged, apart, for diagnosis,
+and so is a checkpoint of a step still iterating (ltl_run --checkpoint; Step.checkpoint).
 Nothing here plots; figure scripts print what they plot with print_table().
 
 As a program it prints a summary of a file (steps, iterations, equilibrium measure), or with
@@ -139,7 +140,7 @@ class Step:
     """One stored time step: p, t, iterations, status, fields (name -> array), history
     (column name -> array over the iterations), attrs (all attributes of the step), equilibrium
     (the equilibrium measure: force_residual, det_error, penetration, det_min; empty in files of
-    format version 1, without det_min in files written before it existed), converged (False only for an entry of Results.unconverged), measures (name ->
+    format version 1, without det_min in files written before it existed), converged (False only for an entry of Results.unconverged), checkpoint (True for an entry of Results.unconverged that --checkpoint saved while the step was still iterating), measures (name ->
     float, /steps/N/measures; empty in older files), measure_units, measure_descriptions (name ->
     str), in_contact (bool per contact point, None without contact or in older files), units
     (field name -> unit, from FIELDS)."""
@@ -155,6 +156,8 @@ class Step:
         self.attrs = attrs
         self.equilibrium = {k: float(attrs[k]) for k in EQUILIBRIUM if k in attrs}
         self.converged = not attrs.get("unconverged", 0)
+        # An entry of Results.unconverged saved by --checkpoint: the step was still iterating.
+        self.checkpoint = bool(attrs.get("checkpoint", 0))
         self.measures = measures or {}
         self.measure_units = measure_units or {}
         self.measure_descriptions = measure_descriptions or {}
@@ -394,7 +397,10 @@ def summary(results, file=None):
         results.attrs.get("status", "")), file=out)
     for title, steps in (("steps (results)", results.steps),
                          ("UNCONVERGED steps (not results: last iterate, for diagnosis)",
-                          results.unconverged)):
+                          [s for s in results.unconverged if not s.checkpoint]),
+                         ("CHECKPOINTS (not results: the iterate of a step still iterating; "
+                          "--resume continues from it)",
+                          [s for s in results.unconverged if s.checkpoint])):
         if not steps:
             continue
         last = lambda s, k: s.history[k][-1] if len(s.history.get(k, ())) else np.nan

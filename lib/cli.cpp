@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <climits>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -52,13 +53,15 @@ char g_program[256] = "ltl";
 void usage(const std::string& program, const std::string& default_config, FILE* to = stderr) {
   std::fprintf(to,
                "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume | --init FILE]"
-               " [--stop-after N] [-v | -q]\n"
+               " [--stop-after N] [--checkpoint SECONDS] [-v | -q]\n"
                "  -o FILE         results file (default: results/<name>.h5)\n"
                "  --set key=value override a configuration value, e.g. --set algorithm.R=4\n"
                "  --resume        continue from the last step stored in the results file\n"
                "  --init FILE     start from the last step of FILE, a results file computed on\n"
                "                  another mesh of the same body (nested start)\n"
                "  --stop-after N  compute N more steps and stop (the file can be resumed)\n"
+               "  --checkpoint S  save the iterate of the step in progress every S seconds and\n"
+               "                  when interrupted (not a result); --resume continues from it\n"
                "  -v / -q         print every iteration / print nothing\n",
                program.c_str(), default_config.empty() ? "CONFIG.toml" : "[CONFIG.toml]");
 }
@@ -70,7 +73,9 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
-    if ((a == "-o" || a == "--set" || a == "--stop-after" || a == "--init") && !has_value) {
+    if ((a == "-o" || a == "--set" || a == "--stop-after" || a == "--init" ||
+         a == "--checkpoint") &&
+        !has_value) {
       std::fprintf(stderr, "%s: %s needs a value\n", program, a.c_str());
       return 2;
     }
@@ -102,6 +107,19 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
         return 2;
       }
       options.stop_after = static_cast<int>(n);
+    } else if (a == "--checkpoint") {
+      // Seconds of wall time between two saves of a step's iterate: a number > 0 ("10m" and
+      // "0" are refused: 0 would save at every iteration, a rate nobody wants by accident).
+      const char* text = argv[++i];
+      char* end = nullptr;
+      errno = 0;
+      const double t = std::strtod(text, &end);
+      if (end == text || *end != '\0' || errno == ERANGE || !(t > 0) || !std::isfinite(t)) {
+        std::fprintf(stderr, "%s: --checkpoint '%s': needs a number of seconds > 0\n", program,
+                     text);
+        return 2;
+      }
+      options.checkpoint_seconds = t;
     } else if (a == "-v") {
       options.verbosity = 2;
     } else if (a == "-q") {

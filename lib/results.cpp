@@ -106,7 +106,17 @@ void ResultsFile::append(const StepData& step, const std::string& status) {
 }
 
 void ResultsFile::save_unconverged(const StepData& step, const std::string& status) {
-  if (!file_) fail(path_, "save_unconverged on a closed results file");
+  save_iterate(step, status, nullptr);
+}
+
+void ResultsFile::save_checkpoint(const StepData& step, double load_factor,
+                                  const std::string& status) {
+  save_iterate(step, status, &load_factor);
+}
+
+void ResultsFile::save_iterate(const StepData& step, const std::string& status,
+                               const double* checkpoint_factor) {
+  if (!file_) fail(path_, "saving an iterate to a closed results file");
   const layout::Sizes n{dim_, num_nodes_, num_cells_, num_points_, contact_};
   layout::check_step(step, n, path_);
   const std::string g = "/unconverged/" + layout::step_name(step.p);
@@ -122,6 +132,15 @@ void ResultsFile::save_unconverged(const StepData& step, const std::string& stat
   if (exists(f, g, path_))
     ok(H5Ldelete(f, g.c_str(), H5P_DEFAULT), path_, cat("cannot replace ", g));
   layout::write_step(f, g, step, false, n, path_);
+  if (checkpoint_factor) {
+    Handle group = open_group(f, g, path_);
+    write_scalar_attr<int>(group.get(), "checkpoint", 1, path_, g);
+    write_scalar_attr<double>(group.get(), "load_factor", *checkpoint_factor, path_, g);
+    write_string_attr(group.get(), "note",
+                      "NOT A RESULT: the iterate of a time step still iterating when it was saved "
+                      "(a checkpoint, ltl_run --checkpoint); --resume continues the step from it",
+                      path_, g);
+  }
   if (!status.empty()) write_status(f, status, path_);
   commit();
 }
@@ -135,6 +154,11 @@ void ResultsFile::set_status(const std::string& status) {
 std::optional<StoredStep> ResultsFile::read_last_step(const std::string& path) {
   Handle f = open_committed(path);
   return layout::read_last_step(f.get(), path);
+}
+
+std::optional<StoredStep> ResultsFile::read_checkpoint(const std::string& path, int p) {
+  Handle f = open_committed(path);
+  return layout::read_checkpoint(f.get(), p, path);
 }
 
 StoredMesh ResultsFile::read_mesh(const std::string& path) {

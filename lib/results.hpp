@@ -140,6 +140,7 @@ struct StoredStep {
   State state;  ///< u, E, lambda, e, beta, lambda_c in the solver's layouts
   int iterations = 0;
   std::map<std::string, double> measures;  ///< /steps/N/measures (empty in older files)
+  double load_factor = 1;  ///< a checkpoint's (read_checkpoint): the load factor it iterated at
 };
 
 /// The mesh of a results file (for a start from another mesh, lib/nested_start.hpp): /mesh/X,
@@ -175,6 +176,12 @@ class ResultsFile {
   /// as /unconverged/NNNNNN (attribute unconverged = 1; replaced if present), never as a result:
   /// /steps and the XDMF files are unchanged. Sets the root "status" in the same commit.
   void save_unconverged(const StepData& step, const std::string& status);
+  /// Saves the iterate of step `step.p`, still iterating at the load factor `load_factor`
+  /// (--checkpoint), as /unconverged/NNNNNN with attributes checkpoint = 1 and load_factor
+  /// (replacing what is there), never as a result: /steps and the XDMF files are unchanged. Sets
+  /// the root "status" in the same commit. --resume continues the step from it; the step's result
+  /// supersedes it (append deletes it), a divergence replaces it (save_unconverged).
+  void save_checkpoint(const StepData& step, double load_factor, const std::string& status);
   /// Sets the root attribute "status" (e.g. "running", "complete",
   /// "diverged at step 12: iteration cap reached") and flushes.
   void set_status(const std::string& status);
@@ -184,6 +191,9 @@ class ResultsFile {
   /// missing file, not HDF5, not a results file (no /mesh or /steps group), bad datasets.
   /// Without a contact surface, e and lambda_c are dim x 0 and beta is empty.
   static std::optional<StoredStep> read_last_step(const std::string& path);
+  /// The checkpoint of step p in `path` (save_checkpoint), with its load factor and iterations;
+  /// nullopt when there is none (no /unconverged/NNNNNN, or a diverged step's iterate there).
+  static std::optional<StoredStep> read_checkpoint(const std::string& path, int p);
   /// The mesh stored in `path` (errors name the file, as read_last_step's).
   static StoredMesh read_mesh(const std::string& path);
   /// Reads root attribute `name` (empty string if absent; an Error if the file cannot be read).
@@ -192,6 +202,9 @@ class ResultsFile {
  private:
   ResultsFile() = default;
   void commit();  ///< commits the change and rewrites the XDMF files
+  /// save_unconverged and save_checkpoint (checkpoint_factor: null for a diverged step).
+  void save_iterate(const StepData& step, const std::string& status,
+                    const double* checkpoint_factor);
   std::string path_;
   std::unique_ptr<CommittedFile> file_;
   std::string xdmf_, contact_xdmf_;  ///< the XDMF texts written last

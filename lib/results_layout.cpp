@@ -524,12 +524,10 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
                     file, g + "/history");
 }
 
-std::optional<StoredStep> read_last_step(hid_t f, const std::string& path) {
-  expect_results_file(f, path);
-  const std::vector<std::string> names = step_names(f, path);
-  if (names.empty()) return std::nullopt;
+namespace {
+/// The attributes p, t, iterations and the state of the step group g (a result or a checkpoint).
+StoredStep read_step_group(hid_t f, const std::string& g, const std::string& path) {
   const Sizes n = sizes_of(f, path);
-  const std::string g = "/steps/" + names.back();
   StoredStep out;
   {
     Handle group = open_group(f, g, path);
@@ -537,7 +535,8 @@ std::optional<StoredStep> read_last_step(hid_t f, const std::string& path) {
     out.t = read_scalar_attr<double>(group.get(), "t", path, g);
     out.iterations = read_scalar_attr<int>(group.get(), "iterations", path, g);
   }
-  if (step_name(out.p) != names.back()) fail(path, cat("group ", g, " has attribute p = ", out.p));
+  if (g.substr(g.rfind('/') + 1) != step_name(out.p))
+    fail(path, cat("group ", g, " has attribute p = ", out.p));
   if (exists(f, g + "/measures", path))
     for (const std::string& name : link_names(f, g + "/measures", path)) {
       const Array<double> a = read_array<double>(f, g + "/measures/" + name, path);
@@ -563,6 +562,31 @@ std::optional<StoredStep> read_last_step(hid_t f, const std::string& path) {
       v = tensors_from(a.data, count, n.dim);
     set_state_field(s, row.name, v);
   }
+  return out;
+}
+}  // namespace
+
+std::optional<StoredStep> read_last_step(hid_t f, const std::string& path) {
+  expect_results_file(f, path);
+  const std::vector<std::string> names = step_names(f, path);
+  if (names.empty()) return std::nullopt;
+  return read_step_group(f, "/steps/" + names.back(), path);
+}
+
+std::optional<StoredStep> read_checkpoint(hid_t f, int p, const std::string& path) {
+  expect_results_file(f, path);
+  const std::string g = "/unconverged/" + step_name(p);
+  if (!exists(f, g, path)) return std::nullopt;
+  double factor = 1;
+  {
+    Handle group = open_group(f, g, path);
+    if (open_scalar_attr(group.get(), "checkpoint", path, g).get() < 0 ||
+        read_scalar_attr<int>(group.get(), "checkpoint", path, g) != 1)
+      return std::nullopt;  // a diverged step's iterate: never continued from
+    factor = read_scalar_attr<double>(group.get(), "load_factor", path, g);
+  }
+  StoredStep out = read_step_group(f, g, path);
+  out.load_factor = factor;
   return out;
 }
 

@@ -49,6 +49,10 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
                 const std::string& file);
 /// The last complete step of an open results file (nullopt if it has none).
 std::optional<StoredStep> read_last_step(hid_t f, const std::string& file);
+/// The checkpoint of step p (/unconverged/NNNNNN with attribute checkpoint = 1, written by
+/// ResultsFile::save_checkpoint): nullopt when the group is absent or holds a diverged step's
+/// iterate.
+std::optional<StoredStep> read_checkpoint(hid_t f, int p, const std::string& file);
 
 /// The mesh of an open results file (ResultsFile::read_mesh).
 StoredMesh read_mesh(hid_t f, const std::string& file);

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <optional>
 
 #include "config.hpp"
@@ -189,17 +190,33 @@ void check_load_scale(const Solver& solver, double load_scale, int p) {
 }
 
 /// One solve of step p at the load factor `factor` from `state`: ALG2 (then Newton), the
-/// equilibrium check and the admissibility check. Prints iteration progress only.
-TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int verbosity) {
+/// equilibrium check and the admissibility check. Prints iteration progress only. beta_prev:
+/// beta_{p-1} when `state` is not the step's start (a checkpoint continued), else state.beta.
+/// checkpoints: the iterate saved every `every` seconds and at a signal, its iteration count
+/// after `prior` iterations of an earlier run.
+TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int verbosity,
+                         const Eigen::VectorXd* beta_prev_given = nullptr,
+                         const StepCheckpoints* checkpoints = nullptr, int prior = 0) {
   const Problem& problem = solver.problem();
   const int P = problem.time.steps;
   // LoadRamp, or a substep of its increment: the dead loads and the prescribed displacements.
   solver.set_load_factor(factor);
   const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
   check_load_scale(solver, load_scale, p);
-  const Eigen::VectorXd beta_prev = state.beta;
+  const Eigen::VectorXd beta_prev = beta_prev_given ? *beta_prev_given : state.beta;
   IterationRecord shown;  // the first record printed: the rate of the step since then
+  const bool saving = checkpoints && checkpoints->save && checkpoints->every > 0;
+  auto saved = std::chrono::steady_clock::now();
   auto progress = [&](const IterationRecord& r) {
+    // --checkpoint: the iterate (the caller's state, updated in place by ALG2; during a Newton
+    // phase still ALG2's last iterate) every `every` seconds, and before a signal stops the step.
+    if (saving &&
+        (interrupt_signal() != 0 ||
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - saved).count() >=
+             checkpoints->every)) {
+      checkpoints->save(p, factor, state, prior + r.n);
+      saved = std::chrono::steady_clock::now();
+    }
     check_interrupt();  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
     // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
     // time step of an evolution, with the time left at the step's mean rate since its first line.
@@ -276,8 +293,8 @@ int TimeStep::failed_attempts() const {
   return n;
 }
 
-TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity,
-                         const RunClock* clock) {
+TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, const RunClock* clock,
+                         const StepCheckpoints* checkpoints) {
   const Problem& problem = solver.problem();
   const int P = problem.time.steps;
   const auto [f0, f1] = load_increment(problem, p);
@@ -288,7 +305,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity,
   // left, the state goes back to a's and the increment is done as two halves.
   const std::function<bool(double, double, int)> advance = [&](double a, double b, int depth) {
     const State from = depth < kMaxHalvings ? state : State{};
-    step = solve_at_factor(solver, p, b, state, verbosity);
+    step = solve_at_factor(solver, p, b, state, verbosity, nullptr, checkpoints);
     const StepReport& r = step.report;
     attempts.push_back({a, b, r.converged, r.iterations,
                         r.history.empty() ? 0.0 : r.history.back().wall, r.status});
@@ -305,7 +322,12 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity,
     return advance(a, m, depth + 1) && advance(m, b, depth + 1);
   };
   const State start = state;
-  step = solve_at_factor(solver, p, f1, state, verbosity);
+  // A checkpoint of this step (--resume): the first attempt continues from it, beta_{p-1} and
+  // the retries from the step's start.
+  const bool resumed = checkpoints && checkpoints->resume;
+  if (resumed) state = *checkpoints->resume;
+  step = solve_at_factor(solver, p, f1, state, verbosity, resumed ? &start.beta : nullptr,
+                         checkpoints, resumed ? checkpoints->resume_iterations : 0);
   attempts.push_back({f0, f1, step.report.converged, step.report.iterations,
                       step.report.history.empty() ? 0.0 : step.report.history.back().wall,
                       step.report.status});
@@ -369,15 +391,26 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity,
 }
 
 // --resume under mpirun: rank 0's resume point (the next step and the whole state of the last
-// step written, as a serial run stores it) sent to every rank, so that a file written by any
-// number of ranks resumes on any other number. Returns the next step.
-static int resume_across_ranks(State& s, int next_step) {
-  double p = next_step;
-  mpi::broadcast(&p, 1);
+// step written, as a serial run stores it, and the checkpoint of the next step if it continues
+// from one) sent to every rank, so that a file written by any number of ranks resumes on any
+// other number. Returns the next step.
+static void broadcast_state(State& s) {
   for (Eigen::MatrixXd* m : {&s.u, &s.E, &s.lambda, &s.e, &s.lambda_c})
     mpi::broadcast(m->data(), m->size());
   mpi::broadcast(s.beta.data(), s.beta.size());
-  return static_cast<int>(p);
+}
+static int resume_across_ranks(State& s, int next_step, std::optional<State>& iterate,
+                               int& iterations) {
+  double head[3] = {static_cast<double>(next_step), iterate ? 1.0 : 0.0,
+                    static_cast<double>(iterations)};
+  mpi::broadcast(head, 3);
+  broadcast_state(s);
+  if (head[1] > 0) {
+    if (!iterate) iterate = s;  // the shapes; the values follow
+    broadcast_state(*iterate);
+    iterations = static_cast<int>(head[2]);
+  }
+  return static_cast<int>(head[0]);
 }
 
 struct ResultsWriter::File {
@@ -405,7 +438,7 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
   }
   int p0 = 1;
   if (options.resume && !reader) {
-    p0 = resume_across_ranks(start_, 0);
+    p0 = resume_across_ranks(start_, 0, resume_iterate_, resume_iterations_);
   } else if (options.resume) {
     const std::string& out = options.output;
     const ResumePoint resumed = resume_point(problem, out, ids_, start_);
@@ -415,9 +448,53 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
       if (options.verbosity > 0)
         std::printf("%s: resumed with a changed setting: %s\n", problem.name.c_str(),
                     change.c_str());
+    // Step 1 of a run started with --init starts from that file's state again: its beta is
+    // beta_0 of the step, and load subdivision retries from it.
+    const std::string init = ResultsFile::read_attribute(out, "initial_from");
+    if (p0 == 1 && !init.empty() && p0 <= problem.time.steps) {
+      if (!fs::exists(init))
+        throw Error(cat(out, ": cannot resume: its step 1 starts from ", init,
+                        " (--init), which no longer exists; restore that file, or start the run "
+                        "again"));
+      const NestedStart nested = nested_start(solver, init, "initial_from");
+      start_ = nested.state;
+      if (options.verbosity > 0)
+        std::printf("%s: step 1 starts again from %s\n", problem.name.c_str(),
+                    nested.summary().c_str());
+    }
+    // The checkpoint of step p0 (--checkpoint): continued when it was saved at the step's full
+    // load factor (not at a substep of load subdivision) on fields of this problem's shapes.
+    if (auto c = p0 <= problem.time.steps ? ResultsFile::read_checkpoint(out, p0)
+                                          : std::optional<StoredStep>()) {
+      const double f1 = problem.ramp.factor(p0, problem.time.dt);
+      const auto same = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+        return a.rows() == b.rows() && a.cols() == b.cols();
+      };
+      const State& s = c->state;
+      const bool shapes = same(s.u, start_.u) && same(s.E, start_.E) &&
+                          same(s.lambda, start_.lambda) && same(s.e, start_.e) &&
+                          same(s.lambda_c, start_.lambda_c) && s.beta.size() == start_.beta.size();
+      if (!shapes)
+        throw Error(cat(out, ": cannot resume: the checkpoint of step ", p0,
+                        " has the fields of another mesh or contact surface"));
+      if (std::abs(c->load_factor - f1) <= 1e-12 * std::max(1.0, std::abs(f1))) {
+        resume_iterate_ = s;
+        resume_iterations_ = c->iterations;
+        if (options.verbosity > 0)
+          std::printf(
+              "%s: step %d continues from its checkpoint, saved after %d iterations "
+              "(the iteration counts of this run start again at 1)\n",
+              problem.name.c_str(), p0, c->iterations);
+      } else if (options.verbosity > 0) {
+        std::printf(
+            "%s: note: the checkpoint of step %d was saved at load factor %g, a substep of "
+            "the step's %g (load subdivision): not used, the step starts again\n",
+            problem.name.c_str(), p0, c->load_factor, f1);
+      }
+    }
     file_->results = ResultsFile::open(out);
     file_->results->set_status("running");
-    if (mpi::size() > 1) resume_across_ranks(start_, p0);
+    if (mpi::size() > 1) resume_across_ranks(start_, p0, resume_iterate_, resume_iterations_);
   }
   if (!options.init.empty()) {  // --init: the nested start (lib/nested_start.hpp)
     if (options.resume) throw Error("--resume and --init exclude each other");
@@ -468,24 +545,6 @@ void ResultsWriter::append(const TimeStep& step) {
   std::optional<ResultsFile>& file = file_->results;
   const int p = step.p, P = problem.time.steps;
   const StepReport& report = step.report;
-  // The results file, created with the first step written (an existing file stays until then).
-  const auto create_file = [&] {
-    RunInfo info{problem.name, problem.config_text, resolved_configuration(problem),
-                 problem.config_path, library_versions()};
-    for (const auto& [key, value] : ids_) info.attributes[key] = value;
-    info.attributes["code_version"] = code_version();
-    info.attributes["git_version"] = git_version();
-    if (!options_.init.empty()) info.attributes["initial_from"] = options_.init;
-    ResultsOptions options;
-    options.commit = false;
-    options.cell_volume = solver.discretization().cells().vol;
-    std::vector<std::string> groups;  // one per obstacle
-    for (const ContactCondition& cc : problem.contacts) groups.push_back(cc.group);
-    Mesh::Boundary facets;  // several obstacles: their facets, one after the other
-    options.contact =
-        contact_output(problem.mesh, groups, solver.discretization().points(), facets);
-    return ResultsFile::create(output, problem.mesh, info, options);
-  };
   for (const StepAttempt& a : step.attempts) summary_.solver_seconds += a.seconds;
   if (step.attempts.empty())
     summary_.solver_seconds += report.history.empty() ? 0 : report.history.back().wall;
@@ -499,7 +558,7 @@ void ResultsWriter::append(const TimeStep& step) {
     // the run's file, or in a new one when this run has none yet (not over another run's file).
     std::string saved;
     if (!unbalanced && !output.empty() && (file || !fs::exists(output))) {
-      if (!file) file = create_file();
+      if (!file) create_file();
       char group[32];
       std::snprintf(group, sizeof group, "/unconverged/%06d", p);
       saved = cat("; its iteration history and last iterate are saved in ", output, ", group ",
@@ -528,7 +587,7 @@ void ResultsWriter::append(const TimeStep& step) {
   if (!output.empty()) {
     const bool existed = file.has_value();
     try {
-      if (!file) file = create_file();
+      if (!file) create_file();
       if (!data) data = step_data(solver, step);
       file->append(*data, p == P ? "complete" : "running");
     } catch (const Error& e) {
@@ -553,18 +612,98 @@ void ResultsWriter::append(const TimeStep& step) {
   summary_.last_step = p;
 }
 
+// The results file, created with the first step written (an existing file stays until then), or
+// with the first iterate saved (a divergence, a checkpoint) when no file is at the output.
+void ResultsWriter::create_file() {
+  const Problem& problem = problem_;
+  RunInfo info{problem.name, problem.config_text, resolved_configuration(problem),
+               problem.config_path, library_versions()};
+  for (const auto& [key, value] : ids_) info.attributes[key] = value;
+  info.attributes["code_version"] = code_version();
+  info.attributes["git_version"] = git_version();
+  if (!options_.init.empty()) info.attributes["initial_from"] = options_.init;
+  ResultsOptions options;
+  options.commit = false;
+  options.cell_volume = solver_.discretization().cells().vol;
+  std::vector<std::string> groups;  // one per obstacle
+  for (const ContactCondition& cc : problem.contacts) groups.push_back(cc.group);
+  Mesh::Boundary facets;  // several obstacles: their facets, one after the other
+  options.contact = contact_output(problem.mesh, groups, solver_.discretization().points(), facets);
+  file_->results = ResultsFile::create(options_.output, problem.mesh, info, options);
+}
+
+void ResultsWriter::checkpoint(int p, double load_factor, const State& iterate, int iterations) {
+  const std::string& out = options_.output;
+  std::optional<ResultsFile>& file = file_->results;
+  if (out.empty() || checkpoint_refused_) return;
+  const int verbosity = options_.verbosity;
+  if (!file && fs::exists(out)) {  // an earlier run's file: replaced by this run's first step only
+    checkpoint_refused_ = true;
+    if (verbosity > 0)
+      std::printf(
+          "%s: --checkpoint: not saved: %s holds an earlier run's results, which this run "
+          "replaces only when its first step is complete; remove it or choose another -o "
+          "to have checkpoints before then\n",
+          problem_.name.c_str(), out.c_str());
+    return;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  StepReport report;  // the equilibrium measure is not evaluated for a checkpoint: NaN
+  report.force_residual = report.det_error = report.penetration =
+      std::numeric_limits<double>::quiet_NaN();
+  report.iterations = iterations;
+  report.status = cat("checkpoint after ", iterations, " iterations, at load factor ", load_factor,
+                      ": still iterating");
+  StepData data;
+  data.p = p;
+  data.t = p * problem_.time.dt;
+  data.state = &iterate;
+  data.report = &report;
+  char group[32];
+  std::snprintf(group, sizeof group, "/unconverged/%06d", p);
+  try {
+    if (!file) create_file();
+    file->save_checkpoint(
+        data, load_factor,
+        cat("running: step ", p, " in progress; its iterate after ", iterations,
+            " iterations is saved as ", group,
+            " (a checkpoint, not a result): --resume continues the step from it"));
+  } catch (const Error& e) {  // a full disk: the run goes on without this checkpoint
+    if (verbosity > 0)
+      std::printf("%s: --checkpoint: step %d, iteration %d not saved (%s); the run goes on\n",
+                  problem_.name.c_str(), p, iterations, e.what());
+    return;
+  }
+  saved_step_ = p;
+  saved_iterations_ = iterations;
+  if (verbosity > 0)
+    std::printf("  checkpoint: step %d after %d iterations saved in %s %s (%.2f s)\n", p,
+                iterations, out.c_str(), group,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  std::fflush(stdout);
+}
+
 void ResultsWriter::interrupted(int p, int signal) {
   std::optional<ResultsFile>& file = file_->results;
   const std::string& out = options_.output;
   std::string kept = out.empty()       ? "nothing was to be written"
                      : fs::exists(out) ? cat("no step was written; ", out, " is unchanged")
                                        : cat("no step was written (no ", out, ")");
+  // A checkpoint of step p saved by this run (--checkpoint): --resume continues from it.
+  const std::string saved =
+      saved_step_ == p
+          ? cat("; step ", p, "'s iterate after ", saved_iterations_,
+                " iterations is saved (a checkpoint): --resume continues the step from it")
+          : "";
   if (file) {
-    kept = cat(out, " keeps steps 1..", p - 1,
-               " (status 'interrupted ...'); continue the run with --resume");
+    kept =
+        cat(out, p > 1 ? cat(" keeps steps 1..", p - 1) : std::string(" holds no completed step"),
+            " (status 'interrupted ...'); continue the run with --resume", saved);
     try {
-      file->set_status(cat("interrupted by ", signal_name(signal), " during step ", p,
-                           "; steps 1..", p - 1, " are complete (continue with --resume)"));
+      file->set_status(
+          cat("interrupted by ", signal_name(signal), " during step ", p, "; ",
+              p > 1 ? cat("steps 1..", p - 1, " are complete") : std::string("no step is complete"),
+              " (continue with --resume)", saved));
     } catch (const Error& e) {
       kept = cat(out, " keeps steps 1..", p - 1, " (its status could not be updated: ", e.what(),
                  "); continue with --resume");
@@ -590,11 +729,18 @@ RunSummary run(Solver& solver, const RunOptions& options,
   ResultsWriter results(solver, options);
   State state = results.start_state();
   const RunClock clock{std::chrono::steady_clock::now(), results.next_step(), results.last_step()};
+  StepCheckpoints checkpoints;  // --checkpoint, and the one --resume continues from
+  checkpoints.every = options.checkpoint_seconds;
+  checkpoints.save = [&results](int p, double f, const State& s, int n) {
+    results.checkpoint(p, f, s, n);
+  };
   for (int p = results.next_step(); p <= results.last_step(); ++p) {  // (2.1)
     TimeStep step;
+    checkpoints.resume = p == results.next_step() ? results.resume_iterate() : nullptr;
+    checkpoints.resume_iterations = results.resume_iterations();
     try {
       check_interrupt();
-      step = solve_time_step(solver, p, state, options.verbosity, &clock);
+      step = solve_time_step(solver, p, state, options.verbosity, &clock, &checkpoints);
     } catch (const Interrupted& i) {
       results.interrupted(p, i.signal());
     }

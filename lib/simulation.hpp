@@ -12,6 +12,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,10 @@ struct RunOptions {
   /// --init: start from the last step of this results file, computed on another mesh of the
   /// same body (lib/nested_start.hpp); the run computes its own steps 1..P. Not with resume.
   std::string init;
+  /// --checkpoint: > 0, the iterate of the step in progress is saved in `output` every this many
+  /// seconds of wall time and when the run is interrupted, as /unconverged/NNNNNN with attribute
+  /// checkpoint = 1 (never a result); --resume continues the step from it. 0: not saved.
+  double checkpoint_seconds = 0;
 };
 
 struct RunSummary {
@@ -99,8 +104,20 @@ struct RunClock {
   std::chrono::steady_clock::time_point start;  ///< when the first step of this run started
   int first = 1, last = 1;                      ///< the steps this run computes
 };
+/// Checkpoints of the step in progress (RunOptions::checkpoint_seconds): `save` is called with
+/// the iterate every `every` seconds of wall time of a solve and when a signal arrives (before the
+/// step stops); `resume`, when not null, is the iterate of this step saved by an earlier run at the
+/// step's full load factor after `resume_iterations` iterations: the step continues from it
+/// (beta_{p-1} and the retries of load subdivision still come from `state`, the step's start).
+struct StepCheckpoints {
+  double every = 0;
+  std::function<void(int p, double load_factor, const State& iterate, int iterations)> save;
+  const State* resume = nullptr;
+  int resume_iterations = 0;
+};
 TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity = 1,
-                         const RunClock* clock = nullptr);
+                         const RunClock* clock = nullptr,
+                         const StepCheckpoints* checkpoints = nullptr);
 
 /// The results file of a run (lib/results.hpp layout) and its bookkeeping:
 ///  - the output path is checked (never over an input of the run, a directory or a file that is
@@ -141,6 +158,16 @@ class ResultsWriter {
   /// lock is released when the writer is destroyed, so the file can be resumed at once.
   [[noreturn]] void interrupted(int p, int signal);
 
+  /// --checkpoint: saves the iterate of step p, iterating at `load_factor` after `iterations`
+  /// iterations, in the results file (ResultsFile::save_checkpoint; created when this run has
+  /// none yet, never over an earlier run's file), and says so on the console. A failed save is
+  /// a warning, not the end of the run. Nothing without an output (the ranks other than 0).
+  void checkpoint(int p, double load_factor, const State& iterate, int iterations);
+  /// On --resume, the checkpoint of next_step() to continue from (null: none, or not usable), and
+  /// the iterations it was saved after.
+  const State* resume_iterate() const { return resume_iterate_ ? &*resume_iterate_ : nullptr; }
+  int resume_iterations() const { return resume_iterations_; }
+
   /// Marks a stopped run "stopped after step p" (or a resumed finished run "complete") and
   /// returns the summary, with `last` the last converged state.
   RunSummary finish(const State& last);
@@ -155,6 +182,12 @@ class ResultsWriter {
   State start_;
   int first_ = 1, last_ = 0;
   RunSummary summary_;
+  std::optional<State> resume_iterate_;  ///< resume_iterate()
+  int resume_iterations_ = 0;
+  int saved_step_ = 0, saved_iterations_ = 0;  ///< the last checkpoint saved by this run
+  bool checkpoint_refused_ = false;            ///< an earlier run's file is at the output
+  /// The results file, created (mesh, configuration, contact surface) when this run has none.
+  void create_file();
 };
 
 /// [LTL87 (2.1)-(2.2)] Backward Euler in beta: for p = 1..P, start from step p-1's
