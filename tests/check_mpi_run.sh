@@ -6,7 +6,8 @@
 # same first step, on 1 rank: step 2 takes the serial iteration count and ends within 1e-8 of the
 # serial u (relative), in both files. --init (the nested start) under mpirun -n 2 is refused
 # with a message for plain ALG2 (a rank holds its own cells only) and runs with the Newton phase
-# (the whole discretization on every rank), within 1e-8 of one process.
+# (the whole discretization on every rank), within 1e-8 of one process. --checkpoint: a serial
+# run stopped in its step resumes on 2 ranks from its checkpoint, the counts adding up.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -74,6 +75,35 @@ d = np.abs(a - b).max() / np.abs(a).max()
 print("--init with Newton, 2 ranks against one process: relative difference in u %.3g" % d)
 assert d <= 1e-8, d
 PY
+# --checkpoint: a serial run of Fig 5 (plain ALG2) stopped by SIGTERM in the middle of its step,
+# resumed on 2 ranks from its checkpoint: the iterations before and after add up to the
+# uninterrupted count; and a 2-rank run saving checkpoints (rank 0 writes) takes that count.
+f5="$src/experiments/fig5/fig5.toml"
+alg2='algorithm.solver="alg2"'
+"$run" "$f5" --set "$alg2" -o "$tmp/f5.h5" > "$tmp/f5.txt" || fail "serial Fig 5"
+full=$(grep '^step' "$tmp/f5.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1/')
+"$mpiexec" -n 2 --oversubscribe "$run" "$f5" --set "$alg2" --checkpoint 0.001 -o "$tmp/f5c.h5" \
+  > "$tmp/f5c.txt" || fail "mpirun -n 2 ltl_run --checkpoint"
+grep -q "checkpoint: step 1 after" "$tmp/f5c.txt" || fail "no checkpoint saved on 2 ranks"
+[ "$(grep '^step' "$tmp/f5c.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1/')" = "$full" ] ||
+  fail "2 ranks with --checkpoint: not the serial $full iterations"
+for attempt in 1 2 3; do
+  rm -f "$tmp/k.h5"
+  "$run" "$f5" --set "$alg2" --checkpoint 0.001 -q -o "$tmp/k.h5" 2> "$tmp/k.err" &
+  pid=$!
+  i=0
+  while [ ! -f "$tmp/k.h5" ] && [ $i -lt 2000 ]; do sleep 0.005; i=$((i + 1)); done
+  kill -TERM $pid 2> /dev/null
+  wait $pid
+  grep -q "is saved (a checkpoint)" "$tmp/k.err" && break
+  [ $attempt = 3 ] && fail "the step always finished before SIGTERM"
+done
+"$mpiexec" -n 2 --oversubscribe "$run" "$f5" --set "$alg2" --resume -o "$tmp/k.h5" \
+  > "$tmp/k.txt" || fail "mpirun -n 2 ltl_run --resume from a checkpoint"
+before=$(sed -n 's/.*continues from its checkpoint, saved after \([0-9]\+\) iterations.*/\1/p' "$tmp/k.txt")
+after=$(grep '^step' "$tmp/k.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1/')
+echo "Fig 5 stopped after the checkpoint of iteration $before, resumed on 2 ranks for $after; uninterrupted $full"
+[ -n "$before" ] && [ $((before + after)) = "$full" ] || fail "checkpoint resumed on 2 ranks: $before + $after, not $full"
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"
