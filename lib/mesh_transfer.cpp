@@ -68,6 +68,9 @@ PointLocator::PointLocator(const Mesh& mesh) : mesh_(mesh), dim_(mesh.dim) {
     }
     size_(c) = (hi.row(c) - lo.row(c)).norm();
   }
+  const double margin = box_margin(mesh);
+  box_lo_ = lo.array().colwise() - margin * size_.array();
+  box_hi_ = hi.array().colwise() + margin * size_.array();
   const Eigen::RowVectorXd glo = lo.colwise().minCoeff(), ghi = hi.colwise().maxCoeff();
   // About one cell per bucket: the bucket edge h with (box volume) / h^d = #cells.
   const Eigen::RowVectorXd extent = (ghi - glo).cwiseMax(1e-12 * (ghi - glo).maxCoeff());
@@ -160,9 +163,31 @@ PointLocator::Hit PointLocator::locate(const Eigen::VectorXd& x) const {
   const Eigen::Vector3i b = bucket_of(x);
   Hit best;
   best.distance = std::numeric_limits<double>::infinity();
+  // The cell that holds x is one of its bucket's (its box covers x's bucket) and its widened box
+  // holds x: those cells first, in the bucket's order, so that the answer is the one of the full
+  // search below; the projections onto the others (each a Newton iteration) only when x lies in
+  // no cell (outside the mesh: the closest cell).
+  const int d = dim_;
+  for (int k = start_[bucket(b)]; k < start_[bucket(b) + 1]; ++k) {
+    const int c = cells_[k];
+    if (((x.head(d).transpose().array() < box_lo_.row(c).array()) ||
+         (x.head(d).transpose().array() > box_hi_.row(c).array()))
+            .any())
+      continue;
+    const Hit h = project(c, x);
+    if (h.inside()) return h;
+  }
+  // x is in no cell: the closest one. A cell no nearer to x than its widened box (which holds it)
+  // is not projected onto when that box is already as far as the best so far.
   auto consider = [&](int bk) {
     for (int k = start_[bk]; k < start_[bk + 1]; ++k) {
-      const Hit h = project(cells_[k], x);
+      const int c = cells_[k];
+      const double gap = (box_lo_.row(c).transpose() - x.head(d))
+                             .cwiseMax(x.head(d) - box_hi_.row(c).transpose())
+                             .cwiseMax(0.0)
+                             .norm();
+      if (gap >= best.distance) continue;
+      const Hit h = project(c, x);
       if (h.distance < best.distance) best = h;
       if (best.inside()) return true;
     }

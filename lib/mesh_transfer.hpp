@@ -38,6 +38,10 @@ class PointLocator {
   /// else the closest among those of the surrounding buckets (3^dim of them, widened until one
   /// holds a cell).
   Hit locate(const Eigen::VectorXd& x) const;
+  /// The widening of a cell's box in the test of locate(), relative to its size: round-off for
+  /// an H8 cell (trilinear: the cell lies in its nodes' convex hull), room for a P2 cell's curved
+  /// edges beyond its nodes' box (a quarter of its size).
+  static double box_margin(const Mesh& mesh) { return mesh.nodes_per_cell() == 8 ? 1e-9 : 0.25; }
 
   /// The value at `hit` of a nodal field (#nodes x k): sum_a N_a(xi) field(cell node a, :).
   Eigen::RowVectorXd evaluate(const Eigen::MatrixXd& field, const Hit& hit) const;
@@ -57,6 +61,9 @@ class PointLocator {
   Eigen::Vector3i n_ = Eigen::Vector3i::Ones();  ///< buckets per direction (1 beyond dim)
   std::vector<int> start_, cells_;               ///< CSR: the cells of bucket b
   Eigen::VectorXd size_;                         ///< per cell, the diagonal of its box
+  /// Per cell, its box widened by a margin (box_margin): a point outside it is not in the cell,
+  /// so locate() projects onto the cells whose box holds the point first.
+  Eigen::MatrixXd box_lo_, box_hi_;
 };
 
 }  // namespace ltl
