@@ -8,6 +8,7 @@
 
 #include "cofactor.hpp"
 #include "error.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
@@ -26,6 +27,7 @@ Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(k
   dim_ = disc.dim();
   const int d = dim_, nc = disc.num_cells(), nn = disc.num_nodes();
   npc_ = static_cast<int>(mesh.cells.cols());
+  c1_ = nc;
   incompressible_ = disc.split().incompressible();
   nodes_.resize(static_cast<std::size_t>(nc) * npc_);
   const CellOperators& ops = disc.cells();
@@ -138,6 +140,14 @@ Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(k
       for (int b : point_dofs_[k]) point_pos_[k].push_back(a >= b ? position(a, b) : -1);
 }
 
+void Newton::set_distributed(bool on) {
+  distributed_ = on;
+  split_ = on && mpi::size() > 1;
+  const std::vector<int> b = mpi::blocks(disc_.num_cells(), split_ ? mpi::size() : 1);
+  const int r = split_ ? mpi::rank() : 0;
+  c0_ = b[r], c1_ = b[r + 1];
+}
+
 Newton::Unknowns Newton::unknowns(const State& s) const {
   const int nc = disc_.num_cells();
   Unknowns x;
@@ -189,8 +199,8 @@ void Newton::to_state(const Unknowns& x, State& s) const {
 // sum_k w_k cof F_k : grad v and, times -p_e, its Hessian sum_k w_k dcof F_k[grad du] : grad v.
 template <int d>
 void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G, Triplets* K,
-                      Triplets* B, const CellSink* on_cell) const {
-  const int nc = disc_.num_cells(), n = npc_;
+                      Triplets* B, const CellSink* on_cell, bool own) const {
+  const int n = npc_, e0 = own ? c0_ : 0, e1 = own ? c1_ : disc_.num_cells();
   const Material& m = disc_.split();
   const Eigen::VectorXd& vol = disc_.cells().vol;
   Eigen::MatrixXd ue(n, d), Ke(d * n, d * n);
@@ -221,7 +231,7 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
         r(nodes ? d * nodes[a] + i : d * a + i) += c * v;
       }
   };
-  for (int e = 0; e < nc; ++e) {
+  for (int e = e0; e < e1; ++e) {
     const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
     for (int a = 0; a < n; ++a) ue.row(a) = x.u.row(nodes[a]);
     const Eigen::MatrixXd& gb = gbar_[e];
@@ -284,10 +294,15 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
   const int d = dim_, nn = disc_.num_nodes();
   Ru.setZero(d * nn);
   G.setZero(incompressible_ ? disc_.num_cells() : 0);
+  // On several ranks each sums its cells, then the sums are summed (the terms below are whole).
   if (d == 2)
-    assemble<2>(x, &Ru, &G, nullptr, nullptr);
+    assemble<2>(x, &Ru, &G, nullptr, nullptr, nullptr, split_);
   else
-    assemble<3>(x, &Ru, &G, nullptr, nullptr);
+    assemble<3>(x, &Ru, &G, nullptr, nullptr, nullptr, split_);
+  if (split_) {
+    mpi::sum(Ru.data(), Ru.size());
+    mpi::sum(G.data(), G.size());
+  }
   Eigen::VectorXd uflat(d * nn), Fflat(d * nn);
   for (int a = 0; a < nn; ++a)
     for (int i = 0; i < d; ++i) uflat(d * a + i) = x.u(a, i), Fflat(d * a + i) = F(a, i);
@@ -329,7 +344,7 @@ Eigen::SparseMatrix<double> Newton::constraint_gradient(const Eigen::MatrixXd& u
 
 template <int d>
 double Newton::min_det(const Eigen::MatrixXd& u) const {
-  const int nc = disc_.num_cells(), n = npc_;
+  const int n = npc_;
   double m = std::numeric_limits<double>::infinity();
   // F = I + sum_a u_a (x) g_a for a gradient table g (n x d), without temporaries.
   auto det_F = [&](const int* nodes, const Eigen::MatrixXd& g) {
@@ -339,10 +354,15 @@ double Newton::min_det(const Eigen::MatrixXd& u) const {
         for (int j = 0; j < d; ++j) F(i, j) += u(nodes[a], i) * g(a, j);
     return F.determinant();
   };
-  for (int e = 0; e < nc; ++e) {
+  for (int e = c0_; e < c1_; ++e) {  // the rank's cells (all of them on one rank)
     const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
     m = std::min(m, det_F(nodes, gbar_[e]));
     for (int q = nq_ * e; q < nq_ * (e + 1); ++q) m = std::min(m, det_F(nodes, gq_[q]));
+  }
+  if (split_) {  // the smallest over the ranks
+    double v = -m;
+    mpi::max(&v, 1);
+    m = -v;
   }
   return m;
 }
@@ -574,8 +594,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
 }
 
 template void Newton::assemble<2>(const Unknowns&, Eigen::VectorXd*, Eigen::VectorXd*, Triplets*,
-                                  Triplets*, const CellSink*) const;
+                                  Triplets*, const CellSink*, bool) const;
 template void Newton::assemble<3>(const Unknowns&, Eigen::VectorXd*, Eigen::VectorXd*, Triplets*,
-                                  Triplets*, const CellSink*) const;
+                                  Triplets*, const CellSink*, bool) const;
 
 }  // namespace ltl

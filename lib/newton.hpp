@@ -69,8 +69,11 @@ class Newton {
   void set_glue(const ContactSteps& contact, const Eigen::VectorXd& beta_prev);
   /// The Newton phase of a distributed Solver (Ranks::All; the Solver sets it): its linear
   /// systems are then solved over the ranks (mpi_newton.hpp), unless the PETSc option
-  /// -ltl_mpi_newton_replicated keeps them replicated.
-  void set_distributed(bool on) { distributed_ = on; }
+  /// -ltl_mpi_newton_replicated keeps them replicated. On more than one rank the cell loops of the
+  /// residual, of the tangent of the augmented step and of the det F check run on the rank's
+  /// block of cells (mpi::blocks, ALG2's) and are summed over the ranks, so that every rank holds
+  /// the same whole residual and matrix (the LU step and the Krylov step stay whole).
+  void set_distributed(bool on);
   /// [(2.2)] The beta-derivative of the discrete functional over |G_s|, at e_s = ubar_s:
   ///   g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - beta_prev_s'),
   /// the stationarity of the local step's point problem (6.1)-(6.5) in gamma. Empty without glue.
@@ -114,10 +117,11 @@ class Newton {
   /// Per cell: the residual and constraint into Ru and G, the tangent Ke and the constraint
   /// gradient be (local dof d a + i) as triplets into K and B, and/or handed to on_cell.
   using CellSink = std::function<void(int, const Eigen::MatrixXd&, const Eigen::VectorXd&)>;
+  /// own: the rank's cells only (set_distributed), else every cell.
   template <int d>
   void assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G,
                 std::vector<Eigen::Triplet<double>>* K, std::vector<Eigen::Triplet<double>>* B,
-                const CellSink* on_cell = nullptr) const;
+                const CellSink* on_cell = nullptr, bool own = false) const;
   /// The Newton step by the augmented Lagrangian of its KKT system (solve_kkt in newton.cpp),
   /// with the matrix scattered into the fixed pattern_ (no triplets). False when the augmented
   /// tangent is not positive definite.
@@ -190,7 +194,11 @@ class Newton {
     Eigen::VectorXd beta_prev, a;
   };
   bool glued_ = false;
-  bool distributed_ = false;      ///< set_distributed
+  bool distributed_ = false;  ///< set_distributed
+  /// set_distributed on more than one rank: the cell loops on this rank's cells [c0_, c1_),
+  /// summed over the ranks.
+  bool split_ = false;
+  int c0_ = 0, c1_ = 0;
   bool krylov_ = false;           ///< the constructor's krylov
   std::vector<int> dof_of_free_;  ///< per free index its dof (krylov_ only)
   Glue glue_;

@@ -6,6 +6,7 @@
 #include <chrono>
 
 #include "error.hpp"
+#include "mpi_comm.hpp"
 #include "mpi_newton.hpp"
 #include "newton.hpp"
 #include "newton_krylov.hpp"
@@ -51,7 +52,11 @@ struct Newton::Scatter {
 };
 
 // [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
-// K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_.
+// K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_. On several
+// ranks (split_) each adds its cells' terms, rank 0 the whole ones (the fluctuation, the contact
+// points, the damping), and the values are summed over the ranks before the factorization (every
+// rank then holds the whole matrix); each multiplier sweep sums the cells' part of the right-hand
+// side likewise, and each rank updates its cells' pressures.
 bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
                             const Eigen::VectorXd& G, const Eigen::VectorXd& gap,
                             const std::vector<int>& active, double damping, double rtol, Scatter& w,
@@ -72,16 +77,20 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
     if (np) w.be[e] = be;
   };
   if (d == 2)
-    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
   else
-    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink);
-  for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
+    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
+  const bool lead = !split_ || mpi::rank() == 0;  // adds the terms that are not per cell
+  if (lead)
+    for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
   Eigen::VectorXd diag(nfree_);
   for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
+  if (split_) mpi::sum(diag.data(), nfree_);
   const double kappa = 1e4 * (nfree_ ? diag.cwiseAbs().mean() : 1.0);
   // The constraint rows: W_e = 1 / |B_e|^2 over the free dofs, their outer products.
-  Eigen::VectorXd W(np);
-  for (int e = 0; e < np; ++e) {
+  Eigen::VectorXd W = Eigen::VectorXd::Zero(np);
+  const int e0 = np ? c0_ : 0, e1 = np ? c1_ : 0;  // this rank's cells
+  for (int e = e0; e < e1; ++e) {
     double b2 = 0;
     for (int r = 0; r < dn; ++r)
       if (fdof(e, r) >= 0) b2 += w.be[e](r) * w.be[e](r);
@@ -101,13 +110,15 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
     for (double v : cf) c2 += v * v;
     Wc(k) = 1 / c2;
     const int m = static_cast<int>(cf.size());
-    for (int a = 0; a < m; ++a)
-      for (int b = 0; b < m; ++b)
-        if (point_pos_[k][a * m + b] >= 0)
-          A[point_pos_[k][a * m + b]] += kappa * Wc(k) * cf[a] * cf[b];
+    if (lead)
+      for (int a = 0; a < m; ++a)
+        for (int b = 0; b < m; ++b)
+          if (point_pos_[k][a * m + b] >= 0)
+            A[point_pos_[k][a * m + b]] += kappa * Wc(k) * cf[a] * cf[b];
   }
-  if (damping > 0)
+  if (damping > 0 && lead)
     for (int k = 0; k < nfree_; ++k) A[diag_pos_[k]] += damping * std::abs(diag(k));
+  if (split_) mpi::sum(A, w.A.nonZeros());
   NewtonSolveStats& st = newton_solve_stats();
   auto t0 = std::chrono::steady_clock::now();
   if (w.mumps) {
@@ -146,17 +157,22 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   };
   for (int sweep = 0; sweep < 100; ++sweep) {
     // rhs = r1 + B^T (dp - kappa W r2) - C^T (dmu - kappa_c Wc r3), r2 = G, r3 = -gap.
-    rhs = r1;
-    for (int e = 0; e < np; ++e) {
+    if (lead)
+      rhs = r1;
+    else
+      rhs.setZero();
+    for (int e = e0; e < e1; ++e) {
       const double y = dp(e) - kappa * W(e) * G(e);
       for (int r = 0; r < dn; ++r)
         if (fdof(e, r) >= 0) rhs(fdof(e, r)) += w.be[e](r) * y;
     }
-    for (int k : act) {
-      const double y = dmu[k] - kappa * Wc(k) * (-gap(k));
-      for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
-        rhs(point_dofs_[k][a]) -= point_coef_[k][a] * y;
-    }
+    if (lead)
+      for (int k : act) {
+        const double y = dmu[k] - kappa * Wc(k) * (-gap(k));
+        for (std::size_t a = 0; a < point_dofs_[k].size(); ++a)
+          rhs(point_dofs_[k][a]) -= point_coef_[k][a] * y;
+      }
+    if (split_) mpi::sum(rhs.data(), nfree_);
     if (w.mumps) {
       w.mumps->solve(rhs, du);
     } else {
@@ -166,11 +182,12 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
       st.cholmod_solve_s += seconds_since(t0);
     }
     double worst = 0;
-    for (int e = 0; e < np; ++e) {
+    for (int e = e0; e < e1; ++e) {
       const double c1 = Bdu(e, du) + G(e);
       dp(e) -= kappa * W(e) * c1;
       worst = std::max(worst, std::abs(c1) * std::sqrt(W(e)));
     }
+    if (split_) mpi::max(&worst, 1);  // the points' part is the same on every rank
     for (int k : act) {
       const double c2 = Cdu(k, du) + gap(k);
       dmu[k] += kappa * Wc(k) * c2;
@@ -179,6 +196,7 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
     // Converged when the constraints hold to round-off of the step.
     if (worst <= 1e-13 * std::max(du.cwiseAbs().maxCoeff(), 1e-300)) break;
   }
+  if (split_) mpi::sum(dp.data(), np);  // each rank's cells' pressures, zero elsewhere
   if (!du.allFinite()) return false;
   // dx in the layout of the KKT system: du, dp, then the active points' dmu in order.
   int nA = 0;
