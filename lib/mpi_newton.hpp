@@ -13,10 +13,11 @@
 // The rows are split like the distributed global step's (mpi_global.hpp): the nodes with a free
 // dof in the order of their coordinate along the mesh's longest extent (slabs, slab_order),
 // blocks of them per rank (mpi::blocks), a node's free dofs on its rank; the KKT system's other
-// rows (p, mu, beta) in blocks of their index. Every rank still assembles the whole matrix
-// (replicated assembly) and inserts only its own rows; the right-hand side is whole on every
-// rank and the solution is gathered to every rank (mpi::gather), so that the rest of Newton
-// stays replicated and identical on every rank.
+// rows (p, mu, beta) in blocks of their index. Each rank computes the tangent's terms of its block
+// of cells, the values are summed over the ranks (Newton::augmented_step), and each rank inserts
+// its own rows; the right-hand side is whole on every rank and the solution is gathered to every
+// rank (mpi::gather), so that the rest of Newton stays identical on every rank. The LU's full KKT
+// system is still assembled whole on every rank.
 //
 // Without LTL_WITH_MPI the solvers are not compiled (their constructors throw) and
 // distributed_newton_solves() is false: the serial Newton is unchanged.
