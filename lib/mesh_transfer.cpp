@@ -148,7 +148,18 @@ PointLocator::Hit PointLocator::project(int c, const Eigen::VectorXd& x) const {
     residual();
     const Eigen::MatrixXd J = Xe.transpose() * dN;
     Eigen::Vector3d next = xi;
-    next.head(d) += (J.transpose() * J).ldlt().solve(J.transpose() * r);
+    // On the reference cube (H8) a coordinate at a bound that the descent direction J^T r pushes
+    // outward stays there, and the Gauss-Newton step is taken in the others: clamping the full
+    // step instead stops short of the closest point of a distorted cell.
+    const Eigen::VectorXd g = J.transpose() * r;
+    std::vector<int> free;
+    for (int i = 0; i < d; ++i)
+      if (simplex(m) || !((xi(i) >= 1 && g(i) > 0) || (xi(i) <= -1 && g(i) < 0))) free.push_back(i);
+    if (free.empty()) break;  // a corner of the cube, pushed outward in every coordinate
+    Eigen::MatrixXd Jf(d, static_cast<Eigen::Index>(free.size()));
+    for (std::size_t i = 0; i < free.size(); ++i) Jf.col(i) = J.col(free[i]);
+    const Eigen::VectorXd step = (Jf.transpose() * Jf).ldlt().solve(Jf.transpose() * r);
+    for (std::size_t i = 0; i < free.size(); ++i) next(free[i]) += step(i);
     next = clamp_reference(m, next);
     if (!next.allFinite() || (next - xi).norm() < 1e-13) break;
     xi = next;

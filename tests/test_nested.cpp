@@ -109,6 +109,39 @@ TEST(Nested, InverseMapRecoversRandomPointsOfDistortedHexahedra) {
   }
 }
 
+TEST(Nested, PointsOutsideTheMeshFindTheClosestCell) {
+  // Outside the distorted box (planar faces, interior nodes moved): a point at distance delta
+  // beyond a face, or beyond a corner, is located in no cell, at that distance from the closest
+  // cell, with the field of the closest boundary point: the locator's pruned search of the
+  // closest cell (skipping cells whose box is no nearer than the best so far) finds the nearest.
+  const ltl::Mesh m = ltl::testing::distorted_box(4);
+  const Eigen::MatrixXd u = homogeneous(m.X);
+  const ltl::PointLocator locate(m);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(0.1, 0.9), D(1e-4, 0.1);
+  for (int k = 0; k < 120; ++k) {
+    Eigen::Vector3d on(U(rng), U(rng), U(rng)), x = on;
+    double distance = 0;
+    if (k % 4 == 3) {  // beyond the corner (1, 1, 1)
+      on.setOnes();
+      const Eigen::Vector3d off(D(rng), D(rng), D(rng));
+      x = on + off;
+      distance = off.norm();
+    } else {  // beyond face k % 6 / 2 on its low or high side
+      const int axis = (k / 4) % 3;
+      const bool high = k % 2;
+      on(axis) = high ? 1.0 : 0.0;
+      distance = D(rng);
+      x = on;
+      x(axis) += high ? distance : -distance;
+    }
+    const ltl::PointLocator::Hit hit = locate.locate(x);
+    ASSERT_FALSE(hit.inside()) << "point " << k;
+    EXPECT_NEAR(hit.distance, distance, 1e-9) << "point " << k;
+    EXPECT_LT((locate.evaluate(u, hit) - homogeneous(on.transpose())).norm(), 1e-9) << k;
+  }
+}
+
 TEST(Nested, Eq4_1to4_3_SameMeshStartFromAConvergedStateStopsInOneOrTwoIterations) {
   // A converged state (Newton, force residual <= 1e-6) transferred to the same mesh is the
   // state itself: ALG2 + Anderson stops at once where it needs hundreds of iterations from rest.
