@@ -27,28 +27,15 @@ using ltl::ResultsFile;
 /// ltl_run on Fig 5 with plain ALG2 (902 iterations) and `extra` arguments, in `dir`; stderr into
 /// `err`. Returns the pid (wait == false) or the exit status (wait == true).
 int ltl_run(const fs::path& dir, std::vector<std::string> extra, const fs::path& err, bool wait) {
-  const std::string bin = ltl::testing::binary_path("experiments/ltl_run");
-  std::vector<std::string> args = {bin,
-                                   ltl::testing::source_path("experiments/fig5/fig5.toml"),
+  std::vector<std::string> args = {ltl::testing::source_path("experiments/fig5/fig5.toml"),
                                    "-q",
                                    "-o",
                                    "out.h5",
                                    "--set",
                                    "algorithm.solver=\"alg2\""};
   args.insert(args.end(), extra.begin(), extra.end());
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int null = ::open("/dev/null", O_WRONLY);
-    if (::chdir(dir.c_str()) != 0 || e < 0 || null < 0) _exit(127);
-    ::dup2(e, 2);
-    ::dup2(null, 1);
-    ::execv(bin.c_str(), argv.data());
-    _exit(127);
-  }
+  const pid_t pid =
+      ltl::testing::spawn(ltl::testing::binary_path("experiments/ltl_run"), args, dir, err);
   if (!wait) return pid;
   int status = 0;
   ::waitpid(pid, &status, 0);

@@ -876,21 +876,7 @@ TEST(Hardening, OnlyOurOwnXdmfFilesAreReplaced) {
 
 /// Starts ltl_run in `dir` with `args` (no shell), its stderr into `err`; returns its pid.
 pid_t spawn_run(const fs::path& dir, const std::vector<std::string>& args, const fs::path& err) {
-  const std::string bin = ltl::testing::binary_path("experiments/ltl_run");
-  std::vector<char*> argv{const_cast<char*>(bin.c_str())};
-  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int null = ::open("/dev/null", O_WRONLY);
-    if (::chdir(dir.c_str()) != 0 || e < 0 || null < 0) _exit(127);
-    ::dup2(e, 2);
-    ::dup2(null, 1);
-    ::execv(bin.c_str(), argv.data());
-    _exit(127);
-  }
-  return pid;
+  return ltl::testing::spawn(ltl::testing::binary_path("experiments/ltl_run"), args, dir, err);
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {

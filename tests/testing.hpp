@@ -1,7 +1,9 @@
 // Helpers shared by the tests: paths, and problems built in code.
 #pragma once
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -47,6 +49,28 @@ inline std::string source_path(const std::string& rel) {
 }
 inline std::string binary_path(const std::string& rel) {
   return std::string(LTL_BINARY_DIR) + "/" + rel;
+}
+
+/// Starts the program `bin` with `args` (no shell) in `dir`, its stderr into the file `err` and
+/// its stdout discarded; returns its pid (for waitpid, kill).
+inline pid_t spawn(const std::string& bin, const std::vector<std::string>& args,
+                   const std::filesystem::path& dir, const std::filesystem::path& err) {
+  std::vector<std::string> all{bin};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (::chdir(dir.c_str()) != 0 || e < 0 || null < 0) _exit(127);
+    ::dup2(e, 2);
+    ::dup2(null, 1);
+    ::execv(bin.c_str(), argv.data());
+    _exit(127);
+  }
+  return pid;
 }
 
 /// A fresh temporary directory for one test.
