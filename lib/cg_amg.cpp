@@ -101,6 +101,13 @@ CgAmg::CgAmg(SpMatR&& K, const Eigen::MatrixXd& X, const std::string& what)
   initialize_petsc();
   Impl& m = *impl_;
   m.what = what;
+  {
+    PetscReal eta = kEta;
+    PetscBool set = PETSC_FALSE;
+    if (!PetscOptionsGetReal(nullptr, nullptr, "-ltl_cg_eta", &eta, &set) && set && eta > 0 &&
+        eta < 1)
+      eta_ = eta;
+  }
   if (X.rows() != n_) throw Error(cat(what, ": ", X.rows(), " coordinates for ", n_, " rows"));
   {  // the matrix: PETSc's AIJ on K's own compressed rows (kept in m.csr), no copy of the values
     static_assert(std::is_same<PetscScalar, double>::value, "a real PETSc build is needed");
@@ -207,7 +214,7 @@ int CgAmg::solve(const double* b, double* x) {
   check(VecNorm(m.r, NORM_2, &r0), m.what, "VecNorm");
   check(VecNorm(m.b, NORM_2, &bn), m.what, "VecNorm");
   ++solves_;
-  const double target = std::max(kEta * r0, kFloor * bn);
+  const double target = std::max(eta_ * r0, kFloor * bn);
   if (r0 <= target) return 0;
   check(KSPSetTolerances(m.ksp, 0.0, target, PETSC_DEFAULT, kMaxIterations), m.what,
         "KSPSetTolerances");

@@ -3,7 +3,6 @@
 // and resumed must end in the state of the run that was never stopped, in the same total number
 // of ALG2 iterations: plain ALG2 (4.1)-(4.3) with the paper's stopping test (4.4) depends on its
 // iterate alone, so the continuation is exact.
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
