@@ -102,6 +102,17 @@ namespace {
 using CVec = Eigen::Map<const Eigen::VectorXd>;
 using MVec = Eigen::Map<Eigen::VectorXd>;
 
+/// op(vu, wu) with vu viewing x and wu viewing y: the u block of the KKT vectors, no copy.
+template <class Op>
+PetscErrorCode on_u_block(NewtonKrylov::Impl* m, const double* x, double* y, Op op) {
+  PetscCall(VecPlaceArray(m->vu, x));
+  PetscCall(VecPlaceArray(m->wu, y));
+  PetscCall(op(m->vu, m->wu));
+  PetscCall(VecResetArray(m->vu));
+  PetscCall(VecResetArray(m->wu));
+  return 0;
+}
+
 /// y = M x: y_u = A x_u + G^T x_q, y_q = G x_u.
 PetscErrorCode kkt_mult(Mat M, Vec xv, Vec yv) {
   NewtonKrylov::Impl* m = nullptr;
@@ -110,11 +121,7 @@ PetscErrorCode kkt_mult(Mat M, Vec xv, Vec yv) {
   PetscScalar* ya = nullptr;
   PetscCall(VecGetArrayRead(xv, &xa));
   PetscCall(VecGetArray(yv, &ya));
-  PetscCall(VecPlaceArray(m->vu, xa));
-  PetscCall(VecPlaceArray(m->wu, ya));
-  PetscCall(MatMult(m->A, m->vu, m->wu));
-  PetscCall(VecResetArray(m->vu));
-  PetscCall(VecResetArray(m->wu));
+  PetscCall(on_u_block(m, xa, ya, [m](Vec x, Vec y) { return MatMult(m->A, x, y); }));
   const int n = m->n, k = m->G->rows();
   CVec xu(xa, n), xq(xa + n, k);
   MVec yu(ya, n), yq(ya + n, k);
@@ -138,11 +145,7 @@ PetscErrorCode block_apply(PC pc, Vec rv, Vec yv) {
   yq = m->schur_inv->cwiseProduct(CVec(ra + n, k));
   m->t = CVec(ra, n);
   m->t.noalias() -= m->G->transpose() * yq;
-  PetscCall(VecPlaceArray(m->vu, m->t.data()));
-  PetscCall(VecPlaceArray(m->wu, ya));
-  PetscCall(PCApply(m->amg, m->vu, m->wu));
-  PetscCall(VecResetArray(m->vu));
-  PetscCall(VecResetArray(m->wu));
+  PetscCall(on_u_block(m, m->t.data(), ya, [m](Vec x, Vec y) { return PCApply(m->amg, x, y); }));
   PetscCall(VecRestoreArrayRead(rv, &ra));
   PetscCall(VecRestoreArray(yv, &ya));
   return 0;
@@ -207,11 +210,11 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
   // Our default, unless given: 4 Chebyshev iterations (of Jacobi, GAMG's smoother) on every
   // level, where GAMG's default is 2 (paper_notes/newton.md, "Krylov solves": SSOR does better on
   // small gutters, but its block inverses meet singular node blocks of the coarse operators).
-  for (const auto& [name, value] :
-       {std::pair<const char*, const char*>{"-ltl_newton_amg_mg_levels_ksp_max_it", "4"}}) {
+  {
+    const char* name = "-ltl_newton_amg_mg_levels_ksp_max_it";
     PetscBool given = PETSC_FALSE;
     check(PetscOptionsHasName(nullptr, nullptr, name, &given), "PetscOptionsHasName");
-    if (!given) check(PetscOptionsSetValue(nullptr, name, value), "PetscOptionsSetValue");
+    if (!given) check(PetscOptionsSetValue(nullptr, name, "4"), "PetscOptionsSetValue");
   }
   check(PCSetFromOptions(m.amg), "PCSetFromOptions");
   check(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, m.n, nullptr, &m.vu), "VecCreateSeqWithArray");

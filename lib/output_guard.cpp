@@ -316,12 +316,7 @@ ResumePoint resume_point(const Problem& problem, const std::string& out,
   if (auto last = ResultsFile::read_last_step(out)) {
     const State& s = last->state;
     const State& state = initial;
-    const auto same = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-      return a.rows() == b.rows() && a.cols() == b.cols();
-    };
-    if (!same(s.u, state.u) || !same(s.E, state.E) || !same(s.lambda, state.lambda) ||
-        !same(s.e, state.e) || !same(s.lambda_c, state.lambda_c) ||
-        s.beta.size() != state.beta.size())
+    if (!same_shapes(s, state))
       throw Error(cat(out, ": cannot resume: step ", last->p,
                       " has the fields of another mesh or contact surface (u is ", s.u.rows(),
                       " x ", s.u.cols(), ", this problem's ", state.u.rows(), " x ", state.u.cols(),

@@ -467,14 +467,8 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
     if (auto c = p0 <= problem.time.steps ? ResultsFile::read_checkpoint(out, p0)
                                           : std::optional<StoredStep>()) {
       const double f1 = problem.ramp.factor(p0, problem.time.dt);
-      const auto same = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-        return a.rows() == b.rows() && a.cols() == b.cols();
-      };
       const State& s = c->state;
-      const bool shapes = same(s.u, start_.u) && same(s.E, start_.E) &&
-                          same(s.lambda, start_.lambda) && same(s.e, start_.e) &&
-                          same(s.lambda_c, start_.lambda_c) && s.beta.size() == start_.beta.size();
-      if (!shapes)
+      if (!same_shapes(s, start_))
         throw Error(cat(out, ": cannot resume: the checkpoint of step ", p0,
                         " has the fields of another mesh or contact surface"));
       if (std::abs(c->load_factor - f1) <= 1e-12 * std::max(1.0, std::abs(f1))) {

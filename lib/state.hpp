@@ -20,6 +20,15 @@ struct State {
   Eigen::MatrixXd lambda_c;  ///< #points x dim, multiplier of u = e on Gamma_c (a traction)
 };
 
+/// Do two states have fields of the same shapes (the same mesh and contact surface)?
+inline bool same_shapes(const State& a, const State& b) {
+  const auto same = [](const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
+    return x.rows() == y.rows() && x.cols() == y.cols();
+  };
+  return same(a.u, b.u) && same(a.E, b.E) && same(a.lambda, b.lambda) && same(a.e, b.e) &&
+         same(a.lambda_c, b.lambda_c) && a.beta.size() == b.beta.size();
+}
+
 /// The tensor of cell c (dim x dim) from a transposed-block field.
 inline Eigen::MatrixXd cell_tensor(const Eigen::MatrixXd& field, int c) {
   const auto d = field.cols();

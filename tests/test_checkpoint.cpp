@@ -68,29 +68,34 @@ const Reference& reference() {
 }
 
 /// Starts the run with a checkpoint every millisecond, waits for the first checkpoint of step 1,
-/// then sends `sig`. Returns the exit status (128 + signal when ended by one) and the checkpoint
-/// left; false when the step finished before the signal (the machine too slow to catch it).
+/// then sends `sig`: the exit status (128 + signal when ended by one) and the checkpoint left.
+/// When the step finished before the signal (a machine too slow to catch it), tries again with
+/// the file removed, three times at most; false when every try finished first.
 bool stop_in_the_middle(const fs::path& dir, int sig, int& status, ltl::StoredStep& saved,
                         std::vector<std::string> extra = {}) {
   extra.insert(extra.end(), {"--checkpoint", "0.001"});
-  const pid_t pid = ltl_run(dir, extra, dir / "err", false);
   const std::string out = (dir / "out.h5").string();
-  for (int i = 0; i < 20000; ++i) {
-    if (fs::exists(out)) try {
-        if (ResultsFile::read_checkpoint(out, 1)) break;
-      } catch (const ltl::Error&) {  // created but not yet readable
-      }
-    ::usleep(500);
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    fs::remove(out);
+    const pid_t pid = ltl_run(dir, extra, dir / "err", false);
+    for (int i = 0; i < 20000; ++i) {
+      if (fs::exists(out)) try {
+          if (ResultsFile::read_checkpoint(out, 1)) break;
+        } catch (const ltl::Error&) {  // created but not yet readable
+        }
+      ::usleep(500);
+    }
+    ::kill(pid, sig);
+    int st = 0;
+    ::waitpid(pid, &st, 0);
+    status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    if (!fs::exists(out) || ResultsFile::read_last_step(out)) continue;  // finished first
+    if (const auto c = ResultsFile::read_checkpoint(out, 1)) {
+      saved = *c;
+      return true;
+    }
   }
-  ::kill(pid, sig);
-  int st = 0;
-  ::waitpid(pid, &st, 0);
-  status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-  if (ResultsFile::read_last_step(out)) return false;  // step 1 was complete before the signal
-  const auto c = ResultsFile::read_checkpoint(out, 1);
-  if (!c) return false;
-  saved = *c;
-  return true;
+  return false;
 }
 
 // A run killed (SIGKILL: no handler runs) in the middle of its step keeps the last checkpoint;
@@ -99,68 +104,56 @@ bool stop_in_the_middle(const fs::path& dir, int sig, int& status, ltl::StoredSt
 TEST(Checkpoint, Eq4_4_KilledRunResumesFromItsCheckpointToTheSameStateAndCount) {
   const Reference& ref = reference();
   ASSERT_EQ(ref.iterations, 902);
-  for (int attempt = 0;; ++attempt) {
-    const fs::path dir = ltl::testing::temp_dir("checkpoint_kill");
-    int status = 0;
-    ltl::StoredStep saved;
-    if (!stop_in_the_middle(dir, SIGKILL, status, saved)) {
-      fs::remove_all(dir);
-      ASSERT_LT(attempt, 2) << "the step always finished before SIGKILL";
-      continue;
-    }
-    EXPECT_EQ(status, 128 + SIGKILL);
-    EXPECT_EQ(saved.p, 1);
-    EXPECT_EQ(saved.load_factor, 1.0);
-    ASSERT_GT(saved.iterations, 0);
-    ASSERT_LT(saved.iterations, ref.iterations);
-    const std::string out = (dir / "out.h5").string();
-    // The lock of the killed writer is free: a new process takes it.
-    ASSERT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 0) << read_text(dir / "err");
-    const auto step = ResultsFile::read_last_step(out);
-    ASSERT_TRUE(step);
-    EXPECT_EQ(saved.iterations + step->iterations, ref.iterations)
-        << saved.iterations << " before the kill, " << step->iterations << " after";
-    EXPECT_LE((step->state.u - ref.u).norm(), 1e-13 * ref.u.norm());
-    // The result supersedes the checkpoint; the file says it is complete.
-    EXPECT_FALSE(ResultsFile::read_checkpoint(out, 1));
-    EXPECT_EQ(ResultsFile::read_attribute(out, "status"), "complete");
-    std::printf(
-        "killed after the checkpoint of iteration %d, resumed for %d: %d (uninterrupted %d)\n",
-        saved.iterations, step->iterations, saved.iterations + step->iterations, ref.iterations);
-    fs::remove_all(dir);
-    break;
-  }
+  const fs::path dir = ltl::testing::temp_dir("checkpoint_kill");
+  int status = 0;
+  ltl::StoredStep saved;
+  ASSERT_TRUE(stop_in_the_middle(dir, SIGKILL, status, saved))
+      << "the step always finished before SIGKILL";
+  EXPECT_EQ(status, 128 + SIGKILL);
+  EXPECT_EQ(saved.p, 1);
+  EXPECT_EQ(saved.load_factor, 1.0);
+  ASSERT_GT(saved.iterations, 0);
+  ASSERT_LT(saved.iterations, ref.iterations);
+  const std::string out = (dir / "out.h5").string();
+  // The lock of the killed writer is free: a new process takes it.
+  ASSERT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 0) << read_text(dir / "err");
+  const auto step = ResultsFile::read_last_step(out);
+  ASSERT_TRUE(step);
+  EXPECT_EQ(saved.iterations + step->iterations, ref.iterations)
+      << saved.iterations << " before the kill, " << step->iterations << " after";
+  EXPECT_LE((step->state.u - ref.u).norm(), 1e-13 * ref.u.norm());
+  // The result supersedes the checkpoint; the file says it is complete.
+  EXPECT_FALSE(ResultsFile::read_checkpoint(out, 1));
+  EXPECT_EQ(ResultsFile::read_attribute(out, "status"), "complete");
+  std::printf(
+      "killed after the checkpoint of iteration %d, resumed for %d: %d (uninterrupted %d)\n",
+      saved.iterations, step->iterations, saved.iterations + step->iterations, ref.iterations);
+  fs::remove_all(dir);
 }
 
 // SIGTERM (and Ctrl-C) in the middle of a step saves the iterate at that iteration before the
 // run stops; the message and the file's status say so and how to continue.
 TEST(Checkpoint, Eq4_4_InterruptSavesTheIterateAndSaysHowToContinue) {
   const Reference& ref = reference();
-  for (int attempt = 0;; ++attempt) {
-    const fs::path dir = ltl::testing::temp_dir("checkpoint_term");
-    int status = 0;
-    ltl::StoredStep saved;
-    if (!stop_in_the_middle(dir, SIGTERM, status, saved)) {
-      fs::remove_all(dir);
-      ASSERT_LT(attempt, 2) << "the step always finished before SIGTERM";
-      continue;
-    }
-    EXPECT_EQ(status, 128 + SIGTERM);
-    const std::string msg = read_text(dir / "err");
-    const std::string said = "step 1's iterate after " + std::to_string(saved.iterations) +
-                             " iterations is saved (a checkpoint): --resume continues the step";
-    EXPECT_NE(msg.find(said), std::string::npos) << msg;
-    EXPECT_NE(msg.find("holds no completed step"), std::string::npos) << msg;
-    const std::string out = (dir / "out.h5").string();
-    EXPECT_NE(ResultsFile::read_attribute(out, "status").find(said), std::string::npos);
-    ASSERT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 0) << read_text(dir / "err");
-    const auto step = ResultsFile::read_last_step(out);
-    ASSERT_TRUE(step);
-    EXPECT_EQ(saved.iterations + step->iterations, ref.iterations);
-    EXPECT_LE((step->state.u - ref.u).norm(), 1e-13 * ref.u.norm());
-    fs::remove_all(dir);
-    break;
-  }
+  const fs::path dir = ltl::testing::temp_dir("checkpoint_term");
+  int status = 0;
+  ltl::StoredStep saved;
+  ASSERT_TRUE(stop_in_the_middle(dir, SIGTERM, status, saved))
+      << "the step always finished before SIGTERM";
+  EXPECT_EQ(status, 128 + SIGTERM);
+  const std::string msg = read_text(dir / "err");
+  const std::string said = "step 1's iterate after " + std::to_string(saved.iterations) +
+                           " iterations is saved (a checkpoint): --resume continues the step";
+  EXPECT_NE(msg.find(said), std::string::npos) << msg;
+  EXPECT_NE(msg.find("holds no completed step"), std::string::npos) << msg;
+  const std::string out = (dir / "out.h5").string();
+  EXPECT_NE(ResultsFile::read_attribute(out, "status").find(said), std::string::npos);
+  ASSERT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 0) << read_text(dir / "err");
+  const auto step = ResultsFile::read_last_step(out);
+  ASSERT_TRUE(step);
+  EXPECT_EQ(saved.iterations + step->iterations, ref.iterations);
+  EXPECT_LE((step->state.u - ref.u).norm(), 1e-13 * ref.u.norm());
+  fs::remove_all(dir);
 }
 
 // A run started with --init (the nested start) and stopped in its step 1 starts that step again
@@ -174,28 +167,22 @@ TEST(Checkpoint, Eq4_4_ANestedStartIsContinuedFromItsCheckpoint) {
   fs::rename(dir / "out.h5", dir / "coarse.h5");
   ASSERT_EQ(ltl_run(dir, {"--init", "coarse.h5"}, dir / "err", true), 0) << read_text(dir / "err");
   const int nested = ResultsFile::read_last_step((dir / "out.h5").string())->iterations;
-  for (int attempt = 0;; ++attempt) {
-    fs::remove(dir / "out.h5");
-    int status = 0;
-    ltl::StoredStep saved;
-    if (!stop_in_the_middle(dir, SIGTERM, status, saved, {"--init", "coarse.h5"})) {
-      ASSERT_LT(attempt, 2) << "the step always finished before SIGTERM";
-      continue;
-    }
-    fs::rename(dir / "coarse.h5", dir / "gone.h5");
-    EXPECT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 1);
-    EXPECT_NE(read_text(dir / "err")
-                  .find("its step 1 starts from coarse.h5 (--init), which no "
-                        "longer exists"),
-              std::string::npos)
-        << read_text(dir / "err");
-    fs::rename(dir / "gone.h5", dir / "coarse.h5");
-    ASSERT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 0) << read_text(dir / "err");
-    const auto step = ResultsFile::read_last_step((dir / "out.h5").string());
-    EXPECT_EQ(saved.iterations + step->iterations, nested)
-        << saved.iterations << " + " << step->iterations << " against " << nested;
-    break;
-  }
+  int status = 0;
+  ltl::StoredStep saved;
+  ASSERT_TRUE(stop_in_the_middle(dir, SIGTERM, status, saved, {"--init", "coarse.h5"}))
+      << "the step always finished before SIGTERM";
+  fs::rename(dir / "coarse.h5", dir / "gone.h5");
+  EXPECT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 1);
+  EXPECT_NE(read_text(dir / "err")
+                .find("its step 1 starts from coarse.h5 (--init), which no "
+                      "longer exists"),
+            std::string::npos)
+      << read_text(dir / "err");
+  fs::rename(dir / "gone.h5", dir / "coarse.h5");
+  ASSERT_EQ(ltl_run(dir, {"--resume"}, dir / "err", true), 0) << read_text(dir / "err");
+  const auto step = ResultsFile::read_last_step((dir / "out.h5").string());
+  EXPECT_EQ(saved.iterations + step->iterations, nested)
+      << saved.iterations << " + " << step->iterations << " against " << nested;
   fs::remove_all(dir);
 }
 
