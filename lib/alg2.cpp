@@ -56,8 +56,8 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
     // Its linear systems by GMRES + AMG when the global step is CG + AMG (a factorization would
     // not fit; newton_krylov.hpp), else by CHOLMOD's (or over the ranks MUMPS's) factor.
     const bool krylov = !distributed() && global_ && global_->solver() == GlobalSolver::CgAmg;
-    newton_ = std::make_unique<Newton>(disc_, krylov);
-    newton_->set_distributed(distributed());  // its linear systems over the ranks (mpi_newton)
+    // Distributed: its linear systems over the ranks (mpi_newton), its cells the rank's block.
+    newton_ = std::make_unique<Newton>(disc_, krylov, distributed());
   }
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
 }

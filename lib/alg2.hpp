@@ -46,6 +46,10 @@ struct Holdings {
   double cell_arrays = 0;  ///< dense per-cell arrays: identity, volume rows, the work arrays
   double node_arrays = 0;  ///< dense per-node arrays: dead loads, Dirichlet values, rhs
   double contact = 0;      ///< the contact points' operators and arrays
+  /// With the Newton phase (newton.hpp): its cells (the rank's block on several ranks), their
+  /// data, their positions in the tangent's pattern, and the whole-mesh data it keeps.
+  int newton_cells = 0;
+  double newton_cell_data = 0, newton_positions = 0, newton_whole = 0;
 };
 
 /// What this rank holds and did in a distributed solver (Ranks::All; zeros otherwise).

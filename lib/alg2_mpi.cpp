@@ -260,6 +260,13 @@ Holdings Solver::holdings() const {
                 bytes_of(global_out_.ubar) + bytes_of(w_point_);
     if (dist_) h.contact += bytes_of_sparse(dist_->meanT_own);
   }
+  if (newton_) {
+    const Newton::Holdings n = newton_->holdings();
+    h.newton_cells = n.cells;
+    h.newton_cell_data = n.cell_data;
+    h.newton_positions = n.positions;
+    h.newton_whole = n.whole;
+  }
   return h;
 }
 

@@ -58,14 +58,24 @@ bool distributed_newton_solves() {
 }
 
 struct DistributedCholesky::Impl {};
-DistributedCholesky::DistributedCholesky(NewtonRows) {
+DistributedCholesky::DistributedCholesky(NewtonRows, int, const std::vector<int>&, int,
+                                         const std::vector<int>&) {
   throw Error("the distributed Newton solve needs MPI and PETSc: build with -DLTL_WITH_MPI=ON");
 }
 DistributedCholesky::~DistributedCholesky() = default;
-bool DistributedCholesky::factorize(const Eigen::SparseMatrix<double>&) {
+void DistributedCholesky::zero() {}
+void DistributedCholesky::add(int, const int*, const double*) {}
+void DistributedCholesky::add_entry(int, int, double) {}
+bool DistributedCholesky::owns(int) const {
+  return false;
+}
+bool DistributedCholesky::factorize() {
   return false;
 }
 void DistributedCholesky::solve(const Eigen::VectorXd&, Eigen::VectorXd&) {}
+double DistributedCholesky::owned_nonzeros() const {
+  return 0;
+}
 
 struct DistributedLU::Impl {};
 DistributedLU::DistributedLU() {
@@ -201,36 +211,118 @@ struct DistributedCholesky::Impl {
   NewtonRows rows;
   Factored f;
   bool analyzed = false;
+  std::vector<PetscInt> idx;  ///< add's PETSc indices
 };
 
-DistributedCholesky::DistributedCholesky(NewtonRows rows) : impl_(new Impl{std::move(rows), {}}) {
-  impl_->f.what = "Newton's augmented tangent (MUMPS, distributed)";
+// The owned rows' pattern: row k (a free dof of node a) holds the free dofs of every node that
+// shares a cell with a, both triangles; built from the mesh, without the whole pattern.
+DistributedCholesky::DistributedCholesky(NewtonRows rows, int d, const std::vector<int>& cell_nodes,
+                                         int npc, const std::vector<int>& free_of_dof)
+    : impl_(new Impl{std::move(rows), {}, false, {}}) {
+  Factored& f = impl_->f;
+  f.what = "Newton's augmented tangent (MUMPS, distributed)";
+  f.perm = impl_->rows.perm;
+  f.offset = impl_->rows.offset;
+  const int me = mpi::rank();
+  f.n = f.offset.back(), f.first = f.offset[me], f.own = f.offset[me + 1] - f.first;
+  const int nn = static_cast<int>(free_of_dof.size()) / d;
+  auto owned = [&](int a) {  // does node a have a free dof in this rank's rows?
+    for (int i = 0; i < d; ++i) {
+      const int k = free_of_dof[d * a + i];
+      if (k >= 0 && f.perm[k] >= f.first && f.perm[k] < f.first + f.own) return true;
+    }
+    return false;
+  };
+  std::vector<int> local(nn, -1);
+  int nl = 0;
+  for (int a = 0; a < nn; ++a)
+    if (owned(a)) local[a] = nl++;
+  std::vector<std::vector<int> > near(nl);  // per owned node, the nodes that share a cell with it
+  const int nc = static_cast<int>(cell_nodes.size()) / npc;
+  for (int e = 0; e < nc; ++e)
+    for (int p = 0; p < npc; ++p)
+      if (const int a = local[cell_nodes[e * npc + p]]; a >= 0)
+        near[a].insert(near[a].end(), &cell_nodes[e * npc], &cell_nodes[e * npc] + npc);
+  std::vector<std::vector<PetscInt> > cols(f.own);
+  for (int a = 0; a < nn; ++a) {
+    if (local[a] < 0) continue;
+    std::vector<int>& m = near[local[a]];
+    std::sort(m.begin(), m.end());
+    m.erase(std::unique(m.begin(), m.end()), m.end());
+    std::vector<PetscInt> c;
+    for (int b : m)
+      for (int j = 0; j < d; ++j)
+        if (free_of_dof[d * b + j] >= 0) c.push_back(f.perm[free_of_dof[d * b + j]]);
+    std::sort(c.begin(), c.end());
+    for (int i = 0; i < d; ++i)
+      if (const int k = free_of_dof[d * a + i]; k >= 0) cols[f.perm[k] - f.first] = c;
+    std::vector<int>().swap(m);
+  }
+  f.ia.assign(f.own + 1, 0);
+  for (int r = 0; r < f.own; ++r) f.ia[r + 1] = f.ia[r] + static_cast<PetscInt>(cols[r].size());
+  f.ja.resize(f.ia[f.own]);
+  for (int r = 0; r < f.own; ++r) std::copy(cols[r].begin(), cols[r].end(), &f.ja[f.ia[r]]);
+  f.va.assign(f.ja.size(), 0.0);
+  f.x.assign(f.n, 0.0);
+  check(MatCreateMPIAIJWithArrays(PETSC_COMM_WORLD, f.own, f.own, f.n, f.n, f.ia.data(),
+                                  f.ja.data(), f.va.data(), &f.A),
+        f.what, "MatCreateMPIAIJWithArrays");
+  check(MatCreateVecs(f.A, &f.xv, &f.b), f.what, "MatCreateVecs");
+  check(MatSetOption(f.A, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE), f.what, "MatSetOption");
+  check(MatSetOption(f.A, MAT_SYMMETRIC, PETSC_TRUE), f.what, "MatSetOption");
+  check(MatSetOption(f.A, MAT_SYMMETRY_ETERNAL, PETSC_TRUE), f.what, "MatSetOption");
+  std::vector<PetscInt>().swap(f.ja);  // PETSc holds its copy
+  std::vector<PetscScalar>().swap(f.va);
 }
 DistributedCholesky::~DistributedCholesky() = default;
 
-// [(2.2), (2.7), (1.1)] The augmented tangent of the Newton step (newton_kkt.cpp), analyzed at the
-// first call, factorized numerically at each: positive definite iff MUMPS's LDL' has no
-// negative pivot (the inertia), the condition CHOLMOD's LL' checks in the serial solver.
-bool DistributedCholesky::factorize(const SpMat& L) {
+void DistributedCholesky::zero() {
+  check(MatZeroEntries(impl_->f.A), impl_->f.what, "MatZeroEntries");
+}
+
+void DistributedCholesky::add(int n, const int* free, const double* v) {
+  Impl& m = *impl_;
+  m.idx.resize(n);
+  for (int k = 0; k < n; ++k) m.idx[k] = free[k] >= 0 ? m.f.perm[free[k]] : -1;
+  // v is symmetric: its storage order does not matter; negative indices are left out.
+  check(MatSetValues(m.f.A, n, m.idx.data(), n, m.idx.data(), v, ADD_VALUES), m.f.what,
+        "MatSetValues");
+}
+
+void DistributedCholesky::add_entry(int row, int col, double v) {
+  const Factored& f = impl_->f;
+  check(MatSetValue(f.A, f.perm[row], f.perm[col], v, ADD_VALUES), f.what, "MatSetValue");
+}
+
+bool DistributedCholesky::owns(int k) const {
+  const Factored& f = impl_->f;
+  return f.perm[k] >= f.first && f.perm[k] < f.first + f.own;
+}
+
+double DistributedCholesky::owned_nonzeros() const {
+  return impl_->f.ia.empty() ? 0.0 : static_cast<double>(impl_->f.ia.back());
+}
+
+// [(2.2), (2.7), (1.1)] The augmented tangent of the Newton step (newton_kkt.cpp), its terms
+// summed by the assembly, analyzed at the first call, factorized numerically at each: positive
+// definite iff MUMPS's LDL' has no negative pivot (the inertia), the condition CHOLMOD's LL'
+// checks in the serial solver.
+bool DistributedCholesky::factorize() {
   Impl& m = *impl_;
   Factored& f = m.f;
   NewtonSolveStats& st = stats_;
   auto t0 = std::chrono::steady_clock::now();
+  check(MatAssemblyBegin(f.A, MAT_FINAL_ASSEMBLY), f.what, "MatAssemblyBegin");
+  check(MatAssemblyEnd(f.A, MAT_FINAL_ASSEMBLY), f.what, "MatAssemblyEnd");
   MatFactorInfo info;
   check(MatFactorInfoInitialize(&info), f.what, "MatFactorInfoInitialize");
   if (!m.analyzed) {
-    f.build(L, m.rows.perm, m.rows.offset, true);
-    f.set_values(L);
-    check(MatSetOption(f.A, MAT_SYMMETRIC, PETSC_TRUE), f.what, "MatSetOption");
-    check(MatSetOption(f.A, MAT_SYMMETRY_ETERNAL, PETSC_TRUE), f.what, "MatSetOption");
     f.new_factor(MAT_FACTOR_CHOLESKY);
     check(MatCholeskyFactorSymbolic(f.F, f.A, nullptr, &info), f.what, "MatCholeskyFactorSymbolic");
     m.analyzed = true;
     ++st.mumps_analyses;
     st.mumps_analysis_s += seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
-  } else {
-    f.set_values(L);
   }
   check(MatCholeskyFactorNumeric(f.F, f.A, &info), f.what, "MatCholeskyFactorNumeric");
   ++st.mumps_factorizations;
@@ -240,7 +332,7 @@ bool DistributedCholesky::factorize(const SpMat& L) {
     check(MatGetInertia(f.F, &neg, nullptr, nullptr), f.what, "MatGetInertia");
     ok = neg == 0;
   } else {  // a failed MUMPS instance is not factorized again: analyze afresh next time
-    f.reset();
+    MatDestroy(&f.F);
     m.analyzed = false;
   }
   st.mumps_factor_s += seconds_since(t0);

@@ -49,7 +49,7 @@ struct NewtonSolveStats {
 NewtonSolveStats& newton_solve_stats();
 
 /// Are the distributed solves available to a distributed Solver's Newton phase
-/// (Newton::set_distributed)? In an MPI build, unless the PETSc option
+/// (Newton's constructor, distributed)? In an MPI build, unless the PETSc option
 /// -ltl_mpi_newton_replicated keeps them replicated.
 bool distributed_newton_solves();
 
@@ -62,20 +62,37 @@ struct NewtonRows {
   NewtonRows(const std::vector<int>& free_of_dof, int dim, const Eigen::MatrixXd& X, int extra);
 };
 
-/// The augmented tangent on the free dofs (Newton's pattern: lower triangle, column-major) by
-/// MUMPS over every rank. Collective.
+/// The augmented tangent on the free dofs by MUMPS over every rank, assembled in place: each rank
+/// adds the terms it computes (its cells', and any other) into PETSc's matrix (ADD_VALUES; a term
+/// in another rank's rows travels at the end of the assembly), so that no rank holds the whole
+/// matrix. Its pattern is that of the cells' free dofs (every pair of free dofs of a cell), built
+/// for the owned rows only from the mesh. Collective (except add).
 class DistributedCholesky {
  public:
-  /// The rows of the pattern's matrix (nfree x nfree). Analyzes at the first factorize.
-  explicit DistributedCholesky(NewtonRows rows);
+  /// rows: the PETSc rows of the free dofs; dim dofs per node; cell_nodes: #cells x npc, cell after
+  /// cell; free_of_dof[dim a + i]: the free index of dof i of node a, or -1. Analyzes at the first
+  /// factorize.
+  DistributedCholesky(NewtonRows rows, int dim, const std::vector<int>& cell_nodes, int npc,
+                      const std::vector<int>& free_of_dof);
   ~DistributedCholesky();
   DistributedCholesky(const DistributedCholesky&) = delete;
   DistributedCholesky& operator=(const DistributedCholesky&) = delete;
-  /// The owned rows of A (lower triangle; both triangles inserted), factorized. False when A is
-  /// not positive definite (a negative or zero pivot, or MUMPS failed): the same on every rank.
-  bool factorize(const Eigen::SparseMatrix<double>& A);
+  /// Starts an assembly: every value 0.
+  void zero();
+  /// Adds the symmetric block v (n x n) at the free indices `free` (-1: left out), both triangles.
+  /// Not collective.
+  void add(int n, const int* free, const double* v);
+  /// Adds v at (row, col) (free indices). Not collective.
+  void add_entry(int row, int col, double v);
+  /// Is free index k one of this rank's rows?
+  bool owns(int k) const;
+  /// Ends the assembly and factorizes. False when the matrix is not positive definite (a
+  /// negative or zero pivot, or MUMPS failed): the same on every rank.
+  bool factorize();
   /// x = A^{-1} b, b whole on every rank, x whole on every rank.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+  /// The owned rows' nonzeros (both triangles), for the bytes a rank holds.
+  double owned_nonzeros() const;
 
  private:
   struct Impl;

@@ -9,6 +9,7 @@
 #include "cofactor.hpp"
 #include "error.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_newton.hpp"
 
 namespace ltl {
 
@@ -22,27 +23,55 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(krylov) {
+Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
+    : disc_(disc), distributed_(distributed), krylov_(krylov) {
   const Mesh& mesh = disc.problem().mesh;
   dim_ = disc.dim();
   const int d = dim_, nc = disc.num_cells(), nn = disc.num_nodes();
   npc_ = static_cast<int>(mesh.cells.cols());
-  c1_ = nc;
+  split_ = distributed && mpi::size() > 1;
   incompressible_ = disc.split().incompressible();
   nodes_.resize(static_cast<std::size_t>(nc) * npc_);
-  const CellOperators& ops = disc.cells();
-  gbar_.assign(nc, Eigen::MatrixXd::Zero(npc_, d));
-  for (int e = 0; e < nc; ++e) {
+  for (int e = 0; e < nc; ++e)
     for (int a = 0; a < npc_; ++a) nodes_[e * npc_ + a] = mesh.cells(e, a);
-    // The mean gradients as ALG2 uses them: row d e + j of Gbar at the cell's nodes.
+  free_.assign(static_cast<std::size_t>(d) * nn, 0);
+  for (int i = 0; i < d; ++i)
+    for (int a : disc.dirichlet().fixed[i]) free_[d * a + i] = -1;
+  for (int& f : free_)
+    if (f >= 0) f = nfree_++;
+  // This rank's cells (all of them on one rank): the per-cell data below is built for them.
+  // With the distributed solves a cell goes to the rank of the matrix row of its first free dof
+  // (NewtonRows' slabs), so that its terms land in the rank's own rows but at the slabs'
+  // interfaces; a cell without a free dof, and the cells of the replicated solves, by blocks of
+  // the cell index (ALG2's).
+  const std::vector<int> block = mpi::blocks(nc, split_ ? mpi::size() : 1);
+  const int me = split_ ? mpi::rank() : 0;
+  slot_.assign(nc, -1);
+  if (split_ && distributed_newton_solves()) {
+    const NewtonRows rows(free_, d, mesh.X, 0);
+    for (int e = 0; e < nc; ++e) {
+      int first = -1;
+      for (int r = 0; r < d * npc_; ++r)
+        if (const int k = free_[d * nodes_[e * npc_ + r / d] + r % d]; k >= 0)
+          first = first < 0 ? rows.perm[k] : std::min(first, rows.perm[k]);
+      const bool mine = first >= 0 ? first >= rows.offset[me] && first < rows.offset[me + 1]
+                                   : e >= block[me] && e < block[me + 1];
+      if (mine) slot_[e] = static_cast<int>(cells_.size()), cells_.push_back(e);
+    }
+  } else {
+    for (int e = block[me]; e < block[me + 1]; ++e)
+      slot_[e] = static_cast<int>(cells_.size()), cells_.push_back(e);
+  }
+  const CellOperators& ops = disc.cells();
+  gbar_.assign(cells_.size(), Eigen::MatrixXd::Zero(npc_, d));
+  for (int e : cells_)  // the mean gradients as ALG2 uses them: row d e + j of Gbar
     for (int j = 0; j < d; ++j)
       for (SpMatR::InnerIterator it(ops.Gbar, d * e + j); it; ++it)
         for (int a = 0; a < npc_; ++a)
-          if (mesh.cells(e, a) == it.col()) gbar_[e](a, j) = it.value();
-  }
+          if (mesh.cells(e, a) == it.col()) gbar_[slot_[e]](a, j) = it.value();
   if (incompressible_) {
     if (disc.mean_det()) {
-      for (int e = 0; e < nc; ++e) {
+      for (int e : cells_) {
         int k = 0;
         for_each_quadrature_point(mesh, e, [&](const Eigen::MatrixXd& grad, double w) {
           gq_.push_back(grad);
@@ -53,8 +82,8 @@ Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(k
       }
     } else {
       nq_ = 1;
-      for (int e = 0; e < nc; ++e) {
-        gq_.push_back(gbar_[e]);
+      for (int e : cells_) {
+        gq_.push_back(gbar_[slot_[e]]);
         wq_.push_back(ops.vol(e));
       }
     }
@@ -71,11 +100,6 @@ Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(k
   fluct_.setFromTriplets(t.begin(), t.end());
   fluct_.prune(0.0);
 
-  free_.assign(static_cast<std::size_t>(d) * nn, 0);
-  for (int i = 0; i < d; ++i)
-    for (int a : disc.dirichlet().fixed[i]) free_[d * a + i] = -1;
-  for (int& f : free_)
-    if (f >= 0) f = nfree_++;
   if (const ContactPoints* pts = disc.points()) {
     const double h = std::pow(disc.volume() / nc, 1.0 / d);
     c_ = 0.02 * C1 * pts->area / h;
@@ -100,6 +124,8 @@ Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(k
       if (free_[k] >= 0) dof_of_free_[free_[k]] = k;
     return;
   }
+  // Distributed solves: PETSc's matrix holds the pattern, each rank its rows (mpi_newton.hpp).
+  if (distributed_ && distributed_newton_solves()) return;
   // The pattern of the augmented tangent: every pair of free dofs of a cell (lower triangle), the
   // diagonal; the constraint rows (cells, contact points) and the fluctuation term stay inside.
   const int dn = d * npc_;
@@ -121,12 +147,12 @@ Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(k
     if (it == end || *it != row) throw Error("Newton: an entry outside the tangent's pattern");
     return static_cast<int>(it - pattern_.innerIndexPtr());
   };
-  cell_pos_.assign(static_cast<std::size_t>(nc) * dn * dn, -1);
-  for (int e = 0; e < nc; ++e)
+  cell_pos_.assign(cells_.size() * dn * dn, -1);
+  for (int e : cells_)
     for (int r = 0; r < dn; ++r)
       for (int c = 0; c < dn; ++c)
         if (fdof(e, r) >= 0 && fdof(e, c) >= 0 && fdof(e, r) >= fdof(e, c))
-          cell_pos_[(static_cast<std::size_t>(e) * dn + r) * dn + c] =
+          cell_pos_[(static_cast<std::size_t>(slot_[e]) * dn + r) * dn + c] =
               position(fdof(e, r), fdof(e, c));
   diag_pos_.resize(nfree_);
   for (int k = 0; k < nfree_; ++k) diag_pos_[k] = position(k, k);
@@ -140,12 +166,37 @@ Newton::Newton(const Discretization& disc, bool krylov) : disc_(disc), krylov_(k
       for (int b : point_dofs_[k]) point_pos_[k].push_back(a >= b ? position(a, b) : -1);
 }
 
-void Newton::set_distributed(bool on) {
-  distributed_ = on;
-  split_ = on && mpi::size() > 1;
-  const std::vector<int> b = mpi::blocks(disc_.num_cells(), split_ ? mpi::size() : 1);
-  const int r = split_ ? mpi::rank() : 0;
-  c0_ = b[r], c1_ = b[r + 1];
+Newton::Holdings Newton::holdings() const {
+  Holdings h;
+  h.cells = static_cast<int>(cells_.size());
+  for (const Eigen::MatrixXd& g : gbar_) h.cell_data += 8.0 * g.size();
+  for (const Eigen::MatrixXd& g : gq_) h.cell_data += 8.0 * g.size();
+  h.cell_data += 8.0 * wq_.size();
+  h.positions = 4.0 * cell_pos_.size();
+  auto sparse = [](const SpMat& A) { return 12.0 * A.nonZeros() + 4.0 * (A.outerSize() + 1); };
+  h.whole = 4.0 * (nodes_.size() + free_.size() + diag_pos_.size() + dof_of_free_.size()) +
+            sparse(pattern_) + sparse(fluct_) + 16.0 * fluct_pos_.size();
+  return h;
+}
+
+void Newton::gather_triplets(Triplets& t) const {
+  if (!split_) return;
+  const int P = mpi::size(), me = mpi::rank();
+  std::vector<double> count(P, 0.0);
+  count[me] = static_cast<double>(t.size());
+  mpi::sum(count.data(), P);
+  std::vector<int> offset(P + 1, 0);  // 3 values per triplet: row, column, value
+  for (int r = 0; r < P; ++r) offset[r + 1] = offset[r] + 3 * static_cast<int>(count[r]);
+  std::vector<double> all(offset[P]);
+  double* mine = all.data() + offset[me];
+  for (const Eigen::Triplet<double>& e : t) {
+    *mine++ = e.row(), *mine++ = e.col(), *mine++ = e.value();
+  }
+  mpi::gather(all.data(), offset);
+  t.clear();
+  t.reserve(offset[P] / 3);
+  for (int k = 0; k < offset[P]; k += 3)
+    t.emplace_back(static_cast<int>(all[k]), static_cast<int>(all[k + 1]), all[k + 2]);
 }
 
 Newton::Unknowns Newton::unknowns(const State& s) const {
@@ -200,7 +251,8 @@ void Newton::to_state(const Unknowns& x, State& s) const {
 template <int d>
 void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G, Triplets* K,
                       Triplets* B, const CellSink* on_cell, bool own) const {
-  const int n = npc_, e0 = own ? c0_ : 0, e1 = own ? c1_ : disc_.num_cells();
+  const int n = npc_, nce = own ? static_cast<int>(cells_.size()) : disc_.num_cells();
+  if (!own && split_) throw Error("Newton: the cells of another rank (their data is theirs)");
   const Material& m = disc_.split();
   const Eigen::VectorXd& vol = disc_.cells().vol;
   Eigen::MatrixXd ue(n, d), Ke(d * n, d * n);
@@ -231,10 +283,11 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
         r(nodes ? d * nodes[a] + i : d * a + i) += c * v;
       }
   };
-  for (int e = e0; e < e1; ++e) {
+  for (int k = 0; k < nce; ++k) {
+    const int e = cells_[k];  // the slot of cell e is k
     const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
     for (int a = 0; a < n; ++a) ue.row(a) = x.u.row(nodes[a]);
-    const Eigen::MatrixXd& gb = gbar_[e];
+    const Eigen::MatrixXd& gb = gbar_[k];
     Mat<d> F = Mat<d>::Identity() + ue.transpose() * gb;
     if (Ru) add_row(m.dW(F), gb, vol(e), *Ru, nodes);
     if (K || on_cell) {
@@ -253,7 +306,7 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
       double Ge = -vol(e);
       be.setZero();
       const double p = x.p.size() ? x.p(e) : 0.0;
-      for (int q = nq_ * e; q < nq_ * (e + 1); ++q) {
+      for (int q = nq_ * k; q < nq_ * (k + 1); ++q) {
         const Eigen::MatrixXd& g = gq_[q];
         const double w = wq_[q];
         const Mat<d> Fq = Mat<d>::Identity() + ue.transpose() * g;
@@ -320,9 +373,10 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
 Eigen::SparseMatrix<double> Newton::tangent(const Unknowns& x) const {
   Triplets t;
   if (dim_ == 2)
-    assemble<2>(x, nullptr, nullptr, &t, nullptr);
+    assemble<2>(x, nullptr, nullptr, &t, nullptr, nullptr, split_);
   else
-    assemble<3>(x, nullptr, nullptr, &t, nullptr);
+    assemble<3>(x, nullptr, nullptr, &t, nullptr, nullptr, split_);
+  gather_triplets(t);
   add_glue_tangent(x, t);
   SpMat K(fluct_.rows(), fluct_.cols());
   K.setFromTriplets(t.begin(), t.end());
@@ -334,9 +388,10 @@ Eigen::SparseMatrix<double> Newton::constraint_gradient(const Eigen::MatrixXd& u
   Unknowns x;
   x.u = u;
   if (dim_ == 2)
-    assemble<2>(x, nullptr, nullptr, nullptr, &t);
+    assemble<2>(x, nullptr, nullptr, nullptr, &t, nullptr, split_);
   else
-    assemble<3>(x, nullptr, nullptr, nullptr, &t);
+    assemble<3>(x, nullptr, nullptr, nullptr, &t, nullptr, split_);
+  gather_triplets(t);
   SpMat B(incompressible_ ? disc_.num_cells() : 0, fluct_.cols());
   B.setFromTriplets(t.begin(), t.end());
   return B;
@@ -354,10 +409,11 @@ double Newton::min_det(const Eigen::MatrixXd& u) const {
         for (int j = 0; j < d; ++j) F(i, j) += u(nodes[a], i) * g(a, j);
     return F.determinant();
   };
-  for (int e = c0_; e < c1_; ++e) {  // the rank's cells (all of them on one rank)
-    const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
-    m = std::min(m, det_F(nodes, gbar_[e]));
-    for (int q = nq_ * e; q < nq_ * (e + 1); ++q) m = std::min(m, det_F(nodes, gq_[q]));
+  for (std::size_t k = 0; k < cells_.size(); ++k) {  // the rank's cells (all on one rank)
+    const int* nodes = &nodes_[static_cast<std::size_t>(cells_[k]) * n];
+    m = std::min(m, det_F(nodes, gbar_[k]));
+    for (int q = nq_ * static_cast<int>(k); q < nq_ * static_cast<int>(k + 1); ++q)
+      m = std::min(m, det_F(nodes, gq_[q]));
   }
   if (split_) {  // the smallest over the ranks
     double v = -m;

@@ -52,7 +52,17 @@ class Newton {
   /// systems by GMRES with an AMG V-cycle (newton_krylov.hpp) instead of CHOLMOD's factor, for a
   /// run whose global step is CG + AMG (the Solver sets it); then the factor's pattern is not
   /// built.
-  explicit Newton(const Discretization& disc, bool krylov = false);
+  ///
+  /// distributed: the Newton phase of a distributed Solver (Ranks::All; the Solver sets it). Its
+  /// linear systems are then solved over the ranks (mpi_newton.hpp), unless the PETSc option
+  /// -ltl_mpi_newton_replicated keeps them replicated. On more than one rank the per-cell data
+  /// (mean gradients, constraint points, the cells' positions in the tangent's values) is built
+  /// for the rank's block of cells only (mpi::blocks, ALG2's), so that it takes 1/P of the
+  /// memory; the cell loops of the residual, of the augmented tangent and of the det F check run
+  /// on that block and are summed over the ranks, so that every rank holds the same whole
+  /// residual and matrix. The LU step's system (and tangent(), constraint_gradient()) gathers
+  /// the ranks' cell terms: it is whole on every rank.
+  explicit Newton(const Discretization& disc, bool krylov = false, bool distributed = false);
 
   /// The unknowns of the discrete problem: u (#nodes x dim), a pressure per cell (empty for the
   /// compressible law), a force per contact point (N in 3-D, N/m in plane strain), and with glue
@@ -67,13 +77,17 @@ class Newton {
   /// Several obstacles: the glue of one only (Problem::validate refuses glued obstacles among
   /// several under solver = "newton").
   void set_glue(const ContactSteps& contact, const Eigen::VectorXd& beta_prev);
-  /// The Newton phase of a distributed Solver (Ranks::All; the Solver sets it): its linear
-  /// systems are then solved over the ranks (mpi_newton.hpp), unless the PETSc option
-  /// -ltl_mpi_newton_replicated keeps them replicated. On more than one rank the cell loops of the
-  /// residual, of the tangent of the augmented step and of the det F check run on the rank's
-  /// block of cells (mpi::blocks, ALG2's) and are summed over the ranks, so that every rank holds
-  /// the same whole residual and matrix (the LU step and the Krylov step stay whole).
-  void set_distributed(bool on);
+  /// What this Newton holds (bytes): the per-cell data of its cells (the rank's block on several
+  /// ranks: mean gradients, constraint points and weights), the cells' positions in the values of
+  /// the tangent's pattern (none with the distributed solves: PETSc's matrix holds the pattern,
+  /// each rank its rows), and the whole-mesh data every rank keeps (the cells' nodes, the free-dof
+  /// numbering, the fluctuation term; the tangent's pattern and the positions of the fluctuation
+  /// and of the diagonal unless the solves are distributed).
+  struct Holdings {
+    int cells = 0;
+    double cell_data = 0, positions = 0, whole = 0;
+  };
+  Holdings holdings() const;
   /// [(2.2)] The beta-derivative of the discrete functional over |G_s|, at e_s = ubar_s:
   ///   g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - beta_prev_s'),
   /// the stationarity of the local step's point problem (6.1)-(6.5) in gamma. Empty without glue.
@@ -117,7 +131,8 @@ class Newton {
   /// Per cell: the residual and constraint into Ru and G, the tangent Ke and the constraint
   /// gradient be (local dof d a + i) as triplets into K and B, and/or handed to on_cell.
   using CellSink = std::function<void(int, const Eigen::MatrixXd&, const Eigen::VectorXd&)>;
-  /// own: the rank's cells only (set_distributed), else every cell.
+  /// own: the rank's cells only (on several ranks the only ones it can assemble), else every
+  /// cell.
   template <int d>
   void assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G,
                 std::vector<Eigen::Triplet<double>>* K, std::vector<Eigen::Triplet<double>>* B,
@@ -130,8 +145,8 @@ class Newton {
     void operator()(Scatter* w) const;
   };
   using ScatterPtr = std::unique_ptr<Scatter, ScatterDeleter>;
-  /// The work of a Newton phase; for a distributed Solver's Newton (set_distributed) with
-  /// MUMPS's factorizations over the MPI ranks (mpi_newton.hpp).
+  /// The work of a Newton phase; for a distributed Solver's Newton (the constructor's distributed)
+  /// with MUMPS's factorizations over the MPI ranks (mpi_newton.hpp).
   ScatterPtr new_scatter() const;
   /// rtol: the relative residual asked of a Krylov solve (inexact Newton).
   bool augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eigen::VectorXd& G,
@@ -161,6 +176,8 @@ class Newton {
   /// Smallest det F over the constraint points (+inf without them) and over the cell means.
   template <int d>
   double min_det(const Eigen::MatrixXd& u) const;
+  /// On several ranks: every rank's triplets (its cells' terms) on every rank; else nothing.
+  void gather_triplets(std::vector<Eigen::Triplet<double>>& t) const;
 
   const Discretization& disc_;
   int dim_ = 0, npc_ = 0;
@@ -168,7 +185,7 @@ class Newton {
   std::vector<int> nodes_;  ///< #cells x npc, the cells' nodes
   /// Mean gradients per cell (npc x dim, cell after cell) and the constraint points: per cell
   /// nq_ gradients (npc x dim) and weights (mean-det: the quadrature points; det-mean: the mean
-  /// gradient with weight |O_e|).
+  /// gradient with weight |O_e|). This rank's cells (cells_) only: cell e at slot_[e].
   std::vector<Eigen::MatrixXd> gbar_, gq_;
   std::vector<double> wq_;
   int nq_ = 0;
@@ -177,8 +194,8 @@ class Newton {
   int nfree_ = 0;
   Eigen::VectorXd c_;  ///< per contact point, the NCP parameter 0.02 C1 |G_s| / h
   /// The pattern of the augmented tangent (free dofs, lower triangle) and where each entry of a
-  /// cell matrix (cell_pos_, (d npc)^2 per cell, -1: fixed dof or upper triangle), of the
-  /// fluctuation term (fluct_pos_), of the diagonal (diag_pos_) and of a contact point's pairs
+  /// cell matrix (cell_pos_, (d npc)^2 per cell of cells_, -1: fixed dof or upper triangle), of
+  /// the fluctuation term (fluct_pos_), of the diagonal (diag_pos_) and of a contact point's pairs
   /// (point_dofs_, point_coef_: its free dofs and their coefficients in N . ubar_s;
   /// point_pos_: their pairs) lands in its values.
   Eigen::SparseMatrix<double> pattern_;
@@ -194,11 +211,13 @@ class Newton {
     Eigen::VectorXd beta_prev, a;
   };
   bool glued_ = false;
-  bool distributed_ = false;  ///< set_distributed
-  /// set_distributed on more than one rank: the cell loops on this rank's cells [c0_, c1_),
-  /// summed over the ranks.
+  bool distributed_ = false;  ///< the constructor's distributed
+  /// distributed on more than one rank: the per-cell data and the cell loops on this rank's
+  /// cells, summed over the ranks.
   bool split_ = false;
-  int c0_ = 0, c1_ = 0;
+  /// This rank's cells, ascending (all of them on one rank), and per cell its index in cells_
+  /// (-1: another rank's).
+  std::vector<int> cells_, slot_;
   bool krylov_ = false;           ///< the constructor's krylov
   std::vector<int> dof_of_free_;  ///< per free index its dof (krylov_ only)
   Glue glue_;

@@ -64,44 +64,78 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   if (w.krylov) return krylov_step(base, Ru, G, gap, active, damping, rtol, w, dx);
   const int d = dim_, nc = disc_.num_cells(), dn = d * npc_;
   const int np = incompressible_ ? nc : 0, npts = static_cast<int>(active.size());
-  if (w.A.size() == 0) w.A = pattern_;
-  double* A = w.A.valuePtr();
-  std::fill(A, A + w.A.nonZeros(), 0.0);
-  w.be.resize(np);
+  // Where the terms go: the values of pattern_ (serial, or summed over the ranks afterwards), or
+  // PETSc's distributed matrix (w.mumps: each rank adds its terms, mpi_newton.hpp).
+  DistributedCholesky* mumps = w.mumps.get();
+  if (!mumps && w.A.size() == 0) w.A = pattern_;
+  double* A = mumps ? nullptr : w.A.valuePtr();
+  if (mumps)
+    mumps->zero();
+  else
+    std::fill(A, A + w.A.nonZeros(), 0.0);
+  w.be.resize(np ? cells_.size() : 0);  // the rank's cells: cell e at slot_[e]
   auto fdof = [&](int e, int r) { return free_[d * nodes_[e * npc_ + r / d] + r % d]; };
-  const CellSink sink = [&](int e, const Eigen::MatrixXd& Ke, const Eigen::VectorXd& be) {
-    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
+  std::vector<int> dofs(dn);
+  Eigen::VectorXd diag = Eigen::VectorXd::Zero(nfree_);
+  // A cell's block M (dn x dn) into the matrix.
+  auto add_cell = [&](int e, const Eigen::MatrixXd& M) {
+    if (mumps) {
+      for (int r = 0; r < dn; ++r) dofs[r] = fdof(e, r);
+      mumps->add(dn, dofs.data(), M.data());
+      return;
+    }
+    const int* pos = &cell_pos_[static_cast<std::size_t>(slot_[e]) * dn * dn];
     for (int r = 0; r < dn; ++r)
       for (int c = 0; c < dn; ++c)
-        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += Ke(r, c);
-    if (np) w.be[e] = be;
+        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += M(r, c);
+  };
+  const CellSink sink = [&](int e, const Eigen::MatrixXd& Ke, const Eigen::VectorXd& be) {
+    add_cell(e, Ke);
+    if (mumps)
+      for (int r = 0; r < dn; ++r)
+        if (fdof(e, r) >= 0) diag(fdof(e, r)) += Ke(r, r);
+    if (np) w.be[slot_[e]] = be;
   };
   if (d == 2)
     assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
   else
     assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
   const bool lead = !split_ || mpi::rank() == 0;  // adds the terms that are not per cell
-  if (lead)
-    for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
-  Eigen::VectorXd diag(nfree_);
-  for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
+  if (mumps) {  // the fluctuation term's owned rows (fluct_ is symmetric: column k is row k)
+    for (int k = 0; k < fluct_.outerSize(); ++k) {
+      const int r = free_[k];
+      if (r < 0 || !mumps->owns(r)) continue;
+      for (SpMat::InnerIterator it(fluct_, k); it; ++it) {
+        const int c = free_[it.row()];
+        if (c < 0) continue;
+        mumps->add_entry(r, c, it.value());
+        if (r == c) diag(r) += it.value();
+      }
+    }
+  } else {
+    if (lead)
+      for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
+    for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
+  }
   if (split_) mpi::sum(diag.data(), nfree_);
   const double kappa = 1e4 * (nfree_ ? diag.cwiseAbs().mean() : 1.0);
   // The constraint rows: W_e = 1 / |B_e|^2 over the free dofs, their outer products.
   Eigen::VectorXd W = Eigen::VectorXd::Zero(np);
-  const int e0 = np ? c0_ : 0, e1 = np ? c1_ : 0;  // this rank's cells
-  for (int e = e0; e < e1; ++e) {
+  static const std::vector<int> none;
+  const std::vector<int>& own = np ? cells_ : none;  // this rank's cells
+  Eigen::MatrixXd bb(dn, dn);
+  for (int e : own) {
     double b2 = 0;
+    const Eigen::VectorXd& be = w.be[slot_[e]];
     for (int r = 0; r < dn; ++r)
-      if (fdof(e, r) >= 0) b2 += w.be[e](r) * w.be[e](r);
+      if (fdof(e, r) >= 0) b2 += be(r) * be(r);
     W(e) = 1 / std::max(b2, 1e-300);
-    const int* pos = &cell_pos_[static_cast<std::size_t>(e) * dn * dn];
-    for (int r = 0; r < dn; ++r)
-      for (int c = 0; c < dn; ++c)
-        if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += kappa * W(e) * w.be[e](r) * w.be[e](c);
+    bb.noalias() = (kappa * W(e)) * be * be.transpose();
+    add_cell(e, bb);
   }
   std::vector<int> act;
   Eigen::VectorXd Wc(npts);
+  Eigen::MatrixXd cc;
   for (int k = 0; k < npts; ++k) {
     if (!active[k] || point_dofs_[k].empty()) continue;
     act.push_back(k);
@@ -110,19 +144,31 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
     for (double v : cf) c2 += v * v;
     Wc(k) = 1 / c2;
     const int m = static_cast<int>(cf.size());
-    if (lead)
-      for (int a = 0; a < m; ++a)
-        for (int b = 0; b < m; ++b)
-          if (point_pos_[k][a * m + b] >= 0)
-            A[point_pos_[k][a * m + b]] += kappa * Wc(k) * cf[a] * cf[b];
+    if (!lead) continue;
+    if (mumps) {
+      const Eigen::Map<const Eigen::VectorXd> c(cf.data(), m);
+      cc.noalias() = (kappa * Wc(k)) * c * c.transpose();
+      mumps->add(m, point_dofs_[k].data(), cc.data());
+      continue;
+    }
+    for (int a = 0; a < m; ++a)
+      for (int b = 0; b < m; ++b)
+        if (point_pos_[k][a * m + b] >= 0)
+          A[point_pos_[k][a * m + b]] += kappa * Wc(k) * cf[a] * cf[b];
   }
-  if (damping > 0 && lead)
-    for (int k = 0; k < nfree_; ++k) A[diag_pos_[k]] += damping * std::abs(diag(k));
-  if (split_) mpi::sum(A, w.A.nonZeros());
+  if (damping > 0)
+    for (int k = 0; k < nfree_; ++k) {
+      const double v = damping * std::abs(diag(k));
+      if (mumps && mumps->owns(k))
+        mumps->add_entry(k, k, v);
+      else if (!mumps && lead)
+        A[diag_pos_[k]] += v;
+    }
+  if (split_ && !mumps) mpi::sum(A, w.A.nonZeros());
   NewtonSolveStats& st = newton_solve_stats();
   auto t0 = std::chrono::steady_clock::now();
-  if (w.mumps) {
-    if (!w.mumps->factorize(w.A)) return false;
+  if (mumps) {
+    if (!mumps->factorize()) return false;
   } else {
     if (!w.analyzed) {
       w.llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
@@ -146,7 +192,7 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   auto Bdu = [&](int e, const Eigen::VectorXd& v) {
     double s = 0;
     for (int r = 0; r < dn; ++r)
-      if (fdof(e, r) >= 0) s += w.be[e](r) * v(fdof(e, r));
+      if (fdof(e, r) >= 0) s += w.be[slot_[e]](r) * v(fdof(e, r));
     return s;
   };
   auto Cdu = [&](int k, const Eigen::VectorXd& v) {
@@ -161,10 +207,10 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
       rhs = r1;
     else
       rhs.setZero();
-    for (int e = e0; e < e1; ++e) {
+    for (int e : own) {
       const double y = dp(e) - kappa * W(e) * G(e);
       for (int r = 0; r < dn; ++r)
-        if (fdof(e, r) >= 0) rhs(fdof(e, r)) += w.be[e](r) * y;
+        if (fdof(e, r) >= 0) rhs(fdof(e, r)) += w.be[slot_[e]](r) * y;
     }
     if (lead)
       for (int k : act) {
@@ -182,7 +228,7 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
       st.cholmod_solve_s += seconds_since(t0);
     }
     double worst = 0;
-    for (int e = e0; e < e1; ++e) {
+    for (int e : own) {
       const double c1 = Bdu(e, du) + G(e);
       dp(e) -= kappa * W(e) * c1;
       worst = std::max(worst, std::abs(c1) * std::sqrt(W(e)));
@@ -366,8 +412,8 @@ void Newton::ScatterDeleter::operator()(Scatter* w) const {
 Newton::ScatterPtr Newton::new_scatter() const {
   ScatterPtr w(new Scatter);
   if (distributed_ && distributed_newton_solves() && !krylov_) {  // mpi_newton.hpp
-    w->mumps =
-        std::make_unique<DistributedCholesky>(NewtonRows(free_, dim_, disc_.problem().mesh.X, 0));
+    w->mumps = std::make_unique<DistributedCholesky>(
+        NewtonRows(free_, dim_, disc_.problem().mesh.X, 0), dim_, nodes_, npc_, free_);
     w->mumps_lu = std::make_unique<DistributedLU>();
   } else if (krylov_) {
     std::vector<char> fixed(free_.size());
@@ -459,9 +505,11 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
   const int n = nfree_ + np_ + nA + nb;
   Triplets t, tb;
   if (d == 2)
-    assemble<2>(base, nullptr, nullptr, &t, &tb);
+    assemble<2>(base, nullptr, nullptr, &t, &tb, nullptr, split_);
   else
-    assemble<3>(base, nullptr, nullptr, &t, &tb);
+    assemble<3>(base, nullptr, nullptr, &t, &tb, nullptr, split_);
+  gather_triplets(t);  // on several ranks every rank's cells: the system is whole on every rank
+  gather_triplets(tb);
   for (int k = 0; k < fluct_.outerSize(); ++k)
     for (SpMat::InnerIterator i(fluct_, k); i; ++i) t.emplace_back(i.row(), i.col(), i.value());
   Triplets kkt;

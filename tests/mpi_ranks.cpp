@@ -197,25 +197,32 @@ void expect_distributed_newton(const std::string& name, const std::string& confi
 TEST(Mpi, Eq2_2_Eq2_7_Fig5NewtonPhaseDistributed) {
   expect_distributed_newton("Fig 5 with Newton", kFig5, {}, false);
 }
+/// The coarse H8 gutter (3-D, mean-det: 8 constraint points per cell, contact): each rank's
+/// Newton holds its own cells' data only.
+TEST(Mpi, Eq2_2_Eq2_7_CoarseGutterNewtonPhaseDistributed) {
+  expect_distributed_newton("coarse gutter with Newton", kFig6, kCoarseGutter, false);
+}
 TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepNewtonPhaseDistributedLU) {
   expect_distributed_newton("glued Fig 3 step with Newton", kFig3, {"time.steps=1"}, true);
 }
 /// [(2.2), (2.7), (1.1)] The distributed factorizations alone: on the tridiagonal (-1, 2, -1)
-/// (its lower triangle, Newton's storage) shifted by s, MUMPS's symmetric factorization reports
-/// positive definite iff the smallest eigenvalue 2 - 2 cos(pi / (n + 1)) + s is positive (the
-/// inertia: the decision CHOLMOD's LL' makes in the serial solver), and solves it; the LU solves
-/// a nonsymmetric matrix. Nodes on a line, in reverse order (the slab order permutes them).
+/// shifted by s, MUMPS's symmetric factorization reports positive definite iff the smallest
+/// eigenvalue 2 - 2 cos(pi / (n + 1)) + s is positive (the inertia: the decision CHOLMOD's LL'
+/// makes in the serial solver), and solves it; the LU solves a nonsymmetric matrix. Nodes on a
+/// line, in reverse order (the slab order permutes them). The tridiagonal is assembled as Newton
+/// assembles its tangent: each rank adds the blocks [1, -1; -1, 1] of its own segments (cells of
+/// 2 nodes, mpi::blocks) and rank 0 every diagonal correction, most of them in other ranks' rows.
 TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
   const int n = 40;
   Eigen::MatrixXd X(n, 1);
   std::vector<int> free_of_dof(n);
   for (int i = 0; i < n; ++i) X(i, 0) = n - i, free_of_dof[i] = i;
-  auto tridiagonal = [&](double shift, double upper, bool lower_only) {
+  auto tridiagonal = [&](double shift, double upper) {
     std::vector<Eigen::Triplet<double>> t;
     for (int i = 0; i < n; ++i) {
       t.emplace_back(i, i, 2 + shift);
       if (i > 0) t.emplace_back(i, i - 1, -1.0);
-      if (i > 0 && !lower_only) t.emplace_back(i - 1, i, upper);
+      if (i > 0) t.emplace_back(i - 1, i, upper);
     }
     SpMat A(n, n);
     A.setFromTriplets(t.begin(), t.end());
@@ -224,20 +231,28 @@ TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
   Eigen::VectorXd b(n);
   for (int i = 0; i < n; ++i) b(i) = std::sin(0.3 * i) + 1;
   const double lowest = 2 - 2 * std::cos(M_PI / (n + 1));
-  DistributedCholesky chol(NewtonRows(free_of_dof, 1, X, 0));
+  std::vector<int> segments;  // cell k: the nodes k, k + 1
+  for (int k = 0; k + 1 < n; ++k) segments.insert(segments.end(), {k, k + 1});
+  DistributedCholesky chol(NewtonRows(free_of_dof, 1, X, 0), 1, segments, 2, free_of_dof);
+  const std::vector<int> mine = mpi::blocks(n - 1, mpi::size());
   for (double shift : {1e-3, -0.5 * lowest, -1.0, 0.5 * lowest}) {
-    const SpMat L = tridiagonal(shift, -1.0, true);
-    const bool ok = chol.factorize(L);
+    chol.zero();
+    const double block[4] = {1, -1, -1, 1};
+    for (int k = mine[mpi::rank()]; k < mine[mpi::rank() + 1]; ++k)
+      chol.add(2, &segments[2 * k], block);
+    if (mpi::rank() == 0)  // the end nodes lack one segment's 1; every node gets the shift
+      for (int i = 0; i < n; ++i) chol.add_entry(i, i, shift + (i == 0 || i == n - 1 ? 1.0 : 0.0));
+    const bool ok = chol.factorize();
     EXPECT_EQ(ok, shift > -lowest) << "shift " << shift;
     if (!ok) continue;
     Eigen::VectorXd x;
     chol.solve(b, x);
-    const SpMat A = tridiagonal(shift, -1.0, false);
+    const SpMat A = tridiagonal(shift, -1.0);
     EXPECT_LE((A * x - b).norm(), 1e-12 * b.norm() * (1 + x.norm())) << "shift " << shift;
   }
   DistributedLU lu;
   for (double upper : {-0.3, 0.7}) {  // the same pattern, new values: refactorized
-    const SpMat A = tridiagonal(0.1, upper, false);
+    const SpMat A = tridiagonal(0.1, upper);
     Eigen::VectorXd x;
     ASSERT_TRUE(lu.solve(A, NewtonRows(free_of_dof, 1, X, 0), b, x));
     EXPECT_LE((A * x - b).norm(), 1e-12 * b.norm() * (1 + x.norm()));
@@ -341,6 +356,43 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
               << dist.holdings().cells_with_operators << " of " << p.mesh.num_cells() << " cells, "
               << dist.holdings().operators << " B (serial " << serial.holdings().operators
               << " B), Laplacian " << L << " of " << L_serial << " entries\n";
+}
+
+/// With the Newton phase each rank builds the per-cell data of Newton (mean gradients,
+/// constraint points) for its own cells only (with the distributed solves, the cells whose first
+/// free dof is in its slab of matrix rows): the ranks' cells add up to the mesh's, none holds
+/// more than 3/4 of them on several ranks, and their bytes add up to the serial Newton's. With the
+/// distributed solves no rank holds the tangent's whole pattern or the cells' positions in it
+/// (PETSc's matrix holds its rows): less whole-mesh data than the serial Newton. Fails when every
+/// rank builds the data of every cell, or the whole pattern.
+TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
+  std::vector<std::string> keys = kCoarseGutter;
+  keys.push_back("algorithm.solver=\"newton\"");
+  const Problem p = load_problem(ltl::testing::source_path(kFig6), keys);
+  const Solver serial(p, Ranks::One);
+  const Solver dist(p, Ranks::All);
+  const int me = mpi::rank(), nc = p.mesh.num_cells();
+  const Holdings hs = serial.holdings(), hd = dist.holdings();
+  EXPECT_EQ(hs.newton_cells, nc);
+  double cells = hd.newton_cells, sum = hd.newton_cell_data;
+  mpi::sum(&cells, 1);
+  mpi::sum(&sum, 1);
+  EXPECT_EQ(cells, nc);
+  if (mpi::size() > 1) {
+    EXPECT_LE(hd.newton_cells, 0.75 * nc);
+  }
+  EXPECT_GT(hs.newton_cell_data, 0.0);
+  EXPECT_EQ(sum, hs.newton_cell_data);
+  EXPECT_GT(hs.newton_positions, 0.0);
+  EXPECT_EQ(hd.newton_positions, 0.0);
+  EXPECT_LT(hd.newton_whole, 0.5 * hs.newton_whole);
+  if (me == 0)
+    std::cout << "coarse gutter with Newton, " << mpi::size() << " rank(s): rank 0's Newton holds "
+              << hd.newton_cells << " of " << p.mesh.num_cells() << " cells' data, "
+              << hd.newton_cell_data << " B (serial " << hs.newton_cell_data << " B); positions "
+              << hd.newton_positions << " B (serial " << hs.newton_positions
+              << " B); whole-mesh data " << hd.newton_whole << " B (serial " << hs.newton_whole
+              << " B)\n";
 }
 
 /// The check of the tests above finds a rank whose state differs by one bit.
