@@ -65,11 +65,10 @@ struct RankShare {
 class Solver {
  public:
   /// Discretizes the problem (discretization.hpp), then the precompute: assembles K with R q and
-  /// factorizes it once [LTL87 (4.5)]. Ranks::All with plain ALG2 (algorithm.solver = "alg2")
-  /// and the distributed KSP: each rank discretizes its block of cells only (Discretization on
-  /// a cell range: Gbar, GbarT_vol, the Laplacian and its part of K of its cells; memory per
-  /// rank ~1/P, paper_notes/mpi.md). With the Newton phase or the replicated factor the whole
-  /// discretization, on every rank.
+  /// factorizes it once [LTL87 (4.5)]. Ranks::All with the distributed KSP (plain ALG2 or with
+  /// the Newton phase): each rank discretizes its block of cells only (Discretization on a cell
+  /// range: Gbar, GbarT_vol, the Laplacian and its part of K of its cells; paper_notes/mpi.md).
+  /// With the replicated factor the whole discretization, on every rank.
   explicit Solver(const Problem& problem, Ranks ranks = Ranks::One);
   /// The same from a discretization built beforehand. Ranks::All (an MPI build, lib/mpi_comm.hpp)
   /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): every rank holds the whole

@@ -1,12 +1,13 @@
 // ALG2 [LTL87 (4.1)-(4.4)] distributed over the MPI ranks (Solver with Ranks::All; an MPI build,
 // lib/mpi_comm.hpp). The first slice of the distribution (paper_notes/mpi.md):
 //
-//   - PARTITIONED (plain ALG2, Solver(Problem, Ranks::All)): the cell operators. Each rank
-//     discretizes its block of cells only (Discretization on a cell range: Gbar, GbarT_vol, the
-//     Laplacian of its cells) and assembles its part of K (4.5), which the distributed KSP sums
-//     (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over cells of the measures
-//     (equilibrium residual, energy) add the ranks' parts. With the Newton phase, or the
-//     replicated factor, the whole discretization on every rank (as before).
+//   - PARTITIONED (Solver(Problem, Ranks::All), plain ALG2 or with the Newton phase): the cell
+//     operators. Each rank discretizes its block of cells only (Discretization on a cell range:
+//     Gbar, GbarT_vol, the Laplacian of its cells) and assembles its part of K (4.5), which the
+//     distributed KSP sums (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over
+//     cells of the measures (equilibrium residual, energy) add the ranks' parts. The Newton phase
+//     holds its own per-cell data for its cells (newton.hpp). With the replicated factor, the
+//     whole discretization on every rank.
 //   - REPLICATED: the mesh, the per-cell and per-node dense arrays and the state. Every rank
 //     reads the whole problem and ends every iteration with the whole state, so that Anderson,
 //     the stopping tests, the Newton phase and the output are the serial ones, identical on
@@ -90,14 +91,13 @@ void Solver::distribute() {
   if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
 }
 
-// The rank's block of cells (mpi::blocks): its operators alone, unless the Newton phase (which
-// assembles its tangent on the whole discretization, newton.hpp) or the replicated serial factor
-// (-ltl_mpi_replicated: K whole on every rank) needs every cell. The PETSc option
-// -ltl_mpi_whole builds the whole discretization on every rank anyway (the memory before the
-// partition, bench_mpi).
+// The rank's block of cells (mpi::blocks): its operators alone, unless the replicated serial
+// factor (-ltl_mpi_replicated: K whole on every rank) needs every cell. The Newton phase builds
+// its own per-cell data from the mesh for its cells (newton.hpp) and needs none of the
+// operators' other rows. The PETSc option -ltl_mpi_whole builds the whole discretization on
+// every rank anyway (the memory before the partition, bench_mpi).
 Discretization Solver::discretize(const Problem& problem, Ranks ranks) {
-  if (ranks == Ranks::One || problem.algorithm.solver == NonlinearSolver::Newton ||
-      mpi::option("-ltl_mpi_replicated") || mpi::option("-ltl_mpi_whole"))
+  if (ranks == Ranks::One || mpi::option("-ltl_mpi_replicated") || mpi::option("-ltl_mpi_whole"))
     return Discretization(problem);
   const std::vector<int> cells = mpi::blocks(problem.mesh.num_cells(), mpi::size());
   return Discretization(problem, cells[mpi::rank()], cells[mpi::rank() + 1]);

@@ -6,6 +6,7 @@
 
 #include "error.hpp"
 #include "mesh_transfer.hpp"
+#include "mpi_comm.hpp"
 #include "results.hpp"
 
 namespace ltl {
@@ -25,17 +26,6 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   const Mesh& mesh = problem.mesh;
   const int d = mesh.dim, nc = mesh.num_cells();
   const std::string where = cat(key, " ", path, ": ");
-  if (disc.partial())
-    throw Error(
-        cat(key,
-            ": the nested start needs every cell's mean gradient, and this discretization holds "
-            "the cells [",
-            disc.first_cell(), ", ", disc.end_cell(), ") of ", nc,
-            " only (plain ALG2 "
-            "under mpirun with more than one rank, paper_notes/mpi.md): run step 1 with ",
-            key,
-            " and --stop-after 1 on one process, then continue its results file with --resume on P "
-            "ranks"));
   StoredMesh source;
   std::optional<StoredStep> last;
   try {
@@ -89,8 +79,10 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
 
   // E = Fbar(u) (2.7), (3.3); lambda from the law at Fbar with the pressure of the source cell
   // that contains the cell's centroid (4.6).
+  // A discretization on a cell range (a rank's block under mpirun, paper_notes/mpi.md) has the
+  // mean gradients of its cells only: each rank computes its cells, then the blocks are gathered.
   const Eigen::MatrixXd GU = disc.cells().Gbar * s.u;
-  for (int e = 0; e < nc; ++e) {
+  for (int e = disc.first_cell(); e < disc.end_cell(); ++e) {
     Eigen::MatrixXd F = GU.block(d * e, 0, d, d).transpose();
     F.diagonal().array() += 1.0;
     double p = 0;
@@ -105,6 +97,17 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
     }
     s.E.block(d * e, 0, d, d) = F.transpose();
     s.lambda.block(d * e, 0, d, d) = law.multiplier(F, p).transpose();
+  }
+  if (disc.partial()) {
+    const std::vector<int> blocks = mpi::blocks(nc, mpi::size());
+    if (blocks[mpi::rank()] != disc.first_cell() || blocks[mpi::rank() + 1] != disc.end_cell())
+      throw Error(cat(key, ": a discretization of the cells [", disc.first_cell(), ", ",
+                      disc.end_cell(), ") that is not this rank's block"));
+    mpi::gather_rows(s.E, blocks, d);
+    mpi::gather_rows(s.lambda, blocks, d);
+    double clamped = out.clamped_centroids;
+    mpi::sum(&clamped, 1);
+    out.clamped_centroids = static_cast<int>(clamped);
   }
 
   // Contact (4.7): e = ubar projected onto N . e <= g; lambda_c and beta from the nearest source

@@ -62,43 +62,37 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
     for (int e = block[me]; e < block[me + 1]; ++e)
       slot_[e] = static_cast<int>(cells_.size()), cells_.push_back(e);
   }
-  const CellOperators& ops = disc.cells();
-  gbar_.assign(cells_.size(), Eigen::MatrixXd::Zero(npc_, d));
-  for (int e : cells_)  // the mean gradients as ALG2 uses them: row d e + j of Gbar
-    for (int j = 0; j < d; ++j)
-      for (SpMatR::InnerIterator it(ops.Gbar, d * e + j); it; ++it)
-        for (int a = 0; a < npc_; ++a)
-          if (mesh.cells(e, a) == it.col()) gbar_[slot_[e]](a, j) = it.value();
-  if (incompressible_) {
-    if (disc.mean_det()) {
-      for (int e : cells_) {
-        int k = 0;
-        for_each_quadrature_point(mesh, e, [&](const Eigen::MatrixXd& grad, double w) {
-          gq_.push_back(grad);
-          wq_.push_back(w);
-          ++k;
-        });
-        nq_ = k;
-      }
-    } else {
-      nq_ = 1;
-      for (int e : cells_) {
-        gq_.push_back(gbar_[slot_[e]]);
-        wq_.push_back(ops.vol(e));
-      }
-    }
-  }
-  // 2 C1 (L - GbarT_vol Gbar) on each component: the intra-cell fluctuation of C1 |grad u|^2.
-  const SpMat Lf = ops.laplacian - SpMat(ops.GbarT_vol * ops.Gbar);
-  Triplets t;
+  // Per cell of this rank, from its quadrature points as the discretization's cell operators
+  // are built (fe.cpp: the same sums, so gbar_ is Gbar's rows to the last bit): the mean
+  // gradient gbar_e = (1 / |O_e|) sum_q w_q grad_q, the constraint points (mean-det: the
+  // quadrature points; det-mean: gbar_e with weight |O_e|), and the fluctuation block
+  // 2 C1 (L_e - |O_e| gbar_e gbar_e^T) with L_e = sum_q w_q grad_q grad_q^T.
   const double C1 = disc.split().C1;
-  for (int k = 0; k < Lf.outerSize(); ++k)
-    for (SpMat::InnerIterator it(Lf, k); it; ++it)
-      for (int i = 0; i < d; ++i)
-        t.emplace_back(d * it.row() + i, d * it.col() + i, 2 * C1 * it.value());
-  fluct_.resize(d * nn, d * nn);
-  fluct_.setFromTriplets(t.begin(), t.end());
-  fluct_.prune(0.0);
+  const bool mean_det = incompressible_ && disc.mean_det();
+  const int n = npc_;
+  gbar_.reserve(cells_.size());
+  lf_.resize(cells_.size() * n * n);
+  nq_ = incompressible_ && !mean_det ? 1 : 0;
+  Eigen::MatrixXd gint(n, d), Le(n, n);
+  for (std::size_t k = 0; k < cells_.size(); ++k) {
+    const int e = cells_[k];
+    double vol = 0;
+    gint.setZero();
+    Le.setZero();
+    int q = 0;
+    for_each_quadrature_point(mesh, e, [&](const Eigen::MatrixXd& grad, double w) {
+      vol += w;
+      gint += w * grad;
+      Le.noalias() += w * grad * grad.transpose();
+      if (mean_det) gq_.push_back(grad), wq_.push_back(w), ++q;
+    });
+    if (mean_det) nq_ = q;
+    gbar_.push_back((1.0 / vol) * gint);
+    Eigen::Map<Eigen::MatrixXd>(&lf_[k * n * n], n, n) =
+        2 * C1 * (Le - gint * gbar_.back().transpose());
+    if (incompressible_ && !mean_det)
+      gq_.push_back(gbar_.back()), wq_.push_back(disc.cells().vol(e));
+  }
 
   if (const ContactPoints* pts = disc.points()) {
     const double h = std::pow(disc.volume() / nc, 1.0 / d);
@@ -156,11 +150,6 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
               position(fdof(e, r), fdof(e, c));
   diag_pos_.resize(nfree_);
   for (int k = 0; k < nfree_; ++k) diag_pos_[k] = position(k, k);
-  for (int k = 0; k < fluct_.outerSize(); ++k)
-    for (SpMat::InnerIterator it(fluct_, k); it; ++it) {
-      const int r = free_[it.row()], c = free_[it.col()];
-      if (r >= 0 && c >= 0 && r >= c) fluct_pos_.emplace_back(position(r, c), it.value());
-    }
   for (std::size_t k = 0; k < point_dofs_.size(); ++k)
     for (int a : point_dofs_[k])
       for (int b : point_dofs_[k]) point_pos_[k].push_back(a >= b ? position(a, b) : -1);
@@ -171,11 +160,11 @@ Newton::Holdings Newton::holdings() const {
   h.cells = static_cast<int>(cells_.size());
   for (const Eigen::MatrixXd& g : gbar_) h.cell_data += 8.0 * g.size();
   for (const Eigen::MatrixXd& g : gq_) h.cell_data += 8.0 * g.size();
-  h.cell_data += 8.0 * wq_.size();
+  h.cell_data += 8.0 * (wq_.size() + lf_.size());
   h.positions = 4.0 * cell_pos_.size();
   auto sparse = [](const SpMat& A) { return 12.0 * A.nonZeros() + 4.0 * (A.outerSize() + 1); };
   h.whole = 4.0 * (nodes_.size() + free_.size() + diag_pos_.size() + dof_of_free_.size()) +
-            sparse(pattern_) + sparse(fluct_) + 16.0 * fluct_pos_.size();
+            sparse(pattern_);
   return h;
 }
 
@@ -222,16 +211,25 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
 }
 
 void Newton::to_state(const Unknowns& x, State& s) const {
-  const int d = dim_, nc = disc_.num_cells();
+  const int d = dim_;
   const Material& m = disc_.split();
   s.u = x.u;
-  const Eigen::MatrixXd GU = disc_.cells().Gbar * x.u;
-  for (int e = 0; e < nc; ++e) {
-    Eigen::MatrixXd F = GU.block(d * e, 0, d, d).transpose();
+  // E = Fbar = I + Gbar_e u on this rank's cells (on several ranks the others' are theirs: zero
+  // here, then the sum over the ranks makes E and lambda whole on every rank).
+  if (split_) s.E.setZero(), s.lambda.setZero();
+  Eigen::MatrixXd ue(npc_, d);
+  for (std::size_t k = 0; k < cells_.size(); ++k) {
+    const int e = cells_[k];
+    for (int a = 0; a < npc_; ++a) ue.row(a) = x.u.row(nodes_[e * npc_ + a]);
+    Eigen::MatrixXd F = ue.transpose() * gbar_[k];
     F.diagonal().array() += 1.0;
     const Eigen::MatrixXd L = m.multiplier(F, incompressible_ ? x.p(e) : 0.0);
     s.E.block(d * e, 0, d, d) = F.transpose();
     s.lambda.block(d * e, 0, d, d) = L.transpose();
+  }
+  if (split_) {
+    mpi::sum(s.E.data(), s.E.size());
+    mpi::sum(s.lambda.data(), s.lambda.size());
   }
   if (const ContactPoints* pts = disc_.points()) {
     s.e = pts->mean * x.u;
@@ -255,7 +253,7 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
   if (!own && split_) throw Error("Newton: the cells of another rank (their data is theirs)");
   const Material& m = disc_.split();
   const Eigen::VectorXd& vol = disc_.cells().vol;
-  Eigen::MatrixXd ue(n, d), Ke(d * n, d * n);
+  Eigen::MatrixXd ue(n, d), fe(n, d), Ke(d * n, d * n);
   Eigen::VectorXd be(d * n);
   // The fourth-order tangents as (d*d) x (d*d) matrices, column k d + l = the derivative in the
   // direction E_kl (entry i d + j), and their contraction with two gradient tables:
@@ -288,8 +286,15 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
     const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
     for (int a = 0; a < n; ++a) ue.row(a) = x.u.row(nodes[a]);
     const Eigen::MatrixXd& gb = gbar_[k];
+    const Eigen::Map<const Eigen::MatrixXd> lf(&lf_[static_cast<std::size_t>(k) * n * n], n, n);
     Mat<d> F = Mat<d>::Identity() + ue.transpose() * gb;
-    if (Ru) add_row(m.dW(F), gb, vol(e), *Ru, nodes);
+    if (Ru) {
+      add_row(m.dW(F), gb, vol(e), *Ru, nodes);
+      // The fluctuation's force lf ue on each component (the quadratic C1 |grad u - Gbar u|^2).
+      fe.noalias() = lf * ue;
+      for (int a = 0; a < n; ++a)
+        for (int i = 0; i < d; ++i) (*Ru)(d * nodes[a] + i) += fe(a, i);
+    }
     if (K || on_cell) {
       Ke.setZero();
       for (int k = 0; k < d; ++k)
@@ -301,6 +306,9 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
             for (int j = 0; j < d; ++j) T(i * d + j, k * d + l) = dP(i, j);
         }
       contract(T, gb, vol(e));
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b)
+          for (int i = 0; i < d; ++i) Ke(d * a + i, d * b + i) += lf(a, b);
     }
     if (incompressible_) {
       double Ge = -vol(e);
@@ -356,10 +364,8 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
     mpi::sum(Ru.data(), Ru.size());
     mpi::sum(G.data(), G.size());
   }
-  Eigen::VectorXd uflat(d * nn), Fflat(d * nn);
   for (int a = 0; a < nn; ++a)
-    for (int i = 0; i < d; ++i) uflat(d * a + i) = x.u(a, i), Fflat(d * a + i) = F(a, i);
-  Ru += fluct_ * uflat - Fflat;
+    for (int i = 0; i < d; ++i) Ru(d * a + i) -= F(a, i);
   // The contact forces: mu_s N (x) mean_s, the reaction of the plane (1.1).
   if (const ContactPoints* pts = disc_.points()) {
     const Eigen::MatrixXd& N = pts->normals;  // row s: N_k of the obstacle of point s
@@ -378,9 +384,10 @@ Eigen::SparseMatrix<double> Newton::tangent(const Unknowns& x) const {
     assemble<3>(x, nullptr, nullptr, &t, nullptr, nullptr, split_);
   gather_triplets(t);
   add_glue_tangent(x, t);
-  SpMat K(fluct_.rows(), fluct_.cols());
+  const int ndof = dim_ * disc_.num_nodes();
+  SpMat K(ndof, ndof);
   K.setFromTriplets(t.begin(), t.end());
-  return K + fluct_;
+  return K;
 }
 
 Eigen::SparseMatrix<double> Newton::constraint_gradient(const Eigen::MatrixXd& u) const {
@@ -392,7 +399,7 @@ Eigen::SparseMatrix<double> Newton::constraint_gradient(const Eigen::MatrixXd& u
   else
     assemble<3>(x, nullptr, nullptr, nullptr, &t, nullptr, split_);
   gather_triplets(t);
-  SpMat B(incompressible_ ? disc_.num_cells() : 0, fluct_.cols());
+  SpMat B(incompressible_ ? disc_.num_cells() : 0, dim_ * disc_.num_nodes());
   B.setFromTriplets(t.begin(), t.end());
   return B;
 }

@@ -78,11 +78,11 @@ class Newton {
   /// several under solver = "newton").
   void set_glue(const ContactSteps& contact, const Eigen::VectorXd& beta_prev);
   /// What this Newton holds (bytes): the per-cell data of its cells (the rank's block on several
-  /// ranks: mean gradients, constraint points and weights), the cells' positions in the values of
-  /// the tangent's pattern (none with the distributed solves: PETSc's matrix holds the pattern,
-  /// each rank its rows), and the whole-mesh data every rank keeps (the cells' nodes, the free-dof
-  /// numbering, the fluctuation term; the tangent's pattern and the positions of the fluctuation
-  /// and of the diagonal unless the solves are distributed).
+  /// ranks: mean gradients, fluctuation blocks, constraint points and weights), the cells'
+  /// positions in the values of the tangent's pattern (none with the distributed solves: PETSc's
+  /// matrix holds the pattern, each rank its rows), and the whole-mesh data every rank keeps (the
+  /// cells' nodes, the free-dof numbering; the tangent's pattern and the positions of the
+  /// diagonal unless the solves are distributed).
   struct Holdings {
     int cells = 0;
     double cell_data = 0, positions = 0, whole = 0;
@@ -189,18 +189,20 @@ class Newton {
   std::vector<Eigen::MatrixXd> gbar_, gq_;
   std::vector<double> wq_;
   int nq_ = 0;
-  Eigen::SparseMatrix<double> fluct_;  ///< 2 C1 (L - GbarT_vol Gbar) (x) I_dim, dof numbering
-  std::vector<int> free_;              ///< per dof, its free index or -1
+  /// [(2.5), (3.3)] Per cell of cells_ (at slot_[e]), npc x npc column-major: the intra-cell
+  /// fluctuation of C1 |grad u|^2, 2 C1 (L_e - |O_e| gbar_e gbar_e^T), on each component (the
+  /// cell's part of 2 C1 (L - GbarT_vol Gbar) of the discretization), added into the cell's
+  /// residual and tangent (assemble).
+  std::vector<double> lf_;
+  std::vector<int> free_;  ///< per dof, its free index or -1
   int nfree_ = 0;
   Eigen::VectorXd c_;  ///< per contact point, the NCP parameter 0.02 C1 |G_s| / h
   /// The pattern of the augmented tangent (free dofs, lower triangle) and where each entry of a
   /// cell matrix (cell_pos_, (d npc)^2 per cell of cells_, -1: fixed dof or upper triangle), of
-  /// the fluctuation term (fluct_pos_), of the diagonal (diag_pos_) and of a contact point's pairs
-  /// (point_dofs_, point_coef_: its free dofs and their coefficients in N . ubar_s;
-  /// point_pos_: their pairs) lands in its values.
+  /// the diagonal (diag_pos_) and of a contact point's pairs (point_dofs_, point_coef_: its free
+  /// dofs and their coefficients in N . ubar_s; point_pos_: their pairs) lands in its values.
   Eigen::SparseMatrix<double> pattern_;
   std::vector<int> cell_pos_, diag_pos_;
-  std::vector<std::pair<int, double>> fluct_pos_;
   std::vector<std::vector<int>> point_dofs_, point_pos_;
   std::vector<std::vector<double>> point_coef_;
   /// The glue (set_glue): kappa, w, dt, the kernel k_ss', beta_prev, and the scale a_s of the

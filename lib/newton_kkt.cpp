@@ -53,10 +53,10 @@ struct Newton::Scatter {
 
 // [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
 // K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_. On several
-// ranks (split_) each adds its cells' terms, rank 0 the whole ones (the fluctuation, the contact
-// points, the damping), and the values are summed over the ranks before the factorization (every
-// rank then holds the whole matrix); each multiplier sweep sums the cells' part of the right-hand
-// side likewise, and each rank updates its cells' pressures.
+// ranks (split_) each adds its cells' terms (with their fluctuation blocks), rank 0 the whole ones
+// (the contact points, the damping), and the values are summed over the ranks before the
+// factorization (every rank then holds the whole matrix); each multiplier sweep sums the cells'
+// part of the right-hand side likewise, and each rank updates its cells' pressures.
 bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
                             const Eigen::VectorXd& G, const Eigen::VectorXd& gap,
                             const std::vector<int>& active, double damping, double rtol, Scatter& w,
@@ -101,22 +101,8 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   else
     assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
   const bool lead = !split_ || mpi::rank() == 0;  // adds the terms that are not per cell
-  if (mumps) {  // the fluctuation term's owned rows (fluct_ is symmetric: column k is row k)
-    for (int k = 0; k < fluct_.outerSize(); ++k) {
-      const int r = free_[k];
-      if (r < 0 || !mumps->owns(r)) continue;
-      for (SpMat::InnerIterator it(fluct_, k); it; ++it) {
-        const int c = free_[it.row()];
-        if (c < 0) continue;
-        mumps->add_entry(r, c, it.value());
-        if (r == c) diag(r) += it.value();
-      }
-    }
-  } else {
-    if (lead)
-      for (const auto& [pos, v] : fluct_pos_) A[pos] += v;
+  if (!mumps)
     for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
-  }
   if (split_) mpi::sum(diag.data(), nfree_);
   const double kappa = 1e4 * (nfree_ ? diag.cwiseAbs().mean() : 1.0);
   // The constraint rows: W_e = 1 / |B_e|^2 over the free dofs, their outer products.
@@ -289,21 +275,6 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
     assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink);
   else
     assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink);
-  {  // the fluctuation term, symmetric: column k is row k
-    std::vector<int> cols;
-    std::vector<double> vals;
-    for (int k = 0; k < fluct_.outerSize(); ++k) {
-      if (free_[k] < 0) continue;
-      cols.clear(), vals.clear();
-      for (SpMat::InnerIterator it(fluct_, k); it; ++it)
-        if (free_[it.row()] >= 0) {
-          cols.push_back(static_cast<int>(it.row()));
-          vals.push_back(it.value());
-          if (it.row() == k) diag(k) += it.value();
-        }
-      kr.add_row(k, static_cast<int>(cols.size()), cols.data(), vals.data());
-    }
-  }
   double a = 0;
   for (int k = 0; k < ndof; ++k)
     if (free_[k] >= 0) a += std::abs(diag(k));
@@ -510,8 +481,6 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
     assemble<3>(base, nullptr, nullptr, &t, &tb, nullptr, split_);
   gather_triplets(t);  // on several ranks every rank's cells: the system is whole on every rank
   gather_triplets(tb);
-  for (int k = 0; k < fluct_.outerSize(); ++k)
-    for (SpMat::InnerIterator i(fluct_, k); i; ++i) t.emplace_back(i.row(), i.col(), i.value());
   Triplets kkt;
   kkt.reserve(t.size() + 2 * tb.size() + 2 * d * nA);
   Eigen::VectorXd diag = Eigen::VectorXd::Zero(nfree_);

@@ -359,12 +359,14 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
 }
 
 /// With the Newton phase each rank builds the per-cell data of Newton (mean gradients,
-/// constraint points) for its own cells only (with the distributed solves, the cells whose first
-/// free dof is in its slab of matrix rows): the ranks' cells add up to the mesh's, none holds
-/// more than 3/4 of them on several ranks, and their bytes add up to the serial Newton's. With the
-/// distributed solves no rank holds the tangent's whole pattern or the cells' positions in it
-/// (PETSc's matrix holds its rows): less whole-mesh data than the serial Newton. Fails when every
-/// rank builds the data of every cell, or the whole pattern.
+/// fluctuation blocks, constraint points) for its own cells only (with the distributed solves,
+/// the cells whose first free dof is in its slab of matrix rows): the ranks' cells add up to the
+/// mesh's, none holds more than 3/4 of them on several ranks, and their bytes add up to the
+/// serial Newton's. With the distributed solves no rank holds the tangent's whole pattern or the
+/// cells' positions in it (PETSc's matrix holds its rows): less whole-mesh data than the serial
+/// Newton. The discretization's operators are the rank's block of cells, as with plain ALG2.
+/// Fails when every rank builds the data of every cell, the whole pattern, or the whole
+/// discretization.
 TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
   std::vector<std::string> keys = kCoarseGutter;
   keys.push_back("algorithm.solver=\"newton\"");
@@ -386,6 +388,9 @@ TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
   EXPECT_GT(hs.newton_positions, 0.0);
   EXPECT_EQ(hd.newton_positions, 0.0);
   EXPECT_LT(hd.newton_whole, 0.5 * hs.newton_whole);
+  const std::vector<int> block = mpi::blocks(nc, mpi::size());
+  EXPECT_EQ(hd.cells_with_operators, block[me + 1] - block[me]);
+  EXPECT_EQ(dist.discretization().partial(), mpi::size() > 1);
   if (me == 0)
     std::cout << "coarse gutter with Newton, " << mpi::size() << " rank(s): rank 0's Newton holds "
               << hd.newton_cells << " of " << p.mesh.num_cells() << " cells' data, "
