@@ -86,7 +86,7 @@ double petsc_messages_received() {
 bool option(const char*) {
   return false;
 }
-void set_option(const char*, bool) {}
+void set_option(const char*, bool, const char*) {}
 double petsc_reductions() {
   return 0;
 }
@@ -256,9 +256,9 @@ bool option(const char* name) {
   PetscOptionsHasName(nullptr, nullptr, name, &set);
   return set == PETSC_TRUE;
 }
-void set_option(const char* name, bool on) {
+void set_option(const char* name, bool on, const char* value) {
   if (on)
-    PetscOptionsSetValue(nullptr, name, nullptr);
+    PetscOptionsSetValue(nullptr, name, value);
   else
     PetscOptionsClearValue(nullptr, name);
 }

@@ -73,8 +73,9 @@ double petsc_reductions();
 /// Is the PETSc option `name` set (PETSC_OPTIONS in the environment, e.g. "-ltl_mpi_replicated")?
 /// False without MPI.
 bool option(const char* name);
-/// Sets (or with on = false clears) the PETSc option `name` (tests; nothing without MPI).
-void set_option(const char* name, bool on);
+/// Sets (or with on = false clears) the PETSc option `name`, with `value` if not null (tests;
+/// nothing without MPI).
+void set_option(const char* name, bool on, const char* value = nullptr);
 
 /// Peak resident memory of this process (VmHWM, bytes; 0 where /proc is missing).
 double peak_resident_bytes();

@@ -173,12 +173,46 @@ struct Factored {
     check(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY), what, "MatAssemblyBegin");
     check(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY), what, "MatAssemblyEnd");
   }
-  /// MUMPS's factor matrix, with PETSc's MUMPS conventions of mpi_global.cpp: twice the
-  /// workspace estimate (ICNTL(14) = 100 %); ICNTL(13) = 1: the inertia counted on every front.
+  /// MUMPS's workspace beyond its own estimate, percent (ICNTL(14)): 20 (MUMPS's default; the
+  /// PETSc option -ltl_mumps_workspace sets another, for measurement and the tests) until a
+  /// factorization finds it short, then 100 (refactorize_with_more_workspace). Twice the estimate
+  /// from the start cost rank 0 of 2 ranks 0.39 GB more on the 102 400-cell gutter (mpi.md).
+  int workspace = first_workspace();
+  static int first_workspace() {
+    PetscInt v = 20;
+    PetscBool set = PETSC_FALSE;
+    check(PetscOptionsGetInt(nullptr, nullptr, "-ltl_mumps_workspace", &v, &set), "MUMPS",
+          "PetscOptionsGetInt");
+    return static_cast<int>(v);
+  }
+  /// MUMPS's factor matrix, with PETSc's MUMPS conventions of mpi_global.cpp: the workspace
+  /// above; ICNTL(13) = 1: the inertia counted on every front.
   void new_factor(MatFactorType type) {
     check(MatGetFactor(A, MATSOLVERMUMPS, type, &F), what, "MatGetFactor");
-    check(MatMumpsSetIcntl(F, 14, 100), what, "MatMumpsSetIcntl");
+    check(MatMumpsSetIcntl(F, 14, workspace), what, "MatMumpsSetIcntl");
     if (type == MAT_FACTOR_CHOLESKY) check(MatMumpsSetIcntl(F, 13, 1), what, "MatMumpsSetIcntl");
+  }
+  /// After a failed numerical factorization: when MUMPS found its workspace short (INFOG(1) = -8
+  /// or -9, global: the same on every rank) and it was not yet twice the estimate, the factor is
+  /// analyzed and factorized again with 100 %; true when it was. Collective.
+  bool refactorize_with_more_workspace(MatFactorType type) {
+    PetscInt info = 0;
+    check(MatMumpsGetInfog(F, 1, &info), what, "MatMumpsGetInfog");
+    if ((info != -8 && info != -9) || workspace >= 100) return false;
+    workspace = 100;
+    MatDestroy(&F);
+    new_factor(type);
+    MatFactorInfo fi;
+    check(MatFactorInfoInitialize(&fi), what, "MatFactorInfoInitialize");
+    if (type == MAT_FACTOR_CHOLESKY) {
+      check(MatCholeskyFactorSymbolic(F, A, nullptr, &fi), what, "MatCholeskyFactorSymbolic");
+      check(MatCholeskyFactorNumeric(F, A, &fi), what, "MatCholeskyFactorNumeric");
+    } else {
+      check(MatLUFactorSymbolic(F, A, nullptr, nullptr, &fi), what, "MatLUFactorSymbolic");
+      check(MatLUFactorNumeric(F, A, &fi), what, "MatLUFactorNumeric");
+    }
+    ++stats_.mumps_workspace_retries;
+    return true;
   }
   /// Did the last factorization fail on some rank (MUMPS's error, a zero pivot)? Collective.
   bool failed() {
@@ -326,7 +360,7 @@ bool DistributedCholesky::factorize() {
   }
   check(MatCholeskyFactorNumeric(f.F, f.A, &info), f.what, "MatCholeskyFactorNumeric");
   ++st.mumps_factorizations;
-  bool ok = !f.failed();
+  bool ok = !f.failed() || (f.refactorize_with_more_workspace(MAT_FACTOR_CHOLESKY) && !f.failed());
   if (ok) {
     PetscInt neg = 0;  // INFOG(12); a zero pivot is MUMPS's failure (INFOG(1) = -10) above
     check(MatGetInertia(f.F, &neg, nullptr, nullptr), f.what, "MatGetInertia");
@@ -385,7 +419,7 @@ bool DistributedLU::solve(const SpMat& A, const NewtonRows& rows, const Eigen::V
   }
   check(MatLUFactorNumeric(f.F, f.A, &info), f.what, "MatLUFactorNumeric");
   ++st.mumps_lu_factorizations;
-  bool ok = !f.failed();
+  bool ok = !f.failed() || (f.refactorize_with_more_workspace(MAT_FACTOR_LU) && !f.failed());
   if (ok) {
     f.solve(rhs, x);
     ok = x.allFinite();

@@ -39,6 +39,9 @@ struct NewtonSolveStats {
   long umfpack_factorizations = 0;
   long mumps_analyses = 0, mumps_factorizations = 0, mumps_solves = 0;
   long mumps_lu_analyses = 0, mumps_lu_factorizations = 0;
+  /// Factorizations analyzed and made again because MUMPS found its workspace short (its
+  /// estimate plus 20 %, then twice the estimate; mpi_newton.cpp).
+  long mumps_workspace_retries = 0;
   double cholmod_analysis_s = 0, cholmod_factor_s = 0, cholmod_solve_s = 0, umfpack_s = 0;
   double mumps_analysis_s = 0, mumps_factor_s = 0, mumps_solve_s = 0, mumps_lu_s = 0;
   /// The Krylov solves (newton_krylov.hpp): solves, GMRES iterations, the most in one solve,

@@ -149,6 +149,8 @@ NewtonOutcome newton_step(const std::string& config, std::vector<std::string> ov
   out.solves.mumps_lu_analyses = after.mumps_lu_analyses - before.mumps_lu_analyses;
   out.solves.mumps_lu_factorizations =
       after.mumps_lu_factorizations - before.mumps_lu_factorizations;
+  out.solves.mumps_workspace_retries =
+      after.mumps_workspace_retries - before.mumps_workspace_retries;
   return out;
 }
 
@@ -156,9 +158,10 @@ NewtonOutcome newton_step(const std::string& config, std::vector<std::string> ov
 /// MUMPS over the ranks (mpi_newton.hpp): the serial answer to 1e-8 in u with the same
 /// iteration counts (ALG2's and Newton's), the same state on every rank, and MUMPS's solves
 /// counted where the serial solver counts CHOLMOD's (augmented) or UMFPACK's (lu: the glued
-/// KKT system); none of the serial ones in the distributed run (no silent fall-back).
-void expect_distributed_newton(const std::string& name, const std::string& config,
-                               const std::vector<std::string>& overrides, bool lu) {
+/// KKT system); none of the serial ones in the distributed run (no silent fall-back). Returns
+/// the distributed outcome.
+NewtonOutcome expect_distributed_newton(const std::string& name, const std::string& config,
+                                        const std::vector<std::string>& overrides, bool lu) {
   const NewtonOutcome serial = newton_step(config, overrides, Ranks::One);
   const NewtonOutcome dist = newton_step(config, overrides, Ranks::All);
   const double rel = relative(dist.state.u, serial.state.u);
@@ -193,6 +196,7 @@ void expect_distributed_newton(const std::string& name, const std::string& confi
     EXPECT_GE(dist.solves.mumps_analyses, 1) << name;
     EXPECT_LE(dist.solves.mumps_analyses, dist.report.newton_attempts) << name;
   }
+  return dist;
 }
 TEST(Mpi, Eq2_2_Eq2_7_Fig5NewtonPhaseDistributed) {
   expect_distributed_newton("Fig 5 with Newton", kFig5, {}, false);
@@ -205,6 +209,28 @@ TEST(Mpi, Eq2_2_Eq2_7_CoarseGutterNewtonPhaseDistributed) {
 TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepNewtonPhaseDistributedLU) {
   expect_distributed_newton("glued Fig 3 step with Newton", kFig3, {"time.steps=1"}, true);
 }
+/// [(2.2), (2.7), (1.1)] MUMPS's workspace starts at its own estimate plus 20 %. A factorization
+/// that finds it short (forced here: -ltl_mumps_workspace -50, half the estimate) is analyzed and
+/// factorized again with twice the estimate, not taken for a tangent that is not positive
+/// definite: the coarse gutter's Newton phase (Cholesky) and the glued Fig 3 step's KKT systems
+/// (LU) take the serial iteration counts and u, with one retry per Newton phase. Fails when a
+/// short workspace is not retried: the Newton path then differs (damping, the LU) or fails.
+TEST(Mpi, Eq2_2_ShortMumpsWorkspaceIsFactorizedAgain) {
+  mpi::set_option("-ltl_mumps_workspace", true, "-50");
+  const NewtonOutcome chol = expect_distributed_newton("coarse gutter with Newton, short workspace",
+                                                       kFig6, kCoarseGutter, false);
+  const NewtonOutcome lu = expect_distributed_newton(
+      "glued Fig 3 step with Newton, short workspace", kFig3, {"time.steps=1"}, true);
+  mpi::set_option("-ltl_mumps_workspace", false);
+  EXPECT_GE(chol.solves.mumps_workspace_retries, 1);
+  EXPECT_LE(chol.solves.mumps_workspace_retries, chol.report.newton_attempts);
+  EXPECT_GE(lu.solves.mumps_workspace_retries, 1);
+  EXPECT_LE(lu.solves.mumps_workspace_retries, lu.report.newton_attempts);
+  // At the default workspace these problems need no retry.
+  const NewtonOutcome plain = newton_step(kFig6, kCoarseGutter, Ranks::All);
+  EXPECT_EQ(plain.solves.mumps_workspace_retries, 0);
+}
+
 /// [(2.2), (2.7), (1.1)] The distributed factorizations alone: on the tridiagonal (-1, 2, -1)
 /// shifted by s, MUMPS's symmetric factorization reports positive definite iff the smallest
 /// eigenvalue 2 - 2 cos(pi / (n + 1)) + s is positive (the inertia: the decision CHOLMOD's LL'
