@@ -62,8 +62,8 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
     for (int e = block[me]; e < block[me + 1]; ++e)
       slot_[e] = static_cast<int>(cells_.size()), cells_.push_back(e);
   }
-  // Per cell of this rank, from its quadrature points as the discretization's cell operators
-  // are built (fe.cpp: the same sums, so gbar_ is Gbar's rows to the last bit): the mean
+  // Per cell of this rank, from its quadrature points with the sums by which the
+  // discretization's cell operators are built (fe.cpp's cell_operators): the mean
   // gradient gbar_e = (1 / |O_e|) sum_q w_q grad_q, the constraint points (mean-det: the
   // quadrature points; det-mean: gbar_e with weight |O_e|), and the fluctuation block
   // 2 C1 (L_e - |O_e| gbar_e gbar_e^T) with L_e = sum_q w_q grad_q grad_q^T.
