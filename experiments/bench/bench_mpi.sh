@@ -4,7 +4,9 @@
 #   strong scaling: the same gutter on 1 rank (serial solver, and the distributed one), 2 ranks
 #                   and 4 ranks (oversubscribed: 2 cores), with MUMPS and with CG + GAMG;
 #   weak scaling:   25 600 cells per rank on 1 and 2 ranks (MUMPS); 4 ranks is the strong
-#                   row of the 102 400-cell gutter.
+#                   row of the 102 400-cell gutter;
+#   Newton:         bench_mpi_newton's step on the 102 400-cell gutter, 1, 2 and 4 ranks, with
+#                   every rank's peak memory (not with --quick).
 # 20 timed iterations after 3 (1 080 and 9 900 cells), 8 after 2 (the larger gutters).
 # Usage: bench_mpi.sh BUILD_DIR [--quick]   (--quick: the gutters of 1 080 and 9 900 cells only)
 set -u
@@ -38,3 +40,16 @@ done
 [ "$quick" = "--quick" ] && exit 0
 run 1 weak 8 80 40 mumps --distribute 1 --iters 8 --warm 2
 run 2 weak 8 80 80 mumps --iters 8 --warm 2
+# The Newton phase's memory per rank (paper_notes/mpi.md, "Memory per rank with the Newton
+# phase"): the 102 400-cell gutter, Newton entered at once and capped at 2 iterations, with
+# ALG2's global step on MUMPS and on CG + GAMG, 1, 2 and 4 (oversubscribed) ranks.
+newton=$build/experiments/bench_mpi_newton
+for gs in cholesky cg-amg; do
+  for p in 1 2 4; do
+    echo "newton: global_solver $gs, $p rank(s)"
+    mpirun -n "$p" --oversubscribe "$newton" "$(dirname "$0")/../fig6/fig6.toml" \
+      mesh.parameters.nt=8 mesh.parameters.na=80 mesh.parameters.nl=160 \
+      algorithm.newton_switch=1e9 algorithm.newton_max_iter=2 algorithm.max_iter=3 \
+      "algorithm.global_solver=\"$gs\"" < /dev/null
+  done
+done

@@ -5,7 +5,8 @@
 //           Newton phase), the numeric factorization (once per Newton step) and the solves (5-7
 //           multiplier sweeps per step) of the augmented tangent, and the full KKT system's LU
 //           when it is used; serial (CHOLMOD, UMFPACK) with --serial, else distributed over the
-//           ranks of mpirun (MUMPS). Times are the largest over the ranks, with the load average.
+//           ranks of mpirun (MUMPS). Times are the largest over the ranks, with the load average;
+//           then every rank's peak resident memory.
 //
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi_newton CONFIG [--serial] [key=value]...
 //           e.g. the gutter at level 2 (`refinement fig6`'s mesh, 2 160 H8):
@@ -62,7 +63,8 @@ int bench(int argc, char** argv) {
     return 2;
   }
   const ltl::Problem problem = ltl::load_problem(argv[1], overrides);
-  ltl::Solver solver(ltl::Discretization(problem), serial ? ltl::Ranks::One : ltl::Ranks::All);
+  // As ltl_run builds it: on several ranks each discretizes its block of cells (alg2.hpp).
+  ltl::Solver solver(problem, serial ? ltl::Ranks::One : ltl::Ranks::All);
   ltl::State s = solver.initial_state();
   const Eigen::VectorXd beta_prev = s.beta;
   const auto t0 = std::chrono::steady_clock::now();
@@ -71,6 +73,10 @@ int bench(int argc, char** argv) {
       max_of(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   const ltl::NewtonSolveStats st = ltl::newton_solve_stats();
   auto per = [](double s, long n) { return n > 0 ? max_of(s) / n : 0.0; };
+  // Every rank's VmHWM in 10^6 KiB (/usr/bin/time's %M / 10^6, the unit of mpi.md's tables).
+  std::vector<double> peak(ltl::mpi::size(), 0.0);
+  peak[ltl::mpi::rank()] = ltl::mpi::peak_resident_bytes() / 1024e6;
+  ltl::mpi::sum(peak.data(), static_cast<long>(peak.size()));
   if (ltl::mpi::rank() == 0) {
     std::printf("%s: %d cells, %d nodes, %d rank(s), %s; %s\n", problem.name.c_str(),
                 solver.discretization().num_cells(), solver.discretization().num_nodes(),
@@ -100,6 +106,9 @@ int bench(int argc, char** argv) {
                 st.mumps_lu_analyses, ml);
     std::printf("  MUMPS workspace short of its estimate + 20 %%: %ld refactorization(s)\n",
                 st.mumps_workspace_retries);
+    std::printf("  peak resident memory per rank (VmHWM, 10^6 KiB):");
+    for (double g : peak) std::printf(" %.2f", g);
+    std::printf("\n");
   }
   return 0;
 }
