@@ -73,9 +73,6 @@ bool DistributedCholesky::factorize() {
   return false;
 }
 void DistributedCholesky::solve(const Eigen::VectorXd&, Eigen::VectorXd&) {}
-double DistributedCholesky::owned_nonzeros() const {
-  return 0;
-}
 
 struct DistributedLU::Impl {};
 DistributedLU::DistributedLU() {
@@ -305,7 +302,8 @@ DistributedCholesky::DistributedCholesky(NewtonRows rows, int d, const std::vect
   check(MatSetOption(f.A, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE), f.what, "MatSetOption");
   check(MatSetOption(f.A, MAT_SYMMETRIC, PETSC_TRUE), f.what, "MatSetOption");
   check(MatSetOption(f.A, MAT_SYMMETRY_ETERNAL, PETSC_TRUE), f.what, "MatSetOption");
-  std::vector<PetscInt>().swap(f.ja);  // PETSc holds its copy
+  std::vector<PetscInt>().swap(f.ia);  // PETSc holds its copy
+  std::vector<PetscInt>().swap(f.ja);
   std::vector<PetscScalar>().swap(f.va);
 }
 DistributedCholesky::~DistributedCholesky() = default;
@@ -331,10 +329,6 @@ void DistributedCholesky::add_entry(int row, int col, double v) {
 bool DistributedCholesky::owns(int k) const {
   const Factored& f = impl_->f;
   return f.perm[k] >= f.first && f.perm[k] < f.first + f.own;
-}
-
-double DistributedCholesky::owned_nonzeros() const {
-  return impl_->f.ia.empty() ? 0.0 : static_cast<double>(impl_->f.ia.back());
 }
 
 // [(2.2), (2.7), (1.1)] The augmented tangent of the Newton step (newton_kkt.cpp), its terms

@@ -94,8 +94,6 @@ class DistributedCholesky {
   bool factorize();
   /// x = A^{-1} b, b whole on every rank, x whole on every rank.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
-  /// The owned rows' nonzeros (both triangles), for the bytes a rank holds.
-  double owned_nonzeros() const;
 
  private:
   struct Impl;

@@ -52,11 +52,13 @@ struct Newton::Scatter {
 };
 
 // [K, -B^T, C^T; -B, 0, 0; C, 0, 0] (du, dp, dmu) = (-R_u, G, -gap) as in solve_kkt, with
-// K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_. On several
-// ranks (split_) each adds its cells' terms (with their fluctuation blocks), rank 0 the whole ones
-// (the contact points, the damping), and the values are summed over the ranks before the
-// factorization (every rank then holds the whole matrix); each multiplier sweep sums the cells'
-// part of the right-hand side likewise, and each rank updates its cells' pressures.
+// K + kappa B^T W B + kappa_c C^T Wc C scattered straight into the values of pattern_, or with
+// the distributed solves added into PETSc's matrix (DistributedCholesky). On several ranks
+// (split_) each adds its cells' terms (with their fluctuation blocks), rank 0 the contact points;
+// the damping goes to the owner of each row (PETSc's matrix) or to rank 0 (pattern_, whose values
+// are then summed over the ranks: every rank holds the whole matrix). Each multiplier sweep sums
+// the cells' part of the right-hand side over the ranks, and each rank updates its cells'
+// pressures.
 bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
                             const Eigen::VectorXd& G, const Eigen::VectorXd& gap,
                             const std::vector<int>& active, double damping, double rtol, Scatter& w,
@@ -89,11 +91,11 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
       for (int c = 0; c < dn; ++c)
         if (pos[r * dn + c] >= 0) A[pos[r * dn + c]] += M(r, c);
   };
+  // The tangent's diagonal (for kappa and the damping), summed as the matrix sums it.
   const CellSink sink = [&](int e, const Eigen::MatrixXd& Ke, const Eigen::VectorXd& be) {
     add_cell(e, Ke);
-    if (mumps)
-      for (int r = 0; r < dn; ++r)
-        if (fdof(e, r) >= 0) diag(fdof(e, r)) += Ke(r, r);
+    for (int r = 0; r < dn; ++r)
+      if (fdof(e, r) >= 0) diag(fdof(e, r)) += Ke(r, r);
     if (np) w.be[slot_[e]] = be;
   };
   if (d == 2)
@@ -101,8 +103,6 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   else
     assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
   const bool lead = !split_ || mpi::rank() == 0;  // adds the terms that are not per cell
-  if (!mumps)
-    for (int k = 0; k < nfree_; ++k) diag(k) = A[diag_pos_[k]];
   if (split_) mpi::sum(diag.data(), nfree_);
   const double kappa = 1e4 * (nfree_ ? diag.cwiseAbs().mean() : 1.0);
   // The constraint rows: W_e = 1 / |B_e|^2 over the free dofs, their outer products.
