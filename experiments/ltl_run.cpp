@@ -30,7 +30,7 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
     options.output.clear();
     options.verbosity = 0;
   }
-  // Discretize (on several ranks plain ALG2 discretizes each rank's block of cells only); K
+  // Discretize (on several ranks each rank discretizes its own cells only, a slab); K
   // factorized once (4.5), or the distributed KSP set up once over the ranks.
   ltl::Solver solver{problem, ranks ? ltl::Ranks::All : ltl::Ranks::One};
   ltl::run(solver, options);  // (2.1): ALG2 per step, written at once

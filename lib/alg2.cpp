@@ -46,7 +46,7 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   }
 
   rhs_.resize(nn, dim);
-  T_.resize(dim * nc, dim);
+  T_ = Eigen::MatrixXd::Zero(dim * nc, dim);  // distributed: the rank's cells' rows only written
   global_out_.GU.resize(dim * nc, dim);
   global_out_.J = Eigen::VectorXd::Ones(nc);
   if (points) {
@@ -143,15 +143,17 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
 
 // [LTL87 (4.6), (5.2)-(5.8)] Cell by cell, D = R q (I + Gbar u) - lambda and E = argmin J_E.
 // The blocks are transposed tensors; the energies are isotropic, so solving on D^T gives E^T.
-// The cells c0 <= c < c1 (a rank's block when distributed).
+// The cells `cells` (a rank's cells when distributed).
 namespace {
 template <int d>
 int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
-                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E, int c0,
-                int c1) {
+                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E,
+                const std::vector<int>& cells) {
   int failures = 0;
+  const int n = static_cast<int>(cells.size());
 #pragma omp parallel for schedule(static) reduction(+ : failures)
-  for (int c = c0; c < c1; ++c) {
+  for (int k = 0; k < n; ++k) {
+    const int c = cells[k];
     Eigen::Matrix<double, d, d> D =
         Rq * GU.template block<d, d>(d * c, 0) - lambda.template block<d, d>(d * c, 0);
     D.diagonal().array() += Rq;
@@ -178,10 +180,9 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
   const double Rq = R_ * alg().q;
   const Eigen::VectorXd* J = disc_.mean_det() ? &g.J : nullptr;
   auto t0 = clock_type::now();
-  const Range cells = cell_range();
-  int failures = dim() == 2
-                     ? strain_loop<2>(*strain_, Rq, g.GU, lambda, J, s.E, cells.first, cells.end)
-                     : strain_loop<3>(*strain_, Rq, g.GU, lambda, J, s.E, cells.first, cells.end);
+  const std::vector<int>& cells = own_cells();
+  int failures = dim() == 2 ? strain_loop<2>(*strain_, Rq, g.GU, lambda, J, s.E, cells)
+                            : strain_loop<3>(*strain_, Rq, g.GU, lambda, J, s.E, cells);
   rec.t_strain += seconds_since(t0);
   if (contact_) {
     t0 = clock_type::now();
@@ -202,11 +203,12 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
 // On this rank's rows (all of them unless distributed).
 void Solver::half_step(const GlobalOutput& g, const State& s, Multipliers& m) const {
   const double Rq = R_ * alg().q, Rqc = R_ * alg().q_c;
-  const int d = dim(), r0 = d * cell_range().first, nr = d * cell_range().end - r0;
+  const int d = dim();
   m.lambda.resize(s.lambda.rows(), s.lambda.cols());
-  m.lambda.middleRows(r0, nr) =
-      s.lambda.middleRows(r0, nr) -
-      Rq * (disc_.identity().middleRows(r0, nr) + g.GU.middleRows(r0, nr) - s.E.middleRows(r0, nr));
+  for (int c : own_cells())
+    m.lambda.middleRows(d * c, d) =
+        s.lambda.middleRows(d * c, d) - Rq * (disc_.identity().middleRows(d * c, d) +
+                                              g.GU.middleRows(d * c, d) - s.E.middleRows(d * c, d));
   if (contact_) {
     const int p0 = point_range().first, np = point_range().end - p0;
     m.lambda_c.resize(s.lambda_c.rows(), s.lambda_c.cols());
@@ -221,15 +223,16 @@ void Solver::update_phase(const GlobalOutput& g, const Multipliers* half, State&
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q, Rqc = R_ * a.q_c;
   const double step = half ? 2 * a.rho - 1 : a.rho;
-  const int d = dim(), r0 = d * cell_range().first, nr = d * cell_range().end - r0;
+  const int d = dim();
   const int p0 = point_range().first, np = point_range().end - p0;
   if (half) {
-    s.lambda.middleRows(r0, nr) = half->lambda.middleRows(r0, nr);
+    for (int c : own_cells()) s.lambda.middleRows(d * c, d) = half->lambda.middleRows(d * c, d);
     if (contact_) s.lambda_c.middleRows(p0, np) = half->lambda_c.middleRows(p0, np);
   }
-  s.lambda.middleRows(r0, nr) -=
-      step * Rq *
-      (disc_.identity().middleRows(r0, nr) + g.GU.middleRows(r0, nr) - s.E.middleRows(r0, nr));
+  for (int c : own_cells())
+    s.lambda.middleRows(d * c, d) -= step * Rq *
+                                     (disc_.identity().middleRows(d * c, d) +
+                                      g.GU.middleRows(d * c, d) - s.E.middleRows(d * c, d));
   if (contact_)
     s.lambda_c.middleRows(p0, np) -=
         step * Rqc * (g.ubar.middleRows(p0, np) - s.e.middleRows(p0, np));
@@ -278,9 +281,11 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   const Eigen::VectorXd& vol_rows = disc_.volume_rows();
   double B2 = 0, G2 = 0, beta2 = 0;
   const int dim = this->dim();
-  const Eigen::Index r0 = dim * cell_range().first, r1 = dim * cell_range().end;
+  const std::vector<int>& cells = own_cells();
+  const Eigen::Index nr = dim * static_cast<Eigen::Index>(cells.size());
 #pragma omp parallel for schedule(static) reduction(+ : B2, G2)
-  for (Eigen::Index r = r0; r < r1; ++r) {
+  for (Eigen::Index k = 0; k < nr; ++k) {
+    const Eigen::Index r = dim * cells[k / dim] + k % dim;
     double b = 0, gr = 0;
     for (int i = 0; i < dim; ++i) {
       const double Bri = (i == r % dim ? 1.0 : 0.0) + g.GU(r, i) - s.E(r, i);

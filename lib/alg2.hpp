@@ -46,7 +46,7 @@ struct Holdings {
   double cell_arrays = 0;  ///< dense per-cell arrays: identity, volume rows, the work arrays
   double node_arrays = 0;  ///< dense per-node arrays: dead loads, Dirichlet values, rhs
   double contact = 0;      ///< the contact points' operators and arrays
-  /// With the Newton phase (newton.hpp): its cells (the rank's block on several ranks), their
+  /// With the Newton phase (newton.hpp): its cells (the rank's on several ranks), their
   /// data, their positions in the tangent's pattern, and the whole-mesh data it keeps.
   int newton_cells = 0;
   double newton_cell_data = 0, newton_positions = 0, newton_whole = 0;
@@ -66,13 +66,14 @@ class Solver {
  public:
   /// Discretizes the problem (discretization.hpp), then the precompute: assembles K with R q and
   /// factorizes it once [LTL87 (4.5)]. Ranks::All with the distributed KSP (plain ALG2 or with
-  /// the Newton phase): each rank discretizes its block of cells only (Discretization on a cell
-  /// range: Gbar, GbarT_vol, the Laplacian and its part of K of its cells; paper_notes/mpi.md).
+  /// the Newton phase): each rank discretizes its own cells only, a slab along the mesh's longest
+  /// extent (slab_cells; Discretization of some cells: Gbar, GbarT_vol, the Laplacian and its
+  /// part of K of its cells; paper_notes/mpi.md).
   /// With the replicated factor the whole discretization, on every rank.
   explicit Solver(const Problem& problem, Ranks ranks = Ranks::One);
   /// The same from a discretization built beforehand. Ranks::All (an MPI build, lib/mpi_comm.hpp)
   /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): every rank holds the whole
-  /// discretization, computes its block of cells and contact points, and ends each iteration
+  /// discretization, computes its cells and its block of contact points, and ends each iteration
   /// with the whole state.
   explicit Solver(Discretization discretization, Ranks ranks = Ranks::One);
   ~Solver();
@@ -197,16 +198,16 @@ class Solver {
     int first, end;
   };
   void distribute();
-  /// The discretization a Solver on `ranks` builds (a rank's block of cells, or every cell).
+  /// The discretization a Solver on `ranks` builds (a rank's cells, or every cell).
   static Discretization discretize(const Problem& problem, Ranks ranks);
   /// The contact points whose term R q_c M^T |G| M goes into this rank's part of K: all of them
   /// unless the discretization is partial, then on rank 0 alone.
   const ContactPoints* points_in_K() const;
   /// Does the discretization hold exactly this rank's cells (so that GbarT_vol is its part)?
   bool owns_only_its_cells() const;
-  /// The cells, and the contact points, whose local steps and updates this rank computes (all
-  /// of them unless distributed; all points when the contact step is replicated).
-  Range cell_range() const;
+  /// The cells (sorted), and the contact points, whose local steps and updates this rank
+  /// computes (all of them unless distributed; all points when the contact step is replicated).
+  const std::vector<int>& own_cells() const;
   Range point_range() const;
   /// The contact points whose residual this rank sums (its own block when distributed).
   Range residual_points() const;

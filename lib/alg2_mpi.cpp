@@ -2,8 +2,9 @@
 // lib/mpi_comm.hpp). The first slice of the distribution (paper_notes/mpi.md):
 //
 //   - PARTITIONED (Solver(Problem, Ranks::All), plain ALG2 or with the Newton phase): the cell
-//     operators. Each rank discretizes its block of cells only (Discretization on a cell range:
-//     Gbar, GbarT_vol, the Laplacian of its cells) and assembles its part of K (4.5), which the
+//     operators. Each rank discretizes its own cells only, a slab along the mesh's longest
+//     extent (slab_cells, mpi_global.hpp; Discretization of some cells: Gbar, GbarT_vol, the
+//     Laplacian of its cells) and assembles its part of K (4.5), which the
 //     distributed KSP sums (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over
 //     cells of the measures (equilibrium residual, energy) add the ranks' parts. The Newton phase
 //     holds its own per-cell data for its cells (newton.hpp). With the replicated factor, the
@@ -12,16 +13,16 @@
 //     reads the whole problem and ends every iteration with the whole state, so that Anderson,
 //     the stopping tests, the Newton phase and the output are the serial ones, identical on
 //     every rank.
-//   - DISTRIBUTED: the cells and the contact points, in contiguous blocks (mpi::blocks). A rank
-//     computes, on its own blocks: the global step's per-cell right-hand side
-//     Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R q_c e + lambda_c] (4.1),
-//     the mean-det fluctuation terms and targets, Gbar u and ubar; the strain step (4.6); the
-//     contact step (4.7) when the points are independent (d0 = 0); the update (4.3) and the
-//     residual sums (4.4). The right-hand side is summed over the ranks (one Allreduce of
-//     #nodes x dim), the global solve (4.5) is one distributed PETSc KSP (mpi_global.hpp), or
-//     with algorithm.global_solver = "cholesky" the serial factor on every rank (replicated);
-//     the residual parts are summed (3 values); the owned blocks of E, lambda (and e, lambda_c,
-//     beta) are gathered (Allgatherv).
+//   - DISTRIBUTED: the cells (the slabs above) and the contact points (contiguous blocks of
+//     their index, mpi::blocks). A rank computes, on its own cells and points: the global step's
+//     per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R
+//     q_c e + lambda_c] (4.1), the mean-det fluctuation terms and targets, Gbar u and ubar; the
+//     strain step (4.6); the contact step (4.7) when the points are independent (d0 = 0); the
+//     update (4.3) and the residual sums (4.4). The right-hand side is summed over the ranks (one
+//     Allreduce of #nodes x dim), the global solve (4.5) is one distributed PETSc KSP
+//     (mpi_global.hpp), or with algorithm.global_solver = "cholesky" the serial factor on every
+//     rank (replicated); the residual parts are summed (3 values); the owned blocks of E, lambda
+//     (and e, lambda_c, beta) are gathered (Allgatherv).
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
@@ -34,14 +35,13 @@
 namespace ltl {
 
 struct Solver::Distribution {
-  std::vector<int> cells, points, nodes;  ///< the ranks' blocks (mpi::blocks)
-  int c0 = 0, c1 = 0, p0 = 0, p1 = 0, n0 = 0, n1 = 0;
+  mpi::Partition cells;            ///< the ranks' cells (slab_cells)
+  std::vector<int> own;            ///< this rank's cells, sorted
+  std::vector<int> points, nodes;  ///< the ranks' blocks (mpi::blocks)
+  int p0 = 0, p1 = 0, n0 = 0, n1 = 0;
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  /// #nodes x dim #owned cells: the owned columns of GbarT_vol (a copy; empty when the
-  /// discretization holds the owned cells only: then GbarT_vol itself)
-  SpMatR GbarT_own;
   SpMatR meanT_own;  ///< #nodes x #owned points: the owned columns of meanT_area
   std::unique_ptr<DistributedGlobalStep> ksp;
   double scale = 1;
@@ -60,15 +60,15 @@ const GlobalStep& Solver::global_step() const {
 
 void Solver::distribute() {
   const int P = mpi::size(), me = mpi::rank();
-  const int dim = this->dim(), nc = disc_.num_cells(), nn = disc_.num_nodes();
+  const int nn = disc_.num_nodes();
   const ContactPoints* points = disc_.points();
   const int np = points ? points->size() : 0;
   dist_.reset(new Distribution());
   Distribution& d = *dist_;
-  d.cells = mpi::blocks(nc, P);
+  d.cells = slab_cells(problem().mesh, P);
+  d.own = d.cells.items(me);
   d.points = mpi::blocks(np, P);
   d.nodes = mpi::blocks(nn, P);
-  d.c0 = d.cells[me], d.c1 = d.cells[me + 1];
   d.p0 = d.points[me], d.p1 = d.points[me + 1];
   d.n0 = d.nodes[me], d.n1 = d.nodes[me + 1];
   d.contact_replicated = false;
@@ -81,17 +81,15 @@ void Solver::distribute() {
   d.use_ksp = !mpi::option("-ltl_mpi_replicated");
   d.ksp_solver = alg().global_solver == GlobalSolver::CgAmg ? DistributedGlobalStep::Solver::CgGamg
                                                             : DistributedGlobalStep::Solver::Mumps;
-  if (disc_.partial() && (disc_.first_cell() != d.c0 || disc_.end_cell() != d.c1))
-    throw Error(cat("a discretization of the cells [", disc_.first_cell(), ", ", disc_.end_cell(),
-                    ") on the rank of the cells [", d.c0, ", ", d.c1, ")"));
+  if (disc_.partial() && disc_.held_cells() != d.own)
+    throw Error(cat("a discretization of ", disc_.held_cells().size(), " cells on a rank of ",
+                    d.own.size(), " other cells (slab_cells)"));
   if (disc_.partial() && !d.use_ksp)
     throw Error("the replicated factor needs the whole discretization (Solver(Discretization))");
-  if (!owns_only_its_cells())
-    d.GbarT_own = disc_.cells().GbarT_vol.middleCols(dim * d.c0, dim * (d.c1 - d.c0));
   if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
 }
 
-// The rank's block of cells (mpi::blocks): its operators alone, unless the replicated serial
+// The rank's cells (slab_cells): its operators alone, unless the replicated serial
 // factor (-ltl_mpi_replicated: K whole on every rank) needs every cell. The Newton phase builds
 // its own per-cell data from the mesh for its cells (newton.hpp) and needs none of the
 // operators' other rows. The PETSc option -ltl_mpi_whole builds the whole discretization on
@@ -99,8 +97,8 @@ void Solver::distribute() {
 Discretization Solver::discretize(const Problem& problem, Ranks ranks) {
   if (ranks == Ranks::One || mpi::option("-ltl_mpi_replicated") || mpi::option("-ltl_mpi_whole"))
     return Discretization(problem);
-  const std::vector<int> cells = mpi::blocks(problem.mesh.num_cells(), mpi::size());
-  return Discretization(problem, cells[mpi::rank()], cells[mpi::rank() + 1]);
+  const std::vector<int> cells = slab_cells(problem.mesh, mpi::size()).items(mpi::rank());
+  return Discretization(problem, &cells);
 }
 
 const ContactPoints* Solver::points_in_K() const {
@@ -108,12 +106,11 @@ const ContactPoints* Solver::points_in_K() const {
 }
 
 bool Solver::owns_only_its_cells() const {
-  return dist_ && disc_.first_cell() == dist_->c0 && disc_.end_cell() == dist_->c1;
+  return dist_ && disc_.partial();
 }
 
-Solver::Range Solver::cell_range() const {
-  if (!dist_) return {0, disc_.num_cells()};
-  return {dist_->c0, dist_->c1};
+const std::vector<int>& Solver::own_cells() const {
+  return dist_ ? dist_->own : disc_.held_cells();
 }
 
 Solver::Range Solver::point_range() const {
@@ -155,7 +152,7 @@ RankShare Solver::rank_share() const {
   RankShare r;
   if (!dist_) return r;
   const Distribution& d = *dist_;
-  r.cells = d.c1 - d.c0;
+  r.cells = static_cast<int>(d.own.size());
   r.points = d.p1 - d.p0;
   r.contact_replicated = d.contact_replicated;
   r.replicated_cholesky = !d.ksp;
@@ -178,18 +175,20 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const Distribution& d = *dist_;
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q;
-  const int dim = this->dim(), r0 = dim * d.c0, nr = dim * (d.c1 - d.c0);
+  const int dim = this->dim();
   const ContactPoints* points = disc_.points();
   const Eigen::MatrixXd& I = disc_.identity();
-  T_.middleRows(r0, nr) = Rq * (s.E.middleRows(r0, nr) - I.middleRows(r0, nr)) +
-                          s.lambda.middleRows(r0, nr) - 2 * disc_.split().C1 * I.middleRows(r0, nr);
-  if (owns_only_its_cells())  // GbarT_vol's columns are the owned cells' (the same products)
-    rhs_.noalias() = disc_.cells().GbarT_vol * T_;
-  else
-    rhs_.noalias() = d.GbarT_own * T_.middleRows(r0, nr);
+  for (int c : d.own)
+    T_.middleRows(dim * c, dim) = Rq * (s.E.middleRows(dim * c, dim) - I.middleRows(dim * c, dim)) +
+                                  s.lambda.middleRows(dim * c, dim) -
+                                  2 * disc_.split().C1 * I.middleRows(dim * c, dim);
+  // T_'s rows of the other ranks' cells are zero (never written): with the whole discretization
+  // (-ltl_mpi_whole) the product is this rank's part too; with the rank's cells, GbarT_vol's
+  // columns are its cells'.
+  rhs_.noalias() = disc_.cells().GbarT_vol * T_;
   if (mpi::rank() == 0) rhs_ += F_ext_;
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
-    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, d.c0, d.c1);
+    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own);
   if (points) {
     const int np = d.p1 - d.p0;
     rhs_.noalias() +=
@@ -201,10 +200,15 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   else
     global_->solve(rhs_, s.u);
 
-  g.GU.middleRows(r0, nr).noalias() = disc_.cells().Gbar.middleRows(r0, nr) * s.u;
+  if (owns_only_its_cells()) {  // the other cells' rows of Gbar are empty
+    g.GU.noalias() = disc_.cells().Gbar * s.u;
+  } else {
+    const SpMatR& G = disc_.cells().Gbar;
+    for (int c : d.own) g.GU.middleRows(dim * c, dim).noalias() = G.middleRows(dim * c, dim) * s.u;
+  }
   if (disc_.mean_det()) {
-    disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, d.c0, d.c1);
-    g.J.segment(d.c0, d.c1 - d.c0) = 1.0 - g.J.segment(d.c0, d.c1 - d.c0).array();
+    disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, &d.own);
+    for (int c : d.own) g.J(c) = 1.0 - g.J(c);
   }
   if (points) {
     const Range pr = point_range();
@@ -244,7 +248,7 @@ Holdings Solver::holdings() const {
   const CellOperators& c = disc_.cells();
   h.operators = bytes_of_sparse(c.Gbar) + bytes_of_sparse(c.GbarT_vol) +
                 bytes_of_sparse(c.laplacian) + bytes_of(c.vol);
-  if (dist_) h.operators += bytes_of_sparse(dist_->GbarT_own);
+  if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
   const int dim = this->dim();
   for (int e = 0; e < disc_.num_cells(); ++e)
     if (c.Gbar.outerIndexPtr()[dim * e + 1] > c.Gbar.outerIndexPtr()[dim * e])

@@ -54,14 +54,19 @@ ContactPoints stack_obstacles(const std::vector<ContactPoints>& obstacles, int n
 }
 }  // namespace
 
-Discretization::Discretization(const Problem& problem, int first, int end)
-    : problem_(problem), first_(first), end_(end) {
+Discretization::Discretization(const Problem& problem, const std::vector<int>* held)
+    : problem_(problem) {
   const auto t0 = std::chrono::steady_clock::now();
   problem_.validate();
   const Mesh& mesh = problem_.mesh;
   const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
-  if (end_ < 0) end_ = nc;
-  partial_ = first_ != 0 || end_ != nc;
+  if (held) {
+    held_ = *held;
+  } else {
+    held_.resize(nc);
+    for (int c = 0; c < nc; ++c) held_[c] = c;
+  }
+  partial_ = static_cast<int>(held_.size()) != nc;
 
   // The split (2.5)-(2.6) of W: C1 |F|^2 in the global quadratic, the rest local. In plane strain
   // the incompressible Mooney-Rivlin C2 term is C2 (|F|^2 + 1) on det F = 1, so by default it
@@ -72,7 +77,7 @@ Discretization::Discretization(const Problem& problem, int first, int end)
     split_.C2 = 0;
   }
 
-  cells_ = cell_operators(mesh, first_, end_);
+  cells_ = cell_operators(mesh, &held_);
   volume_ = cells_.vol.sum();
   Id_ = Eigen::MatrixXd::Zero(dim * nc, dim);
   vol_rows_.resize(dim * nc);
@@ -278,26 +283,29 @@ struct FluctuationKernel {
 
 /// c (when non-null) and force += the cells' nodal forces (when non-null). The cells run in
 /// parallel; the forces are summed onto the nodes block by block, in cell order, from a buffer of
-/// kBlock cells (memory per block, not per cell). On the cells first <= e < end.
+/// kBlock cells (memory per block, not per cell). On the cells `cells` (sorted; null: all n).
 template <int d, int npc>
 void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::MatrixXd& u,
                       const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
                       Eigen::VectorXd* c, Eigen::MatrixXd* force, std::vector<double>& buffer,
-                      int first, int end) {
+                      const std::vector<int>* cells, int n) {
   constexpr int kBlock = 2048, kNodal = npc * d;
   if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
-  for (int b0 = first; b0 < end; b0 += kBlock) {
-    const int b1 = std::min(end, b0 + kBlock);
+  if (cells) n = static_cast<int>(cells->size());
+  for (int b0 = 0; b0 < n; b0 += kBlock) {
+    const int b1 = std::min(n, b0 + kBlock);
 #pragma omp parallel for schedule(static)
-    for (int e = b0; e < b1; ++e) {
-      double* fe = force ? buffer.data() + static_cast<std::size_t>(e - b0) * kNodal : nullptr;
+    for (int k = b0; k < b1; ++k) {
+      const int e = cells ? (*cells)[k] : k;
+      double* fe = force ? buffer.data() + static_cast<std::size_t>(k - b0) * kNodal : nullptr;
       const double ce = kernel(e, u, lambda, E, gamma, fe);
       if (c) (*c)(e) = ce;
     }
     if (!force) continue;
-    for (int e = b0; e < b1; ++e) {
+    for (int k = b0; k < b1; ++k) {
       const Eigen::Map<const Eigen::Matrix<double, npc, d>> fe(
-          buffer.data() + static_cast<std::size_t>(e - b0) * kNodal);
+          buffer.data() + static_cast<std::size_t>(k - b0) * kNodal);
+      const int e = cells ? (*cells)[k] : k;
       for (int a = 0; a < npc; ++a) force->row(kernel.cells(e, a)) += fe.row(a);
     }
   }
@@ -306,20 +314,20 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
 
 void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                                  const Eigen::MatrixXd* E, Eigen::VectorXd* c,
-                                 Eigen::MatrixXd* force, double gamma, int first, int end) const {
-  if (end < 0) end = num_cells();
+                                 Eigen::MatrixXd* force, double gamma,
+                                 const std::vector<int>* cells) const {
   // The point gradients are recomputed per cell from the nodes' positions (no per-cell or
   // per-point table: memory per cell, not speed, limits the 3-D problems).
   const Mesh& mesh = problem_.mesh;
   if (dim() == 2)
     fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, first, end);
+                           force, buffer_, cells, num_cells());
   else if (mesh.nodes_per_cell() == 10)
     fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
-                            c, force, buffer_, first, end);
+                            c, force, buffer_, cells, num_cells());
   else
     fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, first, end);
+                           force, buffer_, cells, num_cells());
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {

@@ -25,13 +25,13 @@ class Discretization {
  public:
   /// Validates the problem and builds every discrete operator; throws a clear Error naming the
   /// group, facet or node on inconsistent data (e.g. a contact point starting inside the plane).
-  explicit Discretization(const Problem& problem) : Discretization(problem, 0, -1) {}
-  /// The same with the cell operators (Gbar, GbarT_vol, the Laplacian) of the cells
-  /// first <= c < end only (end < 0: every cell): a rank's block of a distributed run
-  /// (alg2_mpi.cpp, paper_notes/mpi.md), the rest of the discretization whole. Then the sums
-  /// over cells (elastic_energy, energy_gradient, measures.cpp's equilibrium residual) add the
-  /// owned cells' parts over the MPI ranks, and are collective.
-  Discretization(const Problem& problem, int first, int end);
+  explicit Discretization(const Problem& problem) : Discretization(problem, nullptr) {}
+  /// The same with the cell operators (Gbar, GbarT_vol, the Laplacian) of the cells `held`
+  /// only (sorted; null: every cell): a rank's cells in a distributed run (alg2_mpi.cpp,
+  /// paper_notes/mpi.md), the rest of the discretization whole. Then the sums over cells
+  /// (elastic_energy, energy_gradient, measures.cpp's equilibrium residual) add the held cells'
+  /// parts over the MPI ranks, and are collective.
+  Discretization(const Problem& problem, const std::vector<int>* held);
 
   const Problem& problem() const { return problem_; }
   /// Wall-clock seconds the constructor took (part of the run's setup time).
@@ -39,10 +39,9 @@ class Discretization {
   int dim() const { return problem_.mesh.dim; }
   int num_cells() const { return problem_.mesh.num_cells(); }
   int num_nodes() const { return problem_.mesh.num_nodes(); }
-  /// The cells whose operators this discretization holds: first_cell() <= c < end_cell(); all of
-  /// them unless partial().
-  int first_cell() const { return first_; }
-  int end_cell() const { return end_; }
+  /// The cells whose operators this discretization holds (sorted); all of them unless
+  /// partial().
+  const std::vector<int>& held_cells() const { return held_; }
   bool partial() const { return partial_; }
 
   /// The material as split between the global and the local steps (2.5)-(2.6):
@@ -101,10 +100,10 @@ class Discretization {
   /// force (#nodes x dim, added to, not overwritten) at u, with p_e from lambda and E when force
   /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
   /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell. On the
-  /// cells first <= e < end (end < 0: all; a rank's block when distributed, alg2_mpi.cpp).
+  /// cells `cells` (sorted; null: all; a rank's cells when distributed, alg2_mpi.cpp).
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
-                   double gamma = 0, int first = 0, int end = -1) const;
+                   double gamma = 0, const std::vector<int>* cells = nullptr) const;
 
   // Outputs at a state, per cell (transposed-block layout like E) or per contact point.
   /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
@@ -141,7 +140,7 @@ class Discretization {
 
  private:
   Problem problem_;
-  int first_ = 0, end_ = 0;  ///< the cells with operators (all unless partial_)
+  std::vector<int> held_;  ///< the cells with operators (all unless partial_)
   bool partial_ = false;
   Material split_;
   CellOperators cells_;

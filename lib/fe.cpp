@@ -243,25 +243,34 @@ void reference_shape(const Mesh& mesh, const Eigen::Vector3d& xi, Eigen::VectorX
 // Assembled in place, without triplet lists: the Laplacian's pattern (nodes sharing a cell) from
 // the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
 // which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.
-// On a cell range c0 <= c < c1 (a rank's block, paper_notes/mpi.md): the other cells' rows of
-// Gbar (and columns of GbarT_vol) are empty and L sums the range's cells only; vol is whole.
-CellOperators cell_operators(const Mesh& mesh, int c0, int c1) {
+// On a set of cells (a rank's cells, paper_notes/mpi.md): the other cells' rows of Gbar (and
+// columns of GbarT_vol) are empty and L sums the set's cells only; vol is whole.
+CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
   const int nn = mesh.num_nodes();
-  if (c1 < 0) c1 = nc;
-  if (c0 < 0 || c0 > c1 || c1 > nc)
-    throw Error(cat("cell_operators: cell range [", c0, ", ", c1, ") of ", nc, " cells"));
+  std::vector<int> all;
+  if (!held) {
+    all.resize(nc);
+    for (int c = 0; c < nc; ++c) all[c] = c;
+    held = &all;
+  }
+  std::vector<char> own(nc, 0);
+  for (int c : *held) {
+    if (c < 0 || c >= nc || own[c])
+      throw Error(cat("cell_operators: cell ", c, " out of the ", nc, " cells, or twice"));
+    own[c] = 1;
+  }
   CellOperators ops;
   ops.vol.resize(nc);
   // The cells around each node, then the pattern of L column by column (count, then fill).
   std::vector<int> first(static_cast<std::size_t>(nn) + 1, 0), around;
-  for (int c = c0; c < c1; ++c)
+  for (int c : *held)
     for (int a = 0; a < npc; ++a) ++first[mesh.cells(c, a) + 1];
   for (int i = 0; i < nn; ++i) first[i + 1] += first[i];
   around.resize(first[nn]);
   {
     std::vector<int> next(first.begin(), first.end() - 1);
-    for (int c = c0; c < c1; ++c)
+    for (int c : *held)
       for (int a = 0; a < npc; ++a) around[next[mesh.cells(c, a)]++] = c;
   }
   std::vector<int> neighbours;
@@ -289,13 +298,19 @@ CellOperators cell_operators(const Mesh& mesh, int c0, int c1) {
   std::vector<int>().swap(first);
   // The integrals of the gradients, rows dim c + j, with the cell's nodes in increasing order.
   SpMatR Gint(dim * nc, nn);
-  Gint.resizeNonZeros(static_cast<Eigen::Index>(dim) * (c1 - c0) * npc);
-  for (int r = 0; r <= dim * nc; ++r)
-    Gint.outerIndexPtr()[r] = (std::clamp(r, dim * c0, dim * c1) - dim * c0) * npc;
+  Gint.resizeNonZeros(static_cast<Eigen::Index>(dim) * held->size() * npc);
+  {
+    int at = 0;
+    for (int r = 0; r < dim * nc; ++r) {
+      Gint.outerIndexPtr()[r] = at;
+      if (own[r / dim]) at += npc;
+    }
+    Gint.outerIndexPtr()[dim * nc] = at;
+  }
   Eigen::MatrixXd gint(npc, dim), Ke(npc, npc);
   std::vector<int> order(npc);
   for (int c = 0; c < nc; ++c) {
-    if (c < c0 || c >= c1) {  // the volume alone
+    if (!own[c]) {  // the volume alone
       double vol = 0;
       for_each_point(mesh, c, [&](const auto&, const auto&, double w) { vol += w; });
       ops.vol(c) = vol;
@@ -315,7 +330,7 @@ CellOperators cell_operators(const Mesh& mesh, int c0, int c1) {
               [&](int a, int b) { return mesh.cells(c, a) < mesh.cells(c, b); });
     for (int j = 0; j < dim; ++j)
       for (int k = 0; k < npc; ++k) {
-        const Eigen::Index at = static_cast<Eigen::Index>(dim * (c - c0) + j) * npc + k;
+        const Eigen::Index at = Gint.outerIndexPtr()[dim * c + j] + k;
         Gint.innerIndexPtr()[at] = mesh.cells(c, order[k]);
         Gint.valuePtr()[at] = gint(order[k], j);
       }
@@ -324,7 +339,7 @@ CellOperators cell_operators(const Mesh& mesh, int c0, int c1) {
   }
   ops.GbarT_vol = Gint.transpose();
   // Gbar = diag(1 / |O_e|) Gint, scaled in place.
-  for (int r = dim * c0; r < dim * c1; ++r)
+  for (int r = 0; r < dim * nc; ++r)
     for (SpMatR::InnerIterator it(Gint, r); it; ++it)
       it.valueRef() = (1.0 / ops.vol(r / dim)) * it.value();
   ops.Gbar.swap(Gint);

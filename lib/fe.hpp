@@ -50,10 +50,10 @@ struct CellOperators {
   SpMat laplacian;
 };
 
-/// [(2.7), (3.3)] The operators of the cells c0 <= c < c1 (c1 < 0: every cell): the other cells'
-/// rows of Gbar and columns of GbarT_vol are empty and the Laplacian sums the range's cells only
-/// (a rank's block of a distributed run, paper_notes/mpi.md); vol is every cell's.
-CellOperators cell_operators(const Mesh& mesh, int c0 = 0, int c1 = -1);
+/// [(2.7), (3.3)] The operators of the cells `held` (null: every cell): the other cells' rows of
+/// Gbar and columns of GbarT_vol are empty and the Laplacian sums the held cells only (a rank's
+/// cells in a distributed run, paper_notes/mpi.md); vol is every cell's.
+CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held = nullptr);
 
 /// Calls visit(grad, w) at every quadrature point of cell c, with grad the physical gradients of
 /// the shape functions (#nodes_per_cell x dim) and w the weight times |det J| (the rules used by

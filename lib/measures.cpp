@@ -275,7 +275,7 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   const Eigen::VectorXd c =
       incompressible ? d.fluctuation_det(s.u) : Eigen::VectorXd::Zero(d.num_cells());
   // The cells whose Gbar this rank holds (all unless partial), the largest over the ranks.
-  for (int e = d.first_cell(); e < d.end_cell(); ++e) {
+  for (int e : d.held_cells()) {
     const Small F = I + GU.middleRows(dim * e, dim);
     err = std::max(err, (F - s.E.middleRows(dim * e, dim)).cwiseAbs().maxCoeff());
     if (incompressible) err = std::max(err, std::abs(F.determinant() + c(e) - 1));

@@ -74,6 +74,8 @@ void broadcast(double*, long) {}
 void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
   lo = hi = v;
 }
+void gather_rows(Eigen::MatrixXd&, const Partition&, int) {}
+void gather_rows(Eigen::VectorXd&, const Partition&) {}
 void gather_rows(Eigen::MatrixXd&, const std::vector<int>&, int) {}
 void gather_rows(Eigen::VectorXd&, const std::vector<int>&) {}
 void gather(double*, const std::vector<int>&) {}
@@ -194,8 +196,10 @@ void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
 
 namespace {
 /// Allgatherv of `cols` columns of `n` rows each, rank r owning the rows [m offset[r], m
-/// offset[r + 1]) of every column (col(k) at data + k * ld).
-void gather_columns(double* data, long ld, int cols, const std::vector<int>& offset, int m) {
+/// offset[r + 1]) of every column (col(k) at data + k * ld); with `order`, the rows
+/// [m order[j], m order[j] + m) for offset[r] <= j < offset[r + 1].
+void gather_columns(double* data, long ld, int cols, const std::vector<int>& offset, int m,
+                    const std::vector<int>* order = nullptr) {
   if (!up || size_ == 1) return;
   const auto t0 = clock_type::now();
   const int P = size_;
@@ -211,14 +215,34 @@ void gather_columns(double* data, long ld, int cols, const std::vector<int>& off
   const int own = m * (offset[rank_ + 1] - offset[rank_]);
   send_.resize(static_cast<std::size_t>(cols) * own);
   recv_.resize(total);
-  for (int k = 0; k < cols; ++k)
-    std::memcpy(send_.data() + static_cast<long>(k) * own, data + k * ld + first,
-                sizeof(double) * own);
+  // Item j's m rows of column k, copied between A and a buffer at `at` (column blocks).
+  auto copy = [&](double* buffer, int j0, int j1, bool to_buffer) {
+    const int rows = m * (j1 - j0);
+    for (int k = 0; k < cols; ++k)
+      for (int j = j0; j < j1; ++j) {
+        double* a = data + k * ld + static_cast<long>(m) * (*order)[j];
+        double* b = buffer + static_cast<long>(k) * rows + static_cast<long>(m) * (j - j0);
+        if (to_buffer)
+          std::memcpy(b, a, sizeof(double) * m);
+        else
+          std::memcpy(a, b, sizeof(double) * m);
+      }
+  };
+  if (order)
+    copy(send_.data(), offset[rank_], offset[rank_ + 1], true);
+  else
+    for (int k = 0; k < cols; ++k)
+      std::memcpy(send_.data() + static_cast<long>(k) * own, data + k * ld + first,
+                  sizeof(double) * own);
   check(MPI_Allgatherv(send_.data(), counts_[rank_], MPI_DOUBLE, recv_.data(), counts_.data(),
                        displs_.data(), MPI_DOUBLE, MPI_COMM_WORLD),
         "MPI_Allgatherv");
   for (int r = 0; r < P; ++r) {
     if (r == rank_) continue;
+    if (order) {
+      copy(recv_.data() + displs_[r], offset[r], offset[r + 1], false);
+      continue;
+    }
     const int rows = m * (offset[r + 1] - offset[r]);
     const long at = static_cast<long>(m) * offset[r];
     for (int k = 0; k < cols; ++k)
@@ -243,6 +267,17 @@ void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset) {
 
 void gather(double* x, const std::vector<int>& offset) {
   gather_columns(x, offset.back(), 1, offset, 1);
+}
+
+void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item) {
+  if (A.size() == 0) return;
+  gather_columns(A.data(), A.rows(), static_cast<int>(A.cols()), part.offset, rows_per_item,
+                 &part.order);
+}
+
+void gather_rows(Eigen::VectorXd& v, const Partition& part) {
+  if (v.size() == 0) return;
+  gather_columns(v.data(), v.size(), 1, part.offset, 1, &part.order);
 }
 
 double petsc_bytes_received() {

@@ -58,6 +58,20 @@ void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset);
 /// The same for a plain array of n values where rank r holds [offset[r], offset[r + 1]).
 void gather(double* x, const std::vector<int>& offset);
 
+/// Items (cells) dealt to the ranks in any sets: rank r holds the items order[j], offset[r] <= j
+/// < offset[r + 1], each rank's sorted (slab_cells in mpi_global.hpp).
+struct Partition {
+  std::vector<int> order, offset;
+  /// Rank r's items, sorted.
+  std::vector<int> items(int r) const {
+    return {order.begin() + offset[r], order.begin() + offset[r + 1]};
+  }
+};
+/// The row gather of a Partition: rank r holds the rows [rows_per_item i, rows_per_item (i + 1))
+/// of its items i; afterwards every rank holds all of them.
+void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item);
+void gather_rows(Eigen::VectorXd& v, const Partition& part);
+
 /// What our collectives moved since the start: bytes received (payload), calls, wall seconds.
 struct Traffic {
   double bytes = 0, calls = 0, seconds = 0;

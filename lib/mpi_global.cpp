@@ -24,6 +24,23 @@ std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X) {
   return nodes;
 }
 
+mpi::Partition slab_cells(const Mesh& mesh, int ranks) {
+  const int nc = mesh.num_cells();
+  Eigen::Index axis = 0;
+  (mesh.X.colwise().maxCoeff() - mesh.X.colwise().minCoeff()).maxCoeff(&axis);
+  std::vector<double> x(nc, 0.0);
+  for (int c = 0; c < nc; ++c)
+    for (int a = 0; a < mesh.nodes_per_cell(); ++a) x[c] += mesh.X(mesh.cells(c, a), axis);
+  mpi::Partition part;
+  part.order.resize(nc);
+  for (int c = 0; c < nc; ++c) part.order[c] = c;
+  std::stable_sort(part.order.begin(), part.order.end(), [&](int a, int b) { return x[a] < x[b]; });
+  part.offset = mpi::blocks(nc, ranks);
+  for (int r = 0; r < ranks; ++r)
+    std::sort(part.order.begin() + part.offset[r], part.order.begin() + part.offset[r + 1]);
+  return part;
+}
+
 #ifndef LTL_HAVE_MPI
 
 struct DistributedGlobalStep::Group {};

@@ -20,12 +20,20 @@
 #include <vector>
 
 #include "global_step.hpp"
+#include "mesh.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
 /// The nodes in the order of their coordinate in X (#nodes x dim) along the mesh's longest extent
 /// (stable): the slabs of the distributed rows, here and in the Newton phase (mpi_newton.hpp).
 std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X);
+
+/// The cells dealt to `ranks` ranks in slabs along the mesh's longest extent (equal counts, in
+/// the order of their centroids' coordinate, stable), each rank's sorted. A rank's cells and the
+/// rows of the distributed matrices (slab_order) then lie in the same slab: its part of K (4.5)
+/// is added into its own rows but at the slabs' faces.
+mpi::Partition slab_cells(const Mesh& mesh, int ranks);
 
 class DistributedGlobalStep {
  public:
@@ -36,7 +44,7 @@ class DistributedGlobalStep {
   enum class Solver { CgGamg, Mumps };
 
   /// K: the whole (replicated) matrix of (4.5), or with `parts` this rank's part of it (the
-  /// sum over its cells, Discretization on a cell range): the parts of the ranks add up to K,
+  /// sum over its cells, Discretization of some cells): the parts of the ranks add up to K,
   /// and no rank holds the whole. bc: the Dirichlet sets; X: the #nodes x dim reference
   /// coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error without MPI
   /// (a build without LTL_WITH_MPI) or when PETSc fails.

@@ -7,6 +7,7 @@
 #include "error.hpp"
 #include "mesh_transfer.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_global.hpp"
 #include "results.hpp"
 
 namespace ltl {
@@ -24,7 +25,7 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   const Discretization& disc = solver.discretization();
   const Problem& problem = solver.problem();
   const Mesh& mesh = problem.mesh;
-  const int d = mesh.dim, nc = mesh.num_cells();
+  const int d = mesh.dim;
   const std::string where = cat(key, " ", path, ": ");
   StoredMesh source;
   std::optional<StoredStep> last;
@@ -79,10 +80,10 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
 
   // E = Fbar(u) (2.7), (3.3); lambda from the law at Fbar with the pressure of the source cell
   // that contains the cell's centroid (4.6).
-  // A discretization on a cell range (a rank's block under mpirun, paper_notes/mpi.md) has the
-  // mean gradients of its cells only: each rank computes its cells, then the blocks are gathered.
+  // A discretization of some cells (a rank's cells under mpirun, paper_notes/mpi.md) has the
+  // mean gradients of its cells only: each rank computes its cells, then they are gathered.
   const Eigen::MatrixXd GU = disc.cells().Gbar * s.u;
-  for (int e = disc.first_cell(); e < disc.end_cell(); ++e) {
+  for (int e : disc.held_cells()) {
     Eigen::MatrixXd F = GU.block(d * e, 0, d, d).transpose();
     F.diagonal().array() += 1.0;
     double p = 0;
@@ -99,12 +100,12 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
     s.lambda.block(d * e, 0, d, d) = law.multiplier(F, p).transpose();
   }
   if (disc.partial()) {
-    const std::vector<int> blocks = mpi::blocks(nc, mpi::size());
-    if (blocks[mpi::rank()] != disc.first_cell() || blocks[mpi::rank() + 1] != disc.end_cell())
-      throw Error(cat(key, ": a discretization of the cells [", disc.first_cell(), ", ",
-                      disc.end_cell(), ") that is not this rank's block"));
-    mpi::gather_rows(s.E, blocks, d);
-    mpi::gather_rows(s.lambda, blocks, d);
+    const mpi::Partition cells = slab_cells(mesh, mpi::size());
+    if (cells.items(mpi::rank()) != disc.held_cells())
+      throw Error(cat(key, ": a discretization of ", disc.held_cells().size(),
+                      " cells that are not this rank's (slab_cells)"));
+    mpi::gather_rows(s.E, cells, d);
+    mpi::gather_rows(s.lambda, cells, d);
     double clamped = out.clamped_centroids;
     mpi::sum(&clamped, 1);
     out.clamped_centroids = static_cast<int>(clamped);

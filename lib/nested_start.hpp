@@ -49,7 +49,7 @@ constexpr double kMaxOutside = 0.1;
 /// The nested start of `solver`'s problem from the last step of the results file `path`. An
 /// Error naming the file and `key` (the option that named it) when the file cannot be read, has
 /// no completed step, is of another dimension, or when a node lies farther outside the source
-/// mesh than kMaxOutside. Collective when the solver's discretization holds a block of cells
+/// mesh than kMaxOutside. Collective when the solver's discretization holds some of the cells
 /// only (Discretization::partial: several MPI ranks): each rank computes E and lambda on its
 /// cells, then every rank gets them whole. A source without contact fields
 /// leaves lambda_c = 0 and beta = beta_0 (the solver's initial state); a problem without contact

@@ -43,7 +43,7 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
   // With the distributed solves a cell goes to the rank of the matrix row of its first free dof
   // (NewtonRows' slabs), so that its terms land in the rank's own rows but at the slabs'
   // interfaces; a cell without a free dof, and the cells of the replicated solves, by blocks of
-  // the cell index (ALG2's).
+  // the cell index.
   const std::vector<int> block = mpi::blocks(nc, split_ ? mpi::size() : 1);
   const int me = split_ ? mpi::rank() : 0;
   slot_.assign(nc, -1);

@@ -57,11 +57,11 @@ class Newton {
   /// linear systems are then solved over the ranks (mpi_newton.hpp), unless the PETSc option
   /// -ltl_mpi_newton_replicated keeps them replicated. On more than one rank the per-cell data
   /// (mean gradients, constraint points, the cells' positions in the tangent's values) is built
-  /// for the rank's block of cells only (mpi::blocks, ALG2's), so that it takes 1/P of the
-  /// memory; the cell loops of the residual, of the augmented tangent and of the det F check run
-  /// on that block and are summed over the ranks, so that every rank holds the same whole
-  /// residual and matrix. The LU step's system (and tangent(), constraint_gradient()) gathers
-  /// the ranks' cell terms: it is whole on every rank.
+  /// for the rank's cells only (those whose first free dof is in its slab of the tangent's rows;
+  /// newton.cpp), so that it takes 1/P of the memory; the cell loops of the residual, of the
+  /// augmented tangent and of the det F check run on those cells and are summed over the ranks, so
+  /// that every rank holds the same whole residual and matrix. The LU step's system (and tangent(),
+  /// constraint_gradient()) gathers the ranks' cell terms: it is whole on every rank.
   explicit Newton(const Discretization& disc, bool krylov = false, bool distributed = false);
 
   /// The unknowns of the discrete problem: u (#nodes x dim), a pressure per cell (empty for the

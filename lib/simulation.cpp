@@ -564,7 +564,7 @@ void ResultsWriter::append(const TimeStep& step) {
                                 p, " (t = ", p * problem.time.dt, " s): ", report.status,
                                 "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
                                 ". Nothing was written as a result for this step", saved);
-    // A discretization on a cell range (a rank's block) sums its measures over the ranks: every
+    // A discretization of some cells (a rank's) sums its measures over the ranks: every
     // rank computes the step's data, rank 0 writes it.
     if (!saved.empty() || solver.discretization().partial()) {
       const StepData data = step_data(solver, step);

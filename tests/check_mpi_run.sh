@@ -52,8 +52,8 @@ for name in ("r", "r1"):
     print("resumed %s.h5: step 2, relative difference in u %.3g" % (name, d))
     assert d <= 1e-8, d
 PY
-# --init (the nested start) on 2 ranks: each rank computes E and lambda on its block of cells,
-# gathered; plain ALG2 and the Newton phase (both on a rank's block of cells) as one process.
+# --init (the nested start) on 2 ranks: each rank computes E and lambda on its own cells,
+# gathered; plain ALG2 and the Newton phase (both on a rank's cells) as one process.
 newton='algorithm.solver="newton"'
 alg2='algorithm.solver="alg2"'
 for solver in "$alg2" "$newton"; do

@@ -26,6 +26,7 @@
 #include "hash.hpp"
 #include "measures.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_global.hpp"
 #include "mpi_newton.hpp"
 #include "results.hpp"
 #include "simulation.hpp"
@@ -344,8 +345,36 @@ TEST(Mpi, Eq4_1to4_4_CoarseGutterSameIteratesCgGamg) {
   expect_same_iterates("cg-amg");
 }
 
-/// Each rank holds the operators of its own block of cells only (Discretization on a cell range,
-/// plain ALG2): its cells with rows of Gbar are its block (mpi::blocks), the blocks' Gbar
+/// The ranks' cells are slabs along the mesh's longest extent (slab_cells), like the rows of the
+/// distributed matrices: on a gutter 4 times longer than the coarse one (200 cells, 18 nodes in
+/// a cross-section), the nodes that cells of two ranks share are at most 2 cross-sections per
+/// cut. Blocks of gmsh's cell index (which runs over the layers of each cross-section element)
+/// cut along the length instead: 63 nodes on 2 ranks, and the rank's part of K (4.5) then falls
+/// in other ranks' rows (paper_notes/mpi.md, "The ranks' cells").
+TEST(Mpi, EachRanksCellsAreASlab) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig6),
+                                 {"mesh.parameters.nl=20", "mesh.parameters.na=5"});
+  const Solver dist(p, Ranks::All);
+  const Mesh& m = p.mesh;
+  Eigen::VectorXd mine = Eigen::VectorXd::Zero(m.num_nodes()), ranks;
+  for (int c : dist.discretization().held_cells())
+    for (int a = 0; a < m.nodes_per_cell(); ++a) mine(m.cells(c, a)) = 1;
+  ranks = mine;
+  mpi::sum(ranks.data(), ranks.size());
+  const int shared = static_cast<int>((ranks.array() > 1.5).count());
+  const int section = 3 * 6, P = mpi::size();
+  EXPECT_EQ(ranks.minCoeff(), 1.0);  // every node in some rank's cells
+  EXPECT_LE(shared, 2 * (P - 1) * section);
+  if (P > 1) {
+    EXPECT_GE(shared, section);  // the slabs touch
+  }
+  if (mpi::rank() == 0)
+    std::cout << "gutter of 200 cells on " << P << " rank(s): " << shared
+              << " nodes in two ranks' cells\n";
+}
+
+/// Each rank holds the operators of its own cells only (Discretization of some cells, plain
+/// ALG2): its cells with rows of Gbar are its slab (slab_cells), the slabs' Gbar
 /// entries add up to the serial Gbar's (no cell on two ranks), and on several ranks a rank's
 /// Laplacian and operators are a fraction of the serial ones. Fails when every rank builds the
 /// whole discretization.
@@ -353,9 +382,10 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
   const Solver serial(p, Ranks::One);
   const Solver dist(p, Ranks::All);
-  const std::vector<int> cells = mpi::blocks(p.mesh.num_cells(), mpi::size());
   const int P = mpi::size(), me = mpi::rank();
-  EXPECT_EQ(dist.holdings().cells_with_operators, cells[me + 1] - cells[me]);
+  const std::vector<int> cells = slab_cells(p.mesh, P).items(me);
+  EXPECT_EQ(dist.holdings().cells_with_operators, static_cast<int>(cells.size()));
+  EXPECT_EQ(dist.discretization().held_cells(), cells);
   EXPECT_EQ(serial.holdings().cells_with_operators, p.mesh.num_cells());
   double nnz = static_cast<double>(dist.discretization().cells().Gbar.nonZeros());
   mpi::sum(&nnz, 1);
@@ -390,7 +420,7 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
 /// mesh's, none holds more than 3/4 of them on several ranks, and their bytes add up to the
 /// serial Newton's. With the distributed solves no rank holds the tangent's whole pattern or the
 /// cells' positions in it (PETSc's matrix holds its rows): less whole-mesh data than the serial
-/// Newton. The discretization's operators are the rank's block of cells, as with plain ALG2.
+/// Newton. The discretization's operators are the rank's cells (its slab), as with plain ALG2.
 /// Fails when every rank builds the data of every cell, the whole pattern, or the whole
 /// discretization.
 TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
@@ -414,8 +444,8 @@ TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
   EXPECT_GT(hs.newton_positions, 0.0);
   EXPECT_EQ(hd.newton_positions, 0.0);
   EXPECT_LT(hd.newton_whole, 0.5 * hs.newton_whole);
-  const std::vector<int> block = mpi::blocks(nc, mpi::size());
-  EXPECT_EQ(hd.cells_with_operators, block[me + 1] - block[me]);
+  EXPECT_EQ(hd.cells_with_operators,
+            static_cast<int>(slab_cells(p.mesh, mpi::size()).items(me).size()));
   EXPECT_EQ(dist.discretization().partial(), mpi::size() > 1);
   if (me == 0)
     std::cout << "coarse gutter with Newton, " << mpi::size() << " rank(s): rank 0's Newton holds "

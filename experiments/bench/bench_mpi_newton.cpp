@@ -63,7 +63,7 @@ int bench(int argc, char** argv) {
     return 2;
   }
   const ltl::Problem problem = ltl::load_problem(argv[1], overrides);
-  // As ltl_run builds it: on several ranks each discretizes its block of cells (alg2.hpp).
+  // As ltl_run builds it: on several ranks each discretizes its own cells (alg2.hpp).
   ltl::Solver solver(problem, serial ? ltl::Ranks::One : ltl::Ranks::All);
   ltl::State s = solver.initial_state();
   const Eigen::VectorXd beta_prev = s.beta;
