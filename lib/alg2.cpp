@@ -7,6 +7,7 @@
 #include "error.hpp"
 #include "fixed_point.hpp"
 #include "measures.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
@@ -47,7 +48,8 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
 
   rhs_.resize(nn, dim);
   T_ = Eigen::MatrixXd::Zero(dim * nc, dim);  // distributed: the rank's cells' rows only written
-  global_out_.GU.resize(dim * nc, dim);
+  global_out_.GU.resize(dim * static_cast<Eigen::Index>(own_cells().size()), dim);
+  prev_.E.resize(global_out_.GU.rows(), dim);
   global_out_.J = Eigen::VectorXd::Ones(nc);
   if (points) {
     global_out_.ubar.resize(n_points, dim);
@@ -104,7 +106,7 @@ State Solver::initial_state() const {
   State s;
   s.u = disc_.dirichlet().value;
   s.E = disc_.identity();
-  s.lambda = 2 * disc_.split().C1 * disc_.identity();
+  s.lambda = 2 * disc_.split().C1 * s.E;
   s.e = Eigen::MatrixXd::Zero(n_points, dim);
   s.lambda_c = Eigen::MatrixXd::Zero(n_points, dim);
   s.beta = Eigen::VectorXd::Zero(n_points);
@@ -125,7 +127,8 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   const double Rq = R_ * a.q;
   const CellOperators& cells = disc_.cells();
   const ContactPoints* points = disc_.points();
-  T_ = Rq * (s.E - disc_.identity()) + s.lambda - 2 * disc_.split().C1 * disc_.identity();
+  const auto I = identity_rows(dim(), disc_.num_cells());
+  T_ = Rq * (s.E - I) + s.lambda - 2 * disc_.split().C1 * I;
   rhs_.noalias() = cells.GbarT_vol * T_;
   rhs_ += F_ext_;
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, lagged
@@ -146,7 +149,7 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
 // The cells `cells` (a rank's cells when distributed).
 namespace {
 template <int d>
-int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
+int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,  // own rows
                 const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E,
                 const std::vector<int>& cells) {
   int failures = 0;
@@ -155,7 +158,7 @@ int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
   for (int k = 0; k < n; ++k) {
     const int c = cells[k];
     Eigen::Matrix<double, d, d> D =
-        Rq * GU.template block<d, d>(d * c, 0) - lambda.template block<d, d>(d * c, 0);
+        Rq * GU.template block<d, d>(d * k, 0) - lambda.template block<d, d>(d * c, 0);
     D.diagonal().array() += Rq;
     Eigen::Matrix<double, d, d> Ec;
     // Mean-det: det E = J_c. The local energy is (R q / 2)|E|^2 - D : E (C2 = 0), homogeneous
@@ -205,10 +208,12 @@ void Solver::half_step(const GlobalOutput& g, const State& s, Multipliers& m) co
   const double Rq = R_ * alg().q, Rqc = R_ * alg().q_c;
   const int d = dim();
   m.lambda.resize(s.lambda.rows(), s.lambda.cols());
-  for (int c : own_cells())
-    m.lambda.middleRows(d * c, d) =
-        s.lambda.middleRows(d * c, d) - Rq * (disc_.identity().middleRows(d * c, d) +
-                                              g.GU.middleRows(d * c, d) - s.E.middleRows(d * c, d));
+  mpi::for_each_run(own_cells(), [&](int c0, int n, int at) {
+    const int r0 = d * c0, nr = d * n;
+    m.lambda.middleRows(r0, nr) =
+        s.lambda.middleRows(r0, nr) -
+        Rq * (identity_rows(d, n) + g.GU.middleRows(d * at, nr) - s.E.middleRows(r0, nr));
+  });
   if (contact_) {
     const int p0 = point_range().first, np = point_range().end - p0;
     m.lambda_c.resize(s.lambda_c.rows(), s.lambda_c.cols());
@@ -225,14 +230,13 @@ void Solver::update_phase(const GlobalOutput& g, const Multipliers* half, State&
   const double step = half ? 2 * a.rho - 1 : a.rho;
   const int d = dim();
   const int p0 = point_range().first, np = point_range().end - p0;
-  if (half) {
-    for (int c : own_cells()) s.lambda.middleRows(d * c, d) = half->lambda.middleRows(d * c, d);
-    if (contact_) s.lambda_c.middleRows(p0, np) = half->lambda_c.middleRows(p0, np);
-  }
-  for (int c : own_cells())
-    s.lambda.middleRows(d * c, d) -= step * Rq *
-                                     (disc_.identity().middleRows(d * c, d) +
-                                      g.GU.middleRows(d * c, d) - s.E.middleRows(d * c, d));
+  mpi::for_each_run(own_cells(), [&](int c0, int n, int at) {
+    const int r0 = d * c0, nr = d * n;
+    if (half) s.lambda.middleRows(r0, nr) = half->lambda.middleRows(r0, nr);
+    s.lambda.middleRows(r0, nr) -=
+        step * Rq * (identity_rows(d, n) + g.GU.middleRows(d * at, nr) - s.E.middleRows(r0, nr));
+  });
+  if (half && contact_) s.lambda_c.middleRows(p0, np) = half->lambda_c.middleRows(p0, np);
   if (contact_)
     s.lambda_c.middleRows(p0, np) -=
         step * Rqc * (g.ubar.middleRows(p0, np) - s.e.middleRows(p0, np));
@@ -242,7 +246,9 @@ void Solver::update_phase(const GlobalOutput& g, const Multipliers* half, State&
 IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int& strain_failures) {
   const bool bm = alg().update == Update::BermudezMoreno;
   IterationRecord rec;
-  prev_.E = s.E;
+  mpi::for_each_run(own_cells(), [&](int c0, int n, int at) {  // the own cells' rows
+    prev_.E.middleRows(dim() * at, dim() * n) = s.E.middleRows(dim() * c0, dim() * n);
+  });
   if (contact_) {
     prev_.e = s.e;
     prev_.beta = s.beta;
@@ -278,7 +284,7 @@ IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int&
 void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
                        IterationRecord& rec) const {
   const AlgorithmParams& a = alg();
-  const Eigen::VectorXd& vol_rows = disc_.volume_rows();
+  const Eigen::VectorXd& vol = disc_.cells().vol;
   double B2 = 0, G2 = 0, beta2 = 0;
   const int dim = this->dim();
   const std::vector<int>& cells = own_cells();
@@ -288,13 +294,13 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
     const Eigen::Index r = dim * cells[k / dim] + k % dim;
     double b = 0, gr = 0;
     for (int i = 0; i < dim; ++i) {
-      const double Bri = (i == r % dim ? 1.0 : 0.0) + g.GU(r, i) - s.E(r, i);
-      const double Gri = s.E(r, i) - prev.E(r, i);
+      const double Bri = (i == r % dim ? 1.0 : 0.0) + g.GU(k, i) - s.E(r, i);
+      const double Gri = s.E(r, i) - prev.E(k, i);
       b += Bri * Bri;
       gr += Gri * Gri;
     }
-    B2 += vol_rows(r) * b;
-    G2 += vol_rows(r) * gr;
+    B2 += vol(r / dim) * b;
+    G2 += vol(r / dim) * gr;
   }
   B2 *= a.q;
   G2 *= a.q;

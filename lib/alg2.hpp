@@ -43,7 +43,7 @@ struct Holdings {
   int cells_with_operators = 0;  ///< cells whose rows of Gbar are not empty
   double mesh = 0;         ///< the mesh in the discretization's problem: X, cells, boundary facets
   double operators = 0;    ///< Gbar, GbarT_vol, the Laplacian, vol (the solver's copies too)
-  double cell_arrays = 0;  ///< dense per-cell arrays: identity, volume rows, the work arrays
+  double cell_arrays = 0;  ///< dense per-cell arrays: the work arrays, the cell lists
   double node_arrays = 0;  ///< dense per-node arrays: dead loads, Dirichlet values, rhs
   double contact = 0;      ///< the contact points' operators and arrays
   /// With the Newton phase (newton.hpp): its cells (the rank's on several ranks), their
@@ -138,7 +138,10 @@ class Solver {
   /// mean gradients Gbar u, the means ubar of u at the contact points, and the mean-det targets
   /// det E_e = J_e = 1 - c_e(u). Allocated once.
   struct GlobalOutput {
-    Eigen::MatrixXd GU, ubar;  ///< ubar: #points x dim, like u
+    /// Gbar u of the cells own_cells() in their order: (dim #own cells) x dim, the k-th cell's
+    /// block at rows dim k (every cell in the cell order on one process).
+    Eigen::MatrixXd GU;
+    Eigen::MatrixXd ubar;  ///< #points x dim, like u
     Eigen::VectorXd J;
   };
   /// The multipliers the local steps see: lambda^{n-1} (Uzawa) or the half step (7.8).
@@ -241,7 +244,7 @@ class Solver {
   Eigen::MatrixXd rhs_, T_;
   GlobalOutput global_out_;
   Multipliers half_;
-  State prev_;
+  State prev_;  ///< E: the own cells' rows in their order, like GlobalOutput::GU
   // The packed iterate of Anderson acceleration: its length and weights.
   Eigen::Index packed_size_ = 0;
   Eigen::VectorXd w_cell_, w_point_;

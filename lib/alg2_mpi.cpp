@@ -177,11 +177,12 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const double Rq = R_ * a.q;
   const int dim = this->dim();
   const ContactPoints* points = disc_.points();
-  const Eigen::MatrixXd& I = disc_.identity();
-  for (int c : d.own)
-    T_.middleRows(dim * c, dim) = Rq * (s.E.middleRows(dim * c, dim) - I.middleRows(dim * c, dim)) +
-                                  s.lambda.middleRows(dim * c, dim) -
-                                  2 * disc_.split().C1 * I.middleRows(dim * c, dim);
+  mpi::for_each_run(d.own, [&](int c0, int n, int) {
+    const int r0 = dim * c0, nr = dim * n;
+    const auto I = identity_rows(dim, n);
+    T_.middleRows(r0, nr) =
+        Rq * (s.E.middleRows(r0, nr) - I) + s.lambda.middleRows(r0, nr) - 2 * disc_.split().C1 * I;
+  });
   // T_'s rows of the other ranks' cells are zero (never written): with the whole discretization
   // (-ltl_mpi_whole) the product is this rank's part too; with the rank's cells, GbarT_vol's
   // columns are its cells'.
@@ -200,12 +201,10 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   else
     global_->solve(rhs_, s.u);
 
-  if (owns_only_its_cells()) {  // the other cells' rows of Gbar are empty
-    g.GU.noalias() = disc_.cells().Gbar * s.u;
-  } else {
-    const SpMatR& G = disc_.cells().Gbar;
-    for (int c : d.own) g.GU.middleRows(dim * c, dim).noalias() = G.middleRows(dim * c, dim) * s.u;
-  }
+  const SpMatR& G = disc_.cells().Gbar;  // the own cells' rows, in their order
+  mpi::for_each_run(d.own, [&](int c0, int n, int at) {
+    g.GU.middleRows(dim * at, dim * n).noalias() = G.middleRows(dim * c0, dim * n) * s.u;
+  });
   if (disc_.mean_det()) {
     disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, &d.own);
     for (int c : d.own) g.J(c) = 1.0 - g.J(c);
@@ -248,14 +247,14 @@ Holdings Solver::holdings() const {
   const CellOperators& c = disc_.cells();
   h.operators = bytes_of_sparse(c.Gbar) + bytes_of_sparse(c.GbarT_vol) +
                 bytes_of_sparse(c.laplacian) + bytes_of(c.vol);
-  if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
   const int dim = this->dim();
   for (int e = 0; e < disc_.num_cells(); ++e)
     if (c.Gbar.outerIndexPtr()[dim * e + 1] > c.Gbar.outerIndexPtr()[dim * e])
       ++h.cells_with_operators;
-  h.cell_arrays = bytes_of(disc_.identity()) + bytes_of(disc_.volume_rows()) + bytes_of(T_) +
-                  bytes_of(global_out_.GU) + bytes_of(global_out_.J) + bytes_of(prev_.E) +
-                  bytes_of(half_.lambda) + bytes_of(w_cell_);
+  h.cell_arrays = bytes_of(T_) + bytes_of(global_out_.GU) + bytes_of(global_out_.J) +
+                  bytes_of(prev_.E) + bytes_of(half_.lambda) + bytes_of(w_cell_) +
+                  4.0 * static_cast<double>(disc_.held_cells().size());
+  if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
   h.node_arrays = bytes_of(disc_.dead_load()) + bytes_of(F_ext_) +
                   bytes_of(disc_.dirichlet().value) + bytes_of(rhs_);
   if (const ContactPoints* p = disc_.points()) {

@@ -54,6 +54,10 @@ ContactPoints stack_obstacles(const std::vector<ContactPoints>& obstacles, int n
 }
 }  // namespace
 
+Eigen::VectorXd Discretization::volume_rows() const {
+  return cells_.vol.replicate(1, dim()).transpose().reshaped();
+}
+
 Discretization::Discretization(const Problem& problem, const std::vector<int>* held)
     : problem_(problem) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -79,12 +83,6 @@ Discretization::Discretization(const Problem& problem, const std::vector<int>* h
 
   cells_ = cell_operators(mesh, &held_);
   volume_ = cells_.vol.sum();
-  Id_ = Eigen::MatrixXd::Zero(dim * nc, dim);
-  vol_rows_.resize(dim * nc);
-  for (int c = 0; c < nc; ++c) {
-    Id_.block(dim * c, 0, dim, dim).setIdentity();
-    vol_rows_.segment(dim * c, dim).setConstant(cells_.vol(c));
-  }
 
   // Mean-det incompressibility (DiscretizationChoice::mean_det): the point gradients at the
   // cell quadrature points (triangles: degree 4, exact for det(delta), quadratic on affine P2
@@ -427,7 +425,7 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   }
   const Eigen::MatrixXd GU = cells_.Gbar * s.u;
   const double grad2 = (s.u.transpose() * (cells_.laplacian * s.u)).trace();
-  const double mean2 = (GU.array().square().colwise() * vol_rows_.array()).sum();
+  const double mean2 = (GU.array().square().colwise() * volume_rows().array()).sum();
   if (partial_) {  // the owned cells' parts of the gradient terms summed over the ranks
     double parts[2] = {grad2, mean2};
     mpi::sum(parts, 2);

@@ -72,10 +72,11 @@ class Discretization {
   /// The consistent dead loads f (body force) and g (tractions) at load factor 1, #nodes x dim
   /// [LTL87 (1.2)].
   const Eigen::MatrixXd& dead_load() const { return F_dead_; }
-  /// Identity blocks, (dim * #cells) x dim, the transposed-block layout of E and lambda.
-  const Eigen::MatrixXd& identity() const { return Id_; }
-  /// |O_e| repeated on the dim rows of cell e.
-  const Eigen::VectorXd& volume_rows() const { return vol_rows_; }
+  /// Identity blocks, (dim * #cells) x dim, the transposed-block layout of E and lambda (made
+  /// on demand: not stored).
+  Eigen::MatrixXd identity() const { return identity_rows(dim(), num_cells()); }
+  /// |O_e| repeated on the dim rows of cell e (made on demand).
+  Eigen::VectorXd volume_rows() const;
   double volume() const { return volume_; }              ///< |Omega|
   double contact_area() const { return contact_area_; }  ///< |Gamma_c| (0 without contact)
 
@@ -147,8 +148,7 @@ class Discretization {
   std::optional<ContactPoints> points_;  ///< several obstacles only: their points stacked
   std::vector<ContactPoints> obstacles_;
   DirichletData bc_;
-  Eigen::MatrixXd F_dead_, Id_;
-  Eigen::VectorXd vol_rows_;
+  Eigen::MatrixXd F_dead_;
   double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
   // Mean-det: the reference rule of the cell type (the point gradients are recomputed per cell
   // from the nodes' positions), and the work buffer of the nodal forces of a block of cells.

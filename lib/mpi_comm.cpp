@@ -215,18 +215,21 @@ void gather_columns(double* data, long ld, int cols, const std::vector<int>& off
   const int own = m * (offset[rank_ + 1] - offset[rank_]);
   send_.resize(static_cast<std::size_t>(cols) * own);
   recv_.resize(total);
-  // Item j's m rows of column k, copied between A and a buffer at `at` (column blocks).
+  // The items order[j0 .. j1) (sorted: runs of consecutive items), their m rows of every column
+  // copied between A and a buffer (column blocks of m (j1 - j0) rows).
   auto copy = [&](double* buffer, int j0, int j1, bool to_buffer) {
     const int rows = m * (j1 - j0);
-    for (int k = 0; k < cols; ++k)
-      for (int j = j0; j < j1; ++j) {
-        double* a = data + k * ld + static_cast<long>(m) * (*order)[j];
-        double* b = buffer + static_cast<long>(k) * rows + static_cast<long>(m) * (j - j0);
+    for_each_run(order->data() + j0, order->data() + j1, [&](int first, int n, int at_item) {
+      const long at = static_cast<long>(m) * at_item;  // the run's first row in the buffer
+      for (int k = 0; k < cols; ++k) {
+        double* a = data + k * ld + static_cast<long>(m) * first;
+        double* b = buffer + static_cast<long>(k) * rows + at;
         if (to_buffer)
-          std::memcpy(b, a, sizeof(double) * m);
+          std::memcpy(b, a, sizeof(double) * m * n);
         else
-          std::memcpy(a, b, sizeof(double) * m);
+          std::memcpy(a, b, sizeof(double) * m * n);
       }
+    });
   };
   if (order)
     copy(send_.data(), offset[rank_], offset[rank_ + 1], true);

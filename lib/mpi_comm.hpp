@@ -67,6 +67,24 @@ struct Partition {
     return {order.begin() + offset[r], order.begin() + offset[r + 1]};
   }
 };
+/// Calls f(first, n, at) for each maximal run first, first + 1, ..., first + n - 1 of
+/// consecutive items in the sorted `items`, at its position in them (one run when they are
+/// 0 .. n - 1): whole-block arithmetic on a rank's cells, which are runs of the cell index, and
+/// on its arrays of those cells alone (rows in the order of `items`).
+template <class F>
+void for_each_run(const int* items, const int* end, F&& f) {
+  for (const int* j = items; j < end;) {
+    const int* k = j + 1;
+    while (k < end && *k == *(k - 1) + 1) ++k;
+    f(*j, static_cast<int>(k - j), static_cast<int>(j - items));
+    j = k;
+  }
+}
+template <class F>
+void for_each_run(const std::vector<int>& items, F&& f) {
+  for_each_run(items.data(), items.data() + items.size(), f);
+}
+
 /// The row gather of a Partition: rank r holds the rows [rows_per_item i, rows_per_item (i + 1))
 /// of its items i; afterwards every rank holds all of them.
 void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item);

@@ -8,6 +8,12 @@
 
 namespace ltl {
 
+/// n identity blocks d x d stacked, (d n) x d: E and lambda / 2 C1 at rest in the layout of
+/// State (an expression, not stored).
+inline auto identity_rows(int d, int n) {
+  return Eigen::MatrixXd::Identity(d, d).replicate(n, 1);
+}
+
 /// The iterate. Cell tensors are stored as (dim * #cells) x dim matrices whose block of rows
 /// dim*c .. dim*c+dim-1 is the TRANSPOSE of the cell's tensor (the layout of Gbar * u, so that
 /// every cell-wise linear operation is one whole-array operation); use cell_tensor() to read one.
