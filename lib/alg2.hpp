@@ -223,7 +223,7 @@ class Solver {
   void global_phase_distributed(State& s, GlobalOutput& g);
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
-  /// The owned blocks of E, lambda (and e, lambda_c, beta) gathered: the whole state everywhere.
+  /// The owned cells of E, lambda (and blocks of e, lambda_c, beta) gathered: the whole state.
   void make_whole(State& s) const;
 
   Discretization disc_;

@@ -20,9 +20,9 @@
 //     strain step (4.6); the contact step (4.7) when the points are independent (d0 = 0); the
 //     update (4.3) and the residual sums (4.4). The right-hand side is summed over the ranks (one
 //     Allreduce of #nodes x dim), the global solve (4.5) is one distributed PETSc KSP
-//     (mpi_global.hpp), or with algorithm.global_solver = "cholesky" the serial factor on every
-//     rank (replicated); the residual parts are summed (3 values); the owned blocks of E, lambda
-//     (and e, lambda_c, beta) are gathered (Allgatherv).
+//     (mpi_global.hpp), or with the PETSc option -ltl_mpi_replicated the serial factor on every
+//     rank (replicated); the residual parts are summed (3 values); the owned cells' rows of E,
+//     lambda (and the blocks of e, lambda_c, beta) are gathered (Allgatherv).
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
