@@ -34,6 +34,10 @@
 
 namespace ltl {
 
+namespace mpi {
+struct Partition;
+}
+
 /// The ranks a Solver runs on: this process alone (the serial package), or every MPI rank of
 /// an MPI build (lib/alg2_mpi.cpp, paper_notes/mpi.md).
 enum class Ranks { One, All };
@@ -109,6 +113,9 @@ class Solver {
   int global_factors() const { return global_ ? global_->num_factors() : 0; }
   bool distributed() const { return dist_ != nullptr; }
   RankShare rank_share() const;
+  /// The ranks' cells (slab_cells) of a distributed solver; null on one rank. Its rows of a
+  /// per-cell array gather with mpi::gather_rows.
+  const mpi::Partition* cell_partition() const;
   /// The bytes this process holds in the discretization and the solver's arrays (not PETSc's
   /// or the factor's).
   Holdings holdings() const;
@@ -206,8 +213,6 @@ class Solver {
   /// The contact points whose term R q_c M^T |G| M goes into this rank's part of K: all of them
   /// unless the discretization is partial, then on rank 0 alone.
   const ContactPoints* points_in_K() const;
-  /// Does the discretization hold exactly this rank's cells (so that GbarT_vol is its part)?
-  bool owns_only_its_cells() const;
   /// The cells (sorted), and the contact points, whose local steps and updates this rank
   /// computes (all of them unless distributed; all points when the contact step is replicated).
   const std::vector<int>& own_cells() const;

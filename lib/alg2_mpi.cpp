@@ -105,8 +105,8 @@ const ContactPoints* Solver::points_in_K() const {
   return disc_.partial() && mpi::rank() != 0 ? nullptr : disc_.points();
 }
 
-bool Solver::owns_only_its_cells() const {
-  return dist_ && disc_.partial();
+const mpi::Partition* Solver::cell_partition() const {
+  return dist_ ? &dist_->cells : nullptr;
 }
 
 const std::vector<int>& Solver::own_cells() const {

@@ -240,6 +240,19 @@ void reference_shape(const Mesh& mesh, const Eigen::Vector3d& xi, Eigen::VectorX
   }
 }
 
+double cell_integrals(const Mesh& mesh, int c, Eigen::MatrixXd& gint, Eigen::MatrixXd& L) {
+  const int npc = mesh.nodes_per_cell();
+  gint.setZero(npc, mesh.dim);
+  L.setZero(npc, npc);
+  double vol = 0;
+  for_each_point(mesh, c, [&](const auto&, const auto& grad, double w) {
+    vol += w;
+    gint += w * grad;
+    L.noalias() += w * grad * grad.transpose();
+  });
+  return vol;
+}
+
 // Assembled in place, without triplet lists: the Laplacian's pattern (nodes sharing a cell) from
 // the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
 // which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.
@@ -316,15 +329,7 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
       ops.vol(c) = vol;
       continue;
     }
-    double vol = 0;
-    gint.setZero();
-    Ke.setZero();
-    for_each_point(mesh, c, [&](const auto&, const auto& grad, double w) {
-      vol += w;
-      gint += w * grad;
-      Ke.noalias() += w * grad * grad.transpose();
-    });
-    ops.vol(c) = vol;
+    ops.vol(c) = cell_integrals(mesh, c, gint, Ke);
     for (int a = 0; a < npc; ++a) order[a] = a;
     std::sort(order.begin(), order.end(),
               [&](int a, int b) { return mesh.cells(c, a) < mesh.cells(c, b); });

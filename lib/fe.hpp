@@ -55,6 +55,13 @@ struct CellOperators {
 /// cells in a distributed run, paper_notes/mpi.md); vol is every cell's.
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held = nullptr);
 
+/// [(2.7), (3.3)] The integrals over cell c of its shape functions' gradients grad_q (at the
+/// quadrature points of for_each_quadrature_point, weights w_q): returns |O_c| = sum_q w_q, with
+/// gint = sum_q w_q grad_q (#nodes_per_cell x dim) and L = sum_q w_q grad_q grad_q^T
+/// (#nodes_per_cell square): the sums from which cell_operators builds Gbar and the Laplacian,
+/// and Newton its per-cell mean gradient and fluctuation block. gint and L are resized.
+double cell_integrals(const Mesh& mesh, int c, Eigen::MatrixXd& gint, Eigen::MatrixXd& L);
+
 /// Calls visit(grad, w) at every quadrature point of cell c, with grad the physical gradients of
 /// the shape functions (#nodes_per_cell x dim) and w the weight times |det J| (the rules used by
 /// cell_operators): P2 triangle 6 points, degree 4; P2 tetrahedron 6 points, degree 3 (det of a

@@ -189,6 +189,25 @@ struct Factored {
     check(MatMumpsSetIcntl(F, 14, workspace), what, "MatMumpsSetIcntl");
     if (type == MAT_FACTOR_CHOLESKY) check(MatMumpsSetIcntl(F, 13, 1), what, "MatMumpsSetIcntl");
   }
+  /// A new factor of A, analyzed (MUMPS's symbolic phase).
+  void analyze(MatFactorType type) {
+    new_factor(type);
+    MatFactorInfo fi;
+    check(MatFactorInfoInitialize(&fi), what, "MatFactorInfoInitialize");
+    if (type == MAT_FACTOR_CHOLESKY)
+      check(MatCholeskyFactorSymbolic(F, A, nullptr, &fi), what, "MatCholeskyFactorSymbolic");
+    else
+      check(MatLUFactorSymbolic(F, A, nullptr, nullptr, &fi), what, "MatLUFactorSymbolic");
+  }
+  /// The numerical factorization of the analyzed factor at A's values.
+  void factor_numeric(MatFactorType type) {
+    MatFactorInfo fi;
+    check(MatFactorInfoInitialize(&fi), what, "MatFactorInfoInitialize");
+    if (type == MAT_FACTOR_CHOLESKY)
+      check(MatCholeskyFactorNumeric(F, A, &fi), what, "MatCholeskyFactorNumeric");
+    else
+      check(MatLUFactorNumeric(F, A, &fi), what, "MatLUFactorNumeric");
+  }
   /// After a failed numerical factorization: when MUMPS found its workspace short (INFOG(1) = -8
   /// or -9, global: the same on every rank) and it was not yet twice the estimate, the factor is
   /// analyzed and factorized again with 100 %; true when it was. Collective.
@@ -198,16 +217,8 @@ struct Factored {
     if ((info != -8 && info != -9) || workspace >= 100) return false;
     workspace = 100;
     MatDestroy(&F);
-    new_factor(type);
-    MatFactorInfo fi;
-    check(MatFactorInfoInitialize(&fi), what, "MatFactorInfoInitialize");
-    if (type == MAT_FACTOR_CHOLESKY) {
-      check(MatCholeskyFactorSymbolic(F, A, nullptr, &fi), what, "MatCholeskyFactorSymbolic");
-      check(MatCholeskyFactorNumeric(F, A, &fi), what, "MatCholeskyFactorNumeric");
-    } else {
-      check(MatLUFactorSymbolic(F, A, nullptr, nullptr, &fi), what, "MatLUFactorSymbolic");
-      check(MatLUFactorNumeric(F, A, &fi), what, "MatLUFactorNumeric");
-    }
+    analyze(type);
+    factor_numeric(type);
     ++stats_.mumps_workspace_retries;
     return true;
   }
@@ -342,17 +353,14 @@ bool DistributedCholesky::factorize() {
   auto t0 = std::chrono::steady_clock::now();
   check(MatAssemblyBegin(f.A, MAT_FINAL_ASSEMBLY), f.what, "MatAssemblyBegin");
   check(MatAssemblyEnd(f.A, MAT_FINAL_ASSEMBLY), f.what, "MatAssemblyEnd");
-  MatFactorInfo info;
-  check(MatFactorInfoInitialize(&info), f.what, "MatFactorInfoInitialize");
   if (!m.analyzed) {
-    f.new_factor(MAT_FACTOR_CHOLESKY);
-    check(MatCholeskyFactorSymbolic(f.F, f.A, nullptr, &info), f.what, "MatCholeskyFactorSymbolic");
+    f.analyze(MAT_FACTOR_CHOLESKY);
     m.analyzed = true;
     ++st.mumps_analyses;
     st.mumps_analysis_s += seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
   }
-  check(MatCholeskyFactorNumeric(f.F, f.A, &info), f.what, "MatCholeskyFactorNumeric");
+  f.factor_numeric(MAT_FACTOR_CHOLESKY);
   ++st.mumps_factorizations;
   bool ok = !f.failed() || (f.refactorize_with_more_workspace(MAT_FACTOR_CHOLESKY) && !f.failed());
   if (ok) {
@@ -397,21 +405,18 @@ bool DistributedLU::solve(const SpMat& A, const NewtonRows& rows, const Eigen::V
                     std::equal(m.outer.begin(), m.outer.end(), o) &&
                     m.inner.size() == static_cast<std::size_t>(A.nonZeros()) &&
                     std::equal(m.inner.begin(), m.inner.end(), in) && f.perm == rows.perm;
-  MatFactorInfo info;
-  check(MatFactorInfoInitialize(&info), f.what, "MatFactorInfoInitialize");
   if (!same) {  // a new pattern (the active set, the betas at a bound): analyzed again
     f.reset();
     f.build(A, rows.perm, rows.offset, false);
     f.set_values(A);
-    f.new_factor(MAT_FACTOR_LU);
-    check(MatLUFactorSymbolic(f.F, f.A, nullptr, nullptr, &info), f.what, "MatLUFactorSymbolic");
+    f.analyze(MAT_FACTOR_LU);
     m.outer.assign(o, o + A.outerSize() + 1);
     m.inner.assign(in, in + A.nonZeros());
     ++st.mumps_lu_analyses;
   } else {
     f.set_values(A);
   }
-  check(MatLUFactorNumeric(f.F, f.A, &info), f.what, "MatLUFactorNumeric");
+  f.factor_numeric(MAT_FACTOR_LU);
   ++st.mumps_lu_factorizations;
   bool ok = !f.failed() || (f.refactorize_with_more_workspace(MAT_FACTOR_LU) && !f.failed());
   if (ok) {

@@ -7,7 +7,6 @@
 #include "error.hpp"
 #include "mesh_transfer.hpp"
 #include "mpi_comm.hpp"
-#include "mpi_global.hpp"
 #include "results.hpp"
 
 namespace ltl {
@@ -99,13 +98,11 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
     s.E.block(d * e, 0, d, d) = F.transpose();
     s.lambda.block(d * e, 0, d, d) = law.multiplier(F, p).transpose();
   }
-  if (disc.partial()) {
-    const mpi::Partition cells = slab_cells(mesh, mpi::size());
-    if (cells.items(mpi::rank()) != disc.held_cells())
-      throw Error(cat(key, ": a discretization of ", disc.held_cells().size(),
-                      " cells that are not this rank's (slab_cells)"));
-    mpi::gather_rows(s.E, cells, d);
-    mpi::gather_rows(s.lambda, cells, d);
+  if (disc.partial()) {  // the Solver's partition: the discretization holds the rank's cells
+    const mpi::Partition* cells = solver.cell_partition();
+    if (!cells) throw Error(cat(key, ": a discretization of some cells in a solver on one rank"));
+    mpi::gather_rows(s.E, *cells, d);
+    mpi::gather_rows(s.lambda, *cells, d);
     double clamped = out.clamped_centroids;
     mpi::sum(&clamped, 1);
     out.clamped_centroids = static_cast<int>(clamped);

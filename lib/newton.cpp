@@ -62,8 +62,8 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
     for (int e = block[me]; e < block[me + 1]; ++e)
       slot_[e] = static_cast<int>(cells_.size()), cells_.push_back(e);
   }
-  // Per cell of this rank, from its quadrature points with the sums by which the
-  // discretization's cell operators are built (fe.cpp's cell_operators): the mean
+  // Per cell of this rank, from the sums of cell_integrals (fe.cpp), from which the
+  // discretization's cell operators are built too: the mean
   // gradient gbar_e = (1 / |O_e|) sum_q w_q grad_q, the constraint points (mean-det: the
   // quadrature points; det-mean: gbar_e with weight |O_e|), and the fluctuation block
   // 2 C1 (L_e - |O_e| gbar_e gbar_e^T) with L_e = sum_q w_q grad_q grad_q^T.
@@ -73,25 +73,22 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
   gbar_.reserve(cells_.size());
   lf_.resize(cells_.size() * n * n);
   nq_ = incompressible_ && !mean_det ? 1 : 0;
-  Eigen::MatrixXd gint(n, d), Le(n, n);
+  Eigen::MatrixXd gint, Le;
   for (std::size_t k = 0; k < cells_.size(); ++k) {
     const int e = cells_[k];
-    double vol = 0;
-    gint.setZero();
-    Le.setZero();
-    int q = 0;
-    for_each_quadrature_point(mesh, e, [&](const Eigen::MatrixXd& grad, double w) {
-      vol += w;
-      gint += w * grad;
-      Le.noalias() += w * grad * grad.transpose();
-      if (mean_det) gq_.push_back(grad), wq_.push_back(w), ++q;
-    });
-    if (mean_det) nq_ = q;
+    const double vol = cell_integrals(mesh, e, gint, Le);
     gbar_.push_back((1.0 / vol) * gint);
     Eigen::Map<Eigen::MatrixXd>(&lf_[k * n * n], n, n) =
         2 * C1 * (Le - gint * gbar_.back().transpose());
-    if (incompressible_ && !mean_det)
-      gq_.push_back(gbar_.back()), wq_.push_back(disc.cells().vol(e));
+    if (mean_det) {
+      int q = 0;
+      for_each_quadrature_point(mesh, e, [&](const Eigen::MatrixXd& grad, double w) {
+        gq_.push_back(grad), wq_.push_back(w), ++q;
+      });
+      nq_ = q;
+    } else if (incompressible_) {
+      gq_.push_back(gbar_.back()), wq_.push_back(vol);
+    }
   }
 
   if (const ContactPoints* pts = disc.points()) {
