@@ -32,13 +32,27 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   precompute(a.R);
 
   // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per point.
-  w_cell_ = (a.q * disc_.volume_rows()).cwiseSqrt() / norm_I_;
+  // Distributed: the rows of the rank's cells (own_cells(), the iterate's rows).
+  const std::vector<int>& own = own_cells();
+  const int n_own = static_cast<int>(own.size());
+  if (dist_) {
+    w_cell_.resize(dim * static_cast<Eigen::Index>(n_own));
+    for (int k = 0; k < n_own; ++k)
+      w_cell_.segment(dim * k, dim).setConstant(std::sqrt(a.q * disc_.cells().vol(own[k])));
+    w_cell_ /= norm_I_;
+  } else {
+    w_cell_ = (a.q * disc_.volume_rows()).cwiseSqrt() / norm_I_;
+  }
   if (points) w_point_ = (a.q_c * points->area).cwiseSqrt() / norm_I_;
   // The packed iterate: lambda, lambda_c; E, e unless only the multipliers are accelerated; beta
   // with "all". Mean-det: the lagged fluctuation terms make u part of the state the map acts on,
   // so u is extrapolated with the rest, weighted like a gradient, sqrt(q |Omega| / #nodes) / h.
-  packed_size_ = dim * dim * nc + dim * n_points;
+  // Distributed, the cells' part (first) is the rank's rows, the rest the same on every rank.
+  packed_size_ = dim * dim * static_cast<Eigen::Index>(n_own) + dim * n_points;
   if (a.accelerate != Accelerated::Multipliers) packed_size_ *= 2;
+  if (dist_)
+    packed_distributed_ = (a.accelerate != Accelerated::Multipliers ? 2 : 1) * dim * dim *
+                          static_cast<Eigen::Index>(n_own);
   if (a.accelerate == Accelerated::All) packed_size_ += n_points;
   if (disc_.mean_det()) {
     packed_size_ += dim * nn;
@@ -47,10 +61,10 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   }
 
   rhs_.resize(nn, dim);
-  T_ = Eigen::MatrixXd::Zero(dim * nc, dim);  // distributed: the rank's cells' rows only written
-  global_out_.GU.resize(dim * static_cast<Eigen::Index>(own_cells().size()), dim);
-  prev_.E.resize(global_out_.GU.rows(), dim);
-  global_out_.J = Eigen::VectorXd::Ones(nc);
+  T_.resize(dim * static_cast<Eigen::Index>(n_own), dim);
+  global_out_.GU.resize(T_.rows(), dim);
+  prev_.E.resize(T_.rows(), dim);
+  global_out_.J = Eigen::VectorXd::Ones(n_own);
   if (points) {
     global_out_.ubar.resize(n_points, dim);
   }
@@ -146,30 +160,28 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
 
 // [LTL87 (4.6), (5.2)-(5.8)] Cell by cell, D = R q (I + Gbar u) - lambda and E = argmin J_E.
 // The blocks are transposed tensors; the energies are isotropic, so solving on D^T gives E^T.
-// The cells `cells` (a rank's cells when distributed).
+// Every row block of the arrays (a rank's cells when distributed).
 namespace {
 template <int d>
-int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,  // own rows
-                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E,
-                const std::vector<int>& cells) {
+int strain_loop(const StrainStep& step, double Rq, const Eigen::MatrixXd& GU,
+                const Eigen::MatrixXd& lambda, const Eigen::VectorXd* J, Eigen::MatrixXd& E) {
   int failures = 0;
-  const int n = static_cast<int>(cells.size());
+  const int n = static_cast<int>(GU.rows() / d);
 #pragma omp parallel for schedule(static) reduction(+ : failures)
   for (int k = 0; k < n; ++k) {
-    const int c = cells[k];
     Eigen::Matrix<double, d, d> D =
-        Rq * GU.template block<d, d>(d * k, 0) - lambda.template block<d, d>(d * c, 0);
+        Rq * GU.template block<d, d>(d * k, 0) - lambda.template block<d, d>(d * k, 0);
     D.diagonal().array() += Rq;
     Eigen::Matrix<double, d, d> Ec;
     // Mean-det: det E = J_c. The local energy is (R q / 2)|E|^2 - D : E (C2 = 0), homogeneous
     // of degree 2 under E = s Ehat, so E = s argmin over det Ehat = 1 with D / s, s = J_c^(1/d).
-    const double s = J ? (d == 2 ? std::sqrt((*J)(c)) : std::cbrt((*J)(c))) : 1.0;
+    const double s = J ? (d == 2 ? std::sqrt((*J)(k)) : std::cbrt((*J)(k))) : 1.0;
     if (!(s > 0)) {
       ++failures;
       continue;
     }
     if (!step.solve(D / s, Ec)) ++failures;
-    E.template block<d, d>(d * c, 0) = s * Ec;
+    E.template block<d, d>(d * k, 0) = s * Ec;
   }
   return failures;
 }
@@ -183,9 +195,8 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
   const double Rq = R_ * alg().q;
   const Eigen::VectorXd* J = disc_.mean_det() ? &g.J : nullptr;
   auto t0 = clock_type::now();
-  const std::vector<int>& cells = own_cells();
-  int failures = dim() == 2 ? strain_loop<2>(*strain_, Rq, g.GU, lambda, J, s.E, cells)
-                            : strain_loop<3>(*strain_, Rq, g.GU, lambda, J, s.E, cells);
+  int failures = dim() == 2 ? strain_loop<2>(*strain_, Rq, g.GU, lambda, J, s.E)
+                            : strain_loop<3>(*strain_, Rq, g.GU, lambda, J, s.E);
   rec.t_strain += seconds_since(t0);
   if (contact_) {
     t0 = clock_type::now();
@@ -206,14 +217,8 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
 // On this rank's rows (all of them unless distributed).
 void Solver::half_step(const GlobalOutput& g, const State& s, Multipliers& m) const {
   const double Rq = R_ * alg().q, Rqc = R_ * alg().q_c;
-  const int d = dim();
-  m.lambda.resize(s.lambda.rows(), s.lambda.cols());
-  mpi::for_each_run(own_cells(), [&](int c0, int n, int at) {
-    const int r0 = d * c0, nr = d * n;
-    m.lambda.middleRows(r0, nr) =
-        s.lambda.middleRows(r0, nr) -
-        Rq * (identity_rows(d, n) + g.GU.middleRows(d * at, nr) - s.E.middleRows(r0, nr));
-  });
+  const auto I = identity_rows(dim(), static_cast<int>(own_cells().size()));
+  m.lambda = s.lambda - Rq * (I + g.GU - s.E);
   if (contact_) {
     const int p0 = point_range().first, np = point_range().end - p0;
     m.lambda_c.resize(s.lambda_c.rows(), s.lambda_c.cols());
@@ -228,14 +233,10 @@ void Solver::update_phase(const GlobalOutput& g, const Multipliers* half, State&
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q, Rqc = R_ * a.q_c;
   const double step = half ? 2 * a.rho - 1 : a.rho;
-  const int d = dim();
   const int p0 = point_range().first, np = point_range().end - p0;
-  mpi::for_each_run(own_cells(), [&](int c0, int n, int at) {
-    const int r0 = d * c0, nr = d * n;
-    if (half) s.lambda.middleRows(r0, nr) = half->lambda.middleRows(r0, nr);
-    s.lambda.middleRows(r0, nr) -=
-        step * Rq * (identity_rows(d, n) + g.GU.middleRows(d * at, nr) - s.E.middleRows(r0, nr));
-  });
+  const auto I = identity_rows(dim(), static_cast<int>(own_cells().size()));
+  if (half) s.lambda = half->lambda;
+  s.lambda -= step * Rq * (I + g.GU - s.E);
   if (half && contact_) s.lambda_c.middleRows(p0, np) = half->lambda_c.middleRows(p0, np);
   if (contact_)
     s.lambda_c.middleRows(p0, np) -=
@@ -246,9 +247,7 @@ void Solver::update_phase(const GlobalOutput& g, const Multipliers* half, State&
 IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int& strain_failures) {
   const bool bm = alg().update == Update::BermudezMoreno;
   IterationRecord rec;
-  mpi::for_each_run(own_cells(), [&](int c0, int n, int at) {  // the own cells' rows
-    prev_.E.middleRows(dim() * at, dim() * n) = s.E.middleRows(dim() * c0, dim() * n);
-  });
+  prev_.E = s.E;
   if (contact_) {
     prev_.e = s.e;
     prev_.beta = s.beta;
@@ -273,7 +272,7 @@ IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int&
   auto t0 = clock_type::now();
   update_phase(g, bm ? &half_ : nullptr, s);
   residuals(g, s, prev_, rec);
-  if (dist_) make_whole(s);  // the owned blocks gathered (alg2_mpi.cpp)
+  if (dist_) gather_points(s);  // the owned blocks of the points gathered (alg2_mpi.cpp)
   rec.t_update += seconds_since(t0);
   return rec;
 }
@@ -291,16 +290,16 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   const Eigen::Index nr = dim * static_cast<Eigen::Index>(cells.size());
 #pragma omp parallel for schedule(static) reduction(+ : B2, G2)
   for (Eigen::Index k = 0; k < nr; ++k) {
-    const Eigen::Index r = dim * cells[k / dim] + k % dim;
+    const double v = vol(cells[k / dim]);
     double b = 0, gr = 0;
     for (int i = 0; i < dim; ++i) {
-      const double Bri = (i == r % dim ? 1.0 : 0.0) + g.GU(k, i) - s.E(r, i);
-      const double Gri = s.E(r, i) - prev.E(k, i);
+      const double Bri = (i == k % dim ? 1.0 : 0.0) + g.GU(k, i) - s.E(k, i);
+      const double Gri = s.E(k, i) - prev.E(k, i);
       b += Bri * Bri;
       gr += Gri * Gri;
     }
-    B2 += vol(r / dim) * b;
-    G2 += vol(r / dim) * gr;
+    B2 += v * b;
+    G2 += v * gr;
   }
   B2 *= a.q;
   G2 *= a.q;
@@ -389,6 +388,7 @@ class Solver::Alg2Map final : public FixedPointMap {
   Alg2Map(Solver& solver, State& s, const Eigen::VectorXd& beta_prev)
       : solver_(solver), s_(s), beta_prev_(beta_prev) {}
   Eigen::Index packed_size() const override { return solver_.packed_size_; }
+  Eigen::Index packed_distributed() const override { return solver_.packed_distributed_; }
   void pack(Eigen::VectorXd& z) const override { solver_.pack(s_, z); }
   void unpack(const Eigen::VectorXd& z) override { solver_.unpack(z, s_); }
   IterationRecord apply(int& failures) override {
@@ -405,8 +405,10 @@ class Solver::Alg2Map final : public FixedPointMap {
     ++R_changes;
     return true;
   }
+  // Distributed, on the whole state gathered for the measure (when the stopping test is due).
   double equilibrium_error() const override {
-    return ltl::equilibrium_error(solver_.discretization(), solver_.external_load(), s_);
+    return ltl::equilibrium_error(solver_.discretization(), solver_.external_load(),
+                                  solver_.dist_ ? solver_.whole(s_) : s_);
   }
   int R_changes = 0;
 
@@ -421,14 +423,27 @@ class Solver::Alg2Map final : public FixedPointMap {
 // algorithm.solver = "newton" ALG2 into Newton's basin and then Newton on the same discrete
 // problem (newton.hpp). A Newton phase that fails goes back to ALG2's iterate, which goes on to
 // a switch 10 times smaller; after the third failure ALG2 runs to its own tolerance.
+//
+// Distributed, the iterations run on the rank's rows of E and lambda (own_rows): s's whole E and
+// lambda are released at the start of each ALG2 phase and gathered at its end (whole), so that
+// no iteration moves or holds a whole cell field.
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
   adaptive_R_.start_step();
-  Alg2Map map(*this, s, beta_prev);
+  State own;
+  Alg2Map map(*this, dist_ ? own : s, beta_prev);
+  const auto drive_alg2 = [&](const AlgorithmParams& params) {
+    if (dist_) own = own_rows(s);
+    drive(map, params, report, progress);
+    if (dist_) {
+      s = whole(own);
+      own = State();
+    }
+  };
   const AlgorithmParams& a = alg();
   if (!newton_) {
-    drive(map, a, report, progress);
+    drive_alg2(a);
   } else {
     AlgorithmParams phase = a;
     double to_switch = a.newton_switch;
@@ -439,7 +454,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       // ALG2 stalled above the switch (e.g. R too small for the stresses) hands over too.
       phase.stagnation_window = last ? a.stagnation_window : 100;
       report.converged = false;
-      drive(map, phase, report, progress);
+      drive_alg2(phase);
       const bool alg2_done = report.converged && phase.tol <= a.tol;
       const bool capped = !report.converged && report.iterations >= a.max_iter;
       const bool stalled = !report.converged && report.status.rfind("stagnated", 0) == 0;

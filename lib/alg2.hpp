@@ -77,8 +77,8 @@ class Solver {
   explicit Solver(const Problem& problem, Ranks ranks = Ranks::One);
   /// The same from a discretization built beforehand. Ranks::All (an MPI build, lib/mpi_comm.hpp)
   /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): every rank holds the whole
-  /// discretization, computes its cells and its block of contact points, and ends each iteration
-  /// with the whole state.
+  /// discretization, computes its cells and its block of contact points on the rank's rows of E
+  /// and lambda, and gathers the whole state at the end of each ALG2 phase (solve_step).
   explicit Solver(Discretization discretization, Ranks ranks = Ranks::One);
   ~Solver();
 
@@ -146,10 +146,10 @@ class Solver {
   /// det E_e = J_e = 1 - c_e(u). Allocated once.
   struct GlobalOutput {
     /// Gbar u of the cells own_cells() in their order: (dim #own cells) x dim, the k-th cell's
-    /// block at rows dim k (every cell in the cell order on one process).
+    /// block at rows dim k (every cell in the cell order on one process), like the iterate's E.
     Eigen::MatrixXd GU;
     Eigen::MatrixXd ubar;  ///< #points x dim, like u
-    Eigen::VectorXd J;
+    Eigen::VectorXd J;     ///< #own cells
   };
   /// The multipliers the local steps see: lambda^{n-1} (Uzawa) or the half step (7.8).
   struct Multipliers {
@@ -228,8 +228,14 @@ class Solver {
   void global_phase_distributed(State& s, GlobalOutput& g);
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
-  /// The owned cells of E, lambda (and blocks of e, lambda_c, beta) gathered: the whole state.
-  void make_whole(State& s) const;
+  /// The owned blocks of e, lambda_c and beta gathered (after each iteration).
+  void gather_points(State& s) const;
+  /// Distributed: the iterate of the iterations from a whole state s, whose E and lambda are
+  /// released: the rank's rows of E and lambda (the k-th of own_cells() at rows dim k), u and the
+  /// contact fields whole (moved).
+  State own_rows(State& s) const;
+  /// The whole state from such an iterate (collective: E and lambda gathered from the ranks).
+  State whole(const State& own) const;
 
   Discretization disc_;
   double R_ = 1;  ///< R in use (see R())
@@ -251,7 +257,7 @@ class Solver {
   Multipliers half_;
   State prev_;  ///< E: the own cells' rows in their order, like GlobalOutput::GU
   // The packed iterate of Anderson acceleration: its length and weights.
-  Eigen::Index packed_size_ = 0;
+  Eigen::Index packed_size_ = 0, packed_distributed_ = 0;
   Eigen::VectorXd w_cell_, w_point_;
   double w_u_ = 0;  ///< weight of u in the accelerated vector (mean-det only)
   // Ranks::All: the owned blocks, the owned parts of the operators, the distributed KSP

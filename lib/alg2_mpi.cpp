@@ -9,10 +9,12 @@
 //     cells of the measures (equilibrium residual, energy) add the ranks' parts. The Newton phase
 //     holds its own per-cell data for its cells (newton.hpp). With the replicated factor, the
 //     whole discretization on every rank.
-//   - REPLICATED: the mesh, the per-cell and per-node dense arrays and the state. Every rank
-//     reads the whole problem and ends every iteration with the whole state, so that Anderson,
-//     the stopping tests, the Newton phase and the output are the serial ones, identical on
-//     every rank.
+//   - REPLICATED: the mesh, the per-node dense arrays, u and the contact points' fields. Every
+//     rank reads the whole problem. The whole E and lambda exist only between ALG2 phases (for
+//     the Newton phase, the measures and the output) and when the equilibrium stopping test is
+//     due; the iterations run on the rank's rows of E and lambda (own_rows, whole), and so do
+//     T, Gbar u, J and the previous E. Anderson's packed iterate is the rank's cell rows then
+//     the replicated contact part: its inner products sum the first over the ranks.
 //   - DISTRIBUTED: the cells (the slabs above) and the contact points (contiguous blocks of
 //     their index, mpi::blocks). A rank computes, on its own cells and points: the global step's
 //     per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R
@@ -21,8 +23,8 @@
 //     update (4.3) and the residual sums (4.4). The right-hand side is summed over the ranks (one
 //     Allreduce of #nodes x dim), the global solve (4.5) is one distributed PETSc KSP
 //     (mpi_global.hpp), or with the PETSc option -ltl_mpi_replicated the serial factor on every
-//     rank (replicated); the residual parts are summed (3 values); the owned cells' rows of E,
-//     lambda (and the blocks of e, lambda_c, beta) are gathered (Allgatherv).
+//     rank (replicated); the residual parts are summed (3 values); the blocks of e, lambda_c and
+//     beta are gathered (Allgatherv). E and lambda are gathered once, at the end of the phase.
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
@@ -170,23 +172,26 @@ RankShare Solver::rank_share() const {
 // [LTL87 (4.1), (4.5)] The right-hand side of global_phase (alg2.cpp) from the owned cells and
 // points (the dead loads once, on rank 0; the mean-det lagged Laplacian term on the owned node
 // rows), summed over the ranks; the distributed solve; then the owned rows of Gbar u, the
-// mean-det targets J and ubar (all of ubar when the contact step is replicated).
+// mean-det targets J and ubar (all of ubar when the contact step is replicated). The iterate's E
+// and lambda, T, Gbar u and J are the rank's rows (own_rows): the cells' part of the right-hand
+// side is sum over the runs of the rank's cells of Gbar_run^T (|O_e| T_e), Gbar's rows read in
+// place.
 void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const Distribution& d = *dist_;
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q;
   const int dim = this->dim();
   const ContactPoints* points = disc_.points();
-  mpi::for_each_run(d.own, [&](int c0, int n, int) {
-    const int r0 = dim * c0, nr = dim * n;
-    const auto I = identity_rows(dim, n);
-    T_.middleRows(r0, nr) =
-        Rq * (s.E.middleRows(r0, nr) - I) + s.lambda.middleRows(r0, nr) - 2 * disc_.split().C1 * I;
+  const Eigen::VectorXd& vol = disc_.cells().vol;
+  const auto I = identity_rows(dim, static_cast<int>(d.own.size()));
+  T_ = Rq * (s.E - I) + s.lambda - 2 * disc_.split().C1 * I;
+  for (std::size_t k = 0; k < d.own.size(); ++k) T_.middleRows(dim * k, dim) *= vol(d.own[k]);
+  const SpMatR& G = disc_.cells().Gbar;  // rows dim c .. dim c + dim - 1 of cell c
+  rhs_.setZero();
+  mpi::for_each_run(d.own, [&](int c0, int n, int at) {
+    rhs_.noalias() +=
+        G.middleRows(dim * c0, dim * n).transpose() * T_.middleRows(dim * at, dim * n);
   });
-  // T_'s rows of the other ranks' cells are zero (never written): with the whole discretization
-  // (-ltl_mpi_whole) the product is this rank's part too; with the rank's cells, GbarT_vol's
-  // columns are its cells'.
-  rhs_.noalias() = disc_.cells().GbarT_vol * T_;
   if (mpi::rank() == 0) rhs_ += F_ext_;
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own);
@@ -201,13 +206,12 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   else
     global_->solve(rhs_, s.u);
 
-  const SpMatR& G = disc_.cells().Gbar;  // the own cells' rows, in their order
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
     g.GU.middleRows(dim * at, dim * n).noalias() = G.middleRows(dim * c0, dim * n) * s.u;
   });
   if (disc_.mean_det()) {
     disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, &d.own);
-    for (int c : d.own) g.J(c) = 1.0 - g.J(c);
+    g.J = 1.0 - g.J.array();
   }
   if (points) {
     const Range pr = point_range();
@@ -216,16 +220,42 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   }
 }
 
-void Solver::make_whole(State& s) const {
+void Solver::gather_points(State& s) const {
   const Distribution& d = *dist_;
-  const int dim = this->dim();
-  mpi::gather_rows(s.E, d.cells, dim);
-  mpi::gather_rows(s.lambda, d.cells, dim);
   if (disc_.points() && !d.contact_replicated) {
     mpi::gather_rows(s.e, d.points, 1);
     mpi::gather_rows(s.lambda_c, d.points, 1);
     mpi::gather_rows(s.beta, d.points);
   }
+}
+
+State Solver::own_rows(State& s) const {
+  const int dim = this->dim();
+  State own;
+  own.E.resize(dim * static_cast<Eigen::Index>(dist_->own.size()), dim);
+  own.lambda.resize(own.E.rows(), dim);
+  mpi::for_each_run(dist_->own, [&](int c0, int n, int at) {
+    own.E.middleRows(dim * at, dim * n) = s.E.middleRows(dim * c0, dim * n);
+    own.lambda.middleRows(dim * at, dim * n) = s.lambda.middleRows(dim * c0, dim * n);
+  });
+  s.E = Eigen::MatrixXd();
+  s.lambda = Eigen::MatrixXd();
+  own.u.swap(s.u);
+  own.e.swap(s.e);
+  own.beta.swap(s.beta);
+  own.lambda_c.swap(s.lambda_c);
+  return own;
+}
+
+State Solver::whole(const State& own) const {
+  State s;
+  mpi::gather_rows(own.E, s.E, dist_->cells, dim());
+  mpi::gather_rows(own.lambda, s.lambda, dist_->cells, dim());
+  s.u = own.u;
+  s.e = own.e;
+  s.beta = own.beta;
+  s.lambda_c = own.lambda_c;
+  return s;
 }
 
 namespace {

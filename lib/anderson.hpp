@@ -22,8 +22,11 @@ class Anderson {
  public:
   static constexpr int max_depth = 16;
 
-  /// n unknowns, depth m (1 <= m <= max_depth), step bound cap (see above).
-  Anderson(Eigen::Index n, int m, double cap = 10);
+  /// n unknowns, depth m (1 <= m <= max_depth), step bound cap (see above). Over MPI ranks
+  /// (mpi_comm.hpp) the first `distributed` unknowns are this rank's share of a vector split over
+  /// the ranks: their inner products are summed over the ranks; the others are the same on every
+  /// rank and counted once. With distributed = 0 (one process) every inner product is local.
+  Anderson(Eigen::Index n, int m, double cap = 10, Eigen::Index distributed = 0);
 
   /// Appends the pair (x_k, G(x_k)) and overwrites g with the accelerated iterate x_{k+1}
   /// (g unchanged while the history holds fewer than m differences). Returns the number of
@@ -40,7 +43,13 @@ class Anderson {
  private:
   using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, max_depth, max_depth>;
   using SmallVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, max_depth, 1>;
+  /// The inner products of the step (the Gram matrix and dF^T f), summed over the ranks for the
+  /// distributed entries (one reduction).
+  void inner_products(int k);
+  /// The Euclidean norm of a vector of n unknowns, over the ranks like the inner products.
+  double norm(const Eigen::VectorXd& v) const;
   int m_;
+  Eigen::Index distributed_ = 0;
   int columns_ = 0, next_ = 0;
   bool have_previous_ = false;
   Eigen::MatrixXd dF_, dG_;
@@ -62,7 +71,8 @@ class Anderson {
 ///   pack(state, g);  if (aa.extrapolate(x, g, merit)) { plain = state; unpack(g, state); }
 class SafeguardedAnderson {
  public:
-  SafeguardedAnderson(Eigen::Index n, int depth) : aa_(n, depth) {}
+  SafeguardedAnderson(Eigen::Index n, int depth, Eigen::Index distributed = 0)
+      : aa_(n, depth, 10, distributed) {}
 
   /// After an iteration with merit `merit` (ok: no failed local step, finite iterate): when it
   /// started from an accelerated iterate, marks rec.accelerated (+1 kept, -1 rejected) and counts

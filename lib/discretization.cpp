@@ -227,8 +227,9 @@ struct FluctuationKernel {
     }
   }
 
-  /// Cell e: returns c_e; with fe, the cell's nodal force (p_e and gamma as above).
-  double operator()(int e, const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
+  /// Cell e, whose E and lambda are the blocks at rows d row: returns c_e; with fe, the cell's
+  /// nodal force (p_e and gamma as above).
+  double operator()(int e, int row, const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                     const Eigen::MatrixXd* E, double gamma, double* fe) const {
     Eigen::Matrix<double, npc, 2 * d> XU;  // [Xe ue]
     for (int a = 0; a < npc; ++a) {
@@ -251,8 +252,8 @@ struct FluctuationKernel {
     Fbar.diagonal().array() += 1.0;
     double p = 0;
     if (lambda) {
-      const Mat Ee = E->block<d, d>(d * e, 0);
-      p = (lambda->block<d, d>(d * e, 0).cwiseProduct(Ee)).sum() / (d * Ee.determinant());
+      const Mat Ee = E->block<d, d>(d * row, 0);
+      p = (lambda->block<d, d>(d * row, 0).cwiseProduct(Ee)).sum() / (d * Ee.determinant());
     }
     const Mat cof_bar = (d == 3 && fe) ? cofactor<d>(Fbar) : Mat::Zero();
     Eigen::Map<Nodal> force(fe ? fe : nullptr);
@@ -281,7 +282,8 @@ struct FluctuationKernel {
 
 /// c (when non-null) and force += the cells' nodal forces (when non-null). The cells run in
 /// parallel; the forces are summed onto the nodes block by block, in cell order, from a buffer of
-/// kBlock cells (memory per block, not per cell). On the cells `cells` (sorted; null: all n).
+/// kBlock cells (memory per block, not per cell). On the cells `cells` (sorted; null: all n),
+/// whose rows of lambda and E and entries of c are their positions in the list.
 template <int d, int npc>
 void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::MatrixXd& u,
                       const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
@@ -296,8 +298,8 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
     for (int k = b0; k < b1; ++k) {
       const int e = cells ? (*cells)[k] : k;
       double* fe = force ? buffer.data() + static_cast<std::size_t>(k - b0) * kNodal : nullptr;
-      const double ce = kernel(e, u, lambda, E, gamma, fe);
-      if (c) (*c)(e) = ce;
+      const double ce = kernel(e, k, u, lambda, E, gamma, fe);
+      if (c) (*c)(k) = ce;
     }
     if (!force) continue;
     for (int k = b0; k < b1; ++k) {

@@ -101,7 +101,8 @@ class Discretization {
   /// force (#nodes x dim, added to, not overwritten) at u, with p_e from lambda and E when force
   /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
   /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell. On the
-  /// cells `cells` (sorted; null: all; a rank's cells when distributed, alg2_mpi.cpp).
+  /// cells `cells` (sorted; null: all; a rank's cells when distributed, alg2_mpi.cpp): then the
+  /// k-th cell's rows of lambda and E are the k-th block and its c is c(k).
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
                    double gamma = 0, const std::vector<int>* cells = nullptr) const;

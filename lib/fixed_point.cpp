@@ -16,7 +16,7 @@ void drive(FixedPointMap& map, const AlgorithmParams& alg, StepReport& report,
   std::optional<SafeguardedAnderson> anderson;
   Eigen::VectorXd x, g;
   if (alg.acceleration == Acceleration::Anderson) {
-    anderson.emplace(map.packed_size(), alg.depth);
+    anderson.emplace(map.packed_size(), alg.depth, map.packed_distributed());
     x.resize(map.packed_size());
     g.resize(map.packed_size());
   }

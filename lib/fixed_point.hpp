@@ -30,6 +30,10 @@ class FixedPointMap {
   /// Length of the packed iterate (the part Anderson extrapolates), scaled so that its
   /// Euclidean norm is the norm of r_G + r_B.
   virtual Eigen::Index packed_size() const = 0;
+  /// Over MPI ranks: how many leading entries of the packed iterate are this rank's share of a
+  /// vector split over the ranks (Anderson sums their inner products over the ranks); the rest
+  /// is the same on every rank. 0 on one process.
+  virtual Eigen::Index packed_distributed() const { return 0; }
   virtual void pack(Eigen::VectorXd& z) const = 0;
   virtual void unpack(const Eigen::VectorXd& z) = 0;
   /// One application of the map to the current iterate, in place: the record's r_G, r_B and

@@ -51,7 +51,23 @@ double resident_bytes() {
   return status_bytes("VmRSS:");
 }
 
+void release_buffers();
+
+void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part, int m) {
+  const int me = rank();
+  whole.resize(static_cast<Eigen::Index>(m) * part.order.size(), own.cols());
+  const int* items = part.order.data();
+  for_each_run(items + part.offset[me], items + part.offset[me + 1], [&](int first, int n, int at) {
+    whole.middleRows(static_cast<Eigen::Index>(m) * first, m * n) =
+        own.middleRows(static_cast<Eigen::Index>(m) * at, m * n);
+  });
+  gather_rows(whole, part, m);
+  release_buffers();
+}
+
 #ifndef LTL_HAVE_MPI
+
+void release_buffers() {}
 
 bool built() {
   return false;
@@ -270,6 +286,11 @@ void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset) {
 
 void gather(double* x, const std::vector<int>& offset) {
   gather_columns(x, offset.back(), 1, offset, 1);
+}
+
+void release_buffers() {
+  std::vector<double>().swap(send_);
+  std::vector<double>().swap(recv_);
 }
 
 void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item) {

@@ -89,6 +89,11 @@ void for_each_run(const std::vector<int>& items, F&& f) {
 /// of its items i; afterwards every rank holds all of them.
 void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item);
 void gather_rows(Eigen::VectorXd& v, const Partition& part);
+/// The same from the rank's rows alone: `own` holds rows_per_item rows per item of this rank,
+/// the k-th item's at rows_per_item k; `whole` (resized) gets every item's rows on every rank.
+/// The gathers' buffers are freed afterwards (a whole array is gathered once per time step).
+void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part,
+                 int rows_per_item);
 
 /// What our collectives moved since the start: bytes received (payload), calls, wall seconds.
 struct Traffic {

@@ -414,6 +414,48 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
               << " B), Laplacian " << L << " of " << L_serial << " entries\n";
 }
 
+/// [LTL87 (4.1)-(4.4)] The iterations run on the rank's rows of E and lambda (Solver::own_rows):
+/// an iteration's collectives move the right-hand side's sum and the solution u (#nodes x dim
+/// each), the contact points' blocks and the residual sums, and no cell field. On the 200-cell
+/// gutter, the bytes our collectives bring into a rank per iteration stay under
+/// 8 (2 dim #nodes + (2 dim + 1) #points + 8); gathering E and lambda every iteration would add
+/// (P - 1) / P x 2 x 8 dim^2 #cells = 14 400 B on 2 ranks. The per-cell arrays the solver keeps
+/// (T, Gbar u, J, the previous E, Anderson's weights) are the rank's cells' rows: their bytes are
+/// at most the serial ones per cell times the rank's cells, plus the cell partition and the
+/// rank's cell list (4 B per cell each). Fails when every iteration gathers E and lambda, or
+/// when T is whole.
+TEST(Mpi, Eq4_1to4_4_NoIterationMovesACellField) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig6),
+                                 {"mesh.parameters.nl=20", "mesh.parameters.na=5",
+                                  "algorithm.tol=1e-300", "algorithm.max_iter=12"});
+  const Solver serial(p, Ranks::One);
+  Solver dist(p, Ranks::All);
+  State s = dist.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  mpi::Traffic t2;
+  int n = 0;
+  const StepReport r = dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
+    if (++n == 2) t2 = mpi::traffic();
+  });
+  const double per_it = (mpi::traffic().bytes - t2.bytes) / (r.iterations - 2);
+  const int dim = p.mesh.dim, nn = p.mesh.num_nodes(), nc = p.mesh.num_cells();
+  const int np = dist.discretization().points()->size();
+  const double bound = 8.0 * (2 * dim * nn + (2 * dim + 1) * np + 8);
+  EXPECT_EQ(r.iterations, 12);
+  EXPECT_LE(per_it, bound) << "rank " << mpi::rank();
+  const int own = dist.rank_share().cells;
+  const double per_cell = serial.holdings().cell_arrays / nc;
+  EXPECT_LE(dist.holdings().cell_arrays, per_cell * own + 4.0 * (nc + own) + 64)
+      << "rank " << mpi::rank();
+  EXPECT_EQ(s.E.rows(), dim * nc);  // the whole state again after the step
+  EXPECT_TRUE(same_on_every_rank(s));
+  if (mpi::rank() == 0)
+    std::cout << "gutter of " << nc << " cells on " << mpi::size() << " rank(s): " << per_it
+              << " B per iteration into rank 0 (bound " << bound << "), cell arrays "
+              << dist.holdings().cell_arrays << " B (serial " << serial.holdings().cell_arrays
+              << " B, " << own << " of " << nc << " cells)\n";
+}
+
 /// With the Newton phase each rank builds the per-cell data of Newton (mean gradients,
 /// fluctuation blocks, constraint points) for its own cells only (with the distributed solves,
 /// the cells whose first free dof is in its slab of matrix rows): the ranks' cells add up to the

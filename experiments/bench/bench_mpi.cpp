@@ -10,9 +10,10 @@
 //           the peak resident memory of every rank (VmHWM). Times are the largest over the
 //           ranks; the load average is printed beside them. A second line, "MEM ...": the
 //           resident size (VmRSS / VmHWM, MB, largest rank) after each setup phase (start, mesh
-//           read, solver set up, iterated) and the bytes per cell the largest rank holds
-//           (Solver::holdings). PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every
-//           rank (the memory before the partition of the operators, paper_notes/mpi.md).
+//           read, solver set up, the last iteration, the step's end) and the bytes per cell the
+//           largest rank holds (Solver::holdings). PETSC_OPTIONS=-ltl_mpi_whole: the whole
+//           discretization on every rank (the memory before the partition of the operators,
+//           paper_notes/mpi.md).
 //
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi NT NA NL [--iters N] [--warm N]
 //               [--solver mumps|cg-amg] [--distribute 1] [--label TEXT]
@@ -128,6 +129,7 @@ int bench(int argc, char** argv) {
       tu += rec.t_update;
       wall = rec.wall;
     }
+    if (n == warm + iters) phase("last_iteration");  // before the end of the step's gathers
     if (n != warm) return;
     wall0 = rec.wall;
     c0 = ltl::mpi::traffic();
@@ -139,7 +141,7 @@ int bench(int argc, char** argv) {
     ksp_it0 = r.ksp_iterations;
     ksp_solves0 = r.ksp_solves;
   });
-  phase("iterated");
+  phase("step_end");
   const int timed = n - warm;
   const ltl::mpi::Traffic c1 = ltl::mpi::traffic();
   const ltl::RankShare r = solver.rank_share();
