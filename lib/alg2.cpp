@@ -433,9 +433,15 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   adaptive_R_.start_step();
   State own;
   Alg2Map map(*this, dist_ ? own : s, beta_prev);
+  std::function<void(const IterationRecord&)> alg2_progress = progress;
+  if (dist_ && whole_in_progress_ && progress)
+    alg2_progress = [&](const IterationRecord& rec) {
+      s = whole(own);  // the caller reads its state (set_whole_state_in_progress)
+      progress(rec);
+    };
   const auto drive_alg2 = [&](const AlgorithmParams& params) {
     if (dist_) own = own_rows(s);
-    drive(map, params, report, progress);
+    drive(map, params, report, alg2_progress);
     if (dist_) {
       s = whole(own);
       own = State();

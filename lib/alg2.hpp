@@ -107,6 +107,13 @@ class Solver {
   /// (At a converged state E = I + Gbar u and e = ubar up to the tolerance.)
   double energy(const State& s, const Eigen::VectorXd& beta_prev) const;
 
+  /// A distributed solver iterates on the rank's rows of E and lambda and releases the caller's
+  /// whole E and lambda until the ALG2 phase ends (solve_step). With on = true the caller's
+  /// state is whole and current at every call of `progress` (for a callback that reads it, the
+  /// checkpoints of lib/simulation.cpp): E and lambda are gathered every iteration (collective).
+  /// Nothing changes on one process.
+  void set_whole_state_in_progress(bool on) { whole_in_progress_ = on; }
+
   /// The serial global step (an Error in a distributed solver with the distributed KSP).
   const GlobalStep& global_step() const;
   /// Factors of the global step (0 with the distributed KSP).
@@ -249,7 +256,8 @@ class Solver {
   double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q
   Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;
-  double norm_I_ = 1;  ///< ||I||_q = sqrt(q |Omega| dim)
+  bool whole_in_progress_ = false;  ///< set_whole_state_in_progress
+  double norm_I_ = 1;               ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers
   // of the local steps (Bermudez-Moreno), the previous iterate of the residual r_G.
   Eigen::MatrixXd rhs_, T_;

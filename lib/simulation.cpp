@@ -206,6 +206,7 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   const Eigen::VectorXd beta_prev = beta_prev_given ? *beta_prev_given : state.beta;
   IterationRecord shown;  // the first record printed: the rate of the step since then
   const bool saving = checkpoints && checkpoints->save && checkpoints->every > 0;
+  solver.set_whole_state_in_progress(saving);  // the saves below read the state
   auto saved = std::chrono::steady_clock::now();
   auto progress = [&](const IterationRecord& r) {
     // --checkpoint: the iterate (the caller's state, updated in place by ALG2; during a Newton
