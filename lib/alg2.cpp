@@ -394,7 +394,7 @@ class Solver::Alg2Map final : public FixedPointMap {
   IterationRecord apply(int& failures) override {
     return solver_.iterate(s_, beta_prev_, failures);
   }
-  bool finite() const override { return s_.u.allFinite(); }
+  bool finite() const override { return solver_.all_finite(s_.u); }
   void keep_plain() override { plain_ = s_; }
   void restore_plain() override { s_ = plain_; }
   // Adaptive R: a new R re-factorizes K (the packed multipliers are scaled by 1 / R q, so the

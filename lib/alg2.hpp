@@ -235,6 +235,8 @@ class Solver {
   void global_phase_distributed(State& s, GlobalOutput& g);
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
+  /// Is u finite on every rank (collective when distributed)?
+  bool all_finite(const Eigen::MatrixXd& u) const;
   /// The owned blocks of e, lambda_c and beta gathered (after each iteration).
   void gather_points(State& s) const;
   /// Distributed: the iterate of the iterations from a whole state s, whose E and lambda are

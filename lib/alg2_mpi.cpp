@@ -20,11 +20,14 @@
 //     per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R
 //     q_c e + lambda_c] (4.1), the mean-det fluctuation terms and targets, Gbar u and ubar; the
 //     strain step (4.6); the contact step (4.7) when the points are independent (d0 = 0); the
-//     update (4.3) and the residual sums (4.4). The right-hand side is summed over the ranks (one
-//     Allreduce of #nodes x dim), the global solve (4.5) is one distributed PETSc KSP
-//     (mpi_global.hpp), or with the PETSc option -ltl_mpi_replicated the serial factor on every
-//     rank (replicated); the residual parts are summed (3 values); the blocks of e, lambda_c and
-//     beta are gathered (Allgatherv). E and lambda are gathered once, at the end of the phase.
+//     update (4.3) and the residual sums (4.4). The global solve (4.5) is one distributed PETSc
+//     KSP (mpi_global.hpp) on a ghost layer: the ranks' parts of the right-hand side are added
+//     into PETSc's vector and u comes back on the nodes a rank reads (its other rows stale until
+//     the end of the phase); with mean-det under Anderson, or the PETSc option
+//     -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x dim) and u
+//     gathered whole; with -ltl_mpi_replicated the serial factor on every rank (replicated). The
+//     residual parts are summed (3 values); the blocks of e, lambda_c and beta are gathered
+//     (Allgatherv). E, lambda and u are gathered once, at the end of the phase.
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
@@ -134,6 +137,27 @@ bool Solver::distributed_global_step(const SpMat& K, double scale) {
   d.ksp = std::make_unique<DistributedGlobalStep>(K, disc_.dirichlet(), problem().mesh.X,
                                                   d.ksp_solver, disc_.partial());
   d.ksp->set_value_scale(scale);
+  // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'
+  // nodes and its contact points' (all points' when the contact step is replicated). Not with
+  // mean-det under Anderson, whose packed iterate holds u whole (the same on every rank), nor
+  // with the PETSc option -ltl_mpi_no_ghosts (the whole right-hand side summed and u gathered,
+  // as before 2026-11-28).
+  const bool u_packed = disc_.mean_det() && alg().acceleration == Acceleration::Anderson;
+  if (!u_packed && !mpi::option("-ltl_mpi_no_ghosts")) {
+    const Mesh& mesh = problem().mesh;
+    std::vector<char> touched(disc_.num_nodes(), 0);
+    for (int c : d.own)
+      for (int a = 0; a < mesh.nodes_per_cell(); ++a) touched[mesh.cells(c, a)] = 1;
+    if (const ContactPoints* points = disc_.points()) {
+      const Range pr = point_range();
+      for (int f = pr.first; f < pr.end; ++f)
+        for (SpMatR::InnerIterator it(points->mean, f); it; ++it) touched[it.col()] = 1;
+    }
+    std::vector<int> nodes;
+    for (int n = 0; n < disc_.num_nodes(); ++n)
+      if (touched[n]) nodes.push_back(n);
+    d.ksp->set_ghost_layer(nodes);
+  }
   return true;
 }
 
@@ -148,6 +172,12 @@ void Solver::set_distributed_value_scale(double scale) {
 
 void Solver::sum_over_ranks(double* x, int n) const {
   if (dist_) mpi::sum(x, n);
+}
+
+bool Solver::all_finite(const Eigen::MatrixXd& u) const {
+  double bad = u.allFinite() ? 0.0 : 1.0;
+  sum_over_ranks(&bad, 1);  // the ranks' u differ off their ghost layers
+  return bad == 0;
 }
 
 RankShare Solver::rank_share() const {
@@ -192,7 +222,8 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     rhs_.noalias() +=
         G.middleRows(dim * c0, dim * n).transpose() * T_.middleRows(dim * at, dim * n);
   });
-  if (mpi::rank() == 0) rhs_ += F_ext_;
+  const bool ghosts = d.ksp && d.ksp->ghost_layer();
+  if (mpi::rank() == 0 && !ghosts) rhs_ += F_ext_;  // with ghosts, on the owned rows (solve)
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own);
   if (points) {
@@ -200,11 +231,15 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     rhs_.noalias() +=
         d.meanT_own * (R_ * a.q_c * s.e.middleRows(d.p0, np) + s.lambda_c.middleRows(d.p0, np));
   }
-  mpi::sum(rhs_.data(), rhs_.size());
-  if (d.ksp)
-    d.ksp->solve(rhs_, s.u);
-  else
-    global_->solve(rhs_, s.u);
+  if (ghosts) {  // the ranks' parts added into PETSc's vector; u on this rank's nodes
+    d.ksp->solve(rhs_, s.u, &F_ext_);
+  } else {
+    mpi::sum(rhs_.data(), rhs_.size());
+    if (d.ksp)
+      d.ksp->solve(rhs_, s.u);
+    else
+      global_->solve(rhs_, s.u);
+  }
 
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
     g.GU.middleRows(dim * at, dim * n).noalias() = G.middleRows(dim * c0, dim * n) * s.u;
@@ -252,6 +287,7 @@ State Solver::whole(const State& own) const {
   mpi::gather_rows(own.E, s.E, dist_->cells, dim());
   mpi::gather_rows(own.lambda, s.lambda, dist_->cells, dim());
   s.u = own.u;
+  if (dist_->ksp) dist_->ksp->whole_u(s.u);  // after solves with a ghost layer
   s.e = own.e;
   s.beta = own.beta;
   s.lambda_c = own.lambda_c;

@@ -53,7 +53,10 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat&, const DirichletData& 
       "(`make test-mpi`)");
 }
 DistributedGlobalStep::~DistributedGlobalStep() = default;
-void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&) {}
+void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&,
+                                  const Eigen::MatrixXd*) {}
+void DistributedGlobalStep::set_ghost_layer(const std::vector<int>&) {}
+void DistributedGlobalStep::whole_u(Eigen::MatrixXd&) {}
 
 #else
 
@@ -75,7 +78,17 @@ struct DistributedGlobalStep::Group {
   Mat A = nullptr;
   KSP ksp = nullptr;
   Vec b = nullptr, xv = nullptr;
+  // The ghost layer (set_ghost_layer): the free rows of b this rank adds, and the nodes of the
+  // free rows of u it reads (the added ones and its owned block) with their scatter from xv into
+  // `read`.
+  std::vector<PetscInt> add_row;
+  std::vector<PetscScalar> add_value;
+  std::vector<int> read_node;
+  Vec read = nullptr;
+  VecScatter scatter = nullptr;
   ~Group() {
+    if (scatter) VecScatterDestroy(&scatter);
+    if (read) VecDestroy(&read);
     if (ksp) KSPDestroy(&ksp);
     if (A) MatDestroy(&A);
     if (b) VecDestroy(&b);
@@ -254,9 +267,44 @@ DistributedGlobalStep::DistributedGlobalStep(const SpMat& K, const DirichletData
 
 DistributedGlobalStep::~DistributedGlobalStep() = default;
 
-// [LTL87 (4.5)] One KSP solve per component of each Dirichlet set, from the warm start u; the
-// owned rows of the solution gathered to every rank.
-void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) {
+void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
+  const int me = mpi::rank();
+  for (auto& gp : groups_) {
+    Group& g = *gp;
+    const int f0 = g.offset[me], f1 = g.offset[me + 1];
+    std::vector<int> free_row(bc_.value.rows(), -1);
+    for (std::size_t k = 0; k < g.node.size(); ++k) free_row[g.node[k]] = static_cast<int>(k);
+    g.add_row.clear();
+    for (int n : nodes)
+      if (free_row[n] >= 0) g.add_row.push_back(free_row[n]);
+    g.add_value.resize(g.add_row.size());
+    // Read: the added rows and the owned block (the warm start of the next solve), each once.
+    std::vector<PetscInt> read(g.add_row.begin(), g.add_row.end());
+    for (int r = f0; r < f1; ++r) read.push_back(r);
+    std::sort(read.begin(), read.end());
+    read.erase(std::unique(read.begin(), read.end()), read.end());
+    g.read_node.resize(read.size());
+    for (std::size_t i = 0; i < read.size(); ++i) g.read_node[i] = g.node[read[i]];
+    if (g.scatter) VecScatterDestroy(&g.scatter);
+    if (g.read) VecDestroy(&g.read);
+    IS is = nullptr;
+    check(ISCreateGeneral(PETSC_COMM_SELF, static_cast<PetscInt>(read.size()), read.data(),
+                          PETSC_COPY_VALUES, &is),
+          g.what, "ISCreateGeneral");
+    check(VecCreateSeq(PETSC_COMM_SELF, static_cast<PetscInt>(read.size()), &g.read), g.what,
+          "VecCreateSeq");
+    check(VecScatterCreate(g.xv, is, g.read, nullptr, &g.scatter), g.what, "VecScatterCreate");
+    ISDestroy(&is);
+  }
+  ghost_layer_ = true;
+}
+
+// [LTL87 (4.5)] One KSP solve per component of each Dirichlet set, from the warm start u. Without
+// a ghost layer b is whole and the owned rows of the solution are gathered to every rank; with
+// it b is this rank's part, added into PETSc's vector, and u is scattered back on the rows the
+// rank reads.
+void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
+                                  const Eigen::MatrixXd* loads) {
   if (u.rows() != b.rows() || u.cols() != b.cols()) u = Eigen::MatrixXd::Zero(b.rows(), b.cols());
   const int me = mpi::rank();
   for (auto& gp : groups_) {
@@ -264,12 +312,25 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) 
     const int f0 = g.offset[me], own = g.offset[me + 1] - f0;
     for (std::size_t k = 0; k < g.components.size(); ++k) {
       const int c = g.components[k];
+      if (ghost_layer_) {  // this rank's part of b, its other ranks' rows by the assembly
+        check(VecSet(g.b, 0.0), g.what, "VecSet");
+        for (std::size_t i = 0; i < g.add_row.size(); ++i)
+          g.add_value[i] = b(g.node[g.add_row[i]], c);
+        check(VecSetValues(g.b, static_cast<PetscInt>(g.add_row.size()), g.add_row.data(),
+                           g.add_value.data(), ADD_VALUES),
+              g.what, "VecSetValues");
+        check(VecAssemblyBegin(g.b), g.what, "VecAssemblyBegin");
+        check(VecAssemblyEnd(g.b), g.what, "VecAssemblyEnd");
+      }
       PetscScalar *pb = nullptr, *px = nullptr;
       check(VecGetArray(g.b, &pb), g.what, "VecGetArray");
       check(VecGetArray(g.xv, &px), g.what, "VecGetArray");
       for (int r = 0; r < own; ++r) {
         const int node = g.node[f0 + r];
-        pb[r] = b(node, c) - scale_ * g.shift(r, k);
+        if (ghost_layer_)
+          pb[r] += (loads ? (*loads)(node, c) : 0.0) - scale_ * g.shift(r, k);
+        else
+          pb[r] = b(node, c) - scale_ * g.shift(r, k);
         px[r] = u(node, c);
       }
       check(VecRestoreArray(g.b, &pb), g.what, "VecRestoreArray");
@@ -286,13 +347,38 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) 
                         ", ", its, " iterations)"));
       iterations_ += its;
       ++solves_;
-      const PetscScalar* cx = nullptr;
-      check(VecGetArrayRead(g.xv, &cx), g.what, "VecGetArrayRead");
-      for (int r = 0; r < own; ++r) g.x[f0 + r] = cx[r];
-      check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
+      if (ghost_layer_) {  // the rows this rank reads
+        check(VecScatterBegin(g.scatter, g.xv, g.read, INSERT_VALUES, SCATTER_FORWARD), g.what,
+              "VecScatterBegin");
+        check(VecScatterEnd(g.scatter, g.xv, g.read, INSERT_VALUES, SCATTER_FORWARD), g.what,
+              "VecScatterEnd");
+        const PetscScalar* cr = nullptr;
+        check(VecGetArrayRead(g.read, &cr), g.what, "VecGetArrayRead");
+        for (std::size_t i = 0; i < g.read_node.size(); ++i) u(g.read_node[i], c) = cr[i];
+        check(VecRestoreArrayRead(g.read, &cr), g.what, "VecRestoreArrayRead");
+      } else {
+        const PetscScalar* cx = nullptr;
+        check(VecGetArrayRead(g.xv, &cx), g.what, "VecGetArrayRead");
+        for (int r = 0; r < own; ++r) g.x[f0 + r] = cx[r];
+        check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
+        mpi::gather(g.x.data(), g.offset);
+        for (std::size_t i = 0; i < g.node.size(); ++i) u(g.node[i], c) = g.x[i];
+      }
+      for (int i : bc_.fixed[c]) u(i, c) = scale_ * bc_.value(i, c);
+    }
+  }
+}
+
+void DistributedGlobalStep::whole_u(Eigen::MatrixXd& u) {
+  if (!ghost_layer_) return;
+  const int me = mpi::rank();
+  for (auto& gp : groups_) {
+    Group& g = *gp;
+    const int f0 = g.offset[me], f1 = g.offset[me + 1];
+    for (const int c : g.components) {
+      for (int r = f0; r < f1; ++r) g.x[r] = u(g.node[r], c);
       mpi::gather(g.x.data(), g.offset);
       for (std::size_t i = 0; i < g.node.size(); ++i) u(g.node[i], c) = g.x[i];
-      for (int i : bc_.fixed[c]) u(i, c) = scale_ * bc_.value(i, c);
     }
   }
 }

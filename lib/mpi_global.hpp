@@ -10,9 +10,13 @@
 // ALG2 follows the serial (Cholesky) iterates, iteration by iteration, to about 1e-10: the same
 // iteration counts and the same answer. -ltl_mpi_rtol (PETSC_OPTIONS) changes kRtol.
 //
-// The right-hand side and u are whole on every rank (the first slice of the distribution,
-// paper_notes/mpi.md): a rank copies its rows in, solves, and the solution's row blocks are
-// gathered back to every rank (mpi::gather).
+// The right-hand side and u are whole arrays on every rank. By default (the first slice of the
+// distribution, paper_notes/mpi.md) b is whole and the same on every rank: a rank copies its
+// rows in, solves, and the solution's row blocks are gathered back to every rank (mpi::gather).
+// With a ghost layer (set_ghost_layer) each rank's b holds its own cells' and points' part only,
+// added into PETSc's vector row by row (the rows of other ranks travel at the assembly), and u
+// is brought back on the nodes the rank reads only (a VecScatter of its ghosts): no O(#nodes)
+// message; whole_u gathers every row when a whole u is wanted.
 #pragma once
 
 #include <Eigen/Dense>
@@ -56,7 +60,18 @@ class DistributedGlobalStep {
 
   /// [LTL87 (4.1), (4.5)] K u = b with u = value_scale x value on the fixed nodes; b whole on
   /// every rank, u in: the warm start, out: the solution, whole on every rank. Collective.
-  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u);
+  /// With a ghost layer: b is this rank's part (its rows `nodes` are read; the parts of the ranks
+  /// add up to the right-hand side), `loads` (whole, the same on every rank; may be null) is
+  /// added on the owned rows, and u is the solution on `nodes` and the owned rows, its other rows
+  /// unchanged.
+  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u, const Eigen::MatrixXd* loads = nullptr);
+  /// The ghost layer: `nodes` (sorted, distinct) are the nodes whose rows of b this rank
+  /// fills and whose u it reads (its cells' and contact points' nodes). Collective.
+  void set_ghost_layer(const std::vector<int>& nodes);
+  bool ghost_layer() const { return ghost_layer_; }
+  /// u whole on every rank, after solves with a ghost layer (its owned rows gathered).
+  /// Collective.
+  void whole_u(Eigen::MatrixXd& u);
 
   void set_value_scale(double s) { scale_ = s; }
   double value_scale() const { return scale_; }
@@ -79,6 +94,7 @@ class DistributedGlobalStep {
   const DirichletData bc_;
   Solver solver_;
   double scale_ = 1;
+  bool ghost_layer_ = false;
   long iterations_ = 0, solves_ = 0, ghosts_ = 0;
   double setup_seconds_ = 0, ksp_seconds_ = 0;
 };

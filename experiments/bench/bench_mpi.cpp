@@ -9,11 +9,11 @@
 //           iteration by our collectives and by PETSc's messages; the KSP iterations per solve;
 //           the peak resident memory of every rank (VmHWM). Times are the largest over the
 //           ranks; the load average is printed beside them. A second line, "MEM ...": the
-//           resident size (VmRSS / VmHWM, MB, largest rank) after each setup phase (start, mesh
-//           read, solver set up, the last iteration, the step's end) and the bytes per cell the
-//           largest rank holds (Solver::holdings). PETSC_OPTIONS=-ltl_mpi_whole: the whole
-//           discretization on every rank (the memory before the partition of the operators,
-//           paper_notes/mpi.md).
+//           resident size (VmRSS / VmHWM / the allocator's live bytes, MB, largest rank) after
+//           each setup phase (start, mesh read, solver set up, the last iteration, the step's
+//           end) and the bytes per cell the largest rank holds (Solver::holdings).
+//           PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every rank (the memory
+//           before the partition of the operators, paper_notes/mpi.md).
 //
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi NT NA NL [--iters N] [--warm N]
 //               [--solver mumps|cg-amg] [--distribute 1] [--label TEXT]
@@ -24,6 +24,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <vector>
 
 #include "alg2.hpp"
@@ -46,6 +49,16 @@ std::vector<double> all_ranks(double v) {
   x[ltl::mpi::rank()] = v;
   ltl::mpi::sum(x.data(), static_cast<long>(x.size()));
   return x;
+}
+/// The bytes the allocator has handed out and not taken back (glibc's mallinfo2: the heap's
+/// blocks in use and the mmapped ones; PETSc's and MUMPS's allocations included); 0 elsewhere.
+double live_heap_bytes() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  const struct mallinfo2 m = mallinfo2();
+  return static_cast<double>(m.uordblks + m.hblkhd);
+#else
+  return 0;
+#endif
 }
 double max_of(double v) {
   ltl::mpi::max(&v, 1);
@@ -102,7 +115,9 @@ int bench(int argc, char** argv) {
   auto phase = [&](const char* name) {
     const double rss = max_of(ltl::mpi::resident_bytes() / 1048576.0);
     const double hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
-    phases += ltl::cat(" ", name, "=", static_cast<int>(rss), "/", static_cast<int>(hwm));
+    const double live = max_of(live_heap_bytes() / 1048576.0);
+    phases += ltl::cat(" ", name, "=", static_cast<int>(rss), "/", static_cast<int>(hwm), "/",
+                       static_cast<int>(live));
   };
   phase("start");
   const ltl::Problem problem =
