@@ -138,12 +138,13 @@ bool Solver::distributed_global_step(const SpMat& K, double scale) {
                                                   d.ksp_solver, disc_.partial());
   d.ksp->set_value_scale(scale);
   // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'
-  // nodes and its contact points' (all points' when the contact step is replicated). Not with
-  // mean-det under Anderson, whose packed iterate holds u whole (the same on every rank), nor
-  // with the PETSc option -ltl_mpi_no_ghosts (the whole right-hand side summed and u gathered,
-  // as before 2026-11-28).
+  // nodes and its contact points' (all points' when the contact step is replicated). Not on one
+  // rank (nothing to exchange: the layer would be a copy of every row), not with mean-det under
+  // Anderson, whose packed iterate holds u whole (the same on every rank), nor with the PETSc
+  // option -ltl_mpi_no_ghosts (the whole right-hand side summed and u gathered, as before
+  // 2026-11-28).
   const bool u_packed = disc_.mean_det() && alg().acceleration == Acceleration::Anderson;
-  if (!u_packed && !mpi::option("-ltl_mpi_no_ghosts")) {
+  if (mpi::size() > 1 && !u_packed && !mpi::option("-ltl_mpi_no_ghosts")) {
     const Mesh& mesh = problem().mesh;
     std::vector<char> touched(disc_.num_nodes(), 0);
     for (int c : d.own)

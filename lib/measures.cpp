@@ -190,13 +190,25 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
                                      const State& s) {
   const CellOperators& c = d.cells();
   const double C1 = d.split().C1;
-  const Eigen::MatrixXd GU = c.Gbar * s.u;
   Eigen::MatrixXd r;
-  if (d.partial()) {  // the owned cells' part, summed over the ranks (collective)
-    r = c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU);
+  if (d.partial()) {
+    // The held cells' part, run by run with Gbar^T |O_e| in place of GbarT_vol (no per-cell
+    // array of the whole mesh), summed over the ranks (collective):
+    //   Gbar^T |O_e| [2 C1 (E - Gbar u) - lambda] + 2 C1 L u.
+    const int dim = d.dim();
+    r.noalias() = 2 * C1 * (c.laplacian * s.u);
+    Eigen::MatrixXd T;
+    mpi::for_each_run(d.held_cells(), [&](int c0, int n, int) {
+      const auto G = c.Gbar.middleRows(dim * c0, dim * n);
+      T.noalias() = G * s.u;
+      T = 2 * C1 * (s.E.middleRows(dim * c0, dim * n) - T) - s.lambda.middleRows(dim * c0, dim * n);
+      for (int k = 0; k < n; ++k) T.middleRows(dim * k, dim) *= c.vol(c0 + k);
+      r.noalias() += G.transpose() * T;
+    });
     mpi::sum(r.data(), r.size());
     r -= f_ext;
   } else {
+    const Eigen::MatrixXd GU = c.Gbar * s.u;
     r = c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - f_ext;
   }
   if (d.points()) r -= d.points()->meanT_area * s.lambda_c;
@@ -268,18 +280,23 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   double err = r.free / scale;
   // The strains of the stress above are those of u: E_e = I + Gbar_e u (the constraint B = 0 of
   // (3.2)), and for an incompressible law det(I + Gbar_e u) + c_e(u) = 1 on u itself.
-  const Eigen::MatrixXd GU = d.cells().Gbar * s.u;
   using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;  // no heap
   const Small I = Small::Identity(dim, dim);
   const bool incompressible = d.problem().material.incompressible();
   const Eigen::VectorXd c =
       incompressible ? d.fluctuation_det(s.u) : Eigen::VectorXd::Zero(d.num_cells());
-  // The cells whose Gbar this rank holds (all unless partial), the largest over the ranks.
-  for (int e : d.held_cells()) {
-    const Small F = I + GU.middleRows(dim * e, dim);
-    err = std::max(err, (F - s.E.middleRows(dim * e, dim)).cwiseAbs().maxCoeff());
-    if (incompressible) err = std::max(err, std::abs(F.determinant() + c(e) - 1));
-  }
+  // The cells whose Gbar this rank holds (all unless partial), run by run (Gbar u of the run),
+  // the largest over the ranks.
+  Eigen::MatrixXd GU;
+  mpi::for_each_run(d.held_cells(), [&](int c0, int n, int) {
+    GU.noalias() = d.cells().Gbar.middleRows(dim * c0, dim * n) * s.u;
+    for (int k = 0; k < n; ++k) {
+      const int e = c0 + k;
+      const Small F = I + GU.middleRows(dim * k, dim);
+      err = std::max(err, (F - s.E.middleRows(dim * e, dim)).cwiseAbs().maxCoeff());
+      if (incompressible) err = std::max(err, std::abs(F.determinant() + c(e) - 1));
+    }
+  });
   if (d.partial()) mpi::max(&err, 1);
   return std::max(err, max_penetration(d, s) / std::pow(d.volume(), 1.0 / dim));
 }

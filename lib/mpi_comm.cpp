@@ -52,6 +52,7 @@ double resident_bytes() {
 }
 
 void release_buffers();
+void gather_column(double* data, long rows, const Partition& part, int m);
 
 void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part, int m) {
   const int me = rank();
@@ -61,13 +62,16 @@ void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Parti
     whole.middleRows(static_cast<Eigen::Index>(m) * first, m * n) =
         own.middleRows(static_cast<Eigen::Index>(m) * at, m * n);
   });
-  gather_rows(whole, part, m);
+  // Column by column: the gather's buffers hold one column of the whole array, not all of them.
+  for (Eigen::Index k = 0; k < whole.cols(); ++k)
+    gather_column(whole.data() + k * whole.rows(), whole.rows(), part, m);
   release_buffers();
 }
 
 #ifndef LTL_HAVE_MPI
 
 void release_buffers() {}
+void gather_column(double*, long, const Partition&, int) {}
 
 bool built() {
   return false;
@@ -291,6 +295,10 @@ void gather(double* x, const std::vector<int>& offset) {
 void release_buffers() {
   std::vector<double>().swap(send_);
   std::vector<double>().swap(recv_);
+}
+
+void gather_column(double* data, long rows, const Partition& part, int m) {
+  gather_columns(data, rows, 1, part.offset, m, &part.order);
 }
 
 void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item) {
