@@ -271,7 +271,7 @@ IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int&
   // Phase 3, (4.3) / (7.10): the multiplier update.
   auto t0 = clock_type::now();
   update_phase(g, bm ? &half_ : nullptr, s);
-  residuals(g, s, prev_, rec);
+  residuals(g, s, prev_, rec, iterate_finite_);
   if (dist_) gather_points(s);  // the owned blocks of the points gathered (alg2_mpi.cpp)
   rec.t_update += seconds_since(t0);
   return rec;
@@ -281,7 +281,7 @@ IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int&
 //   r_B = ||(I + Gbar u - E, ubar - e)|| / ||I||_q,
 //   r_G = ||(E - E^{n-1}, e - e^{n-1})|| / ||I||_q + RMS(beta - beta^{n-1}).
 void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
-                       IterationRecord& rec) const {
+                       IterationRecord& rec, bool& finite) const {
   const AlgorithmParams& a = alg();
   const Eigen::VectorXd& vol = disc_.cells().vol;
   double B2 = 0, G2 = 0, beta2 = 0;
@@ -311,10 +311,11 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
       beta2 += w * std::pow(s.beta(f) - prev.beta(f), 2);
     }
   }
+  finite = s.u.allFinite();
   if (dist_) {
-    double parts[3] = {B2, G2, beta2};
-    sum_over_ranks(parts, 3);
-    B2 = parts[0], G2 = parts[1], beta2 = parts[2];
+    double parts[4] = {B2, G2, beta2, finite ? 0.0 : 1.0};
+    sum_over_ranks(parts, 4);
+    B2 = parts[0], G2 = parts[1], beta2 = parts[2], finite = parts[3] == 0;
   }
   rec.r_B = std::sqrt(B2) / norm_I_;
   rec.r_G =
@@ -394,7 +395,7 @@ class Solver::Alg2Map final : public FixedPointMap {
   IterationRecord apply(int& failures) override {
     return solver_.iterate(s_, beta_prev_, failures);
   }
-  bool finite() const override { return solver_.all_finite(s_.u); }
+  bool finite() const override { return solver_.iterate_finite_; }  // after apply()
   void keep_plain() override { plain_ = s_; }
   void restore_plain() override { s_ = plain_; }
   // Adaptive R: a new R re-factorizes K (the packed multipliers are scaled by 1 / R q, so the

@@ -179,9 +179,11 @@ class Solver {
   /// [LTL87 (7.8)] Bermudez-Moreno's half step: lambda - R q B(u^n, G^{n-1}).
   void half_step(const GlobalOutput& g, const State& s, Multipliers& m) const;
   /// [LTL87 (4.4)] r_G (change of the local variables since `prev`) and r_B (the constraint
-  /// residual), both with the weights of (3.3) and divided by ||I||_q.
-  void residuals(const GlobalOutput& g, const State& s, const State& prev,
-                 IterationRecord& rec) const;
+  /// residual), both with the weights of (3.3) and divided by ||I||_q; and whether u is finite
+  /// on every rank (distributed, the ranks' u differ off their ghost layers: summed with the
+  /// residual's parts).
+  void residuals(const GlobalOutput& g, const State& s, const State& prev, IterationRecord& rec,
+                 bool& finite) const;
 
   /// The accelerated part of the iterate as one vector, scaled so that its Euclidean norm is
   /// the norm of r_G + r_B (weights of (3.3), multipliers divided by R q and R q_c).
@@ -235,8 +237,6 @@ class Solver {
   void global_phase_distributed(State& s, GlobalOutput& g);
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
-  /// Is u finite on every rank (collective when distributed)?
-  bool all_finite(const Eigen::MatrixXd& u) const;
   /// The owned blocks of e, lambda_c and beta gathered (after each iteration).
   void gather_points(State& s) const;
   /// Distributed: the iterate of the iterations from a whole state s, whose E and lambda are
@@ -259,6 +259,7 @@ class Solver {
   Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
   double load_factor_ = 1;
   bool whole_in_progress_ = false;  ///< set_whole_state_in_progress
+  bool iterate_finite_ = true;      ///< u of the last iteration finite on every rank
   double norm_I_ = 1;               ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers (allocated once): the global step's right-hand side and output, the multipliers
   // of the local steps (Bermudez-Moreno), the previous iterate of the residual r_G.

@@ -175,12 +175,6 @@ void Solver::sum_over_ranks(double* x, int n) const {
   if (dist_) mpi::sum(x, n);
 }
 
-bool Solver::all_finite(const Eigen::MatrixXd& u) const {
-  double bad = u.allFinite() ? 0.0 : 1.0;
-  sum_over_ranks(&bad, 1);  // the ranks' u differ off their ghost layers
-  return bad == 0;
-}
-
 RankShare Solver::rank_share() const {
   RankShare r;
   if (!dist_) return r;
@@ -213,16 +207,13 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const double Rq = R_ * a.q;
   const int dim = this->dim();
   const ContactPoints* points = disc_.points();
-  const Eigen::VectorXd& vol = disc_.cells().vol;
   const auto I = identity_rows(dim, static_cast<int>(d.own.size()));
   T_ = Rq * (s.E - I) + s.lambda - 2 * disc_.split().C1 * I;
-  for (std::size_t k = 0; k < d.own.size(); ++k) T_.middleRows(dim * k, dim) *= vol(d.own[k]);
-  const SpMatR& G = disc_.cells().Gbar;  // rows dim c .. dim c + dim - 1 of cell c
   rhs_.setZero();
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
-    rhs_.noalias() +=
-        G.middleRows(dim * c0, dim * n).transpose() * T_.middleRows(dim * at, dim * n);
+    add_cell_forces(disc_.cells(), c0, n, T_.middleRows(dim * at, dim * n), rhs_);
   });
+  const SpMatR& G = disc_.cells().Gbar;  // rows dim c .. dim c + dim - 1 of cell c
   const bool ghosts = d.ksp && d.ksp->ghost_layer();
   if (mpi::rank() == 0 && !ghosts) rhs_ += F_ext_;  // with ghosts, on the owned rows (solve)
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells

@@ -351,6 +351,13 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   return ops;
 }
 
+void add_cell_forces(const CellOperators& ops, int c0, int n, Eigen::Ref<Eigen::MatrixXd> T,
+                     Eigen::MatrixXd& f) {
+  const int dim = static_cast<int>(T.cols());
+  for (int k = 0; k < n; ++k) T.middleRows(dim * k, dim) *= ops.vol(c0 + k);
+  f.noalias() += ops.Gbar.middleRows(dim * c0, dim * n).transpose() * T;
+}
+
 ContactPoints facet_mean_points(const Mesh& mesh, const Mesh::Boundary& boundary) {
   const int dim = mesh.dim, nf = static_cast<int>(boundary.facets.rows());
   const int npf = mesh.nodes_per_facet();

@@ -55,6 +55,13 @@ struct CellOperators {
 /// cells in a distributed run, paper_notes/mpi.md); vol is every cell's.
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held = nullptr);
 
+/// [(2.7), (4.1)] f += sum_e |O_e| T_e : Gbar_e(v) over the cells c0 .. c0 + n - 1 (a run of a
+/// rank's cells), T their (dim n) x dim blocks, scaled by |O_e| in place: GbarT_vol T on those
+/// cells, from Gbar's rows (on a rank's cells T holds their rows only, while GbarT_vol's
+/// columns are the whole mesh's; paper_notes/mpi.md).
+void add_cell_forces(const CellOperators& ops, int c0, int n, Eigen::Ref<Eigen::MatrixXd> T,
+                     Eigen::MatrixXd& f);
+
 /// [(2.7), (3.3)] The integrals over cell c of its shape functions' gradients grad_q (at the
 /// quadrature points of for_each_quadrature_point, weights w_q): returns |O_c| = sum_q w_q, with
 /// gint = sum_q w_q grad_q (#nodes_per_cell x dim) and L = sum_q w_q grad_q grad_q^T

@@ -39,7 +39,7 @@ class FixedPointMap {
   /// One application of the map to the current iterate, in place: the record's r_G, r_B and
   /// timings; `failures` counts local problems that failed in it.
   virtual IterationRecord apply(int& failures) = 0;
-  /// Is the current iterate finite?
+  /// Is the iterate the last apply() produced finite (asked right after apply())?
   virtual bool finite() const = 0;
   /// Keeps the current (plain) iterate before it is replaced by an accelerated one, and goes
   /// back to it when the safeguard rejects that one.

@@ -199,11 +199,9 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
     r.noalias() = 2 * C1 * (c.laplacian * s.u);
     Eigen::MatrixXd T;
     mpi::for_each_run(d.held_cells(), [&](int c0, int n, int) {
-      const auto G = c.Gbar.middleRows(dim * c0, dim * n);
-      T.noalias() = G * s.u;
+      T.noalias() = c.Gbar.middleRows(dim * c0, dim * n) * s.u;
       T = 2 * C1 * (s.E.middleRows(dim * c0, dim * n) - T) - s.lambda.middleRows(dim * c0, dim * n);
-      for (int k = 0; k < n; ++k) T.middleRows(dim * k, dim) *= c.vol(c0 + k);
-      r.noalias() += G.transpose() * T;
+      add_cell_forces(c, c0, n, T, r);
     });
     mpi::sum(r.data(), r.size());
     r -= f_ext;

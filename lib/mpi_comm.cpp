@@ -51,9 +51,6 @@ double resident_bytes() {
   return status_bytes("VmRSS:");
 }
 
-void release_buffers();
-void gather_column(double* data, long rows, const Partition& part, int m);
-
 void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part, int m) {
   const int me = rank();
   whole.resize(static_cast<Eigen::Index>(m) * part.order.size(), own.cols());
@@ -62,16 +59,10 @@ void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Parti
     whole.middleRows(static_cast<Eigen::Index>(m) * first, m * n) =
         own.middleRows(static_cast<Eigen::Index>(m) * at, m * n);
   });
-  // Column by column: the gather's buffers hold one column of the whole array, not all of them.
-  for (Eigen::Index k = 0; k < whole.cols(); ++k)
-    gather_column(whole.data() + k * whole.rows(), whole.rows(), part, m);
-  release_buffers();
+  gather_rows(whole, part, m);
 }
 
 #ifndef LTL_HAVE_MPI
-
-void release_buffers() {}
-void gather_column(double*, long, const Partition&, int) {}
 
 bool built() {
   return false;
@@ -292,19 +283,14 @@ void gather(double* x, const std::vector<int>& offset) {
   gather_columns(x, offset.back(), 1, offset, 1);
 }
 
-void release_buffers() {
+// A whole per-cell array, gathered once per ALG2 phase: column by column, so that the buffers
+// hold one column, and freed afterwards (the per-iteration gathers of the contact points keep
+// theirs).
+void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item) {
+  for (Eigen::Index k = 0; k < A.cols(); ++k)
+    gather_columns(A.data() + k * A.rows(), A.rows(), 1, part.offset, rows_per_item, &part.order);
   std::vector<double>().swap(send_);
   std::vector<double>().swap(recv_);
-}
-
-void gather_column(double* data, long rows, const Partition& part, int m) {
-  gather_columns(data, rows, 1, part.offset, m, &part.order);
-}
-
-void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item) {
-  if (A.size() == 0) return;
-  gather_columns(A.data(), A.rows(), static_cast<int>(A.cols()), part.offset, rows_per_item,
-                 &part.order);
 }
 
 void gather_rows(Eigen::VectorXd& v, const Partition& part) {

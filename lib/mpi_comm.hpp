@@ -86,12 +86,13 @@ void for_each_run(const std::vector<int>& items, F&& f) {
 }
 
 /// The row gather of a Partition: rank r holds the rows [rows_per_item i, rows_per_item (i + 1))
-/// of its items i; afterwards every rank holds all of them.
+/// of its items i; afterwards every rank holds all of them. A matrix goes column by column (the
+/// buffers hold one column) and the buffers are freed afterwards: a whole per-cell array is
+/// gathered once per ALG2 phase, not per iteration.
 void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item);
 void gather_rows(Eigen::VectorXd& v, const Partition& part);
 /// The same from the rank's rows alone: `own` holds rows_per_item rows per item of this rank,
 /// the k-th item's at rows_per_item k; `whole` (resized) gets every item's rows on every rank.
-/// The gathers' buffers are freed afterwards (a whole array is gathered once per time step).
 void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part,
                  int rows_per_item);
 

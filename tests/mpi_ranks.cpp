@@ -396,8 +396,9 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
     EXPECT_LT(L, L_serial);
     EXPECT_LT(dist.holdings().operators, serial.holdings().operators);
   }
-  // The sums over cells add the ranks' parts: the serial energy gradient and equilibrium
-  // residual at any u (here a random one, rank 0's).
+  // The sums over cells add the ranks' parts: the serial energy gradient, equilibrium residual
+  // and equilibrium error at any state (here random u, E and lambda, rank 0's; the rank's cells'
+  // part of the residual is Gbar^T |O_e| [2 C1 (E - Gbar u) - lambda] run by run).
   Eigen::MatrixXd u = 1e-3 * Eigen::MatrixXd::Random(p.mesh.num_nodes(), p.mesh.dim);
   mpi::broadcast(u.data(), u.size());
   const Eigen::MatrixXd& F = serial.external_load();
@@ -405,8 +406,15 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   EXPECT_LE((dist.discretization().energy_gradient(u, F) - g).norm(), 1e-12 * g.norm());
   State s = serial.initial_state();
   s.u = u;
+  s.E += 1e-2 * Eigen::MatrixXd::Random(s.E.rows(), s.E.cols());
+  s.lambda += 1e3 * Eigen::MatrixXd::Random(s.lambda.rows(), s.lambda.cols());
+  mpi::broadcast(s.E.data(), s.E.size());
+  mpi::broadcast(s.lambda.data(), s.lambda.size());
   const Eigen::MatrixXd r = equilibrium_residual(serial.discretization(), F, s);
   EXPECT_LE((equilibrium_residual(dist.discretization(), F, s) - r).norm(), 1e-12 * r.norm());
+  const double err = equilibrium_error(serial.discretization(), F, s);
+  EXPECT_GT(err, 0);
+  EXPECT_NEAR(equilibrium_error(dist.discretization(), F, s), err, 1e-12 * err);
   if (me == 0)
     std::cout << "coarse gutter, " << P << " rank(s): rank 0 holds the operators of "
               << dist.holdings().cells_with_operators << " of " << p.mesh.num_cells() << " cells, "
