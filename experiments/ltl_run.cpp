@@ -23,7 +23,7 @@
 // The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize and precompute -> solve the
 // time steps, each written as soon as it converges.
 static void solve_and_report(const ltl::CommandLine& cmd) {
-  const ltl::Problem problem = ltl::load_problem(cmd);  // the configuration, validated
+  ltl::Problem problem = ltl::load_problem(cmd);  // the configuration, validated
   ltl::RunOptions options = ltl::run_options(cmd, problem);
   const bool ranks = ltl::mpi::size() > 1;
   if (ranks && ltl::mpi::rank() != 0) {  // rank 0 reads, writes the results file and prints
@@ -32,7 +32,8 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   }
   // Discretize (on several ranks each rank discretizes its own cells only, a slab); K
   // factorized once (4.5), or the distributed KSP set up once over the ranks.
-  ltl::Solver solver{problem, ranks ? ltl::Ranks::All : ltl::Ranks::One};
+  // The problem moves into the solver (one copy of the mesh).
+  ltl::Solver solver{std::move(problem), ranks ? ltl::Ranks::All : ltl::Ranks::One};
   ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
 }
 

@@ -18,7 +18,8 @@ double seconds_since(clock_type::time_point t0) {
 }
 }  // namespace
 
-Solver::Solver(const Problem& problem, Ranks ranks) : Solver(discretize(problem, ranks), ranks) {}
+Solver::Solver(Problem problem, Ranks ranks)
+    : Solver(discretize(std::move(problem), ranks), ranks) {}
 
 Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(discretization)) {
   const auto t0 = clock_type::now();

@@ -71,10 +71,12 @@ class Solver {
   /// Discretizes the problem (discretization.hpp), then the precompute: assembles K with R q and
   /// factorizes it once [LTL87 (4.5)]. Ranks::All with the distributed KSP (plain ALG2 or with
   /// the Newton phase): each rank discretizes its own cells only, a slab along the mesh's longest
-  /// extent (slab_cells; Discretization of some cells: Gbar, GbarT_vol, the Laplacian and its
-  /// part of K of its cells; paper_notes/mpi.md).
+  /// extent (slab_cells; Discretization of some cells: Gbar, the Laplacian and its part of K of
+  /// its cells; paper_notes/mpi.md).
   /// With the replicated factor the whole discretization, on every rank.
-  explicit Solver(const Problem& problem, Ranks ranks = Ranks::One);
+  /// The problem is held by the discretization: pass it by std::move when the caller has no
+  /// further use for it (ltl_run, bench_mpi), else it is copied (its mesh included).
+  explicit Solver(Problem problem, Ranks ranks = Ranks::One);
   /// The same from a discretization built beforehand. Ranks::All (an MPI build, lib/mpi_comm.hpp)
   /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): every rank holds the whole
   /// discretization, computes its cells and its block of contact points on the rank's rows of E
@@ -218,7 +220,7 @@ class Solver {
   };
   void distribute();
   /// The discretization a Solver on `ranks` builds (a rank's cells, or every cell).
-  static Discretization discretize(const Problem& problem, Ranks ranks);
+  static Discretization discretize(Problem problem, Ranks ranks);
   /// The contact points whose term R q_c M^T |G| M goes into this rank's part of K: all of them
   /// unless the discretization is partial, then on rank 0 alone.
   const ContactPoints* points_in_K() const;
@@ -228,8 +230,9 @@ class Solver {
   Range point_range() const;
   /// The contact points whose residual this rank sums (its own block when distributed).
   Range residual_points() const;
-  /// The distributed KSP in place of the factor; false with the replicated Cholesky.
-  bool distributed_global_step(const SpMat& K, double scale);
+  /// The distributed KSP in place of the factor, K moved into it (released once in PETSc's
+  /// matrices); false with the replicated Cholesky, K untouched.
+  bool distributed_global_step(SpMat& K, double scale);
   double distributed_value_scale() const;
   void set_distributed_value_scale(double scale);
   /// Phase 1 when distributed: the right-hand side's owned parts summed over the ranks, the

@@ -3,7 +3,7 @@
 //
 //   - PARTITIONED (Solver(Problem, Ranks::All), plain ALG2 or with the Newton phase): the cell
 //     operators. Each rank discretizes its own cells only, a slab along the mesh's longest
-//     extent (slab_cells, mpi_global.hpp; Discretization of some cells: Gbar, GbarT_vol, the
+//     extent (slab_cells, mpi_global.hpp; Discretization of some cells: Gbar and the
 //     Laplacian of its cells) and assembles its part of K (4.5), which the
 //     distributed KSP sums (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over
 //     cells of the measures (equilibrium residual, energy) add the ranks' parts. The Newton phase
@@ -99,11 +99,11 @@ void Solver::distribute() {
 // its own per-cell data from the mesh for its cells (newton.hpp) and needs none of the
 // operators' other rows. The PETSc option -ltl_mpi_whole builds the whole discretization on
 // every rank anyway (the memory before the partition, bench_mpi).
-Discretization Solver::discretize(const Problem& problem, Ranks ranks) {
+Discretization Solver::discretize(Problem problem, Ranks ranks) {
   if (ranks == Ranks::One || mpi::option("-ltl_mpi_replicated") || mpi::option("-ltl_mpi_whole"))
-    return Discretization(problem);
+    return Discretization(std::move(problem));
   const std::vector<int> cells = slab_cells(problem.mesh, mpi::size()).items(mpi::rank());
-  return Discretization(problem, &cells);
+  return Discretization(std::move(problem), &cells);
 }
 
 const ContactPoints* Solver::points_in_K() const {
@@ -129,12 +129,12 @@ Solver::Range Solver::residual_points() const {
   return {dist_->p0, dist_->p1};
 }
 
-bool Solver::distributed_global_step(const SpMat& K, double scale) {
+bool Solver::distributed_global_step(SpMat& K, double scale) {
   Distribution& d = *dist_;
   d.scale = scale;
   if (!d.use_ksp) return false;
   d.ksp.reset();
-  d.ksp = std::make_unique<DistributedGlobalStep>(K, disc_.dirichlet(), problem().mesh.X,
+  d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
                                                   d.ksp_solver, disc_.partial());
   d.ksp->set_value_scale(scale);
   // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'

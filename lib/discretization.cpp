@@ -58,8 +58,8 @@ Eigen::VectorXd Discretization::volume_rows() const {
   return cells_.vol.replicate(1, dim()).transpose().reshaped();
 }
 
-Discretization::Discretization(const Problem& problem, const std::vector<int>* held)
-    : problem_(problem) {
+Discretization::Discretization(Problem problem, const std::vector<int>* held)
+    : problem_(std::move(problem)) {
   const auto t0 = std::chrono::steady_clock::now();
   problem_.validate();
   const Mesh& mesh = problem_.mesh;
@@ -452,8 +452,12 @@ Eigen::MatrixXd Discretization::energy_gradient(const Eigen::MatrixXd& u,
     }
   }
   Eigen::MatrixXd g;
-  if (partial_) {  // the owned cells' part summed over the ranks
-    g = cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU);
+  if (partial_) {  // the held cells' part, run by run (no GbarT_vol), summed over the ranks
+    P -= 2 * m.C1 * GU;
+    g = 2 * m.C1 * (cells_.laplacian * u);
+    mpi::for_each_run(held_, [&](int c0, int n, int) {
+      add_cell_forces(cells_, c0, n, P.middleRows(d * c0, d * n), g);
+    });
     mpi::sum(g.data(), g.size());
     g -= F;
   } else {

@@ -25,13 +25,14 @@ class Discretization {
  public:
   /// Validates the problem and builds every discrete operator; throws a clear Error naming the
   /// group, facet or node on inconsistent data (e.g. a contact point starting inside the plane).
-  explicit Discretization(const Problem& problem) : Discretization(problem, nullptr) {}
-  /// The same with the cell operators (Gbar, GbarT_vol, the Laplacian) of the cells `held`
-  /// only (sorted; null: every cell): a rank's cells in a distributed run (alg2_mpi.cpp,
-  /// paper_notes/mpi.md), the rest of the discretization whole. Then the sums over cells
-  /// (elastic_energy, energy_gradient, measures.cpp's equilibrium residual) add the held cells'
-  /// parts over the MPI ranks, and are collective.
-  Discretization(const Problem& problem, const std::vector<int>* held);
+  /// The problem is held here (problem()): moved in (std::move) or copied, its mesh included.
+  explicit Discretization(Problem problem) : Discretization(std::move(problem), nullptr) {}
+  /// The same with the cell operators (Gbar, the Laplacian; GbarT_vol is then not built) of the
+  /// cells `held` only (sorted; null: every cell): a rank's cells in a distributed run
+  /// (alg2_mpi.cpp, paper_notes/mpi.md), the rest of the discretization whole. Then the sums over
+  /// cells (elastic_energy, energy_gradient, measures.cpp's equilibrium residual) add the held
+  /// cells' parts over the MPI ranks, and are collective.
+  Discretization(Problem problem, const std::vector<int>* held);
 
   const Problem& problem() const { return problem_; }
   /// Wall-clock seconds the constructor took (part of the run's setup time).

@@ -256,8 +256,9 @@ double cell_integrals(const Mesh& mesh, int c, Eigen::MatrixXd& gint, Eigen::Mat
 // Assembled in place, without triplet lists: the Laplacian's pattern (nodes sharing a cell) from
 // the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
 // which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.
-// On a set of cells (a rank's cells, paper_notes/mpi.md): the other cells' rows of Gbar (and
-// columns of GbarT_vol) are empty and L sums the set's cells only; vol is whole.
+// On a set of cells (a rank's cells, paper_notes/mpi.md): the other cells' rows of Gbar are
+// empty, L sums the set's cells only, vol is whole, and GbarT_vol is not built (the forces of a
+// rank's cells go run by run through add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
   const int nn = mesh.num_nodes();
@@ -342,7 +343,7 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
     for (int a = 0; a < npc; ++a)
       for (int b = 0; b < npc; ++b) L.coeffRef(mesh.cells(c, a), mesh.cells(c, b)) += Ke(a, b);
   }
-  ops.GbarT_vol = Gint.transpose();
+  if (static_cast<int>(held->size()) == nc) ops.GbarT_vol = Gint.transpose();
   // Gbar = diag(1 / |O_e|) Gint, scaled in place.
   for (int r = 0; r < dim * nc; ++r)
     for (SpMatR::InnerIterator it(Gint, r); it; ++it)

@@ -51,14 +51,15 @@ struct CellOperators {
 };
 
 /// [(2.7), (3.3)] The operators of the cells `held` (null: every cell): the other cells' rows of
-/// Gbar and columns of GbarT_vol are empty and the Laplacian sums the held cells only (a rank's
-/// cells in a distributed run, paper_notes/mpi.md); vol is every cell's.
+/// Gbar are empty and the Laplacian sums the held cells only (a rank's cells in a distributed
+/// run, paper_notes/mpi.md); vol is every cell's. GbarT_vol is built only when every cell is
+/// held: on some cells it stays empty, and their forces go run by run (add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held = nullptr);
 
 /// [(2.7), (4.1)] f += sum_e |O_e| T_e : Gbar_e(v) over the cells c0 .. c0 + n - 1 (a run of a
 /// rank's cells), T their (dim n) x dim blocks, scaled by |O_e| in place: GbarT_vol T on those
-/// cells, from Gbar's rows (on a rank's cells T holds their rows only, while GbarT_vol's
-/// columns are the whole mesh's; paper_notes/mpi.md).
+/// cells, from Gbar's rows (on a rank's cells T holds their rows only, and GbarT_vol is not
+/// built; paper_notes/mpi.md).
 void add_cell_forces(const CellOperators& ops, int c0, int n, Eigen::Ref<Eigen::MatrixXd> T,
                      Eigen::MatrixXd& f);
 

@@ -49,10 +49,12 @@ class DistributedGlobalStep {
 
   /// K: the whole (replicated) matrix of (4.5), or with `parts` this rank's part of it (the
   /// sum over its cells, Discretization of some cells): the parts of the ranks add up to K,
-  /// and no rank holds the whole. bc: the Dirichlet sets; X: the #nodes x dim reference
+  /// and no rank holds the whole. bc: the Dirichlet sets (held by reference: it must outlive
+  /// this object, as the Solver's discretization does); X: the #nodes x dim reference
   /// coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error without MPI
-  /// (a build without LTL_WITH_MPI) or when PETSc fails.
-  DistributedGlobalStep(const SpMat& K, const DirichletData& bc, const Eigen::MatrixXd& X,
+  /// (a build without LTL_WITH_MPI) or when PETSc fails. K is released (moved in) once it is in
+  /// PETSc's matrices, before the AMG setup or the factorization.
+  DistributedGlobalStep(SpMat K, const DirichletData& bc, const Eigen::MatrixXd& X,
                         Solver solver = Solver::CgGamg, bool parts = false);
   ~DistributedGlobalStep();
   DistributedGlobalStep(const DistributedGlobalStep&) = delete;
@@ -91,7 +93,7 @@ class DistributedGlobalStep {
  private:
   struct Group;
   std::vector<std::unique_ptr<Group>> groups_;
-  const DirichletData bc_;
+  const DirichletData& bc_;  ///< the caller's (the Solver's discretization): not copied
   Solver solver_;
   double scale_ = 1;
   bool ghost_layer_ = false;

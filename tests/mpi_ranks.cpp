@@ -395,6 +395,8 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   if (P > 1) {
     EXPECT_LT(L, L_serial);
     EXPECT_LT(dist.holdings().operators, serial.holdings().operators);
+    // No GbarT_vol on some cells: their forces go run by run (add_cell_forces).
+    EXPECT_EQ(dist.discretization().cells().GbarT_vol.nonZeros(), 0);
   }
   // The sums over cells add the ranks' parts: the serial energy gradient, equilibrium residual
   // and equilibrium error at any state (here random u, E and lambda, rank 0's; the rank's cells'

@@ -62,9 +62,11 @@ int bench(int argc, char** argv) {
     std::fprintf(stderr, "%s", kUsage);
     return 2;
   }
-  const ltl::Problem problem = ltl::load_problem(argv[1], overrides);
-  // As ltl_run builds it: on several ranks each discretizes its own cells (alg2.hpp).
-  ltl::Solver solver(problem, serial ? ltl::Ranks::One : ltl::Ranks::All);
+  // As ltl_run builds it: the problem moved into the solver; on several ranks each discretizes
+  // its own cells (alg2.hpp).
+  ltl::Solver solver(ltl::load_problem(argv[1], overrides),
+                     serial ? ltl::Ranks::One : ltl::Ranks::All);
+  const ltl::Problem& problem = solver.problem();
   ltl::State s = solver.initial_state();
   const Eigen::VectorXd beta_prev = s.beta;
   const auto t0 = std::chrono::steady_clock::now();
