@@ -436,31 +436,52 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   return J + m.C1 * (grad2 - mean2) - (F.array() * s.u.array()).sum();
 }
 
+Eigen::MatrixXd Discretization::held_cell_forces(
+    const Eigen::MatrixXd& u,
+    const std::function<void(int c0, int n, Eigen::MatrixXd& T)>& stress) const {
+  const int d = dim();
+  Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * u);
+  Eigen::MatrixXd T;
+  mpi::for_each_run(held_, [&](int c0, int n, int) {
+    T.noalias() = cells_.Gbar.middleRows(d * c0, d * n) * u;
+    stress(c0, n, T);
+    add_cell_forces(cells_, c0, n, T, f);
+  });
+  if (partial_) mpi::sum(f.data(), f.size());
+  return f;
+}
+
 Eigen::MatrixXd Discretization::energy_gradient(const Eigen::MatrixXd& u,
                                                 const Eigen::MatrixXd& F) const {
   const int d = dim(), nc = num_cells();
   const Material& m = split_;
-  const Eigen::MatrixXd GU = cells_.Gbar * u;
-  Eigen::MatrixXd P(d * nc, d);
-  for (int c = 0; c < nc; ++c) {
-    if (d == 2) {
-      const Eigen::Matrix2d Fc = Eigen::Matrix2d::Identity() + GU.block<2, 2>(2 * c, 0).transpose();
-      P.block<2, 2>(2 * c, 0) = m.dW(Fc).transpose();
-    } else {
-      const Eigen::Matrix3d Fc = Eigen::Matrix3d::Identity() + GU.block<3, 3>(3 * c, 0).transpose();
-      P.block<3, 3>(3 * c, 0) = m.dW(Fc).transpose();
+  // P_e = dW(I + Gbar_e u)^T in the rows of Gbar_e u, for n cells.
+  auto piola = [&](int n, const Eigen::MatrixXd& GU, Eigen::MatrixXd& P) {
+    for (int k = 0; k < n; ++k) {
+      if (d == 2) {
+        const Eigen::Matrix2d Fc =
+            Eigen::Matrix2d::Identity() + GU.block<2, 2>(2 * k, 0).transpose();
+        P.block<2, 2>(2 * k, 0) = m.dW(Fc).transpose();
+      } else {
+        const Eigen::Matrix3d Fc =
+            Eigen::Matrix3d::Identity() + GU.block<3, 3>(3 * k, 0).transpose();
+        P.block<3, 3>(3 * k, 0) = m.dW(Fc).transpose();
+      }
     }
-  }
+  };
   Eigen::MatrixXd g;
   if (partial_) {  // the held cells' part, run by run (no GbarT_vol), summed over the ranks
-    P -= 2 * m.C1 * GU;
-    g = 2 * m.C1 * (cells_.laplacian * u);
-    mpi::for_each_run(held_, [&](int c0, int n, int) {
-      add_cell_forces(cells_, c0, n, P.middleRows(d * c0, d * n), g);
+    Eigen::MatrixXd P;
+    g = held_cell_forces(u, [&](int, int n, Eigen::MatrixXd& T) {
+      P.resize(T.rows(), T.cols());
+      piola(n, T, P);
+      T = P - 2 * m.C1 * T;
     });
-    mpi::sum(g.data(), g.size());
     g -= F;
   } else {
+    const Eigen::MatrixXd GU = cells_.Gbar * u;
+    Eigen::MatrixXd P(d * nc, d);
+    piola(nc, GU, P);
     g = cells_.GbarT_vol * P + 2 * m.C1 * (cells_.laplacian * u - cells_.GbarT_vol * GU) - F;
   }
   for (int c = 0; c < d; ++c)

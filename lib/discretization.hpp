@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -137,6 +138,14 @@ class Discretization {
   ///           - F . u
   /// for the compressible law without contact, F the load: zero at the discrete equilibrium.
   Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u, const Eigen::MatrixXd& F) const;
+  /// [(2.7), (4.1)] The nodal forces 2 C1 L u + sum_e |O_e| T_e : Gbar_e over the held cells,
+  /// summed over the MPI ranks when partial() (collective): run by run through add_cell_forces,
+  /// with no per-cell array of the whole mesh. `stress(c0, n, T)` turns T, Gbar u on the cells
+  /// c0 .. c0 + n - 1 ((dim n) x dim), into their T_e in place. The sum over cells of
+  /// energy_gradient and of measures.cpp's equilibrium residual on a rank's cells.
+  Eigen::MatrixXd held_cell_forces(
+      const Eigen::MatrixXd& u,
+      const std::function<void(int c0, int n, Eigen::MatrixXd& T)>& stress) const;
   /// The elastic and load part of the discrete functional J_p (2.2) at a state, load F:
   ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - F.u
   double elastic_energy(const State& s, const Eigen::MatrixXd& F) const;

@@ -196,14 +196,9 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
     // array of the whole mesh), summed over the ranks (collective):
     //   Gbar^T |O_e| [2 C1 (E - Gbar u) - lambda] + 2 C1 L u.
     const int dim = d.dim();
-    r.noalias() = 2 * C1 * (c.laplacian * s.u);
-    Eigen::MatrixXd T;
-    mpi::for_each_run(d.held_cells(), [&](int c0, int n, int) {
-      T.noalias() = c.Gbar.middleRows(dim * c0, dim * n) * s.u;
+    r = d.held_cell_forces(s.u, [&](int c0, int n, Eigen::MatrixXd& T) {
       T = 2 * C1 * (s.E.middleRows(dim * c0, dim * n) - T) - s.lambda.middleRows(dim * c0, dim * n);
-      add_cell_forces(c, c0, n, T, r);
     });
-    mpi::sum(r.data(), r.size());
     r -= f_ext;
   } else {
     const Eigen::MatrixXd GU = c.Gbar * s.u;

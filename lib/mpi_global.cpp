@@ -86,6 +86,12 @@ struct DistributedGlobalStep::Group {
   std::vector<int> read_node;
   Vec read = nullptr;
   VecScatter scatter = nullptr;
+  /// x's blocks of every rank (this rank's filled) gathered, into u's column c on the free
+  /// nodes.
+  void gather_into(Eigen::MatrixXd& u, int c) {
+    mpi::gather(x.data(), offset);
+    for (std::size_t i = 0; i < node.size(); ++i) u(node[i], c) = x[i];
+  }
   ~Group() {
     if (scatter) VecScatterDestroy(&scatter);
     if (read) VecDestroy(&read);
@@ -364,8 +370,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
         check(VecGetArrayRead(g.xv, &cx), g.what, "VecGetArrayRead");
         for (int r = 0; r < own; ++r) g.x[f0 + r] = cx[r];
         check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
-        mpi::gather(g.x.data(), g.offset);
-        for (std::size_t i = 0; i < g.node.size(); ++i) u(g.node[i], c) = g.x[i];
+        g.gather_into(u, c);
       }
       for (int i : bc_.fixed[c]) u(i, c) = scale_ * bc_.value(i, c);
     }
@@ -380,8 +385,7 @@ void DistributedGlobalStep::whole_u(Eigen::MatrixXd& u) {
     const int f0 = g.offset[me], f1 = g.offset[me + 1];
     for (const int c : g.components) {
       for (int r = f0; r < f1; ++r) g.x[r] = u(g.node[r], c);
-      mpi::gather(g.x.data(), g.offset);
-      for (std::size_t i = 0; i < g.node.size(); ++i) u(g.node[i], c) = g.x[i];
+      g.gather_into(u, c);
     }
   }
 }
