@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "error.hpp"
+#include "mpi_comm.hpp"
 #include "signed_svd.hpp"
 
 namespace ltl {
@@ -52,6 +53,47 @@ double angle_between(const Eigen::Matrix3d& R1, const Eigen::Matrix3d& R2) {
   return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / M_PI;
 }
 
+/// Keeps (v, cell) if `value` at `c` is more extreme (the smaller, or with `largest` the larger;
+/// a NaN wins over any number): a loop over cells in increasing order keeps the first cell of
+/// the extreme.
+void keep_extreme(double value, int c, double& v, int& cell, bool largest) {
+  const bool more = largest ? value > v : value < v;
+  if (more || (std::isnan(value) && !std::isnan(v))) v = value, cell = c;
+}
+
+/// A discretization of some cells (a rank's, d.partial()): each rank's extreme (v, cell) over
+/// its cells made the extreme over all ranks, on every rank, as the loop over every cell in
+/// increasing order keeps it (the first NaN, else the first cell of the smallest or largest
+/// value). Collective.
+void extreme_over_ranks(const Discretization& d, double& v, int& cell, bool largest) {
+  if (!d.partial()) return;
+  const int P = mpi::size(), me = mpi::rank();
+  std::vector<double> all(2 * static_cast<std::size_t>(P), 0.0);  // (v, cell) of every rank
+  all[2 * me] = v, all[2 * me + 1] = cell;
+  mpi::sum(all.data(), static_cast<long>(all.size()));
+  bool any = false;  // none: every rank kept its (same) starting value
+  for (int r = 0; r < P; ++r) any = any || all[2 * r + 1] >= 0;
+  if (!any) return;
+  v = largest ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+  cell = -1;
+  for (int r = 0; r < P; ++r) {  // the ties and the NaNs to the smallest cell index
+    const double w = all[2 * r];
+    const int c = static_cast<int>(all[2 * r + 1]);
+    if (c < 0) continue;
+    const bool same = w == v || (std::isnan(w) && std::isnan(v));
+    if (same ? c < cell
+             : (cell < 0 || (largest ? w > v : w < v) || (std::isnan(w) && !std::isnan(v))))
+      v = w, cell = c;
+  }
+}
+
+/// The sum over the ranks of a count (a discretization of some cells; collective).
+int count_over_ranks(const Discretization& d, int n) {
+  double x = n;
+  if (d.partial()) mpi::sum(&x, 1);
+  return static_cast<int>(x);
+}
+
 }  // namespace
 
 double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell,
@@ -59,9 +101,9 @@ double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell,
   const Mesh& mesh = d.problem().mesh;
   const int dim = mesh.dim, npc = mesh.nodes_per_cell();
   double worst = std::numeric_limits<double>::infinity();
-  int inverted = 0;
+  int inverted = 0, worst_cell = -1;
   Eigen::MatrixXd Uc(npc, dim), F(dim, dim);
-  for (int c = 0; c < mesh.num_cells(); ++c) {
+  for (int c : d.held_cells()) {  // every cell, or a rank's (then reduced below)
     for (int a = 0; a < npc; ++a) Uc.row(a) = u.row(mesh.cells(c, a));
     double cell_min = std::numeric_limits<double>::infinity();
     for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double) {
@@ -71,11 +113,11 @@ double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell,
       cell_min = std::min(cell_min, F.determinant());
     });
     if (!(cell_min > 0)) ++inverted;
-    if (cell_min < worst || (std::isnan(cell_min) && !std::isnan(worst))) {
-      worst = cell_min;
-      if (cell) *cell = c;
-    }
+    keep_extreme(cell_min, c, worst, worst_cell, false);
   }
+  extreme_over_ranks(d, worst, worst_cell, false);
+  inverted = count_over_ranks(d, inverted);
+  if (cell && worst_cell >= 0) *cell = worst_cell;
   if (cells_inverted) *cells_inverted = inverted;
   return worst;
 }
@@ -158,10 +200,11 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
 
   // 2. Orientation: det F > 0 at every quadrature point, det E_e > 0.
   r.det_F_min = min_det_F(d, s.u, &r.det_F_cell, &r.cells_inverted);
-  for (int c = 0; c < nc && s.E.rows() == dim * nc; ++c) {
-    const double J = cell_tensor(s.E, c).determinant();
-    if (J < r.det_E_min || (std::isnan(J) && !std::isnan(r.det_E_min)))
-      r.det_E_min = J, r.det_E_cell = c;
+  const bool E_whole = s.E.rows() == dim * nc;
+  if (E_whole) {
+    for (int c : d.held_cells())
+      keep_extreme(cell_tensor(s.E, c).determinant(), c, r.det_E_min, r.det_E_cell, false);
+    extreme_over_ranks(d, r.det_E_min, r.det_E_cell, false);
   }
   const bool inverted = r.cells_inverted > 0, E_inverted = !(r.det_E_min > 0);
   if (inverted)
@@ -179,33 +222,57 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
   // 3. Rotated branch: the polar rotation of each cell's E against its neighbours' (the cells
   // sharing a node with it). Per cell the angle that more than half of the neighbours exceed
   // (sorted angles a_0 <= ... <= a_{n-1}: a_{n - floor(n/2) - 1}); above kRotationJumpDegrees
-  // the cell is flipped against the majority of its neighbours.
-  if (nc > 1 && s.E.rows() == dim * nc) {
-    std::vector<Eigen::Matrix3d> R(nc);
-    for (int c = 0; c < nc; ++c) R[c] = polar_rotation(cell_tensor(s.E, c));
-    std::vector<std::vector<int>> cells_of(nn);
+  // the cell is flipped against the majority of its neighbours. A discretization of some cells
+  // (a rank's) checks its cells, against neighbours on any rank, and the counts and the worst
+  // cell are reduced over the ranks: the nodes' cells and the rotations are held for the cells
+  // that touch a node of the rank's cells only.
+  if (nc > 1 && E_whole) {
+    const int npc = mesh.nodes_per_cell();
+    const std::vector<int>& held = d.held_cells();
+    std::vector<char> touched(nn, 0);
+    for (int c : held)
+      for (int a = 0; a < npc; ++a) touched[mesh.cells(c, a)] = 1;
+    // The cells of each touched node (compressed rows over the nodes) and the slot of each
+    // such cell's rotation.
+    std::vector<int> first(nn + 1, 0), slot(nc, -1);
+    int slots = 0;
     for (int c = 0; c < nc; ++c)
-      for (int a = 0; a < mesh.nodes_per_cell(); ++a) cells_of[mesh.cells(c, a)].push_back(c);
+      for (int a = 0; a < npc; ++a)
+        if (const int n = mesh.cells(c, a); touched[n]) {
+          ++first[n + 1];
+          if (slot[c] < 0) slot[c] = slots++;
+        }
+    for (int n = 0; n < nn; ++n) first[n + 1] += first[n];
+    std::vector<int> cells_of(first[nn]), fill(first.begin(), first.end() - 1);
+    for (int c = 0; c < nc; ++c)
+      for (int a = 0; a < npc; ++a)
+        if (const int n = mesh.cells(c, a); touched[n]) cells_of[fill[n]++] = c;
+    std::vector<Eigen::Matrix3d> R(slots);
+    for (int c = 0; c < nc; ++c)
+      if (slot[c] >= 0) R[slot[c]] = polar_rotation(cell_tensor(s.E, c));
     std::vector<int> nbr;
     std::vector<double> angles;
-    for (int c = 0; c < nc; ++c) {
+    for (int c : held) {
       nbr.clear();
-      for (int a = 0; a < mesh.nodes_per_cell(); ++a)
-        for (int o : cells_of[mesh.cells(c, a)])
-          if (o != c) nbr.push_back(o);
+      for (int a = 0; a < npc; ++a) {
+        const int n = mesh.cells(c, a);
+        for (int k = first[n]; k < first[n + 1]; ++k)
+          if (cells_of[k] != c) nbr.push_back(cells_of[k]);
+      }
       std::sort(nbr.begin(), nbr.end());
       nbr.erase(std::unique(nbr.begin(), nbr.end()), nbr.end());
       if (nbr.empty()) continue;
       angles.clear();
-      for (int o : nbr) angles.push_back(angle_between(R[c], R[o]));
+      for (int o : nbr) angles.push_back(angle_between(R[slot[c]], R[slot[o]]));
       const std::size_t n = angles.size(), k = n - n / 2 - 1;
       std::nth_element(angles.begin(), angles.begin() + static_cast<std::ptrdiff_t>(k),
                        angles.end());
       const double jump = angles[k];
       if (jump > kRotationJumpDegrees || std::isnan(jump)) ++r.cells_rotated;
-      if (jump > r.rotation_jump || (std::isnan(jump) && !std::isnan(r.rotation_jump)))
-        r.rotation_jump = jump, r.rotation_cell = c;
+      keep_extreme(jump, c, r.rotation_jump, r.rotation_cell, true);
     }
+    r.cells_rotated = count_over_ranks(d, r.cells_rotated);
+    extreme_over_ranks(d, r.rotation_jump, r.rotation_cell, true);
     if (r.cells_rotated > 0) {
       const Eigen::MatrixXd E = cell_tensor(s.E, r.rotation_cell);
       r.failures.push_back(cat(r.cells_rotated,

@@ -93,13 +93,16 @@ struct AdmissibilityReport {
 
 /// The admissibility of state s (paper_notes/admissibility.md). Never throws on a bad state; the
 /// report says what is wrong. Costs one pass over the quadrature points and one polar
-/// decomposition per cell.
+/// decomposition per cell. A discretization of some cells (a rank's, under mpirun) checks its
+/// cells and reduces the counts and the worst cells over the ranks (collective): every rank
+/// gets the report of one process.
 AdmissibilityReport check_admissibility(const Discretization& d, const State& s);
 
 /// The smallest det F = det(I + grad u) over the quadrature points of every cell (in plane
 /// strain the in-plane block, F33 = 1), and its cell in `cell` if not null. Under mean-det
 /// incompressibility det F varies inside a cell (only its cell mean is 1): this is the measure
-/// of local inversion, det_error (lib/measures.hpp) the measure of the constraint.
+/// of local inversion, det_error (lib/measures.hpp) the measure of the constraint. Over the
+/// discretization's cells; a rank's, then the smallest over the ranks (collective).
 double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell = nullptr,
                  int* cells_inverted = nullptr);
 

@@ -116,6 +116,13 @@ class Solver {
   /// Nothing changes on one process.
   void set_whole_state_in_progress(bool on) { whole_in_progress_ = on; }
 
+  /// A copy of the whole state s to go back to (load subdivision, lib/simulation.cpp): in a
+  /// distributed solver its E and lambda are the rank's rows only (as own_rows) and u the rank's
+  /// block of the nodes (mpi::blocks), the contact fields whole; on one process a plain copy.
+  /// restored() makes it whole again (collective when distributed).
+  State kept_copy(const State& s) const;
+  State restored(const State& kept) const;
+
   /// The serial global step (an Error in a distributed solver with the distributed KSP).
   const GlobalStep& global_step() const;
   /// Factors of the global step (0 with the distributed KSP).
@@ -242,12 +249,16 @@ class Solver {
   void sum_over_ranks(double* x, int n) const;
   /// The owned blocks of e, lambda_c and beta gathered (after each iteration).
   void gather_points(State& s) const;
+  /// The rank's rows of a whole per-cell field (the k-th of own_cells() at rows dim k).
+  Eigen::MatrixXd rank_rows(const Eigen::MatrixXd& A) const;
   /// Distributed: the iterate of the iterations from a whole state s, whose E and lambda are
   /// released: the rank's rows of E and lambda (the k-th of own_cells() at rows dim k), u and the
   /// contact fields whole (moved).
   State own_rows(State& s) const;
   /// The whole state from such an iterate (collective: E and lambda gathered from the ranks).
   State whole(const State& own) const;
+  /// E and lambda gathered from the rank's rows (collective), the contact fields copied; no u.
+  State whole_cells(const State& rows) const;
 
   Discretization disc_;
   double R_ = 1;  ///< R in use (see R())

@@ -14,7 +14,9 @@
 //     the Newton phase, the measures and the output) and when the equilibrium stopping test is
 //     due; the iterations run on the rank's rows of E and lambda (own_rows, whole), and so do
 //     T, Gbar u, J and the previous E. Anderson's packed iterate is the rank's cell rows then
-//     the replicated contact part: its inner products sum the first over the ranks.
+//     the replicated contact part: its inner products sum the first over the ranks. The states
+//     the load subdivision keeps to go back to are the rank's rows and its block of u
+//     (kept_copy); the checks after a step run on the rank's cells (lib/admissibility.cpp).
 //   - DISTRIBUTED: the cells (the slabs above) and the contact points (contiguous blocks of
 //     their index, mpi::blocks). A rank computes, on its own cells and points: the global step's
 //     per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R
@@ -256,15 +258,19 @@ void Solver::gather_points(State& s) const {
   }
 }
 
-State Solver::own_rows(State& s) const {
+Eigen::MatrixXd Solver::rank_rows(const Eigen::MatrixXd& A) const {
   const int dim = this->dim();
-  State own;
-  own.E.resize(dim * static_cast<Eigen::Index>(dist_->own.size()), dim);
-  own.lambda.resize(own.E.rows(), dim);
+  Eigen::MatrixXd own(dim * static_cast<Eigen::Index>(dist_->own.size()), dim);
   mpi::for_each_run(dist_->own, [&](int c0, int n, int at) {
-    own.E.middleRows(dim * at, dim * n) = s.E.middleRows(dim * c0, dim * n);
-    own.lambda.middleRows(dim * at, dim * n) = s.lambda.middleRows(dim * c0, dim * n);
+    own.middleRows(dim * at, dim * n) = A.middleRows(dim * c0, dim * n);
   });
+  return own;
+}
+
+State Solver::own_rows(State& s) const {
+  State own;
+  own.E = rank_rows(s.E);
+  own.lambda = rank_rows(s.lambda);
   s.E = Eigen::MatrixXd();
   s.lambda = Eigen::MatrixXd();
   own.u.swap(s.u);
@@ -275,14 +281,46 @@ State Solver::own_rows(State& s) const {
 }
 
 State Solver::whole(const State& own) const {
-  State s;
-  mpi::gather_rows(own.E, s.E, dist_->cells, dim());
-  mpi::gather_rows(own.lambda, s.lambda, dist_->cells, dim());
+  State s = whole_cells(own);
   s.u = own.u;
   if (dist_->ksp) dist_->ksp->whole_u(s.u);  // after solves with a ghost layer
-  s.e = own.e;
-  s.beta = own.beta;
-  s.lambda_c = own.lambda_c;
+  return s;
+}
+
+namespace {
+void copy_contact_fields(const State& from, State& to) {  // e, beta, lambda_c: whole
+  to.e = from.e;
+  to.beta = from.beta;
+  to.lambda_c = from.lambda_c;
+}
+}  // namespace
+
+State Solver::whole_cells(const State& rows) const {
+  State s;
+  mpi::gather_rows(rows.E, s.E, dist_->cells, dim());
+  mpi::gather_rows(rows.lambda, s.lambda, dist_->cells, dim());
+  copy_contact_fields(rows, s);
+  return s;
+}
+
+State Solver::kept_copy(const State& s) const {
+  if (!dist_) return s;
+  const Distribution& d = *dist_;
+  State kept;
+  kept.E = rank_rows(s.E);
+  kept.lambda = rank_rows(s.lambda);
+  kept.u = s.u.middleRows(d.n0, d.n1 - d.n0);  // the rank's block of the nodes (mpi::blocks)
+  copy_contact_fields(s, kept);
+  return kept;
+}
+
+State Solver::restored(const State& kept) const {
+  if (!dist_) return kept;
+  const Distribution& d = *dist_;
+  State s = whole_cells(kept);
+  s.u.resize(disc_.num_nodes(), dim());
+  s.u.middleRows(d.n0, d.n1 - d.n0) = kept.u;
+  mpi::gather_rows(s.u, d.nodes, 1);
   return s;
 }
 

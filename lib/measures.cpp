@@ -234,9 +234,11 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
   m.force_residual = residual_free_and_fixed(d, f_ext, s).free / (load > 0 ? load : 1.0);
   if (d.problem().material.incompressible()) {
     // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
+    // On a rank's cells (a discretization of some cells), the largest over the ranks.
     const Eigen::VectorXd c = d.fluctuation_det(s.u);
-    for (int e = 0; e < d.num_cells(); ++e)
+    for (int e : d.held_cells())
       m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
+    if (d.partial()) mpi::max(&m.det_error, 1);
   }
   if (d.points()) m.penetration = std::max(0.0, max_penetration(d, s));
   m.det_min = min_det_F(d, s.u);

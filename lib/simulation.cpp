@@ -70,17 +70,10 @@ std::string divergence_hint(const Problem& problem, double factor, const TimeSte
       " (experiments/README.md, \"Choosing R, q, q_c\").");
 }
 
-/// What is written for a step: the state, its report (history, equilibrium measure) and the
-/// fields computed from it (the Derived rows of lib/results_fields.hpp): the stresses, one
-/// definition each (Discretization::stresses), the contact pressure and gap.
-StepData step_data(const Solver& solver, const TimeStep& step) {
+/// The fields written for a step: the stresses, one definition each
+/// (Discretization::stresses), the strain's derived fields, the contact pressure and gap.
+void add_fields(const Solver& solver, const State& state, StepData& d) {
   const Problem& problem = solver.problem();
-  const State& state = *step.state;
-  StepData d;
-  d.p = step.p;
-  d.t = step.p * problem.time.dt;
-  d.state = &state;
-  d.report = &step.report;
   Discretization::Stresses stress = solver.discretization().stresses(state);
   d.fields["P"] = std::move(stress.P);
   d.fields["sigma"] = std::move(stress.sigma);
@@ -99,6 +92,22 @@ StepData step_data(const Solver& solver, const TimeStep& step) {
     d.fields["contact_pressure"] = solver.discretization().contact_pressure(state);
     d.fields["gap"] = solver.discretization().contact_gap(state);
   }
+}
+
+/// What is written for a step: the state, its report (history, equilibrium measure) and the
+/// fields computed from it (the Derived rows of lib/results_fields.hpp): the stresses, one
+/// definition each (Discretization::stresses), the contact pressure and gap. Without `fields`
+/// the measures only: a rank that writes nothing (under mpirun, every rank but 0) computes the
+/// measures, which are sums over the ranks' cells (collective), and no field of the whole mesh.
+StepData step_data(const Solver& solver, const TimeStep& step, bool fields = true) {
+  const Problem& problem = solver.problem();
+  const State& state = *step.state;
+  StepData d;
+  d.p = step.p;
+  d.t = step.p * problem.time.dt;
+  d.state = &state;
+  d.report = &step.report;
+  if (fields) add_fields(solver, state, d);
   // Every measure of the step (lib/measures.hpp), one definition each.
   const StepMeasures m = step_measures(solver.discretization(), state);
   d.measures = stored_measures(m, problem.mesh.dim);
@@ -303,9 +312,10 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
   int substeps = 0;
   TimeStep step;
   // One attempt from the load factor a (the current state) to b; on failure, with halvings
-  // left, the state goes back to a's and the increment is done as two halves.
+  // left, the state goes back to a's and the increment is done as two halves. The states kept
+  // to go back to are, under mpirun, E and lambda on the rank's cells only (Solver::kept_copy).
   const std::function<bool(double, double, int)> advance = [&](double a, double b, int depth) {
-    const State from = depth < kMaxHalvings ? state : State{};
+    const State from = depth < kMaxHalvings ? solver.kept_copy(state) : State{};
     step = solve_at_factor(solver, p, b, state, verbosity, nullptr, checkpoints);
     const StepReport& r = step.report;
     attempts.push_back({a, b, r.converged, r.iterations,
@@ -318,11 +328,12 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
           "in two halves\n",
           p, P, a, b, r.iterations, r.status.substr(0, r.status.find(": ")).c_str()),
           std::fflush(stdout);
-    state = from;
+    state = State();  // released first: one whole state at a time
+    state = solver.restored(from);
     const double m = a + (b - a) / 2;
     return advance(a, m, depth + 1) && advance(m, b, depth + 1);
   };
-  const State start = state;
+  const State start = solver.kept_copy(state);
   // A checkpoint of this step (--resume): the first attempt continues from it, beta_{p-1} and
   // the retries from the step's start.
   const bool resumed = checkpoints && checkpoints->resume;
@@ -343,7 +354,8 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
             p, P, f0, f1, step.report.iterations,
             step.report.status.substr(0, step.report.status.find(": ")).c_str()),
             std::fflush(stdout);
-      state = start;
+      state = State();
+      state = solver.restored(start);
       const double m = f0 + (f1 - f0) / 2;
       if (advance(f0, m, 1)) advance(m, f1, 1);
     }
@@ -568,7 +580,7 @@ void ResultsWriter::append(const TimeStep& step) {
     // A discretization of some cells (a rank's) sums its measures over the ranks: every
     // rank computes the step's data, rank 0 writes it.
     if (!saved.empty() || solver.discretization().partial()) {
-      const StepData data = step_data(solver, step);
+      const StepData data = step_data(solver, step, !saved.empty());
       if (!saved.empty()) file->save_unconverged(data, msg);
     } else if (file)
       file->set_status(msg);
@@ -578,7 +590,7 @@ void ResultsWriter::append(const TimeStep& step) {
         unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor(), step)));
   }
   std::optional<StepData> data;  // collective with a partial discretization (above)
-  if (solver.discretization().partial()) data = step_data(solver, step);
+  if (solver.discretization().partial()) data = step_data(solver, step, !output.empty());
   if (!output.empty()) {
     const bool existed = file.has_value();
     try {

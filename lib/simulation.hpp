@@ -14,6 +14,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "admissibility.hpp"
@@ -140,8 +141,9 @@ class ResultsWriter {
   ~ResultsWriter();
 
   /// The solver's initial state, the last step stored in the file on --resume, or the nested
-  /// start from options.init (lib/nested_start.hpp).
-  State start_state() const { return start_; }
+  /// start from options.init (lib/nested_start.hpp). Handed over, not copied (the writer keeps
+  /// no whole state of its own): call it once.
+  State start_state() { return std::move(start_); }
   /// The first step to compute: 1, or one after the file's last step on --resume.
   int next_step() const { return first_; }
   /// The last step to compute: time.steps, or earlier with --stop-after.
