@@ -313,7 +313,8 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
   TimeStep step;
   // One attempt from the load factor a (the current state) to b; on failure, with halvings
   // left, the state goes back to a's and the increment is done as two halves. The states kept
-  // to go back to are, under mpirun, E and lambda on the rank's cells only (Solver::kept_copy).
+  // to go back to are, under mpirun, E and lambda on the rank's cells and u on its block of
+  // nodes (Solver::kept_copy).
   const std::function<bool(double, double, int)> advance = [&](double a, double b, int depth) {
     const State from = depth < kMaxHalvings ? solver.kept_copy(state) : State{};
     step = solve_at_factor(solver, p, b, state, verbosity, nullptr, checkpoints);
