@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include "error.hpp"
 #include "mpi_comm.hpp"
@@ -62,29 +64,23 @@ void keep_extreme(double value, int c, double& v, int& cell, bool largest) {
 }
 
 /// A discretization of some cells (a rank's, d.partial()): each rank's extreme (v, cell) over
-/// its cells made the extreme over all ranks, on every rank, as the loop over every cell in
-/// increasing order keeps it (the first NaN, else the first cell of the smallest or largest
-/// value). Collective.
+/// its cells made the extreme over all ranks, on every rank (collective). The ranks' extremes are
+/// folded by keep_extreme in the order of their cells, from a rank that kept none (its v is the
+/// starting value, cell -1) or else from the first: the extreme and the cell that the loop over
+/// every cell in increasing order keeps (the first NaN, else the first cell of the extreme).
 void extreme_over_ranks(const Discretization& d, double& v, int& cell, bool largest) {
   if (!d.partial()) return;
   const int P = mpi::size(), me = mpi::rank();
-  std::vector<double> all(2 * static_cast<std::size_t>(P), 0.0);  // (v, cell) of every rank
-  all[2 * me] = v, all[2 * me + 1] = cell;
+  std::vector<double> all(2 * static_cast<std::size_t>(P), 0.0);  // (cell, v) of every rank
+  all[2 * me] = cell, all[2 * me + 1] = v;
   mpi::sum(all.data(), static_cast<long>(all.size()));
-  bool any = false;  // none: every rank kept its (same) starting value
-  for (int r = 0; r < P; ++r) any = any || all[2 * r + 1] >= 0;
-  if (!any) return;
-  v = largest ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
-  cell = -1;
-  for (int r = 0; r < P; ++r) {  // the ties and the NaNs to the smallest cell index
-    const double w = all[2 * r];
-    const int c = static_cast<int>(all[2 * r + 1]);
-    if (c < 0) continue;
-    const bool same = w == v || (std::isnan(w) && std::isnan(v));
-    if (same ? c < cell
-             : (cell < 0 || (largest ? w > v : w < v) || (std::isnan(w) && !std::isnan(v))))
-      v = w, cell = c;
-  }
+  std::vector<std::pair<int, double>> kept(P);
+  for (int r = 0; r < P; ++r) kept[r] = {static_cast<int>(all[2 * r]), all[2 * r + 1]};
+  std::sort(kept.begin(), kept.end(),
+            [](const auto& x, const auto& y) { return x.first < y.first; });
+  cell = kept[0].first, v = kept[0].second;
+  for (int r = 1; r < P; ++r)
+    if (kept[r].first >= 0) keep_extreme(kept[r].second, kept[r].first, v, cell, largest);
 }
 
 /// The sum over the ranks of a count (a discretization of some cells; collective).

@@ -119,9 +119,10 @@ class Solver {
   /// A copy of the whole state s to go back to (load subdivision, lib/simulation.cpp): in a
   /// distributed solver its E and lambda are the rank's rows only (as own_rows) and u the rank's
   /// block of the nodes (mpi::blocks), the contact fields whole; on one process a plain copy.
-  /// restored() makes it whole again (collective when distributed).
+  /// restore() makes s that state again, whole (collective when distributed); s's own fields are
+  /// released first, so that one whole state exists at a time.
   State kept_copy(const State& s) const;
-  State restored(const State& kept) const;
+  void restore(const State& kept, State& s) const;
 
   /// The serial global step (an Error in a distributed solver with the distributed KSP).
   const GlobalStep& global_step() const;

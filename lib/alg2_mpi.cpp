@@ -314,14 +314,17 @@ State Solver::kept_copy(const State& s) const {
   return kept;
 }
 
-State Solver::restored(const State& kept) const {
-  if (!dist_) return kept;
+void Solver::restore(const State& kept, State& s) const {
+  s = State();  // released first: one whole state at a time
+  if (!dist_) {
+    s = kept;
+    return;
+  }
   const Distribution& d = *dist_;
-  State s = whole_cells(kept);
+  s = whole_cells(kept);
   s.u.resize(disc_.num_nodes(), dim());
   s.u.middleRows(d.n0, d.n1 - d.n0) = kept.u;
   mpi::gather_rows(s.u, d.nodes, 1);
-  return s;
 }
 
 namespace {

@@ -329,8 +329,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
           "in two halves\n",
           p, P, a, b, r.iterations, r.status.substr(0, r.status.find(": ")).c_str()),
           std::fflush(stdout);
-    state = State();  // released first: one whole state at a time
-    state = solver.restored(from);
+    solver.restore(from, state);
     const double m = a + (b - a) / 2;
     return advance(a, m, depth + 1) && advance(m, b, depth + 1);
   };
@@ -355,8 +354,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
             p, P, f0, f1, step.report.iterations,
             step.report.status.substr(0, step.report.status.find(": ")).c_str()),
             std::fflush(stdout);
-      state = State();
-      state = solver.restored(start);
+      solver.restore(start, state);
       const double m = f0 + (f1 - f0) / 2;
       if (advance(f0, m, 1)) advance(m, f1, 1);
     }

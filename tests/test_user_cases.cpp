@@ -119,26 +119,8 @@ Outcome run_case(const std::string& name, const std::string& config,
 // symmetry planes x = 0 and y = 0), on the plane z = 0, dead traction -p e3 on the top.
 // ---------------------------------------------------------------------------------------------
 
-/// [LTL87 (1.5)] Incompressible Mooney-Rivlin in uniaxial compression with free lateral faces:
-/// F = diag(l^-1/2, l^-1/2, l), P33 = 2 (l - l^-2)(C1 + C2 / l) (P11 = P22 = 0 fix the pressure);
-/// with C2 = 0, P33 = 2 C1 (l - l^-2).
-double uniaxial_pressure(double C1, double C2, double l) {
-  return -2 * (l - 1 / (l * l)) * (C1 + C2 / l);
-}
-
-std::string block_config(double C1, double C2, double p, double a = 0.05) {
-  std::ostringstream s;
-  s.precision(17);
-  s << "name = \"block3d\"\n[mesh]\ngeometry = \"" << test_path("geometry/tet_box.geo")
-    << "\"\nparameters = { a = " << a << ", n = 2 }\n[material]\nmodel = \"mooney-rivlin\"\n"
-    << "C1 = " << C1 << "\nC2 = " << C2
-    << "\n[[symmetry]]\ngroup = \"x0\"\ncomponent = \"x\"\n[[symmetry]]\ngroup = \"y0\"\n"
-       "component = \"y\"\n[[load.traction]]\ngroup = \"z1\"\nvalue = [0, 0, "
-    << -p
-    << "]\n[contact]\ngroup = \"z0\"\nplane_point = [0, 0, 0]\nplane_normal = [0, 0, -1]\n"
-       "beta0 = 0.0\n";
-  return s.str();
-}
+using ltl::testing::block_config;
+using ltl::testing::uniaxial_pressure;
 
 /// Largest nodal |u - (F - I) X| of the closed form at stretch l.
 double block_error(const Outcome& o, double l) {

@@ -14,6 +14,7 @@
 #include <functional>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -71,6 +72,31 @@ inline pid_t spawn(const std::string& bin, const std::vector<std::string>& args,
     _exit(127);
   }
   return pid;
+}
+
+/// [LTL87 (1.5)] Incompressible Mooney-Rivlin in uniaxial compression with free lateral faces:
+/// F = diag(l^-1/2, l^-1/2, l), P33 = 2 (l - l^-2)(C1 + C2 / l) (P11 = P22 = 0 fix the pressure);
+/// with C2 = 0, P33 = 2 C1 (l - l^-2).
+inline double uniaxial_pressure(double C1, double C2, double l) {
+  return -2 * (l - 1 / (l * l)) * (C1 + C2 / l);
+}
+
+/// The 3-D block of tests/geometry/tet_box.geo (a quarter of a 2a x 2a x a block of gmsh's
+/// tetrahedra, symmetry planes x = 0 and y = 0) on the plane z = 0 under the dead traction
+/// -p e3 on its top: the user cases' block (test_user_cases.cpp) and its run on MPI ranks
+/// (mpi_ranks.cpp).
+inline std::string block_config(double C1, double C2, double p, double a = 0.05) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "name = \"block3d\"\n[mesh]\ngeometry = \"" << test_path("geometry/tet_box.geo")
+    << "\"\nparameters = { a = " << a << ", n = 2 }\n[material]\nmodel = \"mooney-rivlin\"\n"
+    << "C1 = " << C1 << "\nC2 = " << C2
+    << "\n[[symmetry]]\ngroup = \"x0\"\ncomponent = \"x\"\n[[symmetry]]\ngroup = \"y0\"\n"
+       "component = \"y\"\n[[load.traction]]\ngroup = \"z1\"\nvalue = [0, 0, "
+    << -p
+    << "]\n[contact]\ngroup = \"z0\"\nplane_point = [0, 0, 0]\nplane_normal = [0, 0, -1]\n"
+       "beta0 = 0.0\n";
+  return s.str();
 }
 
 /// A fresh temporary directory for one test.
