@@ -196,10 +196,16 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
 
   // 2. Orientation: det F > 0 at every quadrature point, det E_e > 0.
   r.det_F_min = min_det_F(d, s.u, &r.det_F_cell, &r.cells_inverted);
-  const bool E_whole = s.E.rows() == dim * nc;
-  if (E_whole) {
-    for (int c : d.held_cells())
-      keep_extreme(cell_tensor(s.E, c).determinant(), c, r.det_E_min, r.det_E_cell, false);
+  // E whole, or on the held cells' rows (a rank's state between steps, Discretization::cell_row).
+  const std::vector<int>& held = d.held_cells();
+  const int nh = static_cast<int>(held.size());
+  const auto E_of = [&](int at) -> Eigen::MatrixXd {  // the tensor of held cell held[at]
+    return s.E.block(d.cell_row(s.E, held[at], at), 0, dim, dim).transpose();
+  };
+  const bool E_held = s.E.cols() == dim && (s.E.rows() == dim * nc || s.E.rows() == dim * nh);
+  if (E_held) {
+    for (int at = 0; at < nh; ++at)
+      keep_extreme(E_of(at).determinant(), held[at], r.det_E_min, r.det_E_cell, false);
     extreme_over_ranks(d, r.det_E_min, r.det_E_cell, false);
   }
   const bool inverted = r.cells_inverted > 0, E_inverted = !(r.det_E_min > 0);
@@ -220,32 +226,58 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
   // (sorted angles a_0 <= ... <= a_{n-1}: a_{n - floor(n/2) - 1}); above kRotationJumpDegrees
   // the cell is flipped against the majority of its neighbours. A discretization of some cells
   // (a rank's) checks its cells, against neighbours on any rank, and the counts and the worst
-  // cell are reduced over the ranks: the nodes' cells and the rotations are held for the cells
-  // that touch a node of the rank's cells only.
-  if (nc > 1 && E_whole) {
+  // cell are reduced over the ranks.
+  if (nc > 1 && E_held) {
     const int npc = mesh.nodes_per_cell();
-    const std::vector<int>& held = d.held_cells();
-    std::vector<char> touched(nn, 0);
+    // The rotations this rank has: its cells', then (some cells) the other ranks' cells that
+    // share a node with a cell of another rank, exchanged (each rank's neighbours on other ranks
+    // are among them). slot[c]: where cell c's rotation is, -1 none.
+    std::vector<int> slot(nc, -1);
+    std::vector<Eigen::Matrix3d> R(nh);
+    for (int at = 0; at < nh; ++at) slot[held[at]] = at, R[at] = polar_rotation(E_of(at));
+    std::vector<char> touched(nn, 0);  // nodes of the held cells
     for (int c : held)
       for (int a = 0; a < npc; ++a) touched[mesh.cells(c, a)] = 1;
-    // The cells of each touched node (compressed rows over the nodes) and the slot of each
-    // such cell's rotation.
-    std::vector<int> first(nn + 1, 0), slot(nc, -1);
-    int slots = 0;
+    if (d.partial()) {
+      std::vector<char> foreign(nn, 0);  // nodes of a cell this rank does not hold
+      for (int c = 0; c < nc; ++c)
+        if (slot[c] < 0)
+          for (int a = 0; a < npc; ++a) foreign[mesh.cells(c, a)] = 1;
+      constexpr int kPer = 10;  // the cell, then its rotation's 9 entries
+      std::vector<double> mine;
+      for (int at = 0; at < nh; ++at) {
+        bool shared = false;
+        for (int a = 0; a < npc; ++a) shared = shared || foreign[mesh.cells(held[at], a)];
+        if (!shared) continue;
+        mine.push_back(held[at]);
+        mine.insert(mine.end(), R[at].data(), R[at].data() + 9);
+      }
+      const int P = mpi::size(), me = mpi::rank();
+      std::vector<double> counts(P, 0.0);
+      counts[me] = static_cast<double>(mine.size());
+      mpi::sum(counts.data(), P);
+      std::vector<int> offset(P + 1, 0);
+      for (int q = 0; q < P; ++q) offset[q + 1] = offset[q] + static_cast<int>(counts[q]);
+      std::vector<double> all(offset[P]);
+      std::copy(mine.begin(), mine.end(), all.begin() + offset[me]);
+      mpi::gather(all.data(), offset);
+      for (int k = 0; k < offset[P]; k += kPer) {
+        const int c = static_cast<int>(all[k]);
+        if (slot[c] >= 0) continue;  // this rank's own
+        slot[c] = static_cast<int>(R.size());
+        R.push_back(Eigen::Map<const Eigen::Matrix3d>(all.data() + k + 1));
+      }
+    }
+    // The cells of each touched node (compressed rows over the nodes).
+    std::vector<int> first(nn + 1, 0);
     for (int c = 0; c < nc; ++c)
       for (int a = 0; a < npc; ++a)
-        if (const int n = mesh.cells(c, a); touched[n]) {
-          ++first[n + 1];
-          if (slot[c] < 0) slot[c] = slots++;
-        }
+        if (const int n = mesh.cells(c, a); touched[n]) ++first[n + 1];
     for (int n = 0; n < nn; ++n) first[n + 1] += first[n];
     std::vector<int> cells_of(first[nn]), fill(first.begin(), first.end() - 1);
     for (int c = 0; c < nc; ++c)
       for (int a = 0; a < npc; ++a)
         if (const int n = mesh.cells(c, a); touched[n]) cells_of[fill[n]++] = c;
-    std::vector<Eigen::Matrix3d> R(slots);
-    for (int c = 0; c < nc; ++c)
-      if (slot[c] >= 0) R[slot[c]] = polar_rotation(cell_tensor(s.E, c));
     std::vector<int> nbr;
     std::vector<double> angles;
     for (int c : held) {
@@ -259,7 +291,10 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
       nbr.erase(std::unique(nbr.begin(), nbr.end()), nbr.end());
       if (nbr.empty()) continue;
       angles.clear();
-      for (int o : nbr) angles.push_back(angle_between(R[slot[c]], R[slot[o]]));
+      for (int o : nbr) {
+        if (slot[o] < 0) throw Error(cat("check_admissibility: no rotation of cell ", o));
+        angles.push_back(angle_between(R[slot[c]], R[slot[o]]));
+      }
       const std::size_t n = angles.size(), k = n - n / 2 - 1;
       std::nth_element(angles.begin(), angles.begin() + static_cast<std::ptrdiff_t>(k),
                        angles.end());
@@ -270,14 +305,18 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
     r.cells_rotated = count_over_ranks(d, r.cells_rotated);
     extreme_over_ranks(d, r.rotation_jump, r.rotation_cell, true);
     if (r.cells_rotated > 0) {
-      const Eigen::MatrixXd E = cell_tensor(s.E, r.rotation_cell);
-      r.failures.push_back(cat(r.cells_rotated,
-                               " cells are on the rotated branch of the local strain step (4.6): "
-                               "their polar rotation differs by more than ",
-                               kRotationJumpDegrees,
-                               " degrees from most of their neighbours'; the worst is ",
-                               cell_where(mesh, r.rotation_cell), ", ", r.rotation_jump,
-                               " degrees, tr E = ", E.trace()));
+      // tr E of the worst cell, from the rank that holds it.
+      const auto it = std::lower_bound(held.begin(), held.end(), r.rotation_cell);
+      double trace = it != held.end() && *it == r.rotation_cell
+                         ? E_of(static_cast<int>(it - held.begin())).trace()
+                         : 0.0;
+      if (d.partial()) mpi::sum(&trace, 1);
+      r.failures.push_back(cat(
+          r.cells_rotated,
+          " cells are on the rotated branch of the local strain step (4.6): "
+          "their polar rotation differs by more than ",
+          kRotationJumpDegrees, " degrees from most of their neighbours'; the worst is ",
+          cell_where(mesh, r.rotation_cell), ", ", r.rotation_jump, " degrees, tr E = ", trace));
       const AlgorithmParams& a = pb.algorithm;
       r.remedies.push_back(cat(
           "R q = ", a.R * a.q, " Pa = ", a.R * a.q / d.split().C1,

@@ -115,12 +115,14 @@ void Solver::precompute(double R) {
   }
 }
 
-State Solver::initial_state() const {
+State Solver::initial_state(bool whole) const {
   const int dim = this->dim();
   const int n_points = disc_.points() ? disc_.points()->size() : 0;
   State s;
   s.u = disc_.dirichlet().value;
-  s.E = disc_.identity();
+  s.E = whole || !rows_between_steps()
+            ? disc_.identity()
+            : Eigen::MatrixXd(identity_rows(dim, static_cast<int>(disc_.held_cells().size())));
   s.lambda = 2 * disc_.split().C1 * s.E;
   s.e = Eigen::MatrixXd::Zero(n_points, dim);
   s.lambda_c = Eigen::MatrixXd::Zero(n_points, dim);
@@ -407,10 +409,11 @@ class Solver::Alg2Map final : public FixedPointMap {
     ++R_changes;
     return true;
   }
-  // Distributed, on the whole state gathered for the measure (when the stopping test is due).
+  // Distributed, on the state between steps made from the iterate (when the stopping test is
+  // due): u whole, E and lambda the rank's rows (or gathered with the replicated factor).
   double equilibrium_error() const override {
     return ltl::equilibrium_error(solver_.discretization(), solver_.external_load(),
-                                  solver_.dist_ ? solver_.whole(s_) : s_);
+                                  solver_.dist_ ? solver_.between_steps(s_) : s_);
   }
   int R_changes = 0;
 
@@ -426,9 +429,11 @@ class Solver::Alg2Map final : public FixedPointMap {
 // problem (newton.hpp). A Newton phase that fails goes back to ALG2's iterate, which goes on to
 // a switch 10 times smaller; after the third failure ALG2 runs to its own tolerance.
 //
-// Distributed, the iterations run on the rank's rows of E and lambda (own_rows): s's whole E and
-// lambda are released at the start of each ALG2 phase and gathered at its end (whole), so that
-// no iteration moves or holds a whole cell field.
+// Distributed, the iterations run on the rank's rows of E and lambda (own_rows): s's E and
+// lambda are released at the start of each ALG2 phase and at its end the state between steps is
+// made (between_steps: E and lambda stay on the rank's rows, u is made whole), so that no
+// iteration moves or holds a whole cell field. The Newton phase takes the whole state (whole),
+// which is cut to the rank's rows again before the step's measure (hold_rows).
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
@@ -445,7 +450,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     if (dist_) own = own_rows(s);
     drive(map, params, report, alg2_progress);
     if (dist_) {
-      s = whole(own);
+      s = newton_ ? whole(own) : between_steps(std::move(own));
       own = State();
     }
   };
@@ -490,6 +495,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       if (!stalled) to_switch /= 10;
     }
   }
+  hold_rows(s);  // after a Newton phase (whole): the state between steps
   const EquilibriumMeasure eq = equilibrium_measure(discretization(), external_load(), s);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;

@@ -85,8 +85,28 @@ class Solver {
   ~Solver();
 
   /// E = I, lambda = 2 C1 I (zero first Piola-Kirchhoff stress P = 2 C1 E - lambda), u = the
-  /// prescribed values, e = 0, beta = beta_0, lambda_c = 0.
-  State initial_state() const;
+  /// prescribed values, e = 0, beta = beta_0, lambda_c = 0. In the form of the state between
+  /// steps (below), or with `whole` every cell's E and lambda (as a results file stores them).
+  ///
+  /// The state between steps. A distributed solver on a discretization of the rank's cells
+  /// (Ranks::All, the default distributed KSP) keeps a state's E and lambda on the rank's rows
+  /// only, the rows of discretization().held_cells() in their order (Discretization::cell_row):
+  /// initial_state, solve_step, kept_copy / restore and the measures of lib/measures.hpp and
+  /// lib/admissibility.hpp (collective) take and give that form; u and the contact fields are
+  /// whole on every rank. whole_state() and writer_state() gather it. On one process, and with
+  /// the replicated factor, the state is whole, and this is the same thing.
+  State initial_state(bool whole = false) const;
+  /// Does a state between steps hold E and lambda on the rank's rows (above)?
+  bool rows_between_steps() const;
+  /// The whole state from a state between steps, on every rank (collective; a copy when it is
+  /// whole already).
+  State whole_state(const State& s) const;
+  /// The same on rank 0 alone, the results writer (collective): the other ranks get an empty
+  /// state, and no rank but the writer holds the whole E and lambda.
+  State writer_state(const State& s) const;
+  /// A whole state (a results file's, --resume, --init) made the state between steps: E and
+  /// lambda cut to the rank's rows (nothing when they are whole between steps).
+  void hold_rows(State& s) const;
 
   /// [LTL87 (2.1), (4.1)-(4.4) / (7.7)-(7.10)] Iterates from `state` (warm start) to
   /// convergence; beta_prev is beta at the previous time step. `progress` (may be null) is
@@ -116,11 +136,12 @@ class Solver {
   /// Nothing changes on one process.
   void set_whole_state_in_progress(bool on) { whole_in_progress_ = on; }
 
-  /// A copy of the whole state s to go back to (load subdivision, lib/simulation.cpp): in a
+  /// A copy of the state s to go back to (load subdivision, lib/simulation.cpp): in a
   /// distributed solver its E and lambda are the rank's rows only (as own_rows) and u the rank's
   /// block of the nodes (mpi::blocks), the contact fields whole; on one process a plain copy.
-  /// restore() makes s that state again, whole (collective when distributed); s's own fields are
-  /// released first, so that one whole state exists at a time.
+  /// restore() makes s that state again, in the form of the state between steps (collective
+  /// when distributed: u gathered); s's own fields are released first, so that one whole state
+  /// exists at a time.
   State kept_copy(const State& s) const;
   void restore(const State& kept, State& s) const;
 
@@ -250,14 +271,20 @@ class Solver {
   void sum_over_ranks(double* x, int n) const;
   /// The owned blocks of e, lambda_c and beta gathered (after each iteration).
   void gather_points(State& s) const;
-  /// The rank's rows of a whole per-cell field (the k-th of own_cells() at rows dim k).
+  /// The rank's rows of a per-cell field (the k-th of own_cells() at rows dim k), cut from a
+  /// whole field or copied from those rows.
   Eigen::MatrixXd rank_rows(const Eigen::MatrixXd& A) const;
-  /// Distributed: the iterate of the iterations from a whole state s, whose E and lambda are
-  /// released: the rank's rows of E and lambda (the k-th of own_cells() at rows dim k), u and the
-  /// contact fields whole (moved).
+  /// Distributed: the iterate of the iterations from a state s, whose E and lambda are
+  /// released: the rank's rows of E and lambda (the k-th of own_cells() at rows dim k; cut from
+  /// a whole s, moved from a state between steps on the rank's rows), u and the contact fields
+  /// whole (moved).
   State own_rows(State& s) const;
   /// The whole state from such an iterate (collective: E and lambda gathered from the ranks).
   State whole(const State& own) const;
+  /// The state between steps from such an iterate (collective): u made whole (the ghost layer's
+  /// solves leave other rows stale), E and lambda kept on the rank's rows when
+  /// rows_between_steps(), else gathered (whole()).
+  State between_steps(State own) const;
   /// E and lambda gathered from the rank's rows (collective), the contact fields copied; no u.
   State whole_cells(const State& rows) const;
 

@@ -260,6 +260,7 @@ void Solver::gather_points(State& s) const {
 
 Eigen::MatrixXd Solver::rank_rows(const Eigen::MatrixXd& A) const {
   const int dim = this->dim();
+  if (A.rows() != static_cast<Eigen::Index>(dim) * disc_.num_cells()) return A;  // the rows
   Eigen::MatrixXd own(dim * static_cast<Eigen::Index>(dist_->own.size()), dim);
   mpi::for_each_run(dist_->own, [&](int c0, int n, int at) {
     own.middleRows(dim * at, dim * n) = A.middleRows(dim * c0, dim * n);
@@ -269,10 +270,16 @@ Eigen::MatrixXd Solver::rank_rows(const Eigen::MatrixXd& A) const {
 
 State Solver::own_rows(State& s) const {
   State own;
-  own.E = rank_rows(s.E);
-  own.lambda = rank_rows(s.lambda);
-  s.E = Eigen::MatrixXd();
-  s.lambda = Eigen::MatrixXd();
+  const bool whole = s.E.rows() == static_cast<Eigen::Index>(dim()) * disc_.num_cells();
+  if (whole) {
+    own.E = rank_rows(s.E);
+    own.lambda = rank_rows(s.lambda);
+    s.E = Eigen::MatrixXd();
+    s.lambda = Eigen::MatrixXd();
+  } else {  // a state between steps on the rank's rows
+    own.E.swap(s.E);
+    own.lambda.swap(s.lambda);
+  }
   own.u.swap(s.u);
   own.e.swap(s.e);
   own.beta.swap(s.beta);
@@ -287,6 +294,12 @@ State Solver::whole(const State& own) const {
   return s;
 }
 
+State Solver::between_steps(State own) const {
+  if (!rows_between_steps()) return whole(own);
+  if (dist_->ksp) dist_->ksp->whole_u(own.u);  // after solves with a ghost layer
+  return own;
+}
+
 namespace {
 void copy_contact_fields(const State& from, State& to) {  // e, beta, lambda_c: whole
   to.e = from.e;
@@ -294,6 +307,37 @@ void copy_contact_fields(const State& from, State& to) {  // e, beta, lambda_c: 
   to.lambda_c = from.lambda_c;
 }
 }  // namespace
+
+bool Solver::rows_between_steps() const {
+  return dist_ && disc_.partial();
+}
+
+void Solver::hold_rows(State& s) const {
+  if (!rows_between_steps() || s.E.rows() != static_cast<Eigen::Index>(dim()) * disc_.num_cells())
+    return;  // held on the rows already
+  s.E = rank_rows(s.E);
+  s.lambda = rank_rows(s.lambda);
+}
+
+State Solver::whole_state(const State& s) const {
+  if (!rows_between_steps() || s.E.rows() == static_cast<Eigen::Index>(dim()) * disc_.num_cells())
+    return s;
+  State w = whole_cells(s);
+  w.u = s.u;
+  return w;
+}
+
+State Solver::writer_state(const State& s) const {
+  if (!rows_between_steps() || s.E.rows() == static_cast<Eigen::Index>(dim()) * disc_.num_cells())
+    return s;
+  State w;
+  mpi::gather_rows_to_writer(s.E, w.E, dist_->cells, dim());
+  mpi::gather_rows_to_writer(s.lambda, w.lambda, dist_->cells, dim());
+  if (mpi::rank() != 0) return State();
+  w.u = s.u;
+  copy_contact_fields(s, w);
+  return w;
+}
 
 State Solver::whole_cells(const State& rows) const {
   State s;
@@ -321,7 +365,13 @@ void Solver::restore(const State& kept, State& s) const {
     return;
   }
   const Distribution& d = *dist_;
-  s = whole_cells(kept);
+  if (rows_between_steps()) {  // E and lambda stay on the rank's rows
+    s.E = kept.E;
+    s.lambda = kept.lambda;
+    copy_contact_fields(kept, s);
+  } else {
+    s = whole_cells(kept);
+  }
   s.u.resize(disc_.num_nodes(), dim());
   s.u.middleRows(d.n0, d.n1 - d.n0) = kept.u;
   mpi::gather_rows(s.u, d.nodes, 1);

@@ -338,7 +338,12 @@ Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const 
 
 Eigen::MatrixXd Discretization::fluctuation_force(const State& s) const {
   Eigen::MatrixXd force = Eigen::MatrixXd::Zero(num_nodes(), dim());
-  if (mean_det_) fluctuation(s.u, &s.lambda, &s.E, nullptr, &force);
+  if (!mean_det_) return force;
+  // E and lambda on the held cells' rows (a rank's state between steps, cell_row): those cells'
+  // part, summed over the ranks (collective); whole: every cell here.
+  const bool rows = partial_ && s.E.rows() != static_cast<Eigen::Index>(dim()) * num_cells();
+  fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0, rows ? &held_ : nullptr);
+  if (rows) mpi::sum(force.data(), force.size());
   return force;
 }
 
@@ -416,35 +421,36 @@ Eigen::VectorXd Discretization::contact_gap(const State& s) const {
 }
 
 double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) const {
-  const int d = dim(), nc = num_cells();
+  const int d = dim();
   const Material& m = split_;
-  double J = 0;
-  for (int c = 0; c < nc; ++c) {
+  double J = 0;  // over the held cells (E whole or on their rows, cell_row)
+  for (int at = 0; at < static_cast<int>(held_.size()); ++at) {
+    const Eigen::Index r = cell_row(s.E, held_[at], at);
     if (d == 2)
-      J += cells_.vol(c) * m.W(Eigen::Matrix2d(s.E.block<2, 2>(2 * c, 0).transpose()));
+      J += cells_.vol(held_[at]) * m.W(Eigen::Matrix2d(s.E.block<2, 2>(r, 0).transpose()));
     else
-      J += cells_.vol(c) * m.W(Eigen::Matrix3d(s.E.block<3, 3>(3 * c, 0).transpose()));
+      J += cells_.vol(held_[at]) * m.W(Eigen::Matrix3d(s.E.block<3, 3>(r, 0).transpose()));
   }
   const Eigen::MatrixXd GU = cells_.Gbar * s.u;
   const double grad2 = (s.u.transpose() * (cells_.laplacian * s.u)).trace();
   const double mean2 = (GU.array().square().colwise() * volume_rows().array()).sum();
-  if (partial_) {  // the owned cells' parts of the gradient terms summed over the ranks
-    double parts[2] = {grad2, mean2};
-    mpi::sum(parts, 2);
-    return J + m.C1 * (parts[0] - parts[1]) - (F.array() * s.u.array()).sum();
+  if (partial_) {  // the held cells' parts summed over the ranks
+    double parts[3] = {J, grad2, mean2};
+    mpi::sum(parts, 3);
+    return parts[0] + m.C1 * (parts[1] - parts[2]) - (F.array() * s.u.array()).sum();
   }
   return J + m.C1 * (grad2 - mean2) - (F.array() * s.u.array()).sum();
 }
 
 Eigen::MatrixXd Discretization::held_cell_forces(
     const Eigen::MatrixXd& u,
-    const std::function<void(int c0, int n, Eigen::MatrixXd& T)>& stress) const {
+    const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress) const {
   const int d = dim();
   Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * u);
   Eigen::MatrixXd T;
-  mpi::for_each_run(held_, [&](int c0, int n, int) {
+  mpi::for_each_run(held_, [&](int c0, int n, int at) {
     T.noalias() = cells_.Gbar.middleRows(d * c0, d * n) * u;
-    stress(c0, n, T);
+    stress(c0, n, at, T);
     add_cell_forces(cells_, c0, n, T, f);
   });
   if (partial_) mpi::sum(f.data(), f.size());
@@ -472,7 +478,7 @@ Eigen::MatrixXd Discretization::energy_gradient(const Eigen::MatrixXd& u,
   Eigen::MatrixXd g;
   if (partial_) {  // the held cells' part, run by run (no GbarT_vol), summed over the ranks
     Eigen::MatrixXd P;
-    g = held_cell_forces(u, [&](int, int n, Eigen::MatrixXd& T) {
+    g = held_cell_forces(u, [&](int, int n, int, Eigen::MatrixXd& T) {
       P.resize(T.rows(), T.cols());
       piola(n, T, P);
       T = P - 2 * m.C1 * T;

@@ -45,6 +45,14 @@ class Discretization {
   /// partial().
   const std::vector<int>& held_cells() const { return held_; }
   bool partial() const { return partial_; }
+  /// The first row of held cell `cell`'s block (dim rows) in a per-cell field like State::E:
+  /// the field is whole (dim #cells rows, the cell's block at dim cell) or the held cells' rows
+  /// (dim #held rows in the order of held_cells(), the cell's block at dim at, `at` its position
+  /// there: the state between steps of a distributed solver, alg2.hpp). On a discretization of
+  /// every cell the two coincide; on some cells their row counts tell them apart.
+  Eigen::Index cell_row(const Eigen::MatrixXd& field, int cell, int at) const {
+    return static_cast<Eigen::Index>(dim()) * (field.rows() == dim() * num_cells() ? cell : at);
+  }
 
   /// The material as split between the global and the local steps (2.5)-(2.6):
   /// problem().material, except that in plane strain with DiscretizationChoice::c2_pointwise the
@@ -140,12 +148,13 @@ class Discretization {
   Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u, const Eigen::MatrixXd& F) const;
   /// [(2.7), (4.1)] The nodal forces 2 C1 L u + sum_e |O_e| T_e : Gbar_e over the held cells,
   /// summed over the MPI ranks when partial() (collective): run by run through add_cell_forces,
-  /// with no per-cell array of the whole mesh. `stress(c0, n, T)` turns T, Gbar u on the cells
-  /// c0 .. c0 + n - 1 ((dim n) x dim), into their T_e in place. The sum over cells of
-  /// energy_gradient and of measures.cpp's equilibrium residual on a rank's cells.
+  /// with no per-cell array of the whole mesh. `stress(c0, n, at, T)` turns T, Gbar u on the
+  /// cells c0 .. c0 + n - 1 ((dim n) x dim, at `at` in held_cells()), into their T_e in place.
+  /// The sum over cells of energy_gradient and of measures.cpp's equilibrium residual on a
+  /// rank's cells.
   Eigen::MatrixXd held_cell_forces(
       const Eigen::MatrixXd& u,
-      const std::function<void(int c0, int n, Eigen::MatrixXd& T)>& stress) const;
+      const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress) const;
   /// The elastic and load part of the discrete functional J_p (2.2) at a state, load F:
   ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - F.u
   double elastic_energy(const State& s, const Eigen::MatrixXd& F) const;

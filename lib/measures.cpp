@@ -194,10 +194,12 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   if (d.partial()) {
     // The held cells' part, run by run with Gbar^T |O_e| in place of GbarT_vol (no per-cell
     // array of the whole mesh), summed over the ranks (collective):
-    //   Gbar^T |O_e| [2 C1 (E - Gbar u) - lambda] + 2 C1 L u.
+    //   Gbar^T |O_e| [2 C1 (E - Gbar u) - lambda] + 2 C1 L u,
+    // E and lambda whole or on the held cells' rows (Discretization::cell_row).
     const int dim = d.dim();
-    r = d.held_cell_forces(s.u, [&](int c0, int n, Eigen::MatrixXd& T) {
-      T = 2 * C1 * (s.E.middleRows(dim * c0, dim * n) - T) - s.lambda.middleRows(dim * c0, dim * n);
+    r = d.held_cell_forces(s.u, [&](int c0, int n, int at, Eigen::MatrixXd& T) {
+      const Eigen::Index row = d.cell_row(s.E, c0, at);
+      T = 2 * C1 * (s.E.middleRows(row, dim * n) - T) - s.lambda.middleRows(row, dim * n);
     });
     r -= f_ext;
   } else {
@@ -234,10 +236,16 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
   m.force_residual = residual_free_and_fixed(d, f_ext, s).free / (load > 0 ? load : 1.0);
   if (d.problem().material.incompressible()) {
     // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
-    // On a rank's cells (a discretization of some cells), the largest over the ranks.
+    // On a rank's cells (a discretization of some cells), the largest over the ranks; E whole
+    // or on the held cells' rows (Discretization::cell_row).
     const Eigen::VectorXd c = d.fluctuation_det(s.u);
-    for (int e : d.held_cells())
-      m.det_error = std::max(m.det_error, std::abs(cell_tensor(s.E, e).determinant() + c(e) - 1));
+    const std::vector<int>& held = d.held_cells();
+    const int dim = d.dim();
+    for (int at = 0; at < static_cast<int>(held.size()); ++at) {
+      const int e = held[at];
+      const double det = s.E.block(d.cell_row(s.E, e, at), 0, dim, dim).determinant();
+      m.det_error = std::max(m.det_error, std::abs(det + c(e) - 1));
+    }
     if (d.partial()) mpi::max(&m.det_error, 1);
   }
   if (d.points()) m.penetration = std::max(0.0, max_penetration(d, s));
@@ -283,12 +291,13 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   // The cells whose Gbar this rank holds (all unless partial), run by run (Gbar u of the run),
   // the largest over the ranks.
   Eigen::MatrixXd GU;
-  mpi::for_each_run(d.held_cells(), [&](int c0, int n, int) {
+  mpi::for_each_run(d.held_cells(), [&](int c0, int n, int at) {
     GU.noalias() = d.cells().Gbar.middleRows(dim * c0, dim * n) * s.u;
+    const Eigen::Index row = d.cell_row(s.E, c0, at);  // E whole or on the held cells' rows
     for (int k = 0; k < n; ++k) {
       const int e = c0 + k;
       const Small F = I + GU.middleRows(dim * k, dim);
-      err = std::max(err, (F - s.E.middleRows(dim * e, dim)).cwiseAbs().maxCoeff());
+      err = std::max(err, (F - s.E.middleRows(row + dim * k, dim)).cwiseAbs().maxCoeff());
       if (incompressible) err = std::max(err, std::abs(F.determinant() + c(e) - 1));
     }
   });

@@ -64,6 +64,11 @@ void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Parti
 
 #ifndef LTL_HAVE_MPI
 
+void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole,
+                           const Partition& part, int m) {
+  gather_rows(own, whole, part, m);
+}
+
 bool built() {
   return false;
 }
@@ -296,6 +301,48 @@ void gather_rows(Eigen::MatrixXd& A, const Partition& part, int rows_per_item) {
 void gather_rows(Eigen::VectorXd& v, const Partition& part) {
   if (v.size() == 0) return;
   gather_columns(v.data(), v.size(), 1, part.offset, 1, &part.order);
+}
+
+void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole,
+                           const Partition& part, int m) {
+  if (!up || size_ == 1) return gather_rows(own, whole, part, m);
+  const auto t0 = clock_type::now();
+  const int P = size_;
+  const bool writer = rank_ == 0;
+  counts_.resize(P);
+  displs_.resize(P);
+  long total = 0;
+  for (int r = 0; r < P; ++r) {
+    counts_[r] = m * (part.offset[r + 1] - part.offset[r]);
+    displs_[r] = static_cast<int>(total);
+    total += counts_[r];
+  }
+  if (own.rows() != counts_[rank_])
+    throw Error(cat("gather_rows_to_writer: ", own.rows(), " rows on rank ", rank_, " for ",
+                    counts_[rank_], " (", m, " per item)"));
+  if (writer)
+    whole.resize(total, own.cols()), recv_.resize(total);
+  else
+    whole = Eigen::MatrixXd();
+  // Each column of `own` is the rank's items in their order: sent as it is; the writer puts
+  // every rank's runs of items in place.
+  for (Eigen::Index k = 0; k < own.cols(); ++k) {
+    check(MPI_Gatherv(own.data() + k * own.rows(), counts_[rank_], MPI_DOUBLE, recv_.data(),
+                      counts_.data(), displs_.data(), MPI_DOUBLE, 0, MPI_COMM_WORLD),
+          "MPI_Gatherv");
+    if (!writer) continue;
+    for (int r = 0; r < P; ++r)
+      for_each_run(part.order.data() + part.offset[r], part.order.data() + part.offset[r + 1],
+                   [&](int first, int n, int at) {
+                     std::memcpy(whole.data() + k * whole.rows() + static_cast<long>(m) * first,
+                                 recv_.data() + displs_[r] + static_cast<long>(m) * at,
+                                 sizeof(double) * m * n);
+                   });
+  }
+  std::vector<double>().swap(recv_);
+  if (writer) traffic_.bytes += 8.0 * own.cols() * (total - counts_[rank_]);
+  traffic_.calls += 1;
+  traffic_.seconds += seconds_since(t0);
 }
 
 double petsc_bytes_received() {

@@ -96,6 +96,12 @@ void gather_rows(Eigen::VectorXd& v, const Partition& part);
 void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part,
                  int rows_per_item);
 
+/// The same to rank 0 alone (the results writer): there `whole` gets every item's rows; on the
+/// other ranks it is released (left empty), so that no rank but the writer holds the whole array.
+/// Column by column, like the gathers above.
+void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole,
+                           const Partition& part, int rows_per_item);
+
 /// What our collectives moved since the start: bytes received (payload), calls, wall seconds.
 struct Traffic {
   double bytes = 0, calls = 0, seconds = 0;

@@ -80,9 +80,12 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   // E = Fbar(u) (2.7), (3.3); lambda from the law at Fbar with the pressure of the source cell
   // that contains the cell's centroid (4.6).
   // A discretization of some cells (a rank's cells under mpirun, paper_notes/mpi.md) has the
-  // mean gradients of its cells only: each rank computes its cells, then they are gathered.
+  // mean gradients of its cells only: each rank computes its cells, on its rows of E and lambda
+  // (the state between steps, Solver::initial_state; Discretization::cell_row).
   const Eigen::MatrixXd GU = disc.cells().Gbar * s.u;
-  for (int e : disc.held_cells()) {
+  const std::vector<int>& held = disc.held_cells();
+  for (int at = 0; at < static_cast<int>(held.size()); ++at) {
+    const int e = held[at];
     Eigen::MatrixXd F = GU.block(d * e, 0, d, d).transpose();
     F.diagonal().array() += 1.0;
     double p = 0;
@@ -95,14 +98,11 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
       out.clamped_centroids += !hit.inside();
       p = law.pressure(cell_tensor(src.E, hit.cell), cell_tensor(src.lambda, hit.cell));
     }
-    s.E.block(d * e, 0, d, d) = F.transpose();
-    s.lambda.block(d * e, 0, d, d) = law.multiplier(F, p).transpose();
+    const Eigen::Index row = disc.cell_row(s.E, e, at);
+    s.E.block(row, 0, d, d) = F.transpose();
+    s.lambda.block(row, 0, d, d) = law.multiplier(F, p).transpose();
   }
-  if (disc.partial()) {  // the Solver's partition: the discretization holds the rank's cells
-    const mpi::Partition* cells = solver.cell_partition();
-    if (!cells) throw Error(cat(key, ": a discretization of some cells in a solver on one rank"));
-    mpi::gather_rows(s.E, *cells, d);
-    mpi::gather_rows(s.lambda, *cells, d);
+  if (disc.partial()) {
     double clamped = out.clamped_centroids;
     mpi::sum(&clamped, 1);
     out.clamped_centroids = static_cast<int>(clamped);

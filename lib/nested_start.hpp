@@ -28,7 +28,7 @@ namespace ltl {
 
 /// How a nested start went, for the console and the tests.
 struct NestedStart {
-  State state;
+  State state;         ///< the state between steps of the solver (Solver::initial_state)
   std::string source;  ///< the results file
   int source_step = 0, source_cells = 0;
   double source_load_factor = 1;  ///< the source step's load factor (1 if the file has none)

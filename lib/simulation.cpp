@@ -99,15 +99,26 @@ void add_fields(const Solver& solver, const State& state, StepData& d) {
 /// definition each (Discretization::stresses), the contact pressure and gap. Without `fields`
 /// the measures only: a rank that writes nothing (under mpirun, every rank but 0) computes the
 /// measures, which are sums over the ranks' cells (collective), and no field of the whole mesh.
-StepData step_data(const Solver& solver, const TimeStep& step, bool fields = true) {
+/// Under mpirun the state between steps holds E and lambda on each rank's rows: they are
+/// gathered to rank 0 alone into `gathered` (collective, Solver::writer_state), the state the
+/// data points to there.
+StepData step_data(const Solver& solver, const TimeStep& step, bool fields, State& gathered) {
   const Problem& problem = solver.problem();
   const State& state = *step.state;
   StepData d;
   d.p = step.p;
   d.t = step.p * problem.time.dt;
   d.state = &state;
+  if (solver.rows_between_steps()) {
+    gathered = solver.writer_state(state);
+    d.state = &gathered;
+    if (fields && mpi::rank() != 0)
+      throw Error(
+          "under mpirun only rank 0 writes the results file: give the output path to rank "
+          "0 alone (as ltl_run does)");
+  }
   d.report = &step.report;
-  if (fields) add_fields(solver, state, d);
+  if (fields) add_fields(solver, *d.state, d);
   // Every measure of the step (lib/measures.hpp), one definition each.
   const StepMeasures m = step_measures(solver.discretization(), state);
   d.measures = stored_measures(m, problem.mesh.dim);
@@ -254,7 +265,10 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   }
   // A converged state must also be a physical one (lib/admissibility.hpp); one that is not is
   // reported like a divergence (ResultsWriter::append).
-  if (state.u.allFinite() && state.E.allFinite()) {
+  // (Under mpirun each rank holds its rows of E: the ranks agree before the collective check.)
+  double not_finite = state.u.allFinite() && state.E.allFinite() ? 0 : 1;
+  if (solver.rows_between_steps()) mpi::max(&not_finite, 1);
+  if (not_finite == 0) {
     step.admissibility = check_admissibility(solver.discretization(), state);
     report.det_min = step.admissibility.det_F_min;
     if (report.converged && !step.admissibility.admissible()) {
@@ -436,7 +450,9 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
       options_(options),
       ids_(identity(solver.problem())),
       file_(std::make_unique<File>()),
-      start_(solver.initial_state()) {
+      // Whole when a file's state replaces it (--resume: its shapes are a file's; --init), cut
+      // to the rank's rows at the end.
+      start_(solver.initial_state(options.resume || !options.init.empty())) {
   const Problem& problem = problem_;
   summary_.setup_seconds = solver.setup_seconds();
   // Under mpirun only rank 0 has the results file (ltl_run): it reads the resume point, and the
@@ -519,6 +535,9 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
                     problem.name.c_str(), nested.source_load_factor, f1);
     }
   }
+  // Under mpirun: the state between steps, E and lambda on the rank's rows (Solver::hold_rows).
+  solver.hold_rows(start_);
+  if (resume_iterate_) solver.hold_rows(*resume_iterate_);
   first_ = p0;
   const int P = problem.time.steps;
   last_ = options.stop_after > 0 && options.stop_after <= P - p0 ? p0 + options.stop_after - 1 : P;
@@ -579,22 +598,27 @@ void ResultsWriter::append(const TimeStep& step) {
     // A discretization of some cells (a rank's) sums its measures over the ranks: every
     // rank computes the step's data, rank 0 writes it.
     if (!saved.empty() || solver.discretization().partial()) {
-      const StepData data = step_data(solver, step, !saved.empty());
+      State gathered;
+      const StepData data = step_data(solver, step, !saved.empty(), gathered);
       if (!saved.empty()) file->save_unconverged(data, msg);
     } else if (file)
       file->set_status(msg);
+    // Every rank of a distributed solver reaches this divergence together: the others wait here
+    // until rank 0 has saved, for ltl_run ends them all (MPI_Abort) as soon as one of them throws.
+    if (solver.distributed()) mpi::barrier();
     throw Error(cat(
         problem.name, ": ", msg, file && p > 1 ? cat("; ", output, " keeps steps 1..", p - 1) : "",
         ".",
         unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor(), step)));
   }
   std::optional<StepData> data;  // collective with a partial discretization (above)
-  if (solver.discretization().partial()) data = step_data(solver, step, !output.empty());
+  State gathered;
+  if (solver.discretization().partial()) data = step_data(solver, step, !output.empty(), gathered);
   if (!output.empty()) {
     const bool existed = file.has_value();
     try {
       if (!file) create_file();
-      if (!data) data = step_data(solver, step);
+      if (!data) data = step_data(solver, step, true, gathered);
       file->append(*data, p == P ? "complete" : "running");
     } catch (const Error& e) {
       // A write that fails (a full disk) keeps the previous file whole; its status must not say

@@ -43,7 +43,9 @@ struct RunSummary {
   std::vector<int> iterations;        ///< per computed step
   double solver_seconds = 0;          ///< time in the iterations (not setup or output)
   double setup_seconds = 0;           ///< discretization, assembly and factorization
-  State state;                        ///< the last converged state
+  /// The last converged state; under mpirun the state between steps (Solver::initial_state),
+  /// E and lambda on the rank's rows: Solver::whole_state gathers it.
+  State state;
   /// Load subdivision (solve_time_step): per computed step the number of substeps it took (1:
   /// the full increment converged), and the failed attempts of the whole run.
   std::vector<int> substeps;
@@ -196,7 +198,8 @@ class ResultsWriter {
 /// {E, e, beta, lambda, lambda_c}, keep beta_{p-1} for the dissipation, iterate to
 /// convergence. A step that does not converge ends the run with an Error (nothing is written
 /// for that step; an existing results file is marked "diverged at step p").
-/// `on_step` (optional) sees every converged step. The composition of the pieces above, then
+/// `on_step` (optional) sees every converged step (the state between steps, Solver::initial_state).
+/// The composition of the pieces above, then
 /// one summary line (verbosity > 0).
 RunSummary run(Solver& solver, const RunOptions& options,
                const std::function<void(const Solver&, int, const State&)>& on_step = {});

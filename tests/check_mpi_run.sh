@@ -6,7 +6,8 @@
 # same first step, on 1 rank: step 2 takes the serial iteration count and ends within 1e-8 of the
 # serial u (relative), in both files. --init (the nested start) under mpirun -n 2, with plain
 # ALG2 and with the Newton phase, ends within 1e-8 of one process. --checkpoint: a serial
-# run stopped in its step resumes on 2 ranks from its checkpoint, the counts adding up.
+# run stopped in its step resumes on 2 ranks from its checkpoint, the counts adding up. A step
+# that diverges under mpirun leaves its last iterate in the file (rank 0 writes it).
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -102,6 +103,15 @@ before=$(sed -n 's/.*continues from its checkpoint, saved after \([0-9]\+\) iter
 after=$(grep '^step' "$tmp/k.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1/')
 echo "Fig 5 stopped after the checkpoint of iteration $before, resumed on 2 ranks for $after; uninterrupted $full"
 [ -n "$before" ] && [ $((before + after)) = "$full" ] || fail "checkpoint resumed on 2 ranks: $before + $after, not $full"
+# A step that diverges under mpirun (the iteration cap): rank 0 saves its last iterate as
+# /unconverged/000001 before every rank ends (the ranks wait for it: a failing rank ends them all).
+if "$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --set time.steps=1 --set algorithm.max_iter=5 \
+  -o "$tmp/d.h5" > /dev/null 2> "$tmp/d.err"; then
+  fail "a diverging run under mpirun exited 0"
+fi
+grep -q "last iterate are saved in" "$tmp/d.err" || fail "a diverging run under mpirun: $(cat "$tmp/d.err")"
+/usr/bin/python3 -c 'import sys, h5py; sys.exit(0 if "000001" in h5py.File(sys.argv[1])["unconverged"] else 1)' \
+  "$tmp/d.h5" || fail "no /unconverged/000001 in the file of a diverging run under mpirun"
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"

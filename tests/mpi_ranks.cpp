@@ -52,7 +52,7 @@ Outcome solve(const std::string& config, const std::vector<std::string>& overrid
   RunOptions options;
   options.verbosity = 0;
   const RunSummary summary = run(solver, options);
-  return {summary.state, summary.iterations};
+  return {solver.whole_state(summary.state), summary.iterations};
 }
 
 /// The fingerprint of a state: every byte of u, E, lambda, e, beta, lambda_c.
@@ -142,6 +142,7 @@ NewtonOutcome newton_step(const std::string& config, std::vector<std::string> ov
   const Eigen::VectorXd beta_prev = out.state.beta;
   const NewtonSolveStats before = newton_solve_stats();
   out.report = solver.solve_step(out.state, beta_prev);
+  out.state = solver.whole_state(out.state);
   const NewtonSolveStats& after = newton_solve_stats();
   out.solves.cholmod_factorizations = after.cholmod_factorizations - before.cholmod_factorizations;
   out.solves.umfpack_factorizations = after.umfpack_factorizations - before.umfpack_factorizations;
@@ -324,7 +325,7 @@ void expect_same_iterates(const std::string& global_solver) {
     const Eigen::VectorXd beta_prev = s.beta;
     const StepReport r = solver.solve_step(s, beta_prev);
     EXPECT_EQ(r.iterations, kCapped);
-    return s;
+    return solver.whole_state(s);
   };
   const State serial = capped(Ranks::One);
   ov.push_back("algorithm.global_solver=\"" + global_solver + "\"");
@@ -448,38 +449,54 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   const int last = p.mesh.num_cells() - 1;
   s.E.middleRows(0, 3) = s.E.middleRows(3 * last, 3) = -2 * Eigen::Matrix3d::Identity();
   for (Eigen::MatrixXd* m : {&s.u, &s.E, &s.lambda}) mpi::broadcast(m->data(), m->size());
+  // The same state between steps: E and lambda on the rank's rows (Solver::hold_rows).
+  State rows = s;
+  dist.hold_rows(rows);
+  const int nh = static_cast<int>(dist.discretization().held_cells().size());
+  EXPECT_EQ(rows.E.rows(), 3 * nh);
   const AdmissibilityReport a = check_admissibility(serial.discretization(), s);
-  const AdmissibilityReport b = check_admissibility(dist.discretization(), s);
   EXPECT_GT(a.cells_inverted, 0);
   EXPECT_GT(a.cells_rotated, 0);
   EXPECT_EQ(a.det_E_min, -8);
   EXPECT_EQ(a.det_E_cell, 0);
-  EXPECT_EQ(b.det_F_min, a.det_F_min);
-  EXPECT_EQ(b.det_F_cell, a.det_F_cell);
-  EXPECT_EQ(b.cells_inverted, a.cells_inverted);
-  EXPECT_EQ(b.det_E_min, a.det_E_min);
-  EXPECT_EQ(b.det_E_cell, a.det_E_cell);
-  EXPECT_EQ(b.rotation_jump, a.rotation_jump);
-  EXPECT_EQ(b.rotation_cell, a.rotation_cell);
-  EXPECT_EQ(b.cells_rotated, a.cells_rotated);
-  EXPECT_EQ(b.failures, a.failures);
+  for (const State* t : {&s, &rows}) {
+    const AdmissibilityReport b = check_admissibility(dist.discretization(), *t);
+    EXPECT_EQ(b.det_F_min, a.det_F_min);
+    EXPECT_EQ(b.det_F_cell, a.det_F_cell);
+    EXPECT_EQ(b.cells_inverted, a.cells_inverted);
+    EXPECT_EQ(b.det_E_min, a.det_E_min);
+    EXPECT_EQ(b.det_E_cell, a.det_E_cell);
+    EXPECT_EQ(b.rotation_jump, a.rotation_jump);
+    EXPECT_EQ(b.rotation_cell, a.rotation_cell);
+    EXPECT_EQ(b.cells_rotated, a.cells_rotated);
+    EXPECT_EQ(b.failures, a.failures);
+  }
   const Eigen::MatrixXd& F = serial.external_load();
   const EquilibriumMeasure ma = equilibrium_measure(serial.discretization(), F, s);
-  const EquilibriumMeasure mb = equilibrium_measure(dist.discretization(), F, s);
   EXPECT_GT(ma.det_error, 0);
-  EXPECT_EQ(mb.det_error, ma.det_error);
-  EXPECT_EQ(mb.det_min, ma.det_min);
-  const State kept = dist.kept_copy(s);
+  const double energy = serial.energy(s, s.beta);
+  for (const State* t : {&s, &rows}) {
+    const EquilibriumMeasure mb = equilibrium_measure(dist.discretization(), F, *t);
+    EXPECT_EQ(mb.det_error, ma.det_error);
+    EXPECT_EQ(mb.det_min, ma.det_min);
+    EXPECT_NEAR(mb.force_residual, ma.force_residual, 1e-12 * ma.force_residual);
+    EXPECT_NEAR(dist.energy(*t, t->beta), energy, 1e-12 * std::abs(energy));
+    const double err = equilibrium_error(serial.discretization(), F, s);
+    EXPECT_NEAR(equilibrium_error(dist.discretization(), F, *t), err, 1e-12 * err);
+  }
+  const State kept = dist.kept_copy(rows);
   const std::vector<int> cells = slab_cells(p.mesh, mpi::size()).items(mpi::rank());
   EXPECT_EQ(kept.E.rows(), 3 * static_cast<Eigen::Index>(cells.size()));
   EXPECT_EQ(kept.lambda.rows(), kept.E.rows());
   const std::vector<int> nodes = mpi::blocks(p.mesh.num_nodes(), mpi::size());
   EXPECT_EQ(kept.u.rows(), nodes[mpi::rank() + 1] - nodes[mpi::rank()]);
   State back;
-  dist.restore(kept, back);
-  EXPECT_EQ(back.E, s.E);
-  EXPECT_EQ(back.lambda, s.lambda);
+  dist.restore(kept, back);  // the state between steps again: the rank's rows
+  EXPECT_EQ(back.E, rows.E);
+  EXPECT_EQ(back.lambda, rows.lambda);
   EXPECT_EQ(back.u, s.u);
+  EXPECT_EQ(dist.whole_state(back).E, s.E);
+  EXPECT_EQ(dist.whole_state(back).lambda, s.lambda);
   if (mpi::rank() == 0)
     std::cout << "coarse gutter, " << mpi::size() << " rank(s): " << a.cells_inverted
               << " cells inverted, " << a.cells_rotated << " turned; det F min " << a.det_F_min
@@ -516,6 +533,7 @@ TEST(Mpi, Eq1_5_LoadSubdivisionOnTheRanksIsTheSerialOne) {
   EXPECT_NE(sb.attempts[0].status.find("inadmissible"), std::string::npos) << sb.attempts[0].status;
   const double rel = relative(b.u, a.u);
   EXPECT_LE(rel, 1e-8);
+  EXPECT_LE(relative(dist.whole_state(b).lambda, a.lambda), 1e-8);
   if (mpi::rank() == 0) std::cout << "block at 60 %, " << mpi::size() << " rank(s): attempts";
   for (const StepAttempt& t : sb.attempts)
     if (mpi::rank() == 0)
@@ -563,8 +581,21 @@ TEST(Mpi, Eq4_1to4_4_NoIterationMovesACellField) {
   const double per_cell = serial.holdings().cell_arrays / nc;
   EXPECT_LE(dist.holdings().cell_arrays, per_cell * own + 4.0 * (nc + own) + 64)
       << "rank " << mpi::rank();
-  EXPECT_EQ(s.E.rows(), dim * nc);  // the whole state again after the step
-  EXPECT_TRUE(same_on_every_rank(s));
+  // The state between steps: E and lambda on the rank's rows (whole on one rank), gathered whole
+  // on every rank by whole_state and on rank 0 alone by writer_state.
+  EXPECT_EQ(s.E.rows(), dim * own);
+  EXPECT_EQ(s.lambda.rows(), dim * own);
+  const State whole = dist.whole_state(s), written = dist.writer_state(s);
+  EXPECT_EQ(whole.E.rows(), dim * nc);
+  EXPECT_TRUE(same_on_every_rank(whole));
+  if (mpi::rank() == 0) {
+    EXPECT_EQ(written.E, whole.E);
+    EXPECT_EQ(written.lambda, whole.lambda);
+    EXPECT_EQ(written.u, whole.u);
+  } else {
+    EXPECT_EQ(written.E.size(), 0);
+    EXPECT_EQ(written.lambda.size(), 0);
+  }
   if (mpi::rank() == 0)
     std::cout << "gutter of " << nc << " cells on " << mpi::size() << " rank(s): " << per_it
               << " B per iteration into rank 0 (bound " << bound << "), cell arrays "
@@ -639,6 +670,7 @@ TEST(Mpi, RankZeroWritesTheResultsFile) {
   options.verbosity = 0;
   if (mpi::rank() == 0) options.output = path;
   const RunSummary summary = run(solver, options);
+  const State whole = solver.whole_state(summary.state);
   mpi::barrier();
   if (mpi::rank() == 0) {
     const auto stored = ResultsFile::read_last_step(path);
@@ -646,10 +678,12 @@ TEST(Mpi, RankZeroWritesTheResultsFile) {
     if (stored) {
       EXPECT_EQ(stored->p, 2);
       EXPECT_EQ(stored->iterations, summary.iterations.back());
-      EXPECT_EQ((stored->state.u - summary.state.u).cwiseAbs().maxCoeff(), 0.0);
+      EXPECT_EQ((stored->state.u - whole.u).cwiseAbs().maxCoeff(), 0.0);
+      EXPECT_EQ(stored->state.E, whole.E);
+      EXPECT_EQ(stored->state.lambda, whole.lambda);
     }
   }
-  EXPECT_TRUE(same_on_every_rank(summary.state));
+  EXPECT_TRUE(same_on_every_rank(whole));
 }
 
 /// Only rank 0 prints GoogleTest's report; the other ranks print their failures alone.
