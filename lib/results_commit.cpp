@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -146,28 +147,36 @@ std::pair<std::uint64_t, std::uint64_t> checksum(const char* data, std::size_t n
   return {s1, s2};
 }
 
-/// The byte ranges in which `next` differs from `prev`, by pages of 4 KiB, adjacent pages
-/// merged, and what `next` adds past the end of `prev`.
-std::vector<Range> changed_ranges(const std::vector<char>& prev, const std::vector<char>& next) {
+/// The byte ranges in which `next` differs from the file `fd` of prev_size bytes (mapped: no
+/// copy of the previous image is kept in memory), by pages of 4 KiB, adjacent pages merged, and
+/// what `next` adds past the end of the file. nullopt when the file cannot be mapped.
+std::optional<std::vector<Range>> changed_ranges(int fd, std::size_t prev_size,
+                                                 const std::vector<char>& next) {
   constexpr std::size_t page = 4096;
   std::vector<Range> out;
-  const std::size_t common = std::min(prev.size(), next.size());
-  for (std::size_t at = 0; at < common; at += page) {
-    const std::size_t n = std::min(page, common - at);
-    if (std::memcmp(prev.data() + at, next.data() + at, n) == 0) continue;
-    if (!out.empty() && out.back().offset + out.back().length == at)
-      out.back().length += n;
-    else
-      out.push_back({at, n});
+  const std::size_t common = std::min(prev_size, next.size());
+  if (common > 0) {
+    void* mapped = ::mmap(nullptr, prev_size, PROT_READ, MAP_SHARED, fd, 0);
+    if (mapped == MAP_FAILED) return std::nullopt;
+    const char* prev = static_cast<const char*>(mapped);
+    for (std::size_t at = 0; at < common; at += page) {
+      const std::size_t n = std::min(page, common - at);
+      if (std::memcmp(prev + at, next.data() + at, n) == 0) continue;
+      if (!out.empty() && out.back().offset + out.back().length == at)
+        out.back().length += n;
+      else
+        out.push_back({at, n});
+    }
+    ::munmap(mapped, prev_size);
   }
   if (next.size() > common) out.push_back({common, next.size() - common});
   return out;
 }
 
-std::vector<char> journal_bytes(const std::vector<char>& prev, const std::vector<char>& next,
+std::vector<char> journal_bytes(std::size_t prev_size, const std::vector<char>& next,
                                 const std::vector<Range>& ranges) {
   std::vector<char> j(kJournalHead, kJournalHead + 8);
-  put_u64(j, prev.size());
+  put_u64(j, prev_size);
   put_u64(j, next.size());
   put_u64(j, ranges.size());
   for (const Range& r : ranges) {
@@ -362,7 +371,7 @@ h5::Handle open_committed(const std::string& path) {
 CommittedFile::CommittedFile(CommittedFile&& o) noexcept
     : path_(std::move(o.path_)),
       file_(std::exchange(o.file_, -1)),
-      committed_(std::move(o.committed_)),
+      committed_size_(o.committed_size_),
       fresh_(o.fresh_) {}
 
 CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
@@ -370,7 +379,7 @@ CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
     discard();
     path_ = std::move(o.path_);
     file_ = std::exchange(o.file_, -1);
-    committed_ = std::move(o.committed_);
+    committed_size_ = o.committed_size_;
     fresh_ = o.fresh_;
   }
   return *this;
@@ -386,7 +395,7 @@ hid_t CommittedFile::create() {
          "cannot create the file (does its directory exist, is it writable, is the file "
          "open elsewhere?)");
   fresh_ = true;
-  committed_.clear();
+  committed_size_.reset();
   return static_cast<hid_t>(file_);
 }
 
@@ -394,19 +403,35 @@ hid_t CommittedFile::begin() {
   if (file_ >= 0) return static_cast<hid_t>(file_);
   h5::quiet();
   struct stat st {};
-  if (::lstat(journal_path_of(path_).c_str(), &st) == 0) {
-    recover(path_);
-    committed_.clear();
-  }
-  if (committed_.empty()) committed_ = *read_file(path_, false);
-  if (committed_.empty()) fail(path_, "is empty, not a results file");
-  // Opened in memory from the image (the core driver without a backing store writes nothing to
-  // disk); the name given to H5Fopen must not exist, so a stale working file is removed first.
+  if (::lstat(journal_path_of(path_).c_str(), &st) == 0) recover(path_);
+  // Opened in memory from the image on disk (the core driver without a backing store writes
+  // nothing to disk); the name given to H5Fopen must not exist, so a stale working file is
+  // removed first. The image read is released once the property list holds HDF5's copy of it,
+  // so that at most two images are in memory (and none between changes).
   const std::string work = path_ + ".partial";
   if (::lstat(work.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) ::unlink(work.c_str());
   h5::Handle fapl = h5::memory_access(path_);
-  h5::ok(H5Pset_file_image(fapl.get(), committed_.data(), committed_.size()), path_,
-         "cannot load the file into memory");
+  {  // mapped, not read: HDF5 copies the pages of the page cache, no buffer of ours is filled
+    const int fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) fail(path_, cat("cannot open the results file: ", errno_text(errno)));
+    struct stat fs {};
+    if (::fstat(fd, &fs) != 0 || !S_ISREG(fs.st_mode)) {
+      ::close(fd);
+      fail(path_, "is not a regular file");
+    }
+    const std::size_t size = static_cast<std::size_t>(fs.st_size);
+    if (size == 0) {
+      ::close(fd);
+      fail(path_, "is empty, not a results file");
+    }
+    void* image = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+    ::close(fd);
+    if (image == MAP_FAILED) fail(path_, cat("cannot map the file: ", errno_text(errno)));
+    const herr_t set = H5Pset_file_image(fapl.get(), image, size);
+    ::munmap(image, size);
+    h5::ok(set, path_, "cannot load the file into memory");
+    committed_size_ = size;
+  }
   file_ = H5Fopen(work.c_str(), H5F_ACC_RDWR, fapl.get());
   if (file_ < 0)
     fail(path_, cat("cannot open the results file in memory for writing (a damaged file, or ", work,
@@ -432,14 +457,14 @@ void CommittedFile::commit() {
   const herr_t closed = H5Fclose(f);  // in memory: writes nothing
   file_ = -1;
   if (closed < 0) fail(path_, "cannot close the file in memory");
-  if (fresh_ || committed_.empty() || !update_in_place(image)) replace_whole(image);
-  committed_ = std::move(image);
+  if (fresh_ || !committed_size_ || !update_in_place(image)) replace_whole(image);
+  committed_size_ = image.size();
   fresh_ = false;
 }
 
 void CommittedFile::replace_whole(const std::vector<char>& image) {
-  committed_.clear();  // whatever happens, the next change reads the file again
-  recover(path_);      // a journal left beside the file belongs to the file being replaced
+  committed_size_.reset();  // whatever happens, the file on disk is unknown until it is in place
+  recover(path_);           // a journal left beside the file belongs to the file being replaced
   const std::string work = path_ + ".partial";
   write_file(work, image, path_);
   fault_point();
@@ -460,14 +485,19 @@ bool CommittedFile::update_in_place(const std::vector<char>& image) {
   if (fd < 0) return false;
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_nlink != 1 ||
-      static_cast<std::size_t>(st.st_size) != committed_.size() ||
+      static_cast<std::size_t>(st.st_size) != *committed_size_ ||
       ::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     ::close(fd);
     return false;
   }
+  // The pages that changed, against the file itself (under the lock).
+  const auto ranges = changed_ranges(fd, *committed_size_, image);
+  if (!ranges) {
+    ::close(fd);
+    return false;
+  }
   const std::string jp = journal_path_of(path_);
-  const std::vector<char> bytes =
-      journal_bytes(committed_, image, changed_ranges(committed_, image));
+  const std::vector<char> bytes = journal_bytes(*committed_size_, image, *ranges);
   const Journal j = *parse_journal(bytes);
   try {
     write_file(jp, bytes, path_);
@@ -480,7 +510,7 @@ bool CommittedFile::update_in_place(const std::vector<char>& image) {
   const Applied applied = apply_journal(fd, j);
   if (applied != Applied::Done) {
     const int e = errno;
-    committed_.clear();
+    committed_size_.reset();
     if (applied == Applied::FailedPastEnd && ::ftruncate(fd, static_cast<off_t>(j.old_size)) == 0 &&
         ::fsync(fd) == 0) {
       ::close(fd);

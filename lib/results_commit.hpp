@@ -24,6 +24,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -90,9 +91,11 @@ class CommittedFile {
   void replace_whole(const std::vector<char>& image);
   bool update_in_place(const std::vector<char>& image);
   std::string path_;
-  long long file_ = -1;          ///< hid_t of the file in memory while a change is under way
-  std::vector<char> committed_;  ///< the image on disk as last read or committed (empty: unknown)
-  bool fresh_ = false;           ///< created, not yet committed: replace the file whole
+  long long file_ = -1;  ///< hid_t of the file in memory while a change is under way
+  /// The size of the file on disk as last read or committed (none: unknown). Its image is not
+  /// kept: an update in place compares the new image with the file itself.
+  std::optional<std::size_t> committed_size_;
+  bool fresh_ = false;  ///< created, not yet committed: replace the file whole
 };
 
 }  // namespace ltl

@@ -417,16 +417,28 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
 }
 
 // --resume under mpirun: rank 0's resume point (the next step and the whole state of the last
-// step written, as a serial run stores it, and the checkpoint of the next step if it continues
-// from one) sent to every rank, so that a file written by any number of ranks resumes on any
-// other number. Returns the next step.
+// step written, as a serial run stores it, the checkpoint of the next step if it continues
+// from one, and the file of --init when step 1 starts from it again) sent to every rank, so that
+// a file written by any number of ranks resumes on any other number. Returns the next step.
 static void broadcast_state(State& s) {
   for (Eigen::MatrixXd* m : {&s.u, &s.E, &s.lambda, &s.e, &s.lambda_c})
     mpi::broadcast(m->data(), m->size());
   mpi::broadcast(s.beta.data(), s.beta.size());
 }
+static std::string broadcast_text(const std::string& text) {  // rank 0's text, on every rank
+  double n = static_cast<double>(text.size());
+  mpi::broadcast(&n, 1);
+  std::vector<double> c(static_cast<std::size_t>(n));
+  for (std::size_t i = 0; i < c.size() && i < text.size(); ++i)
+    c[i] = static_cast<unsigned char>(text[i]);
+  mpi::broadcast(c.data(), static_cast<long>(c.size()));
+  std::string out(c.size(), '\0');
+  for (std::size_t i = 0; i < c.size(); ++i) out[i] = static_cast<char>(static_cast<int>(c[i]));
+  return out;
+}
 static int resume_across_ranks(State& s, int next_step, std::optional<State>& iterate,
-                               int& iterations) {
+                               int& iterations, std::string& restart) {
+  restart = broadcast_text(restart);
   double head[3] = {static_cast<double>(next_step), iterate ? 1.0 : 0.0,
                     static_cast<double>(iterations)};
   mpi::broadcast(head, 3);
@@ -465,8 +477,9 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
     file_->lock.emplace(options.output);
   }
   int p0 = 1;
+  std::string restart;  // the file of --init when step 1 starts from it again (below)
   if (options.resume && !reader) {
-    p0 = resume_across_ranks(start_, 0, resume_iterate_, resume_iterations_);
+    p0 = resume_across_ranks(start_, 0, resume_iterate_, resume_iterations_, restart);
   } else if (options.resume) {
     const std::string& out = options.output;
     const ResumePoint resumed = resume_point(problem, out, ids_, start_);
@@ -476,19 +489,15 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
       if (options.verbosity > 0)
         std::printf("%s: resumed with a changed setting: %s\n", problem.name.c_str(),
                     change.c_str());
-    // Step 1 of a run started with --init starts from that file's state again: its beta is
-    // beta_0 of the step, and load subdivision retries from it.
+    // Step 1 of a run started with --init starts from that file's state again (below, on every
+    // rank): its beta is beta_0 of the step, and load subdivision retries from it.
     const std::string init = ResultsFile::read_attribute(out, "initial_from");
     if (p0 == 1 && !init.empty() && p0 <= problem.time.steps) {
       if (!fs::exists(init))
         throw Error(cat(out, ": cannot resume: its step 1 starts from ", init,
                         " (--init), which no longer exists; restore that file, or start the run "
                         "again"));
-      const NestedStart nested = nested_start(solver, init, "initial_from");
-      start_ = nested.state;
-      if (options.verbosity > 0)
-        std::printf("%s: step 1 starts again from %s\n", problem.name.c_str(),
-                    nested.summary().c_str());
+      restart = init;
     }
     // The checkpoint of step p0 (--checkpoint): continued when it was saved at the step's full
     // load factor (not at a substep of load subdivision) on fields of this problem's shapes.
@@ -516,7 +525,16 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
     }
     file_->results = ResultsFile::open(out);
     file_->results->set_status("running");
-    if (mpi::size() > 1) resume_across_ranks(start_, p0, resume_iterate_, resume_iterations_);
+    if (mpi::size() > 1)
+      resume_across_ranks(start_, p0, resume_iterate_, resume_iterations_, restart);
+  }
+  // The nested start again, on every rank: on a rank's cells it is collective (nested_start).
+  if (!restart.empty()) {
+    const NestedStart nested = nested_start(solver, restart, "initial_from");
+    start_ = nested.state;
+    if (options.verbosity > 0)
+      std::printf("%s: step 1 starts again from %s\n", problem.name.c_str(),
+                  nested.summary().c_str());
   }
   if (!options.init.empty()) {  // --init: the nested start (lib/nested_start.hpp)
     if (options.resume) throw Error("--resume and --init exclude each other");

@@ -5,7 +5,8 @@
 # counts: one step on 2 ranks (--stop-after 1), resumed on 3 ranks (oversubscribed) and, from the
 # same first step, on 1 rank: step 2 takes the serial iteration count and ends within 1e-8 of the
 # serial u (relative), in both files. --init (the nested start) under mpirun -n 2, with plain
-# ALG2 and with the Newton phase, ends within 1e-8 of one process. --checkpoint: a serial
+# ALG2 and with the Newton phase, ends within 1e-8 of one process, and resumed on 2 ranks from
+# inside its step 1, within 1e-8 of the same resumed on one process. --checkpoint: a serial
 # run stopped in its step resumes on 2 ranks from its checkpoint, the counts adding up. A step
 # that diverges under mpirun leaves its last iterate in the file (rank 0 writes it).
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
@@ -75,6 +76,31 @@ assert d <= 1e-8, d
 PY
   rm -f "$tmp"/n1.* "$tmp"/n2.*
 done
+# --resume on 2 ranks of a run started with --init whose step 1 diverged (saved as /unconverged):
+# step 1 starts again from the --init file on every rank (the nested start on a rank's cells is
+# collective), and the two steps end within 1e-8 of the same file resumed on one process.
+if "$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --set time.steps=2 --set algorithm.max_iter=1 \
+  --init "$tmp/serial.h5" -o "$tmp/i2.h5" > /dev/null 2>&1; then
+  fail "--init with algorithm.max_iter = 1 converged"
+fi
+cp "$tmp/i2.h5" "$tmp/i1.h5"
+timeout 120 "$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --set time.steps=2 --resume \
+  -o "$tmp/i2.h5" > "$tmp/i2.txt" || fail "mpirun -n 2 --resume of an --init run stopped in step 1"
+grep -q "step 1 starts again from" "$tmp/i2.txt" || fail "the resumed step 1 did not start from --init's file"
+"$run" "$cfg" --set time.steps=2 --resume -o "$tmp/i1.h5" > /dev/null ||
+  fail "--resume (one process) of an --init run stopped in step 1"
+/usr/bin/python3 - "$tmp" "$src/figures" <<'PY' || fail "--init resumed on 2 ranks differs from one process"
+import sys
+sys.path.insert(0, sys.argv[2])
+import numpy as np
+import ltl_results as lr
+a, b = lr.load(sys.argv[1] + "/i1.h5"), lr.load(sys.argv[1] + "/i2.h5")
+for p in (1, 2):
+    ua, ub = a.step(p).fields["u"], b.step(p).fields["u"]
+    d = np.abs(ub - ua).max() / np.abs(ua).max()
+    print("--init run resumed in step 1 on 2 ranks: step %d, relative difference in u %.3g" % (p, d))
+    assert d <= 1e-8, d
+PY
 # --checkpoint: a serial run of Fig 5 (plain ALG2) stopped by SIGTERM in the middle of its step,
 # resumed on 2 ranks from its checkpoint: the iterations before and after add up to the
 # uninterrupted count; and a 2-rank run saving checkpoints (rank 0 writes) takes that count.
