@@ -406,12 +406,13 @@ hid_t CommittedFile::begin() {
   if (::lstat(journal_path_of(path_).c_str(), &st) == 0) recover(path_);
   // Opened in memory from the image on disk (the core driver without a backing store writes
   // nothing to disk); the name given to H5Fopen must not exist, so a stale working file is
-  // removed first. The image read is released once the property list holds HDF5's copy of it,
-  // so that at most two images are in memory (and none between changes).
+  // removed first. The file is mapped only while the property list takes HDF5's copy of it, so
+  // that at most two images are in memory (HDF5's and, at the commit, the one written out) and
+  // none between changes.
   const std::string work = path_ + ".partial";
   if (::lstat(work.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) ::unlink(work.c_str());
   h5::Handle fapl = h5::memory_access(path_);
-  {  // mapped, not read: HDF5 copies the pages of the page cache, no buffer of ours is filled
+  {  // mapped, not read into a buffer of ours: HDF5 copies the page cache's pages
     const int fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) fail(path_, cat("cannot open the results file: ", errno_text(errno)));
     struct stat fs {};

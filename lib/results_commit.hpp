@@ -15,7 +15,9 @@
 //    fsync'ed, and the journal removed. A process killed in the middle leaves the previous file
 //    and an incomplete journal (ignored and removed) or the file and a complete journal, which
 //    the next writer applies (recover()) and which a reader applies in memory (open_committed()).
-//    Cost: about twice the bytes that changed, instead of the whole file per commit.
+//    Cost: about twice the bytes that changed, instead of the whole file per commit. The pages
+//    that changed are found against the file itself (mapped): no image of the file is kept
+//    between changes, and at most two (HDF5's and the one written out) while committing.
 //
 // Working files (`.partial`, `.journal`, an XDMF file's `.tmp`) are created afresh
 // (O_CREAT | O_EXCL | O_NOFOLLOW, a stale entry unlinked first, never followed), with the mode of
