@@ -202,7 +202,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
   const auto E_of = [&](int at) -> Eigen::MatrixXd {  // the tensor of held cell held[at]
     return s.E.block(d.cell_row(s.E, held[at], at), 0, dim, dim).transpose();
   };
-  const bool E_held = s.E.cols() == dim && (s.E.rows() == dim * nc || s.E.rows() == dim * nh);
+  const bool E_held = s.E.cols() == dim && (d.whole_field(s.E) || s.E.rows() == dim * nh);
   if (E_held) {
     for (int at = 0; at < nh; ++at)
       keep_extreme(E_of(at).determinant(), held[at], r.det_E_min, r.det_E_cell, false);

@@ -260,7 +260,7 @@ void Solver::gather_points(State& s) const {
 
 Eigen::MatrixXd Solver::rank_rows(const Eigen::MatrixXd& A) const {
   const int dim = this->dim();
-  if (A.rows() != static_cast<Eigen::Index>(dim) * disc_.num_cells()) return A;  // the rows
+  if (!disc_.whole_field(A)) return A;  // the rows already
   Eigen::MatrixXd own(dim * static_cast<Eigen::Index>(dist_->own.size()), dim);
   mpi::for_each_run(dist_->own, [&](int c0, int n, int at) {
     own.middleRows(dim * at, dim * n) = A.middleRows(dim * c0, dim * n);
@@ -270,7 +270,7 @@ Eigen::MatrixXd Solver::rank_rows(const Eigen::MatrixXd& A) const {
 
 State Solver::own_rows(State& s) const {
   State own;
-  const bool whole = s.E.rows() == static_cast<Eigen::Index>(dim()) * disc_.num_cells();
+  const bool whole = disc_.whole_field(s.E);
   if (whole) {
     own.E = rank_rows(s.E);
     own.lambda = rank_rows(s.lambda);
@@ -313,23 +313,20 @@ bool Solver::rows_between_steps() const {
 }
 
 void Solver::hold_rows(State& s) const {
-  if (!rows_between_steps() || s.E.rows() != static_cast<Eigen::Index>(dim()) * disc_.num_cells())
-    return;  // held on the rows already
+  if (!rows_between_steps() || !disc_.whole_field(s.E)) return;  // held on the rows already
   s.E = rank_rows(s.E);
   s.lambda = rank_rows(s.lambda);
 }
 
 State Solver::whole_state(const State& s) const {
-  if (!rows_between_steps() || s.E.rows() == static_cast<Eigen::Index>(dim()) * disc_.num_cells())
-    return s;
+  if (!rows_between_steps() || disc_.whole_field(s.E)) return s;
   State w = whole_cells(s);
   w.u = s.u;
   return w;
 }
 
 State Solver::writer_state(const State& s) const {
-  if (!rows_between_steps() || s.E.rows() == static_cast<Eigen::Index>(dim()) * disc_.num_cells())
-    return s;
+  if (!rows_between_steps() || disc_.whole_field(s.E)) return s;
   State w;
   mpi::gather_rows_to_writer(s.E, w.E, dist_->cells, dim());
   mpi::gather_rows_to_writer(s.lambda, w.lambda, dist_->cells, dim());

@@ -341,7 +341,7 @@ Eigen::MatrixXd Discretization::fluctuation_force(const State& s) const {
   if (!mean_det_) return force;
   // E and lambda on the held cells' rows (a rank's state between steps, cell_row): those cells'
   // part, summed over the ranks (collective); whole: every cell here.
-  const bool rows = partial_ && s.E.rows() != static_cast<Eigen::Index>(dim()) * num_cells();
+  const bool rows = partial_ && !whole_field(s.E);
   fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0, rows ? &held_ : nullptr);
   if (rows) mpi::sum(force.data(), force.size());
   return force;

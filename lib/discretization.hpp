@@ -51,7 +51,11 @@ class Discretization {
   /// there: the state between steps of a distributed solver, alg2.hpp). On a discretization of
   /// every cell the two coincide; on some cells their row counts tell them apart.
   Eigen::Index cell_row(const Eigen::MatrixXd& field, int cell, int at) const {
-    return static_cast<Eigen::Index>(dim()) * (field.rows() == dim() * num_cells() ? cell : at);
+    return static_cast<Eigen::Index>(dim()) * (whole_field(field) ? cell : at);
+  }
+  /// Is a per-cell field (State::E, lambda) whole, dim #cells rows (not the held cells' rows)?
+  bool whole_field(const Eigen::MatrixXd& field) const {
+    return field.rows() == static_cast<Eigen::Index>(dim()) * num_cells();
   }
 
   /// The material as split between the global and the local steps (2.5)-(2.6):
