@@ -5,7 +5,6 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/file.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -65,11 +64,13 @@ int mode_of(const std::string& path) {
   return static_cast<int>(st.st_mode & 07777);
 }
 
-/// Writes `data` to `work` (created afresh, with the mode of `file` when it exists) and forces
-/// it to the disk; a failure (ENOSPC) removes `work` and names `file`.
-void write_file(const std::string& work, const std::vector<char>& data, const std::string& file) {
+/// Creates `work` afresh (with the mode of `file` when it exists), fills it by `fill(fd)` (false:
+/// failed, errno set) and forces it to the disk; a failure (ENOSPC) removes `work` and names
+/// `file`.
+template <class Fill>
+void write_new(const std::string& work, const std::string& file, Fill fill) {
   const int fd = create_fresh(work, mode_of(file), file);
-  if (!write_all(fd, data.data(), data.size(), -1) || ::fsync(fd) != 0) {
+  if (!fill(fd) || ::fsync(fd) != 0) {
     const int e = errno;
     ::close(fd);
     ::unlink(work.c_str());
@@ -116,20 +117,12 @@ std::optional<std::vector<char>> read_file(const std::string& path, bool missing
 
 constexpr char kJournalHead[9] = "LTLJRNL1", kJournalTail[9] = "LTLJEND1";
 
-struct Range {
-  std::uint64_t offset = 0, length = 0;
-};
+using Range = PageStore::Range;
 
 struct Journal {
   std::uint64_t old_size = 0, new_size = 0;
   std::vector<std::pair<Range, const char*>> ranges;  ///< into the journal's bytes
 };
-
-void put_u64(std::vector<char>& out, std::uint64_t v) {
-  char b[8];
-  std::memcpy(b, &v, 8);
-  out.insert(out.end(), b, b + 8);
-}
 
 std::uint64_t get_u64(const char* p) {
   std::uint64_t v;
@@ -147,49 +140,76 @@ std::pair<std::uint64_t, std::uint64_t> checksum(const char* data, std::size_t n
   return {s1, s2};
 }
 
-/// The byte ranges in which `next` differs from the file `fd` of prev_size bytes (mapped: no
-/// copy of the previous image is kept in memory), by pages of 4 KiB, adjacent pages merged, and
-/// what `next` adds past the end of the file. nullopt when the file cannot be mapped.
-std::optional<std::vector<Range>> changed_ranges(int fd, std::size_t prev_size,
-                                                 const std::vector<char>& next) {
-  constexpr std::size_t page = 4096;
-  std::vector<Range> out;
-  const std::size_t common = std::min(prev_size, next.size());
-  if (common > 0) {
-    void* mapped = ::mmap(nullptr, prev_size, PROT_READ, MAP_SHARED, fd, 0);
-    if (mapped == MAP_FAILED) return std::nullopt;
-    const char* prev = static_cast<const char*>(mapped);
-    for (std::size_t at = 0; at < common; at += page) {
-      const std::size_t n = std::min(page, common - at);
-      if (std::memcmp(prev + at, next.data() + at, n) == 0) continue;
-      if (!out.empty() && out.back().offset + out.back().length == at)
-        out.back().length += n;
-      else
-        out.push_back({at, n});
-    }
-    ::munmap(mapped, prev_size);
+/// Writes bytes to `fd` in chunks of 1 MiB, whole 64-bit words at a time, summing the journal's
+/// checksum of what it writes.
+class JournalOut {
+ public:
+  explicit JournalOut(int fd) : fd_(fd) {}
+  bool put(const char* data, std::size_t n) {
+    buf_.insert(buf_.end(), data, data + n);
+    return buf_.size() < kChunk || flush();
   }
-  if (next.size() > common) out.push_back({common, next.size() - common});
-  return out;
+  bool put_u64(std::uint64_t v) {
+    char b[8];
+    std::memcpy(b, &v, 8);
+    return put(b, 8);
+  }
+  /// Zeros up to the next multiple of 8 bytes.
+  bool pad() {
+    static const char zeros[8] = {};
+    return put(zeros, (8 - (count_ + buf_.size()) % 8) % 8);
+  }
+  /// The checksum and the trailer after everything put so far (a multiple of 8 bytes).
+  bool finish() {
+    if (!flush()) return false;
+    const std::uint64_t s1 = s1_, s2 = s2_;
+    return put_u64(s1) && put_u64(s2) && put(kJournalTail, 8) && flush();
+  }
+
+ private:
+  static constexpr std::size_t kChunk = std::size_t{1} << 20;
+  bool flush() {
+    const std::size_t n = buf_.size() / 8 * 8;
+    for (std::size_t i = 0; i < n; i += 8) {
+      const std::uint64_t w = get_u64(buf_.data() + i);
+      s1_ += w;
+      s2_ += (count_ / 8 + i / 8 + 1) * w;
+    }
+    if (!write_all(fd_, buf_.data(), n, -1)) return false;
+    count_ += n;
+    buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(n));
+    return true;
+  }
+  int fd_;
+  std::vector<char> buf_;
+  std::uint64_t count_ = 0, s1_ = 0, s2_ = 0;  ///< bytes written, checksum of them
+};
+
+/// Calls `out(data, n)` on the bytes [r.offset, r.offset + r.length) of `s`, 1 MiB at a time;
+/// false (errno set) when `s` cannot be read or `out` fails.
+template <class Out>
+bool stream_range(const PageStore& s, Range r, Out out) {
+  std::vector<char> chunk(std::min<std::uint64_t>(r.length, std::uint64_t{1} << 20));
+  for (std::uint64_t done = 0; done < r.length;) {
+    const std::size_t n = std::min<std::uint64_t>(chunk.size(), r.length - done);
+    if (!s.read(r.offset + done, n, chunk.data()) || !out(chunk.data(), n, r.offset + done))
+      return false;
+    done += n;
+  }
+  return true;
 }
 
-std::vector<char> journal_bytes(std::size_t prev_size, const std::vector<char>& next,
-                                const std::vector<Range>& ranges) {
-  std::vector<char> j(kJournalHead, kJournalHead + 8);
-  put_u64(j, prev_size);
-  put_u64(j, next.size());
-  put_u64(j, ranges.size());
-  for (const Range& r : ranges) {
-    put_u64(j, r.offset);
-    put_u64(j, r.length);
-    j.insert(j.end(), next.data() + r.offset, next.data() + r.offset + r.length);
-    j.resize(j.size() + (8 - r.length % 8) % 8, '\0');
-  }
-  const auto [s1, s2] = checksum(j.data(), j.size());
-  put_u64(j, s1);
-  put_u64(j, s2);
-  j.insert(j.end(), kJournalTail, kJournalTail + 8);
-  return j;
+/// Writes the journal of the change from the file on disk to `s` (its `ranges`) to `fd`.
+bool write_journal(int fd, const PageStore& s, const std::vector<Range>& ranges) {
+  JournalOut j(fd);
+  bool ok = j.put(kJournalHead, 8) && j.put_u64(s.disk_size()) && j.put_u64(s.size()) &&
+            j.put_u64(ranges.size());
+  for (std::size_t k = 0; ok && k < ranges.size(); ++k)
+    ok = j.put_u64(ranges[k].offset) && j.put_u64(ranges[k].length) &&
+         stream_range(s, ranges[k],
+                      [&](const char* d, std::size_t n, std::uint64_t) { return j.put(d, n); }) &&
+         j.pad();
+  return ok && j.finish();
 }
 
 /// The journal in `bytes`, or nullopt when it is incomplete or damaged.
@@ -239,6 +259,22 @@ Applied apply_journal(int fd, const Journal& j) {
     if (past_end) fault_point();  // the new data written, the file's metadata not yet
   }
   if (::ftruncate(fd, static_cast<off_t>(j.new_size)) != 0 || ::fsync(fd) != 0)
+    return Applied::FailedInPlace;
+  return Applied::Done;
+}
+
+/// apply_journal for the journal of `s` (write_journal), its bytes taken from `s` itself.
+Applied apply_change(int fd, const PageStore& s, const std::vector<Range>& ranges) {
+  const auto to_file = [fd](const char* d, std::size_t n, std::uint64_t at) {
+    return write_all(fd, d, n, static_cast<long long>(at));
+  };
+  for (bool past_end : {true, false}) {
+    for (const Range& r : ranges)
+      if ((r.offset >= s.disk_size()) == past_end && !stream_range(s, r, to_file))
+        return past_end ? Applied::FailedPastEnd : Applied::FailedInPlace;
+    if (past_end) fault_point();  // the new data written, the file's metadata not yet
+  }
+  if (::ftruncate(fd, static_cast<off_t>(s.size())) != 0 || ::fsync(fd) != 0)
     return Applied::FailedInPlace;
   return Applied::Done;
 }
@@ -371,7 +407,7 @@ h5::Handle open_committed(const std::string& path) {
 CommittedFile::CommittedFile(CommittedFile&& o) noexcept
     : path_(std::move(o.path_)),
       file_(std::exchange(o.file_, -1)),
-      committed_size_(o.committed_size_),
+      store_(std::move(o.store_)),
       fresh_(o.fresh_) {}
 
 CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
@@ -379,7 +415,7 @@ CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
     discard();
     path_ = std::move(o.path_);
     file_ = std::exchange(o.file_, -1);
-    committed_size_ = o.committed_size_;
+    store_ = std::move(o.store_);
     fresh_ = o.fresh_;
   }
   return *this;
@@ -388,14 +424,13 @@ CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
 hid_t CommittedFile::create() {
   discard();
   h5::quiet();
-  const std::string work = path_ + ".partial";
-  file_ = H5Fcreate(work.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, h5::memory_access(path_).get());
-  if (file_ < 0)
-    fail(path_,
-         "cannot create the file (does its directory exist, is it writable, is the file "
-         "open elsewhere?)");
+  store_ = std::make_shared<PageStore>();
+  file_ = H5Fcreate(path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, page_access(store_, path_).get());
+  if (file_ < 0) {
+    store_.reset();
+    fail(path_, "cannot create the file in memory");
+  }
   fresh_ = true;
-  committed_size_.reset();
   return static_cast<hid_t>(file_);
 }
 
@@ -404,39 +439,26 @@ hid_t CommittedFile::begin() {
   h5::quiet();
   struct stat st {};
   if (::lstat(journal_path_of(path_).c_str(), &st) == 0) recover(path_);
-  // Opened in memory from the image on disk (the core driver without a backing store writes
-  // nothing to disk); the name given to H5Fopen must not exist, so a stale working file is
-  // removed first. The file is mapped only while the property list takes HDF5's copy of it, so
-  // that at most two images are in memory (HDF5's and, at the commit, the one written out) and
-  // none between changes.
-  const std::string work = path_ + ".partial";
-  if (::lstat(work.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) ::unlink(work.c_str());
-  h5::Handle fapl = h5::memory_access(path_);
-  {  // mapped, not read into a buffer of ours: HDF5 copies the page cache's pages
-    const int fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
-    if (fd < 0) fail(path_, cat("cannot open the results file: ", errno_text(errno)));
-    struct stat fs {};
-    if (::fstat(fd, &fs) != 0 || !S_ISREG(fs.st_mode)) {
-      ::close(fd);
-      fail(path_, "is not a regular file");
-    }
-    const std::size_t size = static_cast<std::size_t>(fs.st_size);
-    if (size == 0) {
-      ::close(fd);
-      fail(path_, "is empty, not a results file");
-    }
-    void* image = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+  // Opened over the file on disk (results_pages.hpp): HDF5 reads the committed file where it
+  // needs to, and what it writes is held in pages until the commit.
+  const int fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) fail(path_, cat("cannot open the results file: ", errno_text(errno)));
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
-    if (image == MAP_FAILED) fail(path_, cat("cannot map the file: ", errno_text(errno)));
-    const herr_t set = H5Pset_file_image(fapl.get(), image, size);
-    ::munmap(image, size);
-    h5::ok(set, path_, "cannot load the file into memory");
-    committed_size_ = size;
+    fail(path_, "is not a regular file");
   }
-  file_ = H5Fopen(work.c_str(), H5F_ACC_RDWR, fapl.get());
-  if (file_ < 0)
-    fail(path_, cat("cannot open the results file in memory for writing (a damaged file, or ", work,
-                    " is in the way?)"));
+  if (st.st_size == 0) {
+    ::close(fd);
+    fail(path_, "is empty, not a results file");
+  }
+  store_ = std::make_shared<PageStore>(fd, static_cast<std::uint64_t>(st.st_size));
+  file_ = H5Fopen(path_.c_str(), H5F_ACC_RDWR, page_access(store_, path_).get());
+  if (file_ < 0) {
+    const int e = errno;
+    store_.reset();
+    fail(path_, cat("cannot open the results file for a change (a damaged file?)",
+                    e == EIO ? ": cannot read it: " + errno_text(e) : std::string()));
+  }
   fresh_ = false;
   return static_cast<hid_t>(file_);
 }
@@ -447,27 +469,24 @@ void CommittedFile::commit() {
   const hid_t f = static_cast<hid_t>(file_);
   if (H5Fflush(f, H5F_SCOPE_LOCAL) < 0) {
     discard();
-    fail(path_, "cannot flush the file to its image in memory");
+    fail(path_, "cannot flush the file to its pages in memory");
   }
-  const ssize_t size = H5Fget_file_image(f, nullptr, 0);
-  std::vector<char> image(size > 0 ? static_cast<std::size_t>(size) : 0);
-  if (size <= 0 || H5Fget_file_image(f, image.data(), image.size()) != size) {
-    discard();
-    fail(path_, "cannot get the image of the file in memory");
-  }
-  const herr_t closed = H5Fclose(f);  // in memory: writes nothing
+  const herr_t closed = H5Fclose(f);  // to the pages: writes nothing to disk
   file_ = -1;
+  const std::shared_ptr<PageStore> store = std::move(store_);
   if (closed < 0) fail(path_, "cannot close the file in memory");
-  if (fresh_ || !committed_size_ || !update_in_place(image)) replace_whole(image);
-  committed_size_ = image.size();
+  if (fresh_ || !update_in_place(*store)) replace_whole(*store);
   fresh_ = false;
 }
 
-void CommittedFile::replace_whole(const std::vector<char>& image) {
-  committed_size_.reset();  // whatever happens, the file on disk is unknown until it is in place
-  recover(path_);           // a journal left beside the file belongs to the file being replaced
+void CommittedFile::replace_whole(const PageStore& s) {
+  recover(path_);  // a journal left beside the file belongs to the file being replaced
   const std::string work = path_ + ".partial";
-  write_file(work, image, path_);
+  write_new(work, path_, [&](int fd) {
+    return stream_range(s, {0, s.size()}, [fd](const char* d, std::size_t n, std::uint64_t) {
+      return write_all(fd, d, n, -1);
+    });
+  });
   fault_point();
   if (std::rename(work.c_str(), path_.c_str()) != 0) {
     const int e = errno;
@@ -477,43 +496,43 @@ void CommittedFile::replace_whole(const std::vector<char>& image) {
   fault_point();
 }
 
-// False (nothing done) when the file cannot be updated in place: it is not the file last
-// committed (its size differs, it has other names), it cannot be opened for writing, or a reader
-// has it open (HDF5 holds a shared lock while a file is open). The exclusive lock keeps readers
-// out until the file is complete again.
-bool CommittedFile::update_in_place(const std::vector<char>& image) {
+// False (nothing done) when the file cannot be updated in place: it is not the file the change
+// was opened over (another file, its size differs, it has other names), it cannot be opened for
+// writing, or a reader has it open (HDF5 holds a shared lock while a file is open). The exclusive
+// lock keeps readers out until the file is complete again.
+bool CommittedFile::update_in_place(const PageStore& s) {
+  struct stat was {};
+  if (s.disk() < 0 || ::fstat(s.disk(), &was) != 0) return false;
   const int fd = ::open(path_.c_str(), O_RDWR | O_NOFOLLOW | O_CLOEXEC);
   if (fd < 0) return false;
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_nlink != 1 ||
-      static_cast<std::size_t>(st.st_size) != *committed_size_ ||
+      st.st_dev != was.st_dev || st.st_ino != was.st_ino ||
+      static_cast<std::uint64_t>(st.st_size) != s.disk_size() ||
       ::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     ::close(fd);
     return false;
   }
   // The pages that changed, against the file itself (under the lock).
-  const auto ranges = changed_ranges(fd, *committed_size_, image);
-  if (!ranges) {
+  std::vector<Range> ranges;
+  if (!s.changed_ranges(ranges)) {
     ::close(fd);
     return false;
   }
   const std::string jp = journal_path_of(path_);
-  const std::vector<char> bytes = journal_bytes(*committed_size_, image, *ranges);
-  const Journal j = *parse_journal(bytes);
   try {
-    write_file(jp, bytes, path_);
+    write_new(jp, path_, [&](int j) { return write_journal(j, s, ranges); });
     sync_directory_of(jp);
   } catch (...) {
     ::close(fd);
     throw;
   }
   fault_point();  // the journal complete, the file untouched
-  const Applied applied = apply_journal(fd, j);
+  const Applied applied = apply_change(fd, s, ranges);
   if (applied != Applied::Done) {
     const int e = errno;
-    committed_size_.reset();
-    if (applied == Applied::FailedPastEnd && ::ftruncate(fd, static_cast<off_t>(j.old_size)) == 0 &&
-        ::fsync(fd) == 0) {
+    if (applied == Applied::FailedPastEnd &&
+        ::ftruncate(fd, static_cast<off_t>(s.disk_size())) == 0 && ::fsync(fd) == 0) {
       ::close(fd);
       ::unlink(jp.c_str());  // the previous file is intact
       fail(path_, cat("cannot write the file: ", errno_text(e)));
@@ -530,11 +549,9 @@ bool CommittedFile::update_in_place(const std::vector<char>& image) {
 }
 
 void CommittedFile::discard() noexcept {
-  if (file_ < 0) return;
-  H5Fclose(static_cast<hid_t>(file_));
+  if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
   file_ = -1;
-  std::error_code ec;
-  std::filesystem::remove(path_ + ".partial", ec);
+  store_.reset();
 }
 
 }  // namespace ltl

@@ -1,7 +1,7 @@
 // The crash-safe commit of a results file. Every change (the mesh with the first step, each further
-// step, a status) is made to an HDF5 file in memory (HDF5's core driver); commit() puts its image
-// on disk so that a process killed at any instant, a full disk or a reader opening the file
-// meanwhile never sees half of it:
+// step, a status) is made to the file in memory: HDF5 reads the committed file on disk and its
+// writes are held as pages (lib/results_pages.hpp); commit() puts them on disk so that a process
+// killed at any instant, a full disk or a reader opening the file meanwhile never sees half of it:
 //
 //  - The first commit of a new file, and any commit while a reader has the file open, REPLACES the
 //    file whole: the image is written to `<file>.partial` with checked write(2) calls, fsync'ed and
@@ -16,8 +16,9 @@
 //    and an incomplete journal (ignored and removed) or the file and a complete journal, which
 //    the next writer applies (recover()) and which a reader applies in memory (open_committed()).
 //    Cost: about twice the bytes that changed, instead of the whole file per commit. The pages
-//    that changed are found against the file itself (mapped): no image of the file is kept
-//    between changes, and at most two (HDF5's and the one written out) while committing.
+//    that changed are the pages written, compared with the file itself; the journal is written
+//    from them as it is made. No image of the file is held: the writer's memory is the bytes of
+//    one change (the whole file only for the first commit of a new file, which it is).
 //
 // Working files (`.partial`, `.journal`, an XDMF file's `.tmp`) are created afresh
 // (O_CREAT | O_EXCL | O_NOFOLLOW, a stale entry unlinked first, never followed), with the mode of
@@ -26,11 +27,12 @@
 #pragma once
 
 #include <cstdint>
-#include <optional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "hdf5_io.hpp"
+#include "results_pages.hpp"
 
 namespace ltl {
 
@@ -78,25 +80,26 @@ class CommittedFile {
 
   /// Starts a new, empty file in memory; its first commit replaces `path` whole.
   hid_t create();
-  /// Opens the committed file in memory for a change (recovering a journal first); returns the
+  /// Opens the committed file for a change in memory (recovering a journal first); returns the
   /// open file when a change is already under way.
   hid_t begin();
   /// The file in memory (-1 when no change is under way).
   hid_t id() const { return static_cast<hid_t>(file_); }
-  /// Closes the file in memory and puts its image on disk.
+  /// Closes the file in memory and puts the change on disk.
   void commit();
   /// Drops the change under way (nothing on disk changes).
   void discard() noexcept;
   const std::string& path() const { return path_; }
+  /// The bytes the change under way holds in memory (0 when none is under way).
+  std::size_t held_bytes() const { return store_ ? store_->held_bytes() : 0; }
 
  private:
-  void replace_whole(const std::vector<char>& image);
-  bool update_in_place(const std::vector<char>& image);
+  void replace_whole(const PageStore& s);
+  bool update_in_place(const PageStore& s);
   std::string path_;
   long long file_ = -1;  ///< hid_t of the file in memory while a change is under way
-  /// The size of the file on disk as last read or committed (none: unknown). Its image is not
-  /// kept: an update in place compares the new image with the file itself.
-  std::optional<std::size_t> committed_size_;
+  /// The pages of the change under way, over the file on disk it was opened over.
+  std::shared_ptr<PageStore> store_;
   bool fresh_ = false;  ///< created, not yet committed: replace the file whole
 };
 

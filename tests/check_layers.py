@@ -35,7 +35,8 @@ LAYERS = [
     ("discretization", "discretization"),
     ("measures", "measures admissibility reactions"),
     ("solver", "alg2 alg2_mpi adaptive_r newton newton_kkt fixed_point iteration signorini"),
-    ("results", "results results_commit results_fields results_layout results_xdmf"),
+    ("results", "results results_commit results_fields results_layout results_pages "
+                "results_xdmf"),
     ("simulation", "simulation output_guard nested_start"),
     ("cli", "cli"),
 ]
