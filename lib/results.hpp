@@ -169,7 +169,7 @@ class ResultsFile {
 
   /// Appends one step, commits it to disk and rewrites the XDMF files. `state` is required;
   /// without `report` the step has no history and 0 iterations. Storing a p that is already in
-  /// the file is an Error. Costs about twice the step's bytes on disk (lib/results_commit.hpp).
+  /// the file is an Error. Costs about the step's bytes on disk, once (lib/results_commit.hpp).
   /// With a non-empty `status`, the root attribute "status" is set in the same commit.
   void append(const StepData& step, const std::string& status = "");
   /// Saves the last iterate and the iteration history of step `step.p`, which did not converge,

@@ -263,20 +263,16 @@ Applied apply_journal(int fd, const Journal& j) {
   return Applied::Done;
 }
 
-/// apply_journal for the journal of `s` (write_journal), its bytes taken from `s` itself.
-Applied apply_change(int fd, const PageStore& s, const std::vector<Range>& ranges) {
+/// Writes the ranges of the journal of `s` (write_journal, all before the end of the file on
+/// disk: what lies past it is in the file already) into the file `fd` from `s`, sets its size
+/// and syncs it; errno tells why it failed.
+bool apply_change(int fd, const PageStore& s, const std::vector<Range>& ranges) {
   const auto to_file = [fd](const char* d, std::size_t n, std::uint64_t at) {
     return write_all(fd, d, n, static_cast<long long>(at));
   };
-  for (bool past_end : {true, false}) {
-    for (const Range& r : ranges)
-      if ((r.offset >= s.disk_size()) == past_end && !stream_range(s, r, to_file))
-        return past_end ? Applied::FailedPastEnd : Applied::FailedInPlace;
-    if (past_end) fault_point();  // the new data written, the file's metadata not yet
-  }
-  if (::ftruncate(fd, static_cast<off_t>(s.size())) != 0 || ::fsync(fd) != 0)
-    return Applied::FailedInPlace;
-  return Applied::Done;
+  for (const Range& r : ranges)
+    if (!stream_range(s, r, to_file)) return false;
+  return ::ftruncate(fd, static_cast<off_t>(s.size())) == 0 && ::fsync(fd) == 0;
 }
 
 }  // namespace
@@ -317,7 +313,7 @@ int create_fresh(const std::string& path, int mode, const std::string& file) {
     if (::unlink(path.c_str()) != 0)
       fail(file, cat("cannot remove the stale working file ", path, ": ", errno_text(errno)));
   }
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
   if (fd < 0)
     fail(file, cat("cannot create the working file ", path, ": ",
                    errno == EEXIST ? std::string("another process created it meanwhile")
@@ -424,13 +420,16 @@ CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
 hid_t CommittedFile::create() {
   discard();
   h5::quiet();
-  store_ = std::make_shared<PageStore>();
+  // Written straight into the working file `<file>.partial` (results_pages.hpp, direct), renamed
+  // onto the file by the commit.
+  const std::string work = path_ + ".partial";
+  store_ = std::make_shared<PageStore>(create_fresh(work, mode_of(path_), path_), 0, true);
+  fresh_ = true;
   file_ = H5Fcreate(path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, page_access(store_, path_).get());
   if (file_ < 0) {
-    store_.reset();
-    fail(path_, "cannot create the file in memory");
+    discard();
+    fail(path_, "cannot create the file");
   }
-  fresh_ = true;
   return static_cast<hid_t>(file_);
 }
 
@@ -440,8 +439,13 @@ hid_t CommittedFile::begin() {
   struct stat st {};
   if (::lstat(journal_path_of(path_).c_str(), &st) == 0) recover(path_);
   // Opened over the file on disk (results_pages.hpp): HDF5 reads the committed file where it
-  // needs to, and what it writes is held in pages until the commit.
-  const int fd = ::open(path_.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  // needs to; what it writes before the file's end is held in pages until the commit, and what
+  // it writes past the end goes into the file there (direct), where no reader looks. A file that
+  // cannot be opened for writing is changed in pages alone and replaced whole.
+  const int flags = O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC;
+  int fd = ::open(path_.c_str(), O_RDWR | flags);
+  const bool direct = fd >= 0;
+  if (fd < 0) fd = ::open(path_.c_str(), O_RDONLY | flags);
   if (fd < 0) fail(path_, cat("cannot open the results file: ", errno_text(errno)));
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
@@ -451,15 +455,15 @@ hid_t CommittedFile::begin() {
     ::close(fd);
     fail(path_, "is empty, not a results file");
   }
-  store_ = std::make_shared<PageStore>(fd, static_cast<std::uint64_t>(st.st_size));
+  store_ = std::make_shared<PageStore>(fd, static_cast<std::uint64_t>(st.st_size), direct);
+  fresh_ = false;
   file_ = H5Fopen(path_.c_str(), H5F_ACC_RDWR, page_access(store_, path_).get());
   if (file_ < 0) {
     const int e = errno;
-    store_.reset();
+    discard();
     fail(path_, cat("cannot open the results file for a change (a damaged file?)",
                     e == EIO ? ": cannot read it: " + errno_text(e) : std::string()));
   }
-  fresh_ = false;
   return static_cast<hid_t>(file_);
 }
 
@@ -471,12 +475,40 @@ void CommittedFile::commit() {
     discard();
     fail(path_, "cannot flush the file to its pages in memory");
   }
-  const herr_t closed = H5Fclose(f);  // to the pages: writes nothing to disk
+  const herr_t closed = H5Fclose(f);  // to the pages and past the file's end
   file_ = -1;
+  if (closed < 0) {
+    discard();
+    fail(path_, "cannot close the file");
+  }
+  if (const int e = store_->deferred_error()) {
+    discard();  // the working file removed, or the file on disk cut back to its committed end
+    fail(path_, cat("cannot write the file: ", errno_text(e)));
+  }
   const std::shared_ptr<PageStore> store = std::move(store_);
-  if (closed < 0) fail(path_, "cannot close the file in memory");
-  if (fresh_ || !update_in_place(*store)) replace_whole(*store);
-  fresh_ = false;
+  written += store->direct_bytes();
+  if (std::exchange(fresh_, false))
+    commit_fresh(*store);
+  else if (!update_in_place(*store))
+    replace_whole(*store);
+}
+
+void CommittedFile::commit_fresh(const PageStore& s) {
+  recover(path_);  // a journal left beside the file belongs to the file being replaced
+  const std::string work = path_ + ".partial";
+  if (::ftruncate(s.disk(), static_cast<off_t>(s.size())) != 0 || ::fsync(s.disk()) != 0) {
+    const int e = errno;
+    ::unlink(work.c_str());
+    fail(path_, cat("cannot write the file: ", work, ": ", errno_text(e)));
+  }
+  fault_point();
+  if (std::rename(work.c_str(), path_.c_str()) != 0) {
+    const int e = errno;
+    ::unlink(work.c_str());
+    fail(path_, cat("cannot move ", work, " into place: ", errno_text(e)));
+  }
+  sync_directory_of(path_);
+  fault_point();
 }
 
 void CommittedFile::replace_whole(const PageStore& s) {
@@ -487,6 +519,9 @@ void CommittedFile::replace_whole(const PageStore& s) {
       return write_all(fd, d, n, -1);
     });
   });
+  // What the change wrote past the end of the file it was opened over is dropped from it (its
+  // readers look no further than that end).
+  if (s.direct()) (void)::ftruncate(s.disk(), static_cast<off_t>(s.disk_size()));
   fault_point();
   if (std::rename(work.c_str(), path_.c_str()) != 0) {
     const int e = errno;
@@ -496,53 +531,57 @@ void CommittedFile::replace_whole(const PageStore& s) {
   fault_point();
 }
 
-// False (nothing done) when the file cannot be updated in place: it is not the file the change
-// was opened over (another file, its size differs, it has other names), it cannot be opened for
-// writing, or a reader has it open (HDF5 holds a shared lock while a file is open). The exclusive
-// lock keeps readers out until the file is complete again.
+// False (nothing done) when the file cannot be updated in place: the change was not opened for
+// writing over it, the file at the path is not that file any more (or has other names), or a
+// reader has it open (HDF5 holds a shared lock while a file is open). The exclusive lock keeps
+// readers out until the file is complete again. What the change wrote past the end of the file
+// is there already: it is forced to the disk before the journal, which then holds only the
+// pages changed before that end (HDF5's metadata).
 bool CommittedFile::update_in_place(const PageStore& s) {
-  struct stat was {};
-  if (s.disk() < 0 || ::fstat(s.disk(), &was) != 0) return false;
-  const int fd = ::open(path_.c_str(), O_RDWR | O_NOFOLLOW | O_CLOEXEC);
-  if (fd < 0) return false;
-  struct stat st {};
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_nlink != 1 ||
-      st.st_dev != was.st_dev || st.st_ino != was.st_ino ||
-      static_cast<std::uint64_t>(st.st_size) != s.disk_size() ||
-      ::flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    ::close(fd);
+  if (!s.direct()) return false;
+  const int fd = s.disk();
+  struct stat was {
+  }, st{};
+  if (::fstat(fd, &was) != 0 || ::lstat(path_.c_str(), &st) != 0 || !S_ISREG(st.st_mode) ||
+      st.st_nlink != 1 || st.st_dev != was.st_dev || st.st_ino != was.st_ino ||
+      static_cast<std::uint64_t>(was.st_size) < s.disk_size() ||
+      ::flock(fd, LOCK_EX | LOCK_NB) != 0)
     return false;
+  const auto cut_back = [&] {  // the file as committed, unlocked
+    (void)::ftruncate(fd, static_cast<off_t>(s.disk_size()));
+    ::flock(fd, LOCK_UN);
+  };
+  // The new data, past the old end, on the disk first.
+  if (::ftruncate(fd, static_cast<off_t>(std::max(s.size(), s.disk_size()))) != 0 ||
+      ::fsync(fd) != 0) {
+    const int e = errno;
+    cut_back();
+    fail(path_, cat("cannot write the file: ", errno_text(e)));
   }
-  // The pages that changed, against the file itself (under the lock).
+  fault_point();  // the new data written, the file's metadata not yet
+  // The pages that changed before the old end, against the file itself (under the lock).
   std::vector<Range> ranges;
   if (!s.changed_ranges(ranges)) {
-    ::close(fd);
-    return false;
+    ::flock(fd, LOCK_UN);
+    return false;  // replaced whole, from the file as the change left it
   }
   const std::string jp = journal_path_of(path_);
   try {
     write_new(jp, path_, [&](int j) { return write_journal(j, s, ranges); });
     sync_directory_of(jp);
   } catch (...) {
-    ::close(fd);
+    cut_back();
     throw;
   }
-  fault_point();  // the journal complete, the file untouched
-  const Applied applied = apply_change(fd, s, ranges);
-  if (applied != Applied::Done) {
+  fault_point();  // the journal complete, the file's metadata untouched
+  if (!apply_change(fd, s, ranges)) {
     const int e = errno;
-    if (applied == Applied::FailedPastEnd &&
-        ::ftruncate(fd, static_cast<off_t>(s.disk_size())) == 0 && ::fsync(fd) == 0) {
-      ::close(fd);
-      ::unlink(jp.c_str());  // the previous file is intact
-      fail(path_, cat("cannot write the file: ", errno_text(e)));
-    }
-    ::close(fd);  // the journal stays: the next writer or reader completes the commit
+    ::flock(fd, LOCK_UN);  // the journal stays: the next writer or reader completes the commit
     fail(path_, cat("cannot update the file in place: ", errno_text(e), "; ", jp,
                     " holds the change (applied by the next run or --resume)"));
   }
   fault_point();  // the file complete, the journal still there
-  ::close(fd);    // releases the lock
+  ::flock(fd, LOCK_UN);
   if (::unlink(jp.c_str()) != 0) fail(path_, cat("cannot remove ", jp, ": ", errno_text(errno)));
   sync_directory_of(jp);
   return true;
@@ -551,7 +590,15 @@ bool CommittedFile::update_in_place(const PageStore& s) {
 void CommittedFile::discard() noexcept {
   if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
   file_ = -1;
+  if (store_) {
+    written += store_->direct_bytes();
+    if (fresh_)
+      ::unlink((path_ + ".partial").c_str());
+    else if (store_->direct())  // the file as committed: what the change wrote past its end cut
+      (void)::ftruncate(store_->disk(), static_cast<off_t>(store_->disk_size()));
+  }
   store_.reset();
+  fresh_ = false;
 }
 
 }  // namespace ltl

@@ -1,24 +1,32 @@
 // The crash-safe commit of a results file. Every change (the mesh with the first step, each further
-// step, a status) is made to the file in memory: HDF5 reads the committed file on disk and its
-// writes are held as pages (lib/results_pages.hpp); commit() puts them on disk so that a process
-// killed at any instant, a full disk or a reader opening the file meanwhile never sees half of it:
+// step, a status) is made through HDF5 over the file on disk (lib/results_pages.hpp): HDF5 reads
+// the committed file where it needs to; what it writes before the file's end (HDF5's metadata)
+// is held in pages, and what it writes past the end (the new step's data) goes into the file
+// there, where no reader looks (a reader reads up to the end the committed metadata gives).
+// commit() then makes the change so that a process killed at any instant, a full disk or a reader
+// opening the file meanwhile never sees half of it:
 //
-//  - The first commit of a new file, and any commit while a reader has the file open, REPLACES the
-//    file whole: the image is written to `<file>.partial` with checked write(2) calls, fsync'ed and
-//    renamed onto `<file>` (rename(2) is atomic), and the directory fsync'ed. An open reader keeps
-//    the previous file.
-//  - Any other commit UPDATES the file IN PLACE, writing only the bytes that changed (the new
-//    step's data past the old end and a few pages of HDF5 metadata): the changed byte ranges are
-//    first written to the redo journal `<file>.journal` (header, ranges, a checksum, a trailer),
-//    fsync'ed, then written into the file under an exclusive flock(2) (HDF5 readers hold a shared
-//    one while the file is open, so none is open meanwhile; one that tries waits, lib/hdf5_io.hpp),
-//    fsync'ed, and the journal removed. A process killed in the middle leaves the previous file
-//    and an incomplete journal (ignored and removed) or the file and a complete journal, which
-//    the next writer applies (recover()) and which a reader applies in memory (open_committed()).
-//    Cost: about twice the bytes that changed, instead of the whole file per commit. The pages
-//    that changed are the pages written, compared with the file itself; the journal is written
-//    from them as it is made. No image of the file is held: the writer's memory is the bytes of
-//    one change (the whole file only for the first commit of a new file, which it is).
+//  - A new file is written into `<file>.partial` (created afresh) as it is made; its commit
+//    fsyncs it and renames it onto `<file>` (rename(2) is atomic), and fsyncs the directory.
+//  - A commit while a reader has the file open REPLACES the file whole: the file as changed is
+//    copied into `<file>.partial` with checked write(2) calls, fsync'ed and renamed onto
+//    `<file>`; the bytes the change wrote past the old end are cut from the old file. An open
+//    reader keeps the previous file.
+//  - Any other commit UPDATES the file IN PLACE under an exclusive flock(2) (HDF5 readers hold a
+//    shared one while the file is open, so none is open meanwhile; one that tries waits,
+//    lib/hdf5_io.hpp): the file is set to its new size and fsync'ed (the new data past the old
+//    end on the disk), the pages that changed before the old end are written to the redo journal
+//    `<file>.journal` (header, ranges, a checksum, a trailer) and fsync'ed, then written into the
+//    file, which is fsync'ed, and the journal removed. A process killed in the middle leaves the
+//    previous file (perhaps with bytes past its end, which nothing reads) and no journal or an
+//    incomplete one (ignored and removed), or the file and a complete journal, which the next
+//    writer applies (recover()) and which a reader applies in memory (open_committed()).
+//  - A full disk during the change is kept as the change's error (HDF5 never sees it): the
+//    commit refuses, cuts the file back to its committed end (or removes `<file>.partial`), and
+//    the previous file is intact.
+//    Cost: about the bytes that changed, once (the metadata pages twice), instead of the whole
+//    file per commit. No image of the file is held: the writer's memory is the metadata pages
+//    of one change.
 //
 // Working files (`.partial`, `.journal`, an XDMF file's `.tmp`) are created afresh
 // (O_CREAT | O_EXCL | O_NOFOLLOW, a stale entry unlinked first, never followed), with the mode of
@@ -41,7 +49,8 @@ namespace ltl {
 void fault_point();
 /// errno as text, with ENOSPC spelled out.
 std::string errno_text(int e);
-/// Creates `path` afresh for writing (see above); with `mode` >= 0 it gets exactly that mode.
+/// Creates `path` afresh for reading and writing (see above); with `mode` >= 0 it gets exactly
+/// that mode.
 /// Returns the file descriptor; errors name `file`.
 int create_fresh(const std::string& path, int mode, const std::string& file);
 /// Writes `text` to `path` atomically: to `path + ".tmp"` (create_fresh), then renamed.
@@ -94,6 +103,7 @@ class CommittedFile {
   std::size_t held_bytes() const { return store_ ? store_->held_bytes() : 0; }
 
  private:
+  void commit_fresh(const PageStore& s);
   void replace_whole(const PageStore& s);
   bool update_in_place(const PageStore& s);
   std::string path_;

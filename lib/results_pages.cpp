@@ -16,19 +16,26 @@
 
 namespace ltl {
 
-PageStore::PageStore(int fd, std::uint64_t size)
-    : disk_(fd), disk_size_(size), disk_end_(size), size_(size) {}
+PageStore::PageStore(int fd, std::uint64_t size, bool direct)
+    : disk_(fd),
+      disk_size_(size),
+      disk_end_(size),
+      size_(size),
+      split_(direct ? size : UINT64_MAX),
+      direct_end_(size) {}
 
 PageStore::~PageStore() {
   if (disk_ >= 0) ::close(disk_);
 }
 
 namespace {
-/// Reads all of [at, at + n) of `fd` into `out`; false (errno set; EIO when the file is shorter).
-bool pread_all(int fd, char* out, std::size_t n, std::uint64_t at) {
+/// Reads all of [at, at + n) of `fd` into `out`; false (errno set; EIO when the file is shorter,
+/// unless `short_ok`: then what lies past its end is left as it is).
+bool pread_all(int fd, char* out, std::size_t n, std::uint64_t at, bool short_ok = false) {
   for (std::size_t done = 0; done < n;) {
     const ssize_t k = ::pread(fd, out + done, n - done, static_cast<off_t>(at + done));
     if (k < 0 && errno == EINTR) continue;
+    if (k == 0 && short_ok) return true;
     if (k <= 0) {
       if (k == 0) errno = EIO;  // the file on disk shrank under us
       return false;
@@ -39,59 +46,107 @@ bool pread_all(int fd, char* out, std::size_t n, std::uint64_t at) {
 }
 }  // namespace
 
-bool PageStore::read_disk(std::uint64_t at, std::size_t n, char* out) const {
-  const std::size_t from_disk = at < disk_end_ ? std::min<std::uint64_t>(n, disk_end_ - at) : 0;
-  if (!pread_all(disk_, out, from_disk, at)) return false;
-  std::memset(out + from_disk, 0, n - from_disk);
-  return true;
+bool PageStore::backing(const Pages& pages, std::uint64_t at, std::size_t n, char* out) const {
+  std::memset(out, 0, n);
+  // Before split_: the committed file's bytes still part of this one; past it (direct): the
+  // bytes written into the file.
+  const bool below = &pages == &below_;
+  const std::uint64_t from = below ? 0 : split_, to = below ? disk_end_ : direct_end_;
+  const std::uint64_t lo = std::max(at, from), hi = std::min<std::uint64_t>(at + n, to);
+  // Past split_ the file may end short of direct_end_ (a write that failed half-way): zeros.
+  return lo >= hi || pread_all(disk_, out + (lo - at), hi - lo, lo, !below);
 }
 
-bool PageStore::read(std::uint64_t at, std::size_t n, char* out) const {
+bool PageStore::read_layer(const Pages& pages, std::uint64_t at, std::size_t n, char* out) const {
   const std::uint64_t end = at + n;
   for (std::uint64_t p = at; p < end;) {
-    const auto held = pages_.lower_bound(p / kPage);
-    if (held != pages_.end() && held->first == p / kPage) {
+    const auto held = pages.lower_bound(p / kPage);
+    if (held != pages.end() && held->first == p / kPage) {
       const std::size_t off = p % kPage, len = std::min<std::uint64_t>(kPage - off, end - p);
       std::memcpy(out + (p - at), held->second.get() + off, len);
       p += len;
       continue;
     }
-    // Not held up to the next held page: from the disk in one read.
+    // Not held up to the next held page: from underneath in one read.
     const std::uint64_t stop =
-        held == pages_.end() ? end : std::min<std::uint64_t>(end, held->first * kPage);
-    if (!read_disk(p, stop - p, out + (p - at))) return false;
+        held == pages.end() ? end : std::min<std::uint64_t>(end, held->first * kPage);
+    if (!backing(pages, p, stop - p, out + (p - at))) return false;
     p = stop;
   }
   return true;
 }
 
-bool PageStore::write(std::uint64_t at, std::size_t n, const char* in) {
+bool PageStore::read(std::uint64_t at, std::size_t n, char* out) const {
+  const std::size_t below = at < split_ ? std::min<std::uint64_t>(n, split_ - at) : 0;
+  return (below == 0 || read_layer(below_, at, below, out)) &&
+         (below == n || read_layer(past_, at + below, n - below, out + below));
+}
+
+bool PageStore::write_layer(Pages& pages, std::uint64_t at, std::size_t n, const char* in) {
   const std::uint64_t end = at + n;
   for (std::uint64_t p = at; p < end;) {
     const std::uint64_t index = p / kPage;
     const std::size_t off = p % kPage, len = std::min<std::uint64_t>(kPage - off, end - p);
-    auto& page = pages_[index];
+    auto& page = pages[index];
     if (!page) {
       page.reset(new char[kPage]);
       // A page written in part keeps the rest of what the file holds there.
-      if (len < kPage && !read_disk(index * kPage, kPage, page.get())) {
-        pages_.erase(index);
+      if (len < kPage && !backing(pages, index * kPage, kPage, page.get())) {
+        pages.erase(index);
         return false;
       }
     }
     std::memcpy(page.get() + off, in + (p - at), len);
     p += len;
   }
-  size_ = std::max(size_, end);
+  return true;
+}
+
+bool PageStore::write_direct(std::uint64_t at, std::size_t n, const char* in) {
+  for (std::size_t done = 0; done < n;) {
+    const ssize_t k = ::pwrite(disk_, in + done, n - done, static_cast<off_t>(at + done));
+    if (k < 0 && errno == EINTR) continue;
+    if (k < 0) {
+      direct_end_ = std::max(direct_end_, at + done);
+      return false;
+    }
+    done += static_cast<std::size_t>(k);
+    direct_bytes_ += static_cast<std::uint64_t>(k);
+  }
+  direct_end_ = std::max(direct_end_, at + n);
+  return true;
+}
+
+bool PageStore::write(std::uint64_t at, std::size_t n, const char* in) {
+  const std::size_t below = at < split_ ? std::min<std::uint64_t>(n, split_ - at) : 0;
+  if (below > 0 && !write_layer(below_, at, below, in)) return false;
+  if (below < n) {
+    const std::uint64_t past_at = at + below;
+    const std::size_t past_n = n - below;
+    // Into the file; after a failed write (a full disk), into pages, the error kept for the
+    // commit, so that HDF5 sees a consistent file until then.
+    if (deferred_error_ == 0 && !write_direct(past_at, past_n, in + below)) deferred_error_ = errno;
+    if (deferred_error_ != 0 && !write_layer(past_, past_at, past_n, in + below)) return false;
+  }
+  size_ = std::max(size_, at + n);
   return true;
 }
 
 void PageStore::truncate(std::uint64_t n) {
   if (n < size_) {
-    pages_.erase(pages_.lower_bound((n + kPage - 1) / kPage), pages_.end());
-    const auto last = pages_.find(n / kPage);
-    if (last != pages_.end()) std::memset(last->second.get() + n % kPage, 0, kPage - n % kPage);
+    for (Pages* pages : {&below_, &past_}) {
+      pages->erase(pages->lower_bound((n + kPage - 1) / kPage), pages->end());
+      const auto last = pages->find(n / kPage);
+      if (last != pages->end()) std::memset(last->second.get() + n % kPage, 0, kPage - n % kPage);
+    }
     disk_end_ = std::min(disk_end_, n);
+    if (direct() && direct_end_ > std::max(n, split_)) {
+      // The file's own bytes past the cut are dropped (read as zeros from now on, whether or not
+      // the file could be cut).
+      direct_end_ = std::max(n, split_);
+      if (::ftruncate(disk_, static_cast<off_t>(direct_end_)) != 0 && deferred_error_ == 0)
+        deferred_error_ = errno;
+    }
   }
   size_ = n;
 }
@@ -107,8 +162,8 @@ bool PageStore::changed_ranges(std::vector<Range>& out) const {
   out.clear();
   // The pages written, and those the file on disk holds stale bytes in (cut, then grown again).
   std::vector<std::uint64_t> candidates;
-  candidates.reserve(pages_.size());
-  for (const auto& [index, page] : pages_) candidates.push_back(index);
+  candidates.reserve(below_.size());
+  for (const auto& [index, page] : below_) candidates.push_back(index);
   const std::uint64_t stale_end = std::min(size_, disk_size_);
   if (disk_end_ < stale_end) {
     for (std::uint64_t i = disk_end_ / kPage; i * kPage < stale_end; ++i) candidates.push_back(i);
@@ -128,7 +183,7 @@ bool PageStore::changed_ranges(std::vector<Range>& out) const {
       if (!read(s, below, now.get()) || !pread_all(disk_, disk.get(), below, s)) return false;
       if (std::memcmp(now.get(), disk.get(), below) != 0) add(out, s, below);
     }
-    if (below < len) add(out, s + below, len - below);
+    if (below < len && !direct()) add(out, s + below, len - below);
   }
   return true;
 }

@@ -960,10 +960,10 @@ TEST(Hardening, ResumeAcceptsAlgorithmChangesAndNamesThePhysicsKeysThatDiffer) {
 }
 
 // A disk that fills during a run (a 1 MiB tmpfs; needs root and unshare(1)): step 1 is written,
-// then a filler leaves room for rewriting the file (its size, and its XDMF files, plus 8 KiB),
-// not for step 2 (about 46 KiB more); the resumed run cannot write step 2, and the file keeps step
-// 1 with a status that says why (it used to stay "running"). Once the filler is removed, --resume
-// completes the run.
+// then a filler leaves 32 KiB free: room for a change of the status (a few pages of metadata and
+// their journal), not for step 2 (about 60 KiB more, written once past the file's end); the
+// resumed run cannot write step 2, and the file keeps step 1 with a status that says why (it used
+// to stay "running"). Once the filler is removed, --resume completes the run.
 TEST(Hardening, ADiskThatFillsDuringARunLeavesAStatusThatSaysSo) {
   Folder f("disk_fills", with(kValid, "steps = 1", "steps = 2"));
   fs::create_directory(f.dir / "disk");
@@ -975,7 +975,7 @@ TEST(Hardening, ADiskThatFillsDuringARunLeavesAStatusThatSaysSo) {
       "cd '" + f.dir.string() +
           "' || exit 1\nmount -t tmpfs -o size=1M tmpfs disk || { echo nomount; exit 0; }\n" + bin +
           " case.toml -q -o disk/out.h5 --stop-after 1 || exit 1\n"
-          "room=$(( $(du -B4096 -s disk | cut -f1) * 4096 + 8192 ))\n"
+          "room=32768\n"
           "avail=$(df -B1 --output=avail disk | tail -1)\n"
           "dd if=/dev/zero of=disk/filler bs=4096 count=$(( (avail - room) / 4096 )) 2> "
           "/dev/null\n" +

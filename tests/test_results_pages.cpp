@@ -8,8 +8,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -52,19 +54,27 @@ std::vector<char> slice(const std::vector<char>& model, std::size_t at, std::siz
 
 // Random writes (within a page, across pages, past the end), cuts (below and within the file on
 // disk, then grown again) and reads, each checked against a vector of bytes; every 50
-// operations, the changed ranges are applied to a copy of the file on disk and must give the
-// model exactly, must not cross the end of the file on disk, and every page they name below that
-// end must differ from the disk.
+// operations, the changed ranges are applied to the file as the commit finds it (the file on
+// disk; direct, with what was written past its end) and must give the model exactly, must not
+// cross the end of the file on disk (direct: must lie before it), and every page they name below
+// that end must differ from the disk. Direct, the committed bytes never change.
 TEST_F(Pages, TheStoreIsTheFileItsChangedRangesMakeTheNewFile) {
   std::mt19937 rng(20261129);
   std::vector<char> disk;
   const std::size_t disk_size = 5 * kPage + 123;
   const std::string path = disk_file(disk_size, rng, disk);
   int checks = 0, cuts_below_disk = 0;
-  for (int episode = 0; episode < 6; ++episode) {
-    const int fd = ::open(path.c_str(), O_RDONLY);
+  const std::string copy = (dir_ / "direct.bin").string();
+  for (int episode = 0; episode < 14; ++episode) {
+    // Episodes 6 to 11: direct, over a copy of the file open for writing. 12 and 13: direct over
+    // a file open for reading only, where every write past its end fails: the store must stay
+    // the file (those writes kept in pages), the error kept for the commit.
+    const bool direct = episode >= 6, broken = episode >= 12;
+    if (direct) fs::copy_file(path, copy, fs::copy_options::overwrite_existing);
+    const int fd = ::open((direct ? copy : path).c_str(), direct && !broken ? O_RDWR : O_RDONLY);
     ASSERT_GE(fd, 0);
-    PageStore s(fd, disk_size);
+    PageStore s(fd, disk_size, direct);
+    ASSERT_EQ(s.direct(), direct);
     std::vector<char> model = disk;
     const auto pick = [&](std::size_t n) { return static_cast<std::size_t>(rng() % (n + 1)); };
     for (int op = 1; op <= 400; ++op) {
@@ -89,15 +99,29 @@ TEST_F(Pages, TheStoreIsTheFileItsChangedRangesMakeTheNewFile) {
         ASSERT_EQ(got, slice(model, at, n)) << "episode " << episode << ", op " << op;
       }
       ASSERT_EQ(s.size(), model.size());
+      if (broken) continue;
       if (op % 50 != 0) continue;
       std::vector<PageStore::Range> ranges;
       ASSERT_TRUE(s.changed_ranges(ranges));
+      // The file as the commit finds it: direct, the file on disk (the committed bytes before its
+      // old end untouched, the new ones past it), set to the new size before the journal.
       std::vector<char> file = disk;
+      if (direct) {
+        std::ifstream in(copy, std::ios::binary);
+        file.assign(std::istreambuf_iterator<char>(in), {});
+        ASSERT_GE(file.size(), disk_size);
+        ASSERT_TRUE(std::equal(disk.begin(), disk.end(), file.begin())) << "the old file changed";
+        file.resize(std::max<std::size_t>(s.size(), disk_size), 0);
+        EXPECT_EQ(s.held_bytes() % kPage, 0u);
+      }
       std::uint64_t last_end = 0;
       for (const auto& r : ranges) {
         ASSERT_GE(r.offset, last_end);  // sorted, disjoint
         ASSERT_GT(r.length, 0u);
         EXPECT_FALSE(r.offset < disk_size && r.offset + r.length > disk_size);
+        if (direct) {
+          EXPECT_LT(r.offset, disk_size);  // what lies past it is in the file already
+        }
         last_end = r.offset + r.length;
         ASSERT_LE(last_end, s.size());
         std::vector<char> bytes(r.length);
@@ -114,9 +138,12 @@ TEST_F(Pages, TheStoreIsTheFileItsChangedRangesMakeTheNewFile) {
       ASSERT_EQ(file, model) << "episode " << episode << ", op " << op;
       ++checks;
     }
+    if (broken) {
+      EXPECT_EQ(s.deferred_error(), EBADF);
+    }
   }
-  EXPECT_EQ(checks, 48);
-  EXPECT_GT(cuts_below_disk, 10);
+  EXPECT_EQ(checks, 96);  // 12 episodes x 8 (the broken ones are checked by their reads)
+  EXPECT_GT(cuts_below_disk, 20);
 }
 
 // A store with nothing written reports no change; the same bytes written back report none.
@@ -180,8 +207,10 @@ TEST_F(Pages, AChangeHoldsThePagesItWritesNotTheFile) {
   for (std::size_t i = 0; i < small.size(); ++i) small[i] = -1.0 * static_cast<double>(i);
   ltl::CommittedFile file(path);
   write_doubles(file.create(), "/big", big);
-  EXPECT_GE(file.held_bytes(), 8 * big.size());  // a new file is all pages
+  EXPECT_LE(file.held_bytes(), 4 * kPage);  // a new file goes straight into <file>.partial
+  EXPECT_GE(fs::file_size(path + ".partial"), 8 * big.size());
   file.commit();
+  EXPECT_FALSE(fs::exists(path + ".partial"));
   EXPECT_EQ(file.held_bytes(), 0u);
   const auto size = fs::file_size(path);
   EXPECT_GT(size, 8 * big.size());

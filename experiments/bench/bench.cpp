@@ -687,8 +687,8 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "\nTable 7. Results file: bytes written per step appended (lib/results_commit.hpp: the "
-      "journal, then the file in place; about twice the step), mean of steps 2..4 of a 4-step "
-      "file\n");
+      "step's data past the file's end, then its metadata pages through the journal; about the "
+      "step once), mean of steps 2..4 of a 4-step file\n");
   std::printf("%-13s %8s %14s %14s %9s\n", "case", "cells", "file (4 steps)",
               "bytes written "
               "per step",
