@@ -248,3 +248,31 @@ TEST_F(Pages, AChangeHoldsThePagesItWritesNotTheFile) {
 }
 
 }  // namespace
+
+namespace {
+
+// A writer killed in the middle of a change leaves the committed file with the bytes it wrote
+// past the end: readers do not look there, and the next change writes over them and cuts the
+// rest (the file ends where HDF5's allocated space ends).
+TEST_F(Pages, BytesLeftPastTheEndByAKilledChangeAreNeitherReadNorKept) {
+  const std::string path = (dir_ / "t.h5").string();
+  const std::vector<double> a(1000, 1.5), b(3000, -2.0);
+  ltl::CommittedFile file(path);
+  write_doubles(file.create(), "/a", a);
+  file.commit();
+  const auto size = fs::file_size(path);
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::app);
+    const std::string junk(100000, '\x5a');
+    out.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+  }
+  EXPECT_EQ(read_doubles(path, "/a"), a);
+  write_doubles(file.begin(), "/b", b);
+  file.commit();
+  EXPECT_EQ(read_doubles(path, "/a"), a);
+  EXPECT_EQ(read_doubles(path, "/b"), b);
+  EXPECT_LT(fs::file_size(path), size + 8 * b.size() + 8 * PageStore::kPage);
+  EXPECT_FALSE(fs::exists(ltl::journal_path_of(path)));
+}
+
+}  // namespace
