@@ -130,14 +130,15 @@ std::uint64_t get_u64(const char* p) {
   return v;
 }
 
-std::pair<std::uint64_t, std::uint64_t> checksum(const char* data, std::size_t n) {
-  std::uint64_t s1 = 0, s2 = 0;
+/// Adds the words of [data, data + n) (n a multiple of 8), the first being word `first` of the
+/// journal, to its checksum (s1, s2).
+void add_checksum(const char* data, std::size_t n, std::uint64_t first, std::uint64_t& s1,
+                  std::uint64_t& s2) {
   for (std::size_t i = 0; i < n / 8; ++i) {
     const std::uint64_t w = get_u64(data + 8 * i);
     s1 += w;
-    s2 += (i + 1) * w;
+    s2 += (first + i + 1) * w;
   }
-  return {s1, s2};
 }
 
 /// Writes bytes to `fd` in chunks of 1 MiB, whole 64-bit words at a time, summing the journal's
@@ -170,11 +171,7 @@ class JournalOut {
   static constexpr std::size_t kChunk = std::size_t{1} << 20;
   bool flush() {
     const std::size_t n = buf_.size() / 8 * 8;
-    for (std::size_t i = 0; i < n; i += 8) {
-      const std::uint64_t w = get_u64(buf_.data() + i);
-      s1_ += w;
-      s2_ += (count_ / 8 + i / 8 + 1) * w;
-    }
+    add_checksum(buf_.data(), n, count_ / 8, s1_, s2_);
     if (!write_all(fd_, buf_.data(), n, -1)) return false;
     count_ += n;
     buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(n));
@@ -218,7 +215,8 @@ std::optional<Journal> parse_journal(const std::vector<char>& bytes) {
   if (n < 56 || n % 8 || std::memcmp(bytes.data(), kJournalHead, 8) != 0 ||
       std::memcmp(bytes.data() + n - 8, kJournalTail, 8) != 0)
     return std::nullopt;
-  const auto [s1, s2] = checksum(bytes.data(), n - 24);
+  std::uint64_t s1 = 0, s2 = 0;
+  add_checksum(bytes.data(), n - 24, 0, s1, s2);
   if (get_u64(bytes.data() + n - 24) != s1 || get_u64(bytes.data() + n - 16) != s2)
     return std::nullopt;
   Journal j;

@@ -24,9 +24,10 @@
 //  - A full disk during the change is kept as the change's error (HDF5 never sees it): the
 //    commit refuses, cuts the file back to its committed end (or removes `<file>.partial`), and
 //    the previous file is intact.
-//    Cost: about the bytes that changed, once (the metadata pages twice), instead of the whole
-//    file per commit. No image of the file is held: the writer's memory is the metadata pages
-//    of one change.
+//
+// Cost: about the bytes that changed, once (the metadata pages twice), instead of the whole file
+// per commit. No image of the file is held: the writer's memory is the metadata pages of one
+// change.
 //
 // Working files (`.partial`, `.journal`, an XDMF file's `.tmp`) are created afresh
 // (O_CREAT | O_EXCL | O_NOFOLLOW, a stale entry unlinked first, never followed), with the mode of

@@ -223,9 +223,7 @@ void* info_get(H5FD_t* f) {
 H5FD_t* open(const char*, unsigned flags, hid_t fapl, haddr_t) {
   const auto* info = static_cast<const Shared*>(H5Pget_driver_info(fapl));
   if (!info || !*info) return nullptr;
-  PageStore& s = **info;
-  if (!(flags & H5F_ACC_CREAT) && s.disk() < 0 && s.size() == 0) return nullptr;  // no file
-  if (flags & H5F_ACC_TRUNC) s.truncate(0);
+  if (flags & H5F_ACC_TRUNC) (*info)->truncate(0);
   auto* f = new (std::nothrow) PagedFile{};
   if (!f) return nullptr;
   f->store = new (std::nothrow) Shared(*info);

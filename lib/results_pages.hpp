@@ -31,8 +31,6 @@ namespace ltl {
 class PageStore {
  public:
   static constexpr std::size_t kPage = 4096;
-  /// A new, empty file (nothing on disk).
-  PageStore() = default;
   /// Over the committed file open on `fd` (owned: closed with the store), `size` bytes; direct
   /// when `fd` is open for writing and `direct` is set.
   PageStore(int fd, std::uint64_t size, bool direct = false);
@@ -50,11 +48,11 @@ class PageStore {
 
   /// The file's size now.
   std::uint64_t size() const { return size_; }
-  /// The size of the committed file on disk when the store was opened over it (0: none).
+  /// The size of the committed file on disk when the store was opened over it.
   std::uint64_t disk_size() const { return disk_size_; }
-  /// The committed file (-1: none).
+  /// The committed file (or, for a new file, the working file it is written into).
   int disk() const { return disk_; }
-  bool direct() const { return split_ == disk_size_ && disk_ >= 0; }
+  bool direct() const { return split_ == disk_size_; }
   /// errno of the first failed write (or cut) past the end of the committed file (0: none).
   int deferred_error() const { return deferred_error_; }
   /// Bytes written into the file directly.
@@ -96,7 +94,7 @@ class PageStore {
 };
 
 /// A file access property list whose files live in `store` (the name given to H5Fcreate or
-/// H5Fopen is not used). Opening without H5F_ACC_CREAT needs a store over a file on disk.
+/// H5Fopen is not used).
 h5::Handle page_access(const std::shared_ptr<PageStore>& store, const std::string& file);
 
 }  // namespace ltl
