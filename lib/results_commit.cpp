@@ -399,10 +399,7 @@ h5::Handle open_committed(const std::string& path) {
 // ---------------------------------------------------------------------------------------------
 
 CommittedFile::CommittedFile(CommittedFile&& o) noexcept
-    : path_(std::move(o.path_)),
-      file_(std::exchange(o.file_, -1)),
-      store_(std::move(o.store_)),
-      fresh_(o.fresh_) {}
+    : path_(std::move(o.path_)), file_(std::exchange(o.file_, -1)), store_(std::move(o.store_)) {}
 
 CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
   if (this != &o) {
@@ -410,7 +407,6 @@ CommittedFile& CommittedFile::operator=(CommittedFile&& o) noexcept {
     path_ = std::move(o.path_);
     file_ = std::exchange(o.file_, -1);
     store_ = std::move(o.store_);
-    fresh_ = o.fresh_;
   }
   return *this;
 }
@@ -422,7 +418,6 @@ hid_t CommittedFile::create() {
   // onto the file by the commit.
   const std::string work = path_ + ".partial";
   store_ = std::make_shared<PageStore>(create_fresh(work, mode_of(path_), path_), 0, true);
-  fresh_ = true;
   file_ = H5Fcreate(path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, page_access(store_, path_).get());
   if (file_ < 0) {
     discard();
@@ -454,7 +449,6 @@ hid_t CommittedFile::begin() {
     fail(path_, "is empty, not a results file");
   }
   store_ = std::make_shared<PageStore>(fd, static_cast<std::uint64_t>(st.st_size), direct);
-  fresh_ = false;
   file_ = H5Fopen(path_.c_str(), H5F_ACC_RDWR, page_access(store_, path_).get());
   if (file_ < 0) {
     const int e = errno;
@@ -485,7 +479,7 @@ void CommittedFile::commit() {
   }
   const std::shared_ptr<PageStore> store = std::move(store_);
   written += store->direct_bytes();
-  if (std::exchange(fresh_, false))
+  if (store->disk_size() == 0)  // a new file, in <file>.partial
     commit_fresh(*store);
   else if (!update_in_place(*store))
     replace_whole(*store);
@@ -590,13 +584,12 @@ void CommittedFile::discard() noexcept {
   file_ = -1;
   if (store_) {
     written += store_->direct_bytes();
-    if (fresh_)
+    if (store_->disk_size() == 0)  // a new file
       ::unlink((path_ + ".partial").c_str());
     else if (store_->direct())  // the file as committed: what the change wrote past its end cut
       (void)::ftruncate(store_->disk(), static_cast<off_t>(store_->disk_size()));
   }
   store_.reset();
-  fresh_ = false;
 }
 
 }  // namespace ltl

@@ -109,9 +109,9 @@ class CommittedFile {
   bool update_in_place(const PageStore& s);
   std::string path_;
   long long file_ = -1;  ///< hid_t of the file in memory while a change is under way
-  /// The pages of the change under way, over the file on disk it was opened over.
+  /// The pages of the change under way, over the file on disk it was opened over (a new file:
+  /// over `<file>.partial`, of size 0 when opened; begin() refuses an empty file).
   std::shared_ptr<PageStore> store_;
-  bool fresh_ = false;  ///< created, not yet committed: replace the file whole
 };
 
 }  // namespace ltl
