@@ -18,6 +18,7 @@
 #include "error.hpp"
 #include "geometry_guard.hpp"
 #include "hash.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
@@ -275,7 +276,12 @@ std::string undefined_parameter(const GeometryScan& scan, const std::string& nam
              "\"]); it defines: ", names.empty() ? "none" : names);
 }
 
-Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters) {
+namespace {
+
+std::atomic<int> g_meshes_made{0};
+
+// gmsh generates or reads the mesh: load_mesh on one process.
+Mesh load_mesh_with_gmsh(const std::string& path, const std::map<std::string, double>& parameters) {
   if (std::filesystem::exists(path) && !std::filesystem::is_directory(path) &&
       !std::filesystem::is_regular_file(path))
     throw Error(
@@ -295,6 +301,7 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
       throw Error(cat(path, ": parameter '", name, "' = ", value, " is not finite"));
   }
   GmshSession session;
+  ++g_meshes_made;
   try {
     gmsh::logger::start();
     gmsh::onelab::clear();  // parameters of an earlier load must not leak into this one
@@ -436,6 +443,60 @@ Mesh load_mesh(const std::string& path, const std::map<std::string, double>& par
   } catch (const char* message) {
     throw Error(cat(path, ": gmsh: ", message, gmsh_last_error()));
   }
+  return mesh;
+}
+
+// Rank 0's mesh on every rank: its sizes, then its arrays, names and fingerprint.
+void broadcast_mesh(Mesh& mesh) {
+  int head[4] = {mesh.dim, mesh.num_nodes(), mesh.num_cells(), mesh.nodes_per_cell()};
+  mpi::broadcast(head, 4);
+  int boundaries = static_cast<int>(mesh.boundaries.size());
+  mpi::broadcast(&boundaries, 1);
+  if (mpi::rank() != 0) {
+    mesh.dim = head[0];
+    mesh.X.resize(head[1], head[0]);
+    mesh.cells.resize(head[2], head[3]);
+    mesh.boundaries.resize(boundaries);
+  }
+  mpi::broadcast(mesh.X.data(), mesh.X.size());
+  mpi::broadcast(mesh.cells.data(), mesh.cells.size());
+  for (Mesh::Boundary& b : mesh.boundaries) {
+    b.name = mpi::broadcast(b.name);
+    int shape[2] = {static_cast<int>(b.facets.rows()), static_cast<int>(b.facets.cols())};
+    mpi::broadcast(shape, 2);
+    if (mpi::rank() != 0) b.facets.resize(shape[0], shape[1]);
+    mpi::broadcast(b.facets.data(), b.facets.size());
+  }
+  mesh.source = mpi::broadcast(mesh.source);
+  mesh.source_hash = mpi::broadcast(mesh.source_hash);
+}
+
+}  // namespace
+
+int meshes_made_with_gmsh() {
+  return g_meshes_made.load();
+}
+
+// Under mpirun the mesh is made once: gmsh runs on rank 0, and every other rank receives the
+// arrays (a few bytes per cell) instead of meshing the geometry itself, which would hold
+// gmsh's own model and work arrays, several times the mesh, on every rank. An error on rank 0
+// is every rank's error (none waits for a mesh that will not come).
+Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters) {
+  if (mpi::size() == 1) return load_mesh_with_gmsh(path, parameters);
+  Mesh mesh;
+  std::string error;
+  if (mpi::rank() == 0) {
+    try {
+      mesh = load_mesh_with_gmsh(path, parameters);
+    } catch (const Error& e) {
+      error = e.what();
+    } catch (const std::exception& e) {
+      error = cat(path, ": ", e.what());
+    }
+  }
+  error = mpi::broadcast(error);
+  if (!error.empty()) throw Error(error);
+  broadcast_mesh(mesh);
   return mesh;
 }
 

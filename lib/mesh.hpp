@@ -55,7 +55,12 @@ struct Mesh {
 /// does not define or that is not finite, a script that ends the program (`Exit;`, reported and
 /// exit status 1 from an atexit guard), a gmsh meshing error, no cells, a cell of zero area or
 /// volume, non-finite coordinates.
+/// Under mpirun (several ranks, lib/mpi_comm.hpp) it is collective, called by every rank: rank 0
+/// alone runs gmsh and sends the mesh, or its error, to the others.
 Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters = {});
+/// How many meshes this process has made with gmsh so far (under mpirun: rank 0's count, 0 on
+/// the other ranks).
+int meshes_made_with_gmsh();
 
 /// What a geometry file declares: the ONELAB parameters "Parameters/NAME" it defines (in a
 /// DefineConstant, in the file or a file it Includes; names without the "Parameters/" prefix),

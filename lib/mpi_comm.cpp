@@ -87,6 +87,10 @@ void barrier() {}
 void sum(double*, long) {}
 void max(double*, long) {}
 void broadcast(double*, long) {}
+void broadcast(int*, long) {}
+std::string broadcast(const std::string& text) {
+  return text;
+}
 void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
   lo = hi = v;
 }
@@ -189,13 +193,29 @@ void max(double* x, long n) {
   traffic_.seconds += seconds_since(t0);
 }
 
-void broadcast(double* x, long n) {
+namespace {
+void broadcast_bytes(void* x, long n, MPI_Datatype type, int bytes_each) {
   if (!up || size_ == 1) return;
   const auto t0 = clock_type::now();
-  check(MPI_Bcast(x, static_cast<int>(n), MPI_DOUBLE, 0, MPI_COMM_WORLD), "MPI_Bcast");
-  if (rank_ != 0) traffic_.bytes += 8.0 * n;
+  check(MPI_Bcast(x, static_cast<int>(n), type, 0, MPI_COMM_WORLD), "MPI_Bcast");
+  if (rank_ != 0) traffic_.bytes += static_cast<double>(bytes_each) * n;
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);
+}
+}  // namespace
+
+void broadcast(double* x, long n) {
+  broadcast_bytes(x, n, MPI_DOUBLE, 8);
+}
+void broadcast(int* x, long n) {
+  broadcast_bytes(x, n, MPI_INT, 4);
+}
+std::string broadcast(const std::string& text) {
+  int n = static_cast<int>(text.size());
+  broadcast(&n, 1);
+  std::string out = rank_ == 0 ? text : std::string(static_cast<std::size_t>(n), '\0');
+  broadcast_bytes(out.data(), n, MPI_CHAR, 1);
+  return out;
 }
 
 void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {

@@ -13,6 +13,7 @@
 
 #include <Eigen/Dense>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace ltl::mpi {
@@ -47,6 +48,9 @@ void sum(double* x, long n);
 void max(double* x, long n);
 /// In place: every rank gets rank 0's x[0 .. n) (a resumed run's start, read by rank 0 alone).
 void broadcast(double* x, long n);
+void broadcast(int* x, long n);
+/// Rank 0's text, on every rank (a path, an error message; the argument is ignored elsewhere).
+std::string broadcast(const std::string& text);
 /// Over the ranks: the smallest and the largest of v (the check that every rank holds the same).
 void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi);
 

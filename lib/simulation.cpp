@@ -325,27 +325,37 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
   std::vector<StepAttempt> attempts;
   int substeps = 0;
   TimeStep step;
+  std::function<bool(double, double, double, int, const State&)> halves;
   // One attempt from the load factor a (the current state) to b; on failure, with halvings
-  // left, the state goes back to a's and the increment is done as two halves. The states kept
-  // to go back to are, under mpirun, E and lambda on the rank's cells and u on its block of
-  // nodes (Solver::kept_copy).
-  const std::function<bool(double, double, int)> advance = [&](double a, double b, int depth) {
-    const State from = depth < kMaxHalvings ? solver.kept_copy(state) : State{};
-    step = solve_at_factor(solver, p, b, state, verbosity, nullptr, checkpoints);
-    const StepReport& r = step.report;
-    attempts.push_back({a, b, r.converged, r.iterations,
-                        r.history.empty() ? 0.0 : r.history.back().wall, r.status});
-    if (r.converged) return ++substeps, true;
-    if (depth >= kMaxHalvings) return false;
-    if (verbosity > 0)
-      std::printf(
-          "step %4d/%d  load factor %g -> %g failed after %d iterations (%s); retried "
-          "in two halves\n",
-          p, P, a, b, r.iterations, r.status.substr(0, r.status.find(": ")).c_str()),
-          std::fflush(stdout);
-    solver.restore(from, state);
-    const double m = a + (b - a) / 2;
-    return advance(a, m, depth + 1) && advance(m, b, depth + 1);
+  // left, the state goes back to a's (`at_a`, a kept copy of it) and the increment is done as
+  // two halves. The first half starts from a too and goes back to the same copy; the second
+  // starts from the midpoint, kept once the first half converged. So no state is kept twice:
+  // at most one copy per distinct load factor still to go back to (the step's start and the
+  // midpoints of halves in progress). The states kept are, under mpirun, E and lambda on the
+  // rank's cells and u on its block of nodes (Solver::kept_copy).
+  const std::function<bool(double, double, int, const State&)> advance =
+      [&](double a, double b, int depth, const State& at_a) {
+        step = solve_at_factor(solver, p, b, state, verbosity, nullptr, checkpoints);
+        const StepReport& r = step.report;
+        attempts.push_back({a, b, r.converged, r.iterations,
+                            r.history.empty() ? 0.0 : r.history.back().wall, r.status});
+        if (r.converged) return ++substeps, true;
+        if (depth >= kMaxHalvings) return false;
+        if (verbosity > 0)
+          std::printf(
+              "step %4d/%d  load factor %g -> %g failed after %d iterations (%s); retried "
+              "in two halves\n",
+              p, P, a, b, r.iterations, r.status.substr(0, r.status.find(": ")).c_str()),
+              std::fflush(stdout);
+        solver.restore(at_a, state);
+        const double m = a + (b - a) / 2;
+        return halves(a, m, b, depth + 1, at_a);
+      };
+  // The two halves a -> m -> b, at `depth`, from the state at a (its kept copy `at_a`).
+  halves = [&](double a, double m, double b, int depth, const State& at_a) {
+    if (!advance(a, m, depth, at_a)) return false;
+    const State at_m = depth < kMaxHalvings ? solver.kept_copy(state) : State{};
+    return advance(m, b, depth, at_m);
   };
   const State start = solver.kept_copy(state);
   // A checkpoint of this step (--resume): the first attempt continues from it, beta_{p-1} and
@@ -369,8 +379,7 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
             step.report.status.substr(0, step.report.status.find(": ")).c_str()),
             std::fflush(stdout);
       solver.restore(start, state);
-      const double m = f0 + (f1 - f0) / 2;
-      if (advance(f0, m, 1)) advance(m, f1, 1);
+      halves(f0, f0 + (f1 - f0) / 2, f1, 1, start);
     }
   }
   step.attempts = std::move(attempts);
@@ -425,20 +434,9 @@ static void broadcast_state(State& s) {
     mpi::broadcast(m->data(), m->size());
   mpi::broadcast(s.beta.data(), s.beta.size());
 }
-static std::string broadcast_text(const std::string& text) {  // rank 0's text, on every rank
-  double n = static_cast<double>(text.size());
-  mpi::broadcast(&n, 1);
-  std::vector<double> c(static_cast<std::size_t>(n));
-  for (std::size_t i = 0; i < c.size() && i < text.size(); ++i)
-    c[i] = static_cast<unsigned char>(text[i]);
-  mpi::broadcast(c.data(), static_cast<long>(c.size()));
-  std::string out(c.size(), '\0');
-  for (std::size_t i = 0; i < c.size(); ++i) out[i] = static_cast<char>(static_cast<int>(c[i]));
-  return out;
-}
 static int resume_across_ranks(State& s, int next_step, std::optional<State>& iterate,
                                int& iterations, std::string& restart) {
-  restart = broadcast_text(restart);
+  restart = mpi::broadcast(restart);
   double head[3] = {static_cast<double>(next_step), iterate ? 1.0 : 0.0,
                     static_cast<double>(iterations)};
   mpi::broadcast(head, 3);

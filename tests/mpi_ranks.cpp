@@ -19,13 +19,17 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "admissibility.hpp"
 #include "config.hpp"
+#include "error.hpp"
 #include "hash.hpp"
 #include "measures.hpp"
+#include "mesh.hpp"
 #include "mpi_comm.hpp"
 #include "mpi_global.hpp"
 #include "mpi_newton.hpp"
@@ -353,6 +357,58 @@ TEST(Mpi, Eq4_1to4_4_CoarseGutterSameIteratesCgGamg) {
 /// cut. Blocks of gmsh's cell index (which runs over the layers of each cross-section element)
 /// cut along the length instead: 63 nodes on 2 ranks, and the rank's part of K (4.5) then falls
 /// in other ranks' rows (paper_notes/mpi.md, "The ranks' cells").
+/// The fingerprint of a mesh: its sizes, nodes and cells, every boundary part, its source.
+std::uint64_t fingerprint_of(const Mesh& m) {
+  Fingerprint f;
+  const int head[3] = {m.dim, m.num_nodes(), m.nodes_per_cell()};
+  f.add(head, sizeof head);
+  f.add(m.X.data(), sizeof(double) * m.X.size());
+  f.add(m.cells.data(), sizeof(int) * m.cells.size());
+  for (const Mesh::Boundary& b : m.boundaries) {
+    f.add(b.name);
+    f.add(b.facets.data(), sizeof(int) * b.facets.size());
+  }
+  f.add(m.source).add(m.source_hash);
+  return std::stoull(f.hex(), nullptr, 16);
+}
+
+// load_mesh under mpirun (lib/mesh.cpp): rank 0 alone runs gmsh, and every other rank receives
+// its mesh, or its error.
+TEST(Mpi, TheMeshIsMadeOnceAndSentToEveryRank) {
+  const std::vector<std::pair<const char*, std::vector<std::string>>> cases = {
+      {kFig5, {}}, {kFig6, kCoarseGutter}};
+  for (const auto& [config, overrides] : cases) {
+    const int before = meshes_made_with_gmsh();
+    const Problem p = load_problem(ltl::testing::source_path(config), overrides);
+    EXPECT_EQ(meshes_made_with_gmsh() - before, mpi::rank() == 0 ? 1 : 0)
+        << config << ": meshes made with gmsh on rank " << mpi::rank();
+    EXPECT_GT(p.mesh.num_cells(), 0) << config;
+    EXPECT_GE(p.mesh.boundaries.size(), 2u) << config;
+    EXPECT_FALSE(p.mesh.source_hash.empty()) << config;
+    std::uint64_t lo = 0, hi = 0;
+    mpi::min_max(fingerprint_of(p.mesh), lo, hi);
+    EXPECT_EQ(lo, hi) << config << ": the ranks' meshes differ";
+  }
+  const std::string gutter = ltl::testing::source_path("experiments/fig6/gutter.geo");
+  const std::vector<std::tuple<std::string, std::map<std::string, double>, std::string>> bad = {
+      {gutter + ".missing", {}, "cannot open the mesh/geometry file"},
+      {gutter, {{"nope", 1}}, "defines no parameter 'nope'"}};
+  for (const auto& [path, parameters, expected] : bad) {
+    std::string message;
+    try {
+      load_mesh(path, parameters);
+    } catch (const Error& e) {
+      message = e.what();
+    }
+    EXPECT_NE(message.find(expected), std::string::npos)
+        << "rank " << mpi::rank() << ": '" << message << "'";
+    EXPECT_NE(message.find(path), std::string::npos) << message;
+    std::uint64_t lo = 0, hi = 0;
+    mpi::min_max(std::stoull(fingerprint(message), nullptr, 16), lo, hi);
+    EXPECT_EQ(lo, hi) << "the ranks' errors differ: rank " << mpi::rank() << ": " << message;
+  }
+}
+
 TEST(Mpi, EachRanksCellsAreASlab) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6),
                                  {"mesh.parameters.nl=20", "mesh.parameters.na=5"});

@@ -172,6 +172,43 @@ TEST(AlgorithmDefaults, Eq1_5_ThreeDBlockWithoutAlgorithmKeysMatchesClosedForm) 
   EXPECT_LT(r.report.iterations, 1000);
 }
 
+// The contact surface must be part of the boundary: every contact facet a facet of exactly one
+// cell (Problem::validate). In 3-D, a box of two layers of hexahedra: its bottom is a contact
+// surface, the interface of the layers ("mid", each facet shared by two cells) is refused.
+TEST(ContactSurface, AnInteriorSurfaceOfHexahedraIsRefused) {
+  const fs::path dir = ltl::testing::temp_dir("inputs_layers");
+  write_file(dir / "layers.geo",
+             "Point(1)={0,0,0};Point(2)={1,0,0};Point(3)={1,1,0};Point(4)={0,1,0};"
+             "Line(1)={1,2};Line(2)={2,3};Line(3)={3,4};Line(4)={4,1};"
+             "Curve Loop(1)={1,2,3,4};Plane Surface(1)={1};"
+             "Transfinite Curve{1,2,3,4}=3;Transfinite Surface{1};Recombine Surface{1};"
+             "a[]=Extrude {0,0,0.5} { Surface{1}; Layers{2}; Recombine; };"
+             "b[]=Extrude {0,0,0.5} { Surface{a[0]}; Layers{2}; Recombine; };"
+             "Physical Surface(\"z0\")={1};Physical Surface(\"mid\")={a[0]};"
+             "Physical Surface(\"z1\")={b[0]};Physical Surface(\"y0\")={a[2],b[2]};"
+             "Physical Surface(\"x0\")={a[5],b[5]};Physical Volume(\"b\")={a[1],b[1]};\n");
+  std::string text = box_config(100e3);
+  text.replace(text.find(test_path("geometry/box.geo")), test_path("geometry/box.geo").size(),
+               (dir / "layers.geo").string());
+  text.replace(text.find("parameters = { n = 3 }\n"), 23, "");
+  write_file(dir / "z0.toml", text);
+  const Problem p = load_problem((dir / "z0.toml").string());
+  EXPECT_EQ(p.mesh.nodes_per_cell(), 8);
+  EXPECT_EQ(p.mesh.num_cells(), 16);
+  EXPECT_EQ(p.mesh.boundary("mid").facets.rows(), 4);
+  text.replace(text.find("group = \"z0\""), 12, "group = \"mid\"");
+  write_file(dir / "mid.toml", text);
+  std::string message;
+  try {
+    load_problem((dir / "mid.toml").string());
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  for (const char* w : {"contact.group", "'mid' facet 0", "is not on the boundary of the body"})
+    EXPECT_NE(message.find(w), std::string::npos) << "'" << w << "' not in: '" << message << "'";
+  fs::remove_all(dir);
+}
+
 TEST(AlgorithmDefaults, ExplicitValuesAreKept) {
   // Fig 5 states R, q, q_c: they are used as written, none derived.
   const Problem fig5 = load_problem(source_path("experiments/fig5/fig5.toml"));

@@ -11,7 +11,9 @@
 //           ranks; the load average is printed beside them. A second line, "MEM ...": the
 //           resident size (VmRSS / VmHWM / the allocator's live bytes, MB, largest rank) after
 //           each setup phase (start, mesh read, solver set up, the last iteration, the step's
-//           end) and the bytes per cell the largest rank holds (Solver::holdings).
+//           end; after the mesh read also the largest rank but rank 0, which alone runs gmsh,
+//           and the seconds load_problem took) and the bytes per cell the largest rank holds
+//           (Solver::holdings).
 //           PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every rank (the memory
 //           before the partition of the operators, paper_notes/mpi.md).
 //
@@ -20,6 +22,8 @@
 //           (make bench-mpi runs the table of paper_notes/mpi.md). Without MPI (the default
 //           build) it runs on one rank with the serial solver.
 
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -59,6 +63,9 @@ double live_heap_bytes() {
 #else
   return 0;
 #endif
+}
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 double max_of(double v) {
   ltl::mpi::max(&v, 1);
@@ -120,9 +127,22 @@ int bench(int argc, char** argv) {
                        static_cast<int>(live));
   };
   phase("start");
+  const double t_load = now_seconds();
   ltl::Problem problem =
       ltl::load_problem(std::string(LTL_SOURCE_DIR) + "/experiments/fig6/fig6.toml", ov);
+  const double load_s = max_of(now_seconds() - t_load);
   phase("mesh");
+  {  // the mesh phase of the ranks that do not run gmsh (load_mesh: rank 0 alone does)
+    const bool other = ltl::mpi::rank() != 0;
+    const double rss = max_of(other ? ltl::mpi::resident_bytes() / 1048576.0 : 0);
+    const double hwm = max_of(other ? ltl::mpi::peak_resident_bytes() / 1048576.0 : 0);
+    const double live = max_of(other ? live_heap_bytes() / 1048576.0 : 0);
+    if (ltl::mpi::size() > 1)
+      phases += ltl::cat(" (other ranks ", static_cast<int>(rss), "/", static_cast<int>(hwm), "/",
+                         static_cast<int>(live), ", load_s ", std::round(100 * load_s) / 100, ")");
+    else
+      phases += ltl::cat(" (load_s ", std::round(100 * load_s) / 100, ")");
+  }
   const int P = ltl::mpi::size();
   const bool all = P > 1 || distribute;
   // The problem moves into the solver's discretization (one copy of the mesh per rank).
