@@ -64,6 +64,26 @@ namespace {
 void check(PetscErrorCode ierr, const std::string& what, const char* call) {
   if (ierr) throw Error(cat(what, ": PETSc's ", call, " failed (PETSc error ", ierr, ")"));
 }
+
+// GAMG's Galerkin products P^T A P of the distributed matrices computed "all at once" (PETSc's
+// -matptap_via allatonce), while the KSP is set up, unless the user chose an algorithm
+// (PETSC_OPTIONS). PETSc's default for MPIAIJ forms the intermediate products first: on the
+// 102 400-cell gutter the setup's peak was 822 MB on one rank and 498 on each of 2, against 596
+// and 350 all at once, for the same coarse operators (the same CG iterations) and a setup of
+// 10 s instead of 4, once per run (paper_notes/mpi.md, "GAMG's products all at once"). Only
+// around the setup: a serial (SeqAIJ) matrix, the serial CG + AMG's, refuses the algorithm.
+struct AllAtOnceGalerkinProducts {
+  PetscBool given = PETSC_FALSE;
+  AllAtOnceGalerkinProducts() {
+    PetscOptionsHasName(nullptr, nullptr, "-matptap_via", &given);
+    if (!given) PetscOptionsSetValue(nullptr, "-matptap_via", "allatonce");
+  }
+  ~AllAtOnceGalerkinProducts() {
+    if (!given) PetscOptionsClearValue(nullptr, "-matptap_via");
+  }
+  AllAtOnceGalerkinProducts(const AllAtOnceGalerkinProducts&) = delete;
+  AllAtOnceGalerkinProducts& operator=(const AllAtOnceGalerkinProducts&) = delete;
+};
 }  // namespace
 
 /// One distinct Dirichlet set: its free nodes (mesh order), this rank's block of them, the
@@ -257,7 +277,10 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat K, const DirichletData& bc,
         check(PCFactorGetMatrix(pc, &F), g.what, "PCFactorGetMatrix");
         check(MatMumpsSetIcntl(F, 14, extra), g.what, "MatMumpsSetIcntl");
       }
-      check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the factor or the AMG hierarchy)");
+      {
+        const AllAtOnceGalerkinProducts products;
+        check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the factor or the AMG hierarchy)");
+      }
       MatFactorError error = MAT_FACTOR_NOERROR;
       if (F) check(MatFactorGetError(F, &error), g.what, "MatFactorGetError");
       if (error == MAT_FACTOR_NOERROR) break;

@@ -351,6 +351,25 @@ TEST(Mpi, Eq4_1to4_4_CoarseGutterSameIteratesCgGamg) {
   expect_same_iterates("cg-amg");
 }
 
+// GAMG's Galerkin products all at once (-matptap_via allatonce, lib/mpi_global.cpp) only while
+// the distributed step is set up: afterwards the option is unset, so that a serial CG + AMG
+// (SeqAIJ matrices, which refuse that algorithm) sets up in the same process; a value the user
+// gave is kept.
+TEST(Mpi, Eq4_5_GalerkinProductsAllAtOnceOnlyWhileTheDistributedStepIsSetUp) {
+  std::vector<std::string> ov = kCoarseGutter;
+  ov.push_back("algorithm.global_solver=\"cg-amg\"");
+  const Problem p = load_problem(ltl::testing::source_path(kFig6), ov);
+  {
+    const Solver dist(p, Ranks::All);
+    EXPECT_FALSE(mpi::option("-matptap_via")) << "left set after the distributed setup";
+    EXPECT_NO_THROW(Solver(p, Ranks::One)) << "the serial CG + AMG after the distributed one";
+  }
+  mpi::set_option("-matptap_via", true, "scalable");
+  { const Solver dist(p, Ranks::All); }
+  EXPECT_TRUE(mpi::option("-matptap_via")) << "the user's -matptap_via was cleared";
+  mpi::set_option("-matptap_via", false);
+}
+
 /// The ranks' cells are slabs along the mesh's longest extent (slab_cells), like the rows of the
 /// distributed matrices: on a gutter 4 times longer than the coarse one (200 cells, 18 nodes in
 /// a cross-section), the nodes that cells of two ranks share are at most 2 cross-sections per
