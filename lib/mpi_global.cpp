@@ -45,8 +45,8 @@ mpi::Partition slab_cells(const Mesh& mesh, int ranks) {
 
 struct DistributedGlobalStep::Group {};
 
-DistributedGlobalStep::DistributedGlobalStep(SpMat, const DirichletData& bc, const Eigen::MatrixXd&,
-                                             Solver solver, bool)
+DistributedGlobalStep::DistributedGlobalStep(SpMat&&, const DirichletData& bc,
+                                             const Eigen::MatrixXd&, Solver solver, bool)
     : bc_(bc), solver_(solver) {
   throw Error(
       "the distributed global step needs MPI and PETSc: build with -DLTL_WITH_MPI=ON "
@@ -122,7 +122,7 @@ struct DistributedGlobalStep::Group {
   }
 };
 
-DistributedGlobalStep::DistributedGlobalStep(SpMat K, const DirichletData& bc,
+DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
                                              const Eigen::MatrixXd& X, Solver solver, bool parts)
     : bc_(bc), solver_(solver) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -244,7 +244,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat K, const DirichletData& bc,
     }
     // K is in PETSc's matrices once the last set's is assembled: released before its AMG setup
     // or factorization, the rank's peak (paper_notes/mpi.md, "What a rank holds at its peak").
-    if (gp == groups_.back()) K = SpMat();
+    if (gp == groups_.back()) SpMat().swap(K);
     // MUMPS's workspace: its own estimate plus 20 % (ICNTL(14) = 20, MUMPS's default) first;
     // when that is short (INFOG(1) = -9 on 4 ranks of the 1 080-cell gutter: the factor reports
     // an error, the same on every rank) the KSP is set up again with twice the estimate (100 %).

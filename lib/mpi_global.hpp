@@ -52,9 +52,11 @@ class DistributedGlobalStep {
   /// and no rank holds the whole. bc: the Dirichlet sets (held by reference: it must outlive
   /// this object, as the Solver's discretization does); X: the #nodes x dim reference
   /// coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error without MPI
-  /// (a build without LTL_WITH_MPI) or when PETSc fails. K is released (moved in) once it is in
-  /// PETSc's matrices, before the AMG setup or the factorization.
-  DistributedGlobalStep(SpMat K, const DirichletData& bc, const Eigen::MatrixXd& X,
+  /// (a build without LTL_WITH_MPI) or when PETSc fails. K is consumed: released (swapped out,
+  /// the caller's left empty) once it is in PETSc's matrices, before the last AMG setup or
+  /// factorization. (Eigen 3.4's SparseMatrix has no move constructor: a K taken by value from
+  /// std::move would be a copy, and the caller's K would stay through every setup.)
+  DistributedGlobalStep(SpMat&& K, const DirichletData& bc, const Eigen::MatrixXd& X,
                         Solver solver = Solver::CgGamg, bool parts = false);
   ~DistributedGlobalStep();
   DistributedGlobalStep(const DistributedGlobalStep&) = delete;
