@@ -67,8 +67,8 @@ void check(PetscErrorCode ierr, const std::string& what, const char* call) {
 
 // GAMG's Galerkin products P^T A P of the distributed matrices computed "all at once" (PETSc's
 // -matptap_via allatonce), while the KSP is set up, unless the user chose an algorithm
-// (PETSC_OPTIONS). PETSc's default for MPIAIJ forms the intermediate products first: on the
-// 102 400-cell gutter the setup's peak was 822 MB on one rank and 498 on each of 2, against 596
+// (PETSC_OPTIONS). PETSc's default for MPIAIJ kept 6.6 times the serial product's memory: on the
+// 102 400-cell gutter the peak was 822 MB on one rank and 498 on each of 2, against 596
 // and 350 all at once, for the same coarse operators (the same CG iterations) and a setup of
 // 10 s instead of 4, once per run (paper_notes/mpi.md, "GAMG's products all at once"). Only
 // around the setup: a serial (SeqAIJ) matrix, the serial CG + AMG's, refuses the algorithm.
