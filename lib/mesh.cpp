@@ -446,26 +446,26 @@ Mesh load_mesh_with_gmsh(const std::string& path, const std::map<std::string, do
   return mesh;
 }
 
-// Rank 0's mesh on every rank: its sizes, then its arrays, names and fingerprint.
+// Rank 0's matrix (its shape, then its entries) on every rank.
+template <class Matrix>
+void broadcast_matrix(Matrix& A) {
+  int shape[2] = {static_cast<int>(A.rows()), static_cast<int>(A.cols())};
+  mpi::broadcast(shape, 2);
+  if (mpi::rank() != 0) A.resize(shape[0], shape[1]);
+  mpi::broadcast(A.data(), A.size());
+}
+
+// Rank 0's mesh on every rank: its arrays, boundary parts, source and fingerprint.
 void broadcast_mesh(Mesh& mesh) {
-  int head[4] = {mesh.dim, mesh.num_nodes(), mesh.num_cells(), mesh.nodes_per_cell()};
-  mpi::broadcast(head, 4);
-  int boundaries = static_cast<int>(mesh.boundaries.size());
-  mpi::broadcast(&boundaries, 1);
-  if (mpi::rank() != 0) {
-    mesh.dim = head[0];
-    mesh.X.resize(head[1], head[0]);
-    mesh.cells.resize(head[2], head[3]);
-    mesh.boundaries.resize(boundaries);
-  }
-  mpi::broadcast(mesh.X.data(), mesh.X.size());
-  mpi::broadcast(mesh.cells.data(), mesh.cells.size());
+  int head[2] = {mesh.dim, static_cast<int>(mesh.boundaries.size())};
+  mpi::broadcast(head, 2);
+  mesh.dim = head[0];
+  mesh.boundaries.resize(head[1]);
+  broadcast_matrix(mesh.X);
+  broadcast_matrix(mesh.cells);
   for (Mesh::Boundary& b : mesh.boundaries) {
     b.name = mpi::broadcast(b.name);
-    int shape[2] = {static_cast<int>(b.facets.rows()), static_cast<int>(b.facets.cols())};
-    mpi::broadcast(shape, 2);
-    if (mpi::rank() != 0) b.facets.resize(shape[0], shape[1]);
-    mpi::broadcast(b.facets.data(), b.facets.size());
+    broadcast_matrix(b.facets);
   }
   mesh.source = mpi::broadcast(mesh.source);
   mesh.source_hash = mpi::broadcast(mesh.source_hash);

@@ -325,22 +325,28 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
   std::vector<StepAttempt> attempts;
   int substeps = 0;
   TimeStep step;
-  std::function<bool(double, double, double, int, const State&)> halves;
-  // One attempt from the load factor a (the current state) to b; on failure, with halvings
-  // left, the state goes back to a's (`at_a`, a kept copy of it) and the increment is done as
-  // two halves. The first half starts from a too and goes back to the same copy; the second
-  // starts from the midpoint, kept once the first half converged. So no state is kept twice:
-  // at most one copy per distinct load factor still to go back to (the step's start and the
-  // midpoints of halves in progress). The states kept are, under mpirun, E and lambda on the
-  // rank's cells and u on its block of nodes (Solver::kept_copy).
-  const std::function<bool(double, double, int, const State&)> advance =
+  // The attempt just made (`step`), a -> b, recorded; true if it converged.
+  const auto record = [&](double a, double b) {
+    const StepReport& r = step.report;
+    attempts.push_back({a, b, r.converged, r.iterations,
+                        r.history.empty() ? 0.0 : r.history.back().wall, r.status});
+    return r.converged;
+  };
+  // One attempt a -> b from the current state, a substep when it converges.
+  const auto attempt = [&](double a, double b) {
+    step = solve_at_factor(solver, p, b, state, verbosity, nullptr, checkpoints);
+    return record(a, b) && (++substeps, true);
+  };
+  // The attempt a -> b failed: the state goes back to a's (`at_a`, a kept copy of it) and the
+  // increment is done as two halves at `depth`, each halved again when it fails while halvings
+  // are left. The first half starts from a too and goes back to the same copy; the second starts
+  // from the midpoint, kept once the first half converged. So no state is kept twice: at most
+  // one copy per distinct load factor still to go back to (the step's start and the midpoints
+  // of halves in progress). The states kept are, under mpirun, E and lambda on the rank's cells
+  // and u on its block of nodes (Solver::kept_copy).
+  const std::function<bool(double, double, int, const State&)> in_halves =
       [&](double a, double b, int depth, const State& at_a) {
-        step = solve_at_factor(solver, p, b, state, verbosity, nullptr, checkpoints);
         const StepReport& r = step.report;
-        attempts.push_back({a, b, r.converged, r.iterations,
-                            r.history.empty() ? 0.0 : r.history.back().wall, r.status});
-        if (r.converged) return ++substeps, true;
-        if (depth >= kMaxHalvings) return false;
         if (verbosity > 0)
           std::printf(
               "step %4d/%d  load factor %g -> %g failed after %d iterations (%s); retried "
@@ -349,14 +355,11 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
               std::fflush(stdout);
         solver.restore(at_a, state);
         const double m = a + (b - a) / 2;
-        return halves(a, m, b, depth + 1, at_a);
+        const bool last = depth >= kMaxHalvings;
+        if (!attempt(a, m) && (last || !in_halves(a, m, depth + 1, at_a))) return false;
+        const State at_m = last ? State{} : solver.kept_copy(state);
+        return attempt(m, b) || (!last && in_halves(m, b, depth + 1, at_m));
       };
-  // The two halves a -> m -> b, at `depth`, from the state at a (its kept copy `at_a`).
-  halves = [&](double a, double m, double b, int depth, const State& at_a) {
-    if (!advance(a, m, depth, at_a)) return false;
-    const State at_m = depth < kMaxHalvings ? solver.kept_copy(state) : State{};
-    return advance(m, b, depth, at_m);
-  };
   const State start = solver.kept_copy(state);
   // A checkpoint of this step (--resume): the first attempt continues from it, beta_{p-1} and
   // the retries from the step's start.
@@ -364,23 +367,10 @@ TimeStep solve_time_step(Solver& solver, int p, State& state, int verbosity, con
   if (resumed) state = *checkpoints->resume;
   step = solve_at_factor(solver, p, f1, state, verbosity, resumed ? &start.beta : nullptr,
                          checkpoints, resumed ? checkpoints->resume_iterations : 0);
-  attempts.push_back({f0, f1, step.report.converged, step.report.iterations,
-                      step.report.history.empty() ? 0.0 : step.report.history.back().wall,
-                      step.report.status});
   std::string refused;
-  if (!step.report.converged) {
+  if (!record(f0, f1)) {
     refused = subdivision_refused(solver, f0, f1);
-    if (refused.empty()) {
-      if (verbosity > 0)
-        std::printf(
-            "step %4d/%d  load factor %g -> %g failed after %d iterations (%s); retried "
-            "in two halves\n",
-            p, P, f0, f1, step.report.iterations,
-            step.report.status.substr(0, step.report.status.find(": ")).c_str()),
-            std::fflush(stdout);
-      solver.restore(start, state);
-      halves(f0, f0 + (f1 - f0) / 2, f1, 1, start);
-    }
+    if (refused.empty()) in_halves(f0, f1, 1, start);
   }
   step.attempts = std::move(attempts);
   step.substeps = step.report.converged ? std::max(substeps, 1) : 0;

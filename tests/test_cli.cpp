@@ -132,4 +132,10 @@ TEST(Divergence, IterationCapIsReportedAndNothingIsWritten) {
   for (const char* w : {"diverged at step 1", "iteration cap reached",
                         "Nothing was written as a result", "group /unconverged/000001"})
     EXPECT_NE(o.err.find(w), std::string::npos) << "'" << w << "' not in: " << o.err;
+  // Every attempt fails, so the load subdivision (1.5) goes down to its last halving and no
+  // further: 0 -> 1, then 0 -> 1/2, 0 -> 1/4, 0 -> 1/8 (kMaxHalvings = 3), each failed.
+  for (const char* w :
+       {"0 -> 1: failed", "0 -> 0.5: failed", "0 -> 0.25: failed", "0 -> 0.125: failed"})
+    EXPECT_NE(o.err.find(w), std::string::npos) << "'" << w << "' not in: " << o.err;
+  EXPECT_EQ(o.err.find("0.0625"), std::string::npos) << o.err;
 }
