@@ -93,7 +93,7 @@ class Solver {
   /// only, the rows of discretization().held_cells() in their order (Discretization::cell_row):
   /// initial_state, solve_step, kept_copy / restore and the measures of lib/measures.hpp and
   /// lib/admissibility.hpp (collective) take and give that form; u and the contact fields are
-  /// whole on every rank. whole_state() and writer_state() gather it. On one process, and with
+  /// whole on every rank. whole_state() and cells_to_writer() gather it. On one process, and with
   /// the replicated factor, the state is whole, and this is the same thing.
   State initial_state(bool whole = false) const;
   /// Does a state between steps hold E and lambda on the rank's rows (above)?
@@ -101,9 +101,13 @@ class Solver {
   /// The whole state from a state between steps, on every rank (collective; a copy when it is
   /// whole already).
   State whole_state(const State& s) const;
-  /// The same on rank 0 alone, the results writer (collective): the other ranks get an empty
-  /// state, and no rank but the writer holds the whole E and lambda.
-  State writer_state(const State& s) const;
+  /// A per-cell field of a state between steps (rows_per_cell rows per cell: every cell's, or
+  /// the rank's held cells' in their order) made whole on rank 0 alone, the results writer
+  /// (collective when rows_between_steps(); else `whole` is a copy): on the other ranks `whole`
+  /// is left empty, and no rank but the writer holds the whole field. E, lambda, and the fields
+  /// computed from them (lib/step_fields.hpp) are gathered so, one at a time.
+  void cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& whole,
+                       int rows_per_cell) const;
   /// A whole state (a results file's, --resume, --init) made the state between steps: E and
   /// lambda cut to the rank's rows (nothing when they are whole between steps).
   void hold_rows(State& s) const;

@@ -325,15 +325,13 @@ State Solver::whole_state(const State& s) const {
   return w;
 }
 
-State Solver::writer_state(const State& s) const {
-  if (!rows_between_steps() || disc_.whole_field(s.E)) return s;
-  State w;
-  mpi::gather_rows_to_writer(s.E, w.E, dist_->cells, dim());
-  mpi::gather_rows_to_writer(s.lambda, w.lambda, dist_->cells, dim());
-  if (mpi::rank() != 0) return State();
-  w.u = s.u;
-  copy_contact_fields(s, w);
-  return w;
+void Solver::cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& whole,
+                             int rows_per_cell) const {
+  if (!rows_between_steps()) {
+    whole = rows;
+    return;
+  }
+  mpi::gather_rows_to_writer(rows, whole, dist_->cells, rows_per_cell);
 }
 
 State Solver::whole_cells(const State& rows) const {

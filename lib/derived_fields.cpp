@@ -14,40 +14,75 @@ double von_mises(const Eigen::Matrix3d& sigma) {
   return std::sqrt(1.5 * s.squaredNorm());
 }
 
-DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
-                             const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma,
-                             const Eigen::VectorXd& sigma33) {
-  const int d = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+namespace {
+/// The 3x3 Cauchy stress of block k of sigma (plane strain: sigma33(k) out of plane).
+Eigen::Matrix3d stress_3x3(const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33, int d,
+                           int k) {
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  S.topLeftCorner(d, d) = sigma.block(d * k, 0, d, d).transpose();
+  if (d == 2 && sigma33.size()) S(2, 2) = sigma33(k);
+  return S;
+}
+}  // namespace
+
+DerivedFields cell_fields(const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma,
+                          const Eigen::VectorXd& sigma33) {
+  const int d = static_cast<int>(F.cols()), n = static_cast<int>(F.rows() / std::max(d, 1));
   DerivedFields out;
-  out.detF.resize(nc);
-  out.stretches.resize(nc, 3);
-  out.von_mises.resize(nc);
-  out.sigma_node = Eigen::MatrixXd::Zero(nn, 9);
-  out.von_mises_node.resize(nn);
-  Eigen::VectorXd weight = Eigen::VectorXd::Zero(nn);
-  for (int c = 0; c < nc; ++c) {
-    Eigen::Matrix3d Fc = Eigen::Matrix3d::Identity(), Sc = Eigen::Matrix3d::Zero();
-    Fc.topLeftCorner(d, d) = F.block(d * c, 0, d, d).transpose();
-    Sc.topLeftCorner(d, d) = sigma.block(d * c, 0, d, d).transpose();
-    if (d == 2 && sigma33.size()) Sc(2, 2) = sigma33(c);
-    out.detF(c) = Fc.determinant();
+  out.detF.resize(n);
+  out.stretches.resize(n, 3);
+  out.von_mises.resize(n);
+  for (int k = 0; k < n; ++k) {
+    Eigen::Matrix3d Fc = Eigen::Matrix3d::Identity();
+    Fc.topLeftCorner(d, d) = F.block(d * k, 0, d, d).transpose();
+    out.detF(k) = Fc.determinant();
     Eigen::Vector3d t = Eigen::JacobiSVD<Eigen::Matrix3d>(Fc).singularValues();
     std::sort(t.data(), t.data() + 3, std::greater<double>());
-    out.stretches.row(c) = t.transpose();
-    out.von_mises(c) = von_mises(Sc);
+    out.stretches.row(k) = t.transpose();
+    out.von_mises(k) = von_mises(stress_3x3(sigma, sigma33, d, k));
+  }
+  return out;
+}
+
+Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
+                                  const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33,
+                                  const std::vector<int>* cells) {
+  const int d = mesh.dim;
+  const int n = cells ? static_cast<int>(cells->size()) : mesh.num_cells();
+  if (sigma.rows() != static_cast<Eigen::Index>(d) * n)
+    throw Error(cat("nodal_stress_sums: ", sigma.rows(), " rows of sigma for ", n, " cells"));
+  Eigen::MatrixXd sums = Eigen::MatrixXd::Zero(mesh.num_nodes(), 10);
+  for (int k = 0; k < n; ++k) {
+    const int c = cells ? (*cells)[k] : k;
+    const Eigen::Matrix3d St = stress_3x3(sigma, sigma33, d, k).transpose();
+    const double w = cell_volume(c);
     for (int a = 0; a < mesh.nodes_per_cell(); ++a) {
-      const int n = mesh.cells(c, a);
-      weight(n) += cell_volume(c);
-      out.sigma_node.row(n) += cell_volume(c) * Eigen::Map<const Eigen::RowVectorXd>(
-                                                    Eigen::Matrix3d(Sc.transpose()).data(), 9);
+      const int node = mesh.cells(c, a);
+      sums.block<1, 9>(node, 0) += w * Eigen::Map<const Eigen::RowVectorXd>(St.data(), 9);
+      sums(node, 9) += w;
     }
   }
-  for (int n = 0; n < nn; ++n) {
-    if (weight(n) > 0) out.sigma_node.row(n) /= weight(n);
-    const Eigen::Matrix<double, 1, 9> row = out.sigma_node.row(n);            // row-major 3x3
+  return sums;
+}
+
+void nodal_stress(Eigen::MatrixXd&& sums, DerivedFields& out) {
+  const Eigen::Index nn = sums.rows();
+  out.von_mises_node.resize(nn);
+  for (Eigen::Index n = 0; n < nn; ++n) {
+    if (sums(n, 9) > 0) sums.block<1, 9>(n, 0) /= sums(n, 9);
+    const Eigen::Matrix<double, 1, 9> row = sums.block<1, 9>(n, 0);           // row-major 3x3
     const Eigen::Matrix3d S = Eigen::Map<const Eigen::Matrix3d>(row.data());  // = sigma^T
     out.von_mises_node(n) = von_mises(S.transpose());
   }
+  sums.conservativeResize(nn, 9);  // column-major: the last column dropped in place
+  out.sigma_node.swap(sums);
+}
+
+DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
+                             const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma,
+                             const Eigen::VectorXd& sigma33) {
+  DerivedFields out = cell_fields(F, sigma, sigma33);
+  nodal_stress(nodal_stress_sums(mesh, cell_volume, sigma, sigma33), out);
   return out;
 }
 

@@ -28,9 +28,27 @@ struct DerivedFields {
 /// transposed) and Cauchy stresses sigma (same layout; plane strain: sigma33 per cell, else
 /// empty). Nodal stress: the volume-weighted average of the cell stresses of the cells around
 /// each node, sigma_a = sum_c |O_c| sigma_c / sum_c |O_c| (exact for a uniform stress).
+/// Every cell's: cell_fields, then nodal_stress of nodal_stress_sums.
 DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
                              const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma,
                              const Eigen::VectorXd& sigma33);
+
+/// The cell fields (detF, stretches, von_mises; the nodal ones left empty) of the blocks of F and
+/// sigma (and sigma33): every cell's, or some cells' in their order (a rank's rows), alike.
+DerivedFields cell_fields(const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma,
+                          const Eigen::VectorXd& sigma33);
+
+/// The sums of the nodal stress average over the cells `cells` (sorted; null: every cell),
+/// whose blocks sigma (and sigma33) hold in that order: #nodes x 10, columns 0-8
+/// sum_c |O_c| sigma_c (3x3, row-major), column 9 sum_c |O_c|. The sums of the ranks' cells add
+/// up to the whole mesh's (one reduction), from which nodal_stress makes the average.
+Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
+                                  const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33,
+                                  const std::vector<int>* cells = nullptr);
+
+/// sigma_node (#nodes x 9) and von_mises_node from the sums of every cell (nodal_stress_sums),
+/// which become sigma_node in place (the column of weights dropped): no second nodal array.
+void nodal_stress(Eigen::MatrixXd&& sums, DerivedFields& out);
 
 /// von Mises stress sqrt(3/2 s : s) of a 3x3 Cauchy stress, s = sigma - tr(sigma)/3 I.
 double von_mises(const Eigen::Matrix3d& sigma);

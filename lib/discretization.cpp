@@ -352,7 +352,7 @@ Eigen::MatrixXd Discretization::piola(const State& s) const {
 }
 
 Eigen::MatrixXd Discretization::cauchy(const State& s) const {
-  const int d = dim(), nc = num_cells();
+  const int d = dim(), nc = static_cast<int>(s.E.rows() / d);  // whole, or the held cells' rows
   const Eigen::MatrixXd P = piola(s);
   Eigen::MatrixXd sigma(d * nc, d);
   for (int c = 0; c < nc; ++c) {
@@ -365,12 +365,12 @@ Eigen::MatrixXd Discretization::cauchy(const State& s) const {
 // (1.5) in plane strain: sigma33 from the law at F33 = 1 and the cell's pressure; the mean stress
 // counts it, so that the pressure is the same in 2-D and 3-D.
 Discretization::Stresses Discretization::stresses(const State& s) const {
-  const int d = dim(), nc = num_cells();
+  const int d = dim(), nc = static_cast<int>(s.E.rows() / d);  // whole, or the held cells' rows
   Stresses out;
   out.P = piola(s);
   out.sigma = cauchy(s);
   out.pressure.resize(nc);
-  if (d == 2 && s.E.rows() == 2 * nc) out.sigma33.resize(nc);
+  if (d == 2) out.sigma33.resize(nc);
   for (int c = 0; c < nc; ++c) {
     double trace = out.sigma.block(d * c, 0, d, d).trace();
     if (out.sigma33.size()) {

@@ -121,7 +121,9 @@ class Discretization {
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
                    double gamma = 0, const std::vector<int>* cells = nullptr) const;
 
-  // Outputs at a state, per cell (transposed-block layout like E) or per contact point.
+  // Outputs at a state, per cell (transposed-block layout like E) or per contact point. The cell
+  // outputs are per block of s.E: every cell's (E whole), or the held cells' in their order (E
+  // on their rows, a rank's state between steps), computed alike.
   /// First Piola-Kirchhoff stress P = 2 C1 E - lambda (in-plane block in plane strain).
   Eigen::MatrixXd piola(const State& s) const;
   /// Cauchy stress sigma = P E^T / det E (in-plane block in plane strain).

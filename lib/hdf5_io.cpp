@@ -5,6 +5,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -94,6 +95,39 @@ void write_array(hid_t file_id, const std::string& path, hid_t mem_type, hid_t f
   if (total > 0 && H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
     fail(file,
          cat("cannot write dataset ", path, errno ? ": " + std::string(std::strerror(errno)) : ""));
+}
+
+void write_rows(hid_t file_id, const std::string& path, hid_t file_type,
+                const std::vector<hsize_t>& dims, hsize_t rows_per_block,
+                const std::function<void(hsize_t, hsize_t, std::vector<double>&)>& rows,
+                const std::string& file) {
+  Handle space = checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
+                         H5Sclose, file, cat("cannot create the dataspace of dataset ", path));
+  Handle set = checked(H5Dcreate2(file_id, path.c_str(), file_type, space.get(), H5P_DEFAULT,
+                                  H5P_DEFAULT, H5P_DEFAULT),
+                       H5Dclose, file, cat("cannot create dataset ", path));
+  hsize_t per_row = 1;
+  for (std::size_t k = 1; k < dims.size(); ++k) per_row *= dims[k];
+  std::vector<hsize_t> start(dims.size(), 0), count = dims;
+  std::vector<double> data;
+  for (hsize_t first = 0; first < dims[0] && per_row > 0; first += rows_per_block) {
+    start[0] = first;
+    count[0] = std::min(rows_per_block, dims[0] - first);
+    data.clear();
+    rows(first, count[0], data);
+    const hsize_t n = count[0] * per_row;
+    if (data.size() != n)
+      fail(file, cat("internal: ", data.size(), " values for ", n, " of dataset ", path));
+    Handle memory = checked(H5Screate_simple(1, &n, nullptr), H5Sclose, file,
+                            cat("cannot create a dataspace for dataset ", path));
+    errno = 0;
+    if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(),
+                            nullptr) < 0 ||
+        H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, memory.get(), space.get(), H5P_DEFAULT,
+                 data.data()) < 0)
+      fail(file, cat("cannot write dataset ", path,
+                     errno ? ": " + std::string(std::strerror(errno)) : ""));
+  }
 }
 
 /// The shape of dataset `path` (which must exist).

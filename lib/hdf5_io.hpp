@@ -7,6 +7,7 @@
 
 #include <hdf5.h>
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <type_traits>
@@ -79,6 +80,13 @@ std::string shape_text(const std::vector<hsize_t>& dims);
 /// Writes a dataset `path` (absolute) of the given shape from row-major `data`.
 void write_array(hid_t file_id, const std::string& path, hid_t mem_type, hid_t file_type,
                  const std::vector<hsize_t>& dims, const void* data, const std::string& file);
+/// The same from native doubles made a block of rows at a time: `rows(first, count, data)` fills
+/// `data` with rows first .. first + count - 1 of the array, row-major; at most rows_per_block
+/// rows each. The writer holds one block in the file's layout, not the whole array.
+void write_rows(hid_t file_id, const std::string& path, hid_t file_type,
+                const std::vector<hsize_t>& dims, hsize_t rows_per_block,
+                const std::function<void(hsize_t, hsize_t, std::vector<double>&)>& rows,
+                const std::string& file);
 /// The shape of dataset `path` (which must exist).
 std::vector<hsize_t> dataset_shape(hid_t file_id, const std::string& path, const std::string& file);
 

@@ -44,6 +44,9 @@ std::vector<int> blocks(int n, int ranks);
 
 /// In place: x[i] = sum over ranks of x[i].
 void sum(double* x, long n);
+/// The same to rank 0 alone (the results writer): there x[i] = sum over ranks of x[i]; elsewhere
+/// x is left as it was (and may be released).
+void sum_to_writer(double* x, long n);
 /// In place: x[i] = the largest over the ranks of x[i].
 void max(double* x, long n);
 /// In place: every rank gets rank 0's x[0 .. n) (a resumed run's start, read by rank 0 alone).

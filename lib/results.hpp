@@ -80,6 +80,18 @@ struct RunInfo {
   std::map<std::string, std::string> attributes;  ///< extra string attributes (versions, ...)
 };
 
+/// The fields of a step made when the writer asks for them, one at a time (the simulation's
+/// StepFields, lib/step_fields.hpp): the writer then holds one whole field at a time, not every
+/// field of the step at once.
+class FieldSource {
+ public:
+  virtual ~FieldSource() = default;
+  /// The field `name` of the field table (a per-step row: the state's or a computed one) in the
+  /// layout of StepData::fields, whole; null when the step has none. The value may live in
+  /// `buffer` (or in the state), and stays valid while `buffer` does.
+  virtual const Eigen::MatrixXd* field(const std::string& name, Eigen::MatrixXd& buffer) = 0;
+};
+
 /// Everything written for one completed time step.
 struct StepData {
   int p = 0;
@@ -91,6 +103,11 @@ struct StepData {
   /// (#entities), a vector #entities x dim, a tensor dim x dim blocks stacked like State::E.
   /// Each one given is written (wrong sizes and names not in the table are an Error).
   std::map<std::string, Eigen::MatrixXd> fields;
+  /// The other fields, the state's among them, asked for one at a time (null: the state's from
+  /// `state`, the computed ones from `fields` alone). `state` is then the step's state in the
+  /// solver's form (under mpirun E and lambda on each rank's rows): only its u, e, lambda_c and
+  /// beta are read directly, and every field asked for is checked against its shape.
+  FieldSource* source = nullptr;
   std::vector<StoredMeasure> measures;  ///< /steps/N/measures (none: no group)
   Eigen::VectorXi in_contact;           ///< #points, 1 in the contact set (may be empty)
   /// The Dirichlet conditions of the support fields (reactions, support_u) in their row order,

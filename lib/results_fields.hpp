@@ -5,8 +5,10 @@
 // and the Python reader (figures/ltl_results.py holds python_field_table(), checked by
 // tests/test_results_layers.cpp, which checks the layout table of experiments/README.md too).
 //
-// Adding a field: one row here (Source::Derived) and its computation, put into StepData::fields
-// under the row's name (lib/simulation.cpp, step_data), in the solver's layouts: a scalar is a
+// Adding a field: one row here (Source::Derived) and its computation, made when the writer asks
+// for the row's name (lib/step_fields.cpp, StepFields::make: on the state's cells, gathered to
+// the writer under mpirun; a field of the Dirichlet conditions goes into StepData::fields in
+// lib/simulation.cpp, step_data), in the solver's layouts: a scalar is a
 // column (#entities), a vector #entities x dim, a tensor dim x dim blocks stacked like State::E
 // (block c = T_c^T). Then regenerate the block of figures/ltl_results.py and add the row to
 // experiments/README.md (the test prints both).

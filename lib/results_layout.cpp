@@ -2,6 +2,7 @@
 #include "results_layout.hpp"
 
 #include <cstdio>
+#include <functional>
 #include <limits>
 
 #include "error.hpp"
@@ -59,20 +60,6 @@ Eigen::MatrixXd tensors_from(const std::vector<double>& a, int nc, int dim) {
 
 std::vector<double> vec(const Eigen::VectorXd& v) {
   return {v.data(), v.data() + v.size()};
-}
-
-/// A field of the state in the layout of StepData::fields (#entities x dim for a vector): the
-/// state's own matrix, not a copy (the whole E of the writer is 7.4 MB at 10^5 hexahedra); beta,
-/// a vector, copied into `buffer` as one column.
-const Eigen::MatrixXd& state_field(const State& s, const std::string& name,
-                                   Eigen::MatrixXd& buffer) {
-  if (name == "u") return s.u;
-  if (name == "E") return s.E;
-  if (name == "lambda") return s.lambda;
-  if (name == "e") return s.e;
-  if (name == "lambda_c") return s.lambda_c;
-  if (name == "beta") return buffer = s.beta;
-  throw Error(cat("internal: the state has no field ", name));
 }
 
 void set_state_field(State& s, const std::string& name, const Eigen::MatrixXd& v) {
@@ -137,12 +124,9 @@ std::vector<hsize_t> file_shape(const Field& f, int n, int pad) {
 
 /// Writes a dataset with the "unit" and "description" of its row of the field table (by the
 /// last component of `path`); a ParaView copy (under /xdmf/) says so in its description.
-void write_described(hid_t f, const std::string& path, hid_t mem_type, hid_t file_type,
-                     const std::vector<hsize_t>& dims, const void* data, int dim,
-                     const std::string& file) {
+void describe(hid_t f, const std::string& path, int dim, const std::string& file) {
   const Field& row = field(path.substr(path.rfind('/') + 1), file);
   const bool xdmf = path.find("/xdmf/") != std::string::npos;
-  write_array(f, path, mem_type, file_type, dims, data, file);
   fault_point();
   Handle set = checked(H5Dopen2(f, path.c_str(), H5P_DEFAULT), H5Dclose, file,
                        cat("cannot open dataset ", path));
@@ -151,6 +135,36 @@ void write_described(hid_t f, const std::string& path, hid_t mem_type, hid_t fil
       set.get(), "description",
       (xdmf ? "ParaView copy (3 components, 3x3 tensors): " : "") + std::string(row.description),
       file, path);
+}
+
+void write_described(hid_t f, const std::string& path, hid_t mem_type, hid_t file_type,
+                     const std::vector<hsize_t>& dims, const void* data, int dim,
+                     const std::string& file) {
+  write_array(f, path, mem_type, file_type, dims, data, file);
+  describe(f, path, dim, file);
+}
+
+/// Entities of a step field converted to the file's layout at a time (write_field).
+constexpr hsize_t kEntitiesPerBlock = 16384;
+
+/// Writes a step field `v` (the layout of StepData::fields, n entities) as dataset `path` in
+/// the file's layout padded to `pad` components, kEntitiesPerBlock entities at a time: the writer
+/// holds one block's copy in the file's layout, not the whole field's. `fix(first, data)` may
+/// change a block in the file's layout (the out-of-plane entries of a padded copy).
+void write_field(hid_t f, const std::string& path, const Field& row, const Eigen::MatrixXd& v,
+                 int n, int dim, int pad, const std::string& file,
+                 const std::function<void(int, std::vector<double>&)>& fix = {}) {
+  const Eigen::Index per = row.shape == Shape::Tensor ? dim : 1;  // rows of v per entity
+  write_rows(
+      f, path, H5T_IEEE_F64LE, file_shape(row, n, pad), kEntitiesPerBlock,
+      [&](hsize_t first, hsize_t count, std::vector<double>& data) {
+        const Eigen::MatrixXd block = v.middleRows(per * static_cast<Eigen::Index>(first),
+                                                   per * static_cast<Eigen::Index>(count));
+        data = file_data(row, block, dim, pad);
+        if (fix) fix(static_cast<int>(first), data);
+      },
+      file);
+  describe(f, path, dim, file);
 }
 
 void write_doubles(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
@@ -163,11 +177,14 @@ void write_ints(hid_t f, const std::string& path, const std::vector<hsize_t>& di
   write_described(f, path, H5T_NATIVE_INT, H5T_STD_I32LE, dims, data.data(), dim, file);
 }
 
-/// The value of a step field given in `step` (the state's, or a computed one), or null.
+/// The value of a step field given in `step` (the state's, or a computed one), or null: from
+/// StepData::fields, else from its source, else the state's.
 const Eigen::MatrixXd* given(const StepData& step, const Field& f, Eigen::MatrixXd& buffer) {
-  if (f.source == Source::State) return &state_field(*step.state, f.name, buffer);
   const auto it = step.fields.find(f.name);
-  return it == step.fields.end() ? nullptr : &it->second;
+  if (it != step.fields.end()) return &it->second;
+  if (step.source) return step.source->field(f.name, buffer);
+  if (f.source == Source::State) return &state_field(*step.state, f.name, buffer);
+  return nullptr;
 }
 
 /// The rows of the field table written per step: node, cell, contact-point and support
@@ -185,6 +202,17 @@ bool is_step_name(const std::string& name) {
 }
 
 }  // namespace
+
+const Eigen::MatrixXd& state_field(const State& s, const std::string& name,
+                                   Eigen::MatrixXd& buffer) {
+  if (name == "u") return s.u;
+  if (name == "E") return s.E;
+  if (name == "lambda") return s.lambda;
+  if (name == "e") return s.e;
+  if (name == "lambda_c") return s.lambda_c;
+  if (name == "beta") return buffer = s.beta;
+  throw Error(cat("internal: the state has no field ", name));
+}
 
 int Sizes::count(Location at) const {
   switch (at) {
@@ -384,7 +412,8 @@ void check_step(const StepData& step, const Sizes& n, const std::string& file) {
   expect("u", s.u.rows(), s.u.cols(), n.nodes, dim);
   // E and lambda may both be empty for a problem without cell unknowns (the Signorini problem of
   // section 7), beta for a contact problem without adhesion intensity; they are then not written.
-  if (s.E.size() || s.lambda.size()) {
+  // With a source they come from it (on a rank's rows in the state), checked when written.
+  if (!step.source && (s.E.size() || s.lambda.size())) {
     expect("E", s.E.rows(), s.E.cols(), dim * nc, dim);
     expect("lambda", s.lambda.rows(), s.lambda.cols(), dim * nc, dim);
   }
@@ -410,8 +439,7 @@ void check_step(const StepData& step, const Sizes& n, const std::string& file) {
 
 void write_step(hid_t f, const std::string& g, const StepData& step, bool converged, const Sizes& n,
                 const std::string& file) {
-  const State& s = *step.state;
-  const int dim = n.dim, nc = n.cells;
+  const int dim = n.dim;
   {
     Handle group = create_group(f, g, file);
     const StepReport* rep = step.report;
@@ -456,29 +484,39 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
   // given), P33 = det E sigma33 (sigma = P F^T / det F).
   const bool padded = dim == 2 && converged;
   if (padded) create_group(f, g + "/xdmf", file);
-  const auto s33 = [&](int c) {
-    const auto it = step.fields.find("sigma33");
-    return it != step.fields.end() && it->second.size() ? it->second(c, 0) : 0.0;
-  };
-  Eigen::MatrixXd buffer;
+  // One field held at a time (a source makes each when asked); the padding's E and sigma33 are
+  // asked for again where a padded tensor needs them.
+  Eigen::MatrixXd buffer, E_buffer, s33_buffer;
   for (const Field& row : kFields) {
     if (!per_step(row) || (row.at == Location::Point && !n.contact)) continue;
     const Eigen::MatrixXd* v = given(step, row, buffer);
     if (!v || v->size() == 0) continue;
     const int count = n.count(row, *v);
-    write_doubles(f, g + "/" + row.name, file_shape(row, count, dim), file_data(row, *v, dim, dim),
-                  dim, file);
+    const auto [r, c] = layout_size(row, count, dim);
+    if (v->rows() != r || v->cols() != c)
+      fail(file, cat("step ", step.p, ": ", row.name, " is ", v->rows(), " x ", v->cols(),
+                     ", expected ", r, " x ", c));
+    write_field(f, g + "/" + row.name, row, *v, count, dim, dim, file);
     if (!padded || row.xdmf == Pad33::None || shown_as_stored(row)) continue;
-    std::vector<double> data = file_data(row, *v, dim, 3);
-    if (row.shape == Shape::Tensor)
-      for (int c = 0; c < nc; ++c) {
-        const double detE = s.E.size() ? s.E.block<2, 2>(2 * c, 0).determinant() : 1.0;
-        data[9 * c + 8] = row.xdmf == Pad33::One           ? 1.0
-                          : row.xdmf == Pad33::Sigma33     ? s33(c)
-                          : row.xdmf == Pad33::DetESigma33 ? detE * s33(c)
-                                                           : 0.0;
-      }
-    write_doubles(f, g + "/xdmf/" + row.name, file_shape(row, count, 3), data, dim, file);
+    std::function<void(int, std::vector<double>&)> fix;
+    const Eigen::MatrixXd *E = nullptr, *s33 = nullptr;
+    if (row.shape == Shape::Tensor) {
+      if (row.xdmf == Pad33::DetESigma33) E = given(step, field("E", file), E_buffer);
+      if (row.xdmf == Pad33::Sigma33 || row.xdmf == Pad33::DetESigma33)
+        s33 = given(step, field("sigma33", file), s33_buffer);
+      fix = [&](int first, std::vector<double>& data) {
+        for (int b = 0; b < static_cast<int>(data.size()) / 9; ++b) {
+          const int k = first + b;
+          const double sigma33 = s33 && s33->size() ? (*s33)(k, 0) : 0.0;
+          const double detE = E && E->size() ? E->block<2, 2>(2 * k, 0).determinant() : 1.0;
+          data[9 * b + 8] = row.xdmf == Pad33::One           ? 1.0
+                            : row.xdmf == Pad33::Sigma33     ? sigma33
+                            : row.xdmf == Pad33::DetESigma33 ? detE * sigma33
+                                                             : 0.0;
+        }
+      };
+    }
+    write_field(f, g + "/xdmf/" + row.name, row, *v, count, dim, 3, file, fix);
   }
   if (!step.measures.empty() || step.in_contact.size()) {
     // The step's measures (lib/measures.hpp): scalar datasets with the unit and description

@@ -26,6 +26,11 @@ struct Sizes {
   }
 };
 
+/// A field of the state (u, E, lambda, e, lambda_c, beta) in the layout of StepData::fields
+/// (#entities x dim for a vector): the state's own matrix, not a copy; beta, a vector, copied
+/// into `buffer` as one column.
+const Eigen::MatrixXd& state_field(const State& s, const std::string& name,
+                                   Eigen::MatrixXd& buffer);
 /// The XDMF topology of a mesh cell, or null when it cannot be stored.
 const char* cell_topology(int dim, int nodes_per_cell);
 /// "NNNNNN", the group name of step p.

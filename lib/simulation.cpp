@@ -15,7 +15,6 @@
 #include <optional>
 
 #include "config.hpp"
-#include "derived_fields.hpp"
 #include "error.hpp"
 #include "hash.hpp"
 #include "interrupt.hpp"
@@ -26,6 +25,7 @@
 #include "output_guard.hpp"
 #include "reactions.hpp"
 #include "results.hpp"
+#include "step_fields.hpp"
 #include "version.hpp"
 
 namespace ltl {
@@ -70,55 +70,22 @@ std::string divergence_hint(const Problem& problem, double factor, const TimeSte
       " (experiments/README.md, \"Choosing R, q, q_c\").");
 }
 
-/// The fields written for a step: the stresses, one definition each
-/// (Discretization::stresses), the strain's derived fields, the contact pressure and gap.
-void add_fields(const Solver& solver, const State& state, StepData& d) {
-  const Problem& problem = solver.problem();
-  Discretization::Stresses stress = solver.discretization().stresses(state);
-  d.fields["P"] = std::move(stress.P);
-  d.fields["sigma"] = std::move(stress.sigma);
-  if (stress.sigma33.size()) d.fields["sigma33"] = stress.sigma33;
-  d.fields["pressure"] = stress.pressure;
-  if (state.E.rows() == problem.mesh.dim * problem.mesh.num_cells()) {  // derived_fields.hpp
-    const DerivedFields df = derived_fields(problem.mesh, solver.discretization().cells().vol,
-                                            state.E, d.fields["sigma"], stress.sigma33);
-    d.fields["detF"] = df.detF;
-    d.fields["stretches"] = df.stretches;
-    d.fields["von_mises"] = df.von_mises;
-    d.fields["sigma_node"] = df.sigma_node;
-    d.fields["von_mises_node"] = df.von_mises_node;
-  }
-  if (solver.discretization().points()) {
-    d.fields["contact_pressure"] = solver.discretization().contact_pressure(state);
-    d.fields["gap"] = solver.discretization().contact_gap(state);
-  }
-}
-
-/// What is written for a step: the state, its report (history, equilibrium measure) and the
-/// fields computed from it (the Derived rows of lib/results_fields.hpp): the stresses, one
-/// definition each (Discretization::stresses), the contact pressure and gap. Without `fields`
-/// the measures only: a rank that writes nothing (under mpirun, every rank but 0) computes the
-/// measures, which are sums over the ranks' cells (collective), and no field of the whole mesh.
-/// Under mpirun the state between steps holds E and lambda on each rank's rows: they are
-/// gathered to rank 0 alone into `gathered` (collective, Solver::writer_state), the state the
-/// data points to there.
-StepData step_data(const Solver& solver, const TimeStep& step, bool fields, State& gathered) {
+/// What is written for a step: the state, its report (history, equilibrium measure), its
+/// measures and its support fields. The other fields (the Derived rows of
+/// lib/results_fields.hpp: the stresses, one definition each, the strain's derived fields, the
+/// contact pressure and gap) and the state's own are made one at a time as the writer asks for
+/// them (`fields`, StepFields; null: the measures only). Under mpirun every rank computes the
+/// measures, which are sums over the ranks' cells (collective), and the fields rank 0 asks for
+/// are made on each rank's cells (StepFields::written).
+StepData step_data(const Solver& solver, const TimeStep& step, StepFields* fields) {
   const Problem& problem = solver.problem();
   const State& state = *step.state;
   StepData d;
   d.p = step.p;
   d.t = step.p * problem.time.dt;
   d.state = &state;
-  if (solver.rows_between_steps()) {
-    gathered = solver.writer_state(state);
-    d.state = &gathered;
-    if (fields && mpi::rank() != 0)
-      throw Error(
-          "under mpirun only rank 0 writes the results file: give the output path to rank "
-          "0 alone (as ltl_run does)");
-  }
+  d.source = fields;
   d.report = &step.report;
-  if (fields) add_fields(solver, *d.state, d);
   // Every measure of the step (lib/measures.hpp), one definition each.
   const StepMeasures m = step_measures(solver.discretization(), state);
   d.measures = stored_measures(m, problem.mesh.dim);
@@ -460,6 +427,10 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
   const bool reader = mpi::rank() == 0;
   if (options.resume && reader && options.output.empty())
     throw Error("--resume needs a results file");
+  if (!reader && solver.rows_between_steps() && !options.output.empty())
+    throw Error(
+        "under mpirun only rank 0 writes the results file: give the output path to rank 0 "
+        "alone (as ltl_run does)");
   if (!options.output.empty()) {
     check_output_path(problem, options.output);
     file_->lock.emplace(options.output);
@@ -601,30 +572,39 @@ void ResultsWriter::append(const TimeStep& step) {
                                 p, " (t = ", p * problem.time.dt, " s): ", report.status,
                                 "; last residuals r_G = ", last.r_G, ", r_B = ", last.r_B,
                                 ". Nothing was written as a result for this step", saved);
-    // A discretization of some cells (a rank's) sums its measures over the ranks: every
-    // rank computes the step's data, rank 0 writes it.
+    // A discretization of some cells (a rank's) sums its measures over the ranks: every rank
+    // computes the step's data, and makes the fields rank 0 asks for until it has saved
+    // (StepFields::written; a failed save fails every rank alike).
     if (!saved.empty() || solver.discretization().partial()) {
-      State gathered;
-      const StepData data = step_data(solver, step, !saved.empty(), gathered);
-      if (!saved.empty()) file->save_unconverged(data, msg);
+      StepFields fields(solver, *step.state);
+      const StepData data = step_data(solver, step, &fields);
+      const std::string failure = fields.written([&] {
+        if (!saved.empty()) file->save_unconverged(data, msg);
+      });
+      if (!failure.empty()) throw Error(failure);
     } else if (file)
       file->set_status(msg);
-    // Every rank of a distributed solver reaches this divergence together: the others wait here
-    // until rank 0 has saved, for ltl_run ends them all (MPI_Abort) as soon as one of them throws.
+    // Every rank of a distributed solver reaches this divergence together and waits here until
+    // rank 0 has saved (with the replicated factor, whose fields rank 0 makes alone), for ltl_run
+    // ends them all (MPI_Abort) as soon as one of them throws.
     if (solver.distributed()) mpi::barrier();
     throw Error(cat(
         problem.name, ": ", msg, file && p > 1 ? cat("; ", output, " keeps steps 1..", p - 1) : "",
         ".",
         unbalanced || inadmissible ? "" : divergence_hint(problem, solver.load_factor(), step)));
   }
-  std::optional<StepData> data;  // collective with a partial discretization (above)
-  State gathered;
-  if (solver.discretization().partial()) data = step_data(solver, step, !output.empty(), gathered);
-  if (!output.empty()) {
+  // Collective with a partial discretization: every rank computes the measures, and makes the
+  // fields rank 0 asks for while it writes (StepFields::written); a failed write fails every rank
+  // with rank 0's message.
+  StepFields fields(solver, *step.state);
+  std::optional<StepData> data;
+  if (solver.discretization().partial()) data = step_data(solver, step, &fields);
+  const std::string failure = fields.written([&] {
+    if (output.empty()) return;
     const bool existed = file.has_value();
     try {
       if (!file) create_file();
-      if (!data) data = step_data(solver, step, true, gathered);
+      if (!data) data = step_data(solver, step, &fields);
       file->append(*data, p == P ? "complete" : "running");
     } catch (const Error& e) {
       // A write that fails (a full disk) keeps the previous file whole; its status must not say
@@ -642,7 +622,8 @@ void ResultsWriter::append(const TimeStep& step) {
                       " (status: failed to write step ", p,
                       "); free some space, then continue with --resume"));
     }
-  }
+  });
+  if (!failure.empty()) throw Error(failure);
   summary_.iterations.push_back(report.iterations);
   summary_.substeps.push_back(step.substeps);
   summary_.last_step = p;

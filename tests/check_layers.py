@@ -37,7 +37,7 @@ LAYERS = [
     ("solver", "alg2 alg2_mpi adaptive_r newton newton_kkt fixed_point iteration signorini"),
     ("results", "results results_commit results_fields results_layout results_pages "
                 "results_xdmf"),
-    ("simulation", "simulation output_guard nested_start"),
+    ("simulation", "simulation output_guard nested_start step_fields"),
     ("cli", "cli"),
 ]
 

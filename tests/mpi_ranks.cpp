@@ -12,6 +12,7 @@
 // the serial answer, the same ALG2 and Newton iteration counts, and the counters of the solves
 // (MUMPS's used, CHOLMOD's and UMFPACK's not).
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <algorithm>
 #include <cmath>
@@ -26,6 +27,7 @@
 
 #include "admissibility.hpp"
 #include "config.hpp"
+#include "derived_fields.hpp"
 #include "error.hpp"
 #include "hash.hpp"
 #include "measures.hpp"
@@ -34,7 +36,9 @@
 #include "mpi_global.hpp"
 #include "mpi_newton.hpp"
 #include "results.hpp"
+#include "results_fields.hpp"
 #include "simulation.hpp"
+#include "step_fields.hpp"
 #include "testing.hpp"
 
 namespace {
@@ -657,19 +661,21 @@ TEST(Mpi, Eq4_1to4_4_NoIterationMovesACellField) {
   EXPECT_LE(dist.holdings().cell_arrays, per_cell * own + 4.0 * (nc + own) + 64)
       << "rank " << mpi::rank();
   // The state between steps: E and lambda on the rank's rows (whole on one rank), gathered whole
-  // on every rank by whole_state and on rank 0 alone by writer_state.
+  // on every rank by whole_state and on rank 0 alone by cells_to_writer.
   EXPECT_EQ(s.E.rows(), dim * own);
   EXPECT_EQ(s.lambda.rows(), dim * own);
-  const State whole = dist.whole_state(s), written = dist.writer_state(s);
+  const State whole = dist.whole_state(s);
+  Eigen::MatrixXd E, lambda;
+  dist.cells_to_writer(s.E, E, dim);
+  dist.cells_to_writer(s.lambda, lambda, dim);
   EXPECT_EQ(whole.E.rows(), dim * nc);
   EXPECT_TRUE(same_on_every_rank(whole));
   if (mpi::rank() == 0) {
-    EXPECT_EQ(written.E, whole.E);
-    EXPECT_EQ(written.lambda, whole.lambda);
-    EXPECT_EQ(written.u, whole.u);
+    EXPECT_EQ(E, whole.E);
+    EXPECT_EQ(lambda, whole.lambda);
   } else {
-    EXPECT_EQ(written.E.size(), 0);
-    EXPECT_EQ(written.lambda.size(), 0);
+    EXPECT_EQ(E.size(), 0);
+    EXPECT_EQ(lambda.size(), 0);
   }
   if (mpi::rank() == 0)
     std::cout << "gutter of " << nc << " cells on " << mpi::size() << " rank(s): " << per_it
@@ -729,14 +735,93 @@ TEST(Mpi, CheckFindsARankThatDiffers) {
   EXPECT_EQ(same_on_every_rank(changed), mpi::size() == 1);
 }
 
+/// The fields of a step made one at a time (lib/step_fields.hpp): rank 0 asks for a field, every
+/// rank makes its cells' part, rank 0 gets the whole field: the 3x3 nodal Cauchy stress (summed
+/// over the ranks' cells) and the first Piola-Kirchhoff stress P = 2 C1 E - lambda of the coarse
+/// gutter after 30 iterations are the serial discretization's of the whole state to 1e-12. A
+/// write that fails on rank 0 after two fields fails every rank with its message, the other ranks
+/// having made those two fields and no more; the next write asks again. Fails when a rank's part
+/// is left out, when the others are not told the write ended, or when they do not hear its error.
+TEST(Mpi, Eq2_7_StepFieldsAreMadeOnEachRanksCellsAndAFailedWriteFailsEveryRank) {
+  std::vector<std::string> keys = kCoarseGutter;
+  keys.push_back("algorithm.max_iter=30");
+  keys.push_back("algorithm.tol=1e-300");
+  const Problem p = load_problem(ltl::testing::source_path(kFig6), keys);
+  Solver dist(p, Ranks::All);
+  State s = dist.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  dist.solve_step(s, beta_prev);
+  const State whole = dist.whole_state(s);
+  StepFields fields(dist, s);
+  Eigen::MatrixXd a, b;
+  const std::string failure = fields.written([&] {
+    const Eigen::MatrixXd* sigma_node = fields.field("sigma_node", a);
+    const Eigen::MatrixXd* P = fields.field("P", b);
+    const Solver serial(p, Ranks::One);
+    const Discretization& d = serial.discretization();
+    const Discretization::Stresses st = d.stresses(whole);
+    const DerivedFields df = derived_fields(p.mesh, d.cells().vol, whole.E, st.sigma, st.sigma33);
+    EXPECT_TRUE(sigma_node && P);
+    if (!sigma_node || !P) return;
+    ASSERT_EQ(sigma_node->rows(), p.mesh.num_nodes());
+    ASSERT_EQ(P->rows(), 3 * p.mesh.num_cells());
+    EXPECT_LE(relative(*sigma_node, df.sigma_node), 1e-12);
+    EXPECT_LE(relative(*P, st.P), 1e-12);
+    EXPECT_GT(st.P.norm(), 0);
+    throw Error("no space left on the device");
+  });
+  EXPECT_EQ(failure, "no space left on the device") << "rank " << mpi::rank();
+  EXPECT_EQ(fields.fields_made(), 2) << "rank " << mpi::rank();
+  const std::string again = fields.written([&] {
+    const Eigen::MatrixXd* E = fields.field("E", a);
+    EXPECT_TRUE(E && *E == whole.E);
+  });
+  EXPECT_EQ(again, "") << "rank " << mpi::rank();
+  EXPECT_EQ(fields.fields_made(), 3) << "rank " << mpi::rank();
+}
+
+/// The field datasets of one step group of a results file: each row of the field table stored
+/// there, and its padded copy under xdmf/, by path below `group`, as doubles.
+std::map<std::string, std::vector<double>> field_datasets(const std::string& file,
+                                                          const std::string& group) {
+  std::map<std::string, std::vector<double>> out;
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return out;
+  for (const Field& row : kFields) {
+    if (row.at == Location::Mesh || row.at == Location::Step) continue;  // the history: times
+    for (const std::string& name : {std::string(row.name), "xdmf/" + std::string(row.name)}) {
+      const std::string path = group + "/" + name;
+      if (H5Lexists(f, (group + "/xdmf").c_str(), H5P_DEFAULT) <= 0 && name.rfind("xdmf/", 0) == 0)
+        continue;
+      if (H5Lexists(f, path.c_str(), H5P_DEFAULT) <= 0) continue;
+      const hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT);
+      const hid_t space = H5Dget_space(d);
+      std::vector<double>& x = out[name];
+      x.resize(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space)));
+      if (!x.empty()) H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, x.data());
+      H5Sclose(space);
+      H5Dclose(d);
+    }
+  }
+  H5Fclose(f);
+  return out;
+}
+
 /// As ltl_run under mpirun: rank 0 alone writes the results file (the serial layout), which
-/// holds the state every rank computed.
+/// holds the state every rank computed and the fields made from it, each rank making them on its
+/// own cells (lib/step_fields.hpp: the stresses (1.5), det F (2.7), the nodal stress summed over
+/// the ranks): every dataset of the last step, the padded 2-D copies under xdmf/ included, is the
+/// serial run's to 1e-8 (relative, in the largest entry), none missing, none added. Fails when a
+/// rank's cells are left out of a field or of the nodal sums, or a field is not written.
 TEST(Mpi, RankZeroWritesTheResultsFile) {
   const std::string dir = ltl::testing::binary_path("mpi_ranks_out");
-  const std::string path = dir + "/fig3-" + std::to_string(mpi::size()) + ".h5";
+  const std::string tag = std::to_string(mpi::size());
+  const std::string path = dir + "/fig3-" + tag + ".h5",
+                    serial = dir + "/fig3-serial-" + tag + ".h5";
   if (mpi::rank() == 0) {
     std::filesystem::create_directories(dir);
     std::filesystem::remove(path);
+    std::filesystem::remove(serial);
   }
   mpi::barrier();
   const Problem p = load_problem(ltl::testing::source_path(kFig3), {"time.steps=2"});
@@ -746,6 +831,11 @@ TEST(Mpi, RankZeroWritesTheResultsFile) {
   if (mpi::rank() == 0) options.output = path;
   const RunSummary summary = run(solver, options);
   const State whole = solver.whole_state(summary.state);
+  if (mpi::rank() == 0) {  // the serial run, on rank 0 alone
+    Solver one(p, Ranks::One);
+    options.output = serial;
+    run(one, options);
+  }
   mpi::barrier();
   if (mpi::rank() == 0) {
     const auto stored = ResultsFile::read_last_step(path);
@@ -757,6 +847,23 @@ TEST(Mpi, RankZeroWritesTheResultsFile) {
       EXPECT_EQ(stored->state.E, whole.E);
       EXPECT_EQ(stored->state.lambda, whole.lambda);
     }
+    const auto a = field_datasets(path, "/steps/000002"),
+               b = field_datasets(serial, "/steps/000002");
+    EXPECT_GE(b.size(), 20u);  // u, E, lambda, P, sigma, sigma33, ..., their xdmf/ copies
+    for (const auto& [name, x] : b) {
+      const auto it = a.find(name);
+      if (it == a.end()) {
+        ADD_FAILURE() << name << " is not in the file of " << mpi::size() << " ranks";
+        continue;
+      }
+      const Eigen::Map<const Eigen::VectorXd> xs(x.data(), x.size()),
+          xr(it->second.data(), it->second.size());
+      ASSERT_EQ(xr.size(), xs.size()) << name;
+      const double scale = std::max(xs.cwiseAbs().maxCoeff(), 1e-300);
+      EXPECT_LE((xr - xs).cwiseAbs().maxCoeff() / scale, 1e-8) << name;
+    }
+    for (const auto& [name, x] : a)
+      EXPECT_TRUE(b.count(name)) << name << " is only in the file of " << mpi::size() << " ranks";
   }
   EXPECT_TRUE(same_on_every_rank(whole));
 }

@@ -71,4 +71,70 @@ TEST(DerivedFields, UniformStressRecoveredExactlyAtTheNodes) {
   }
 }
 
+/// The fields of some cells, as a rank makes them under mpirun (lib/step_fields.hpp): cell_fields
+/// of the cells' blocks are those cells' rows of the whole mesh's, and the nodal sums of two
+/// complementary sets of cells add up to the whole mesh's, from which nodal_stress gives
+/// derived_fields' nodal stress. Fails when a cell set's sums miss its cells or count another's.
+TEST(DerivedFields, Eq2_7_FieldsOfSomeCellsAddUpToTheWholeMeshs) {
+  for (const char* geo : {"geometry/square.geo", "geometry/box.geo"}) {
+    const ltl::Mesh mesh = ltl::load_mesh(ltl::testing::test_path(geo));
+    const int d = mesh.dim, nc = mesh.num_cells();
+    const Eigen::VectorXd vol = ltl::cell_operators(mesh).vol;
+    std::mt19937_64 g(7);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    Eigen::MatrixXd F(d * nc, d), sigma(d * nc, d);
+    Eigen::VectorXd s33(d == 2 ? nc : 0);
+    for (int c = 0; c < nc; ++c) {
+      Eigen::MatrixXd A = Eigen::MatrixXd::Identity(d, d), S(d, d);
+      for (int i = 0; i < d; ++i)
+        for (int j = 0; j < d; ++j) A(i, j) += 0.2 * U(g), S(i, j) = 1e5 * U(g);
+      F.block(d * c, 0, d, d) = A;
+      sigma.block(d * c, 0, d, d) = S + S.transpose();
+      if (d == 2) s33(c) = 1e5 * U(g);
+    }
+    const DerivedFields whole = ltl::derived_fields(mesh, vol, F, sigma, s33);
+    // Two sets of cells: the even and the odd ones, each sorted, with their blocks.
+    Eigen::MatrixXd sums = Eigen::MatrixXd::Zero(mesh.num_nodes(), 10);
+    for (int parity = 0; parity < 2; ++parity) {
+      std::vector<int> cells;
+      for (int c = parity; c < nc; c += 2) cells.push_back(c);
+      const int n = static_cast<int>(cells.size());
+      Eigen::MatrixXd Fk(d * n, d), Sk(d * n, d);
+      Eigen::VectorXd s33k(d == 2 ? n : 0);
+      for (int k = 0; k < n; ++k) {
+        Fk.block(d * k, 0, d, d) = F.block(d * cells[k], 0, d, d);
+        Sk.block(d * k, 0, d, d) = sigma.block(d * cells[k], 0, d, d);
+        if (d == 2) s33k(k) = s33(cells[k]);
+      }
+      const DerivedFields part = ltl::cell_fields(Fk, Sk, s33k);
+      for (int k = 0; k < n; ++k) {
+        EXPECT_EQ(part.detF(k), whole.detF(cells[k])) << geo;
+        EXPECT_EQ(part.von_mises(k), whole.von_mises(cells[k])) << geo;
+        EXPECT_EQ(part.stretches.row(k), whole.stretches.row(cells[k])) << geo;
+      }
+      sums += ltl::nodal_stress_sums(mesh, vol, Sk, s33k, &cells);
+    }
+    DerivedFields nodal;
+    ltl::nodal_stress(std::move(sums), nodal);
+    ASSERT_EQ(nodal.sigma_node.rows(), mesh.num_nodes());
+    ASSERT_EQ(nodal.sigma_node.cols(), 9);
+    const double scale = whole.sigma_node.cwiseAbs().maxCoeff();
+    EXPECT_LT((nodal.sigma_node - whole.sigma_node).cwiseAbs().maxCoeff(), 1e-12 * scale) << geo;
+    EXPECT_LT((nodal.von_mises_node - whole.von_mises_node).cwiseAbs().maxCoeff(), 1e-12 * scale)
+        << geo;
+    // One set alone is not the whole: its sums miss the other set's cells.
+    std::vector<int> even;
+    for (int c = 0; c < nc; c += 2) even.push_back(c);
+    Eigen::MatrixXd Se(d * static_cast<int>(even.size()), d);
+    Eigen::VectorXd s33e(d == 2 ? even.size() : 0);
+    for (std::size_t k = 0; k < even.size(); ++k) {
+      Se.block(d * k, 0, d, d) = sigma.block(d * even[k], 0, d, d);
+      if (d == 2) s33e(k) = s33(even[k]);
+    }
+    DerivedFields half;
+    ltl::nodal_stress(ltl::nodal_stress_sums(mesh, vol, Se, s33e, &even), half);
+    EXPECT_GT((half.sigma_node - whole.sigma_node).cwiseAbs().maxCoeff(), 1e-3 * scale) << geo;
+  }
+}
+
 }  // namespace

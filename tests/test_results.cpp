@@ -570,6 +570,77 @@ TEST_F(ResultsTest, TwoDimensionalLayoutAndRoundTrip) {
   EXPECT_EQ(ResultsFile::read_last_step(path)->p, 3);  // open + close changes no step
 }
 
+/// A structured P2 triangle mesh of [0, nx] x [0, ny], two triangles a square (no boundary).
+Mesh p2_grid(int nx, int ny) {
+  Mesh m;
+  m.dim = 2;
+  const int w = 2 * nx + 1;
+  m.X.resize(w * (2 * ny + 1), 2);
+  for (int j = 0; j <= 2 * ny; ++j)
+    for (int i = 0; i < w; ++i) m.X.row(j * w + i) << 0.5 * i, 0.5 * j;
+  m.cells.resize(2 * nx * ny, 6);
+  const auto at = [w](int i, int j) { return j * w + i; };
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int a = 2 * i, b = 2 * j, c = 2 * (j * nx + i);
+      m.cells.row(c) << at(a, b), at(a + 2, b), at(a + 2, b + 2), at(a + 1, b), at(a + 2, b + 1),
+          at(a + 1, b + 1);
+      m.cells.row(c + 1) << at(a, b), at(a + 2, b + 2), at(a, b + 2), at(a + 1, b + 1),
+          at(a + 1, b + 2), at(a, b + 1);
+    }
+  m.source = "p2_grid";
+  return m;
+}
+
+/// A step's fields are written a block of entities at a time (lib/results_layout.cpp:
+/// write_field, 16 384 entities a block): on a mesh of 2.6 blocks of cells and 5.2 of nodes, every
+/// entry of u, E, lambda and P is where the file's layout puts it, and the padded ParaView copies
+/// have the out-of-plane entries of their own cells across the blocks' edges: E33 = 1 and
+/// P33 = det E sigma33 (1.5). Fails when a block is written at another's place or a padded block
+/// reads another's cells.
+TEST_F(ResultsTest, Eq1_5_FieldsOfManyBlocksAreWrittenEntityByEntity) {
+  const std::string path = file("blocks.h5");
+  const Mesh m = p2_grid(150, 140);
+  const int nc = m.num_cells(), nn = m.num_nodes();
+  ASSERT_GT(nc, 2 * 16384);
+  Step s = make_step(m, 0, 1);
+  Eigen::VectorXd s33(nc);
+  for (int c = 0; c < nc; ++c) s33(c) = 1000.0 + c;
+  s.data.fields["sigma33"] = s33;
+  s.data.state = &s.state;
+  s.data.report = &s.report;
+  {
+    ResultsFile r = ResultsFile::create(path, m, run_info());
+    r.append(s.data);
+  }
+  const auto last = ResultsFile::read_last_step(path);
+  ASSERT_TRUE(last);
+  EXPECT_TRUE((last->state.u.array() == s.state.u.array()).all());
+  EXPECT_TRUE((last->state.E.array() == s.state.E.array()).all());
+  EXPECT_TRUE((last->state.lambda.array() == s.state.lambda.array()).all());
+  const Raw P = raw_read(path, "/steps/000001/P"), P3 = raw_read(path, "/steps/000001/xdmf/P"),
+            E3 = raw_read(path, "/steps/000001/xdmf/E"),
+            u3 = raw_read(path, "/steps/000001/xdmf/u");
+  ASSERT_EQ(P3.v.size(), 9u * nc);
+  ASSERT_EQ(u3.v.size(), 3u * nn);
+  const Eigen::MatrixXd& Pc = s.data.fields["P"];
+  int wrong = 0;
+  for (int c = 0; c < nc; ++c) {
+    const Eigen::Matrix2d Ec = s.state.E.block<2, 2>(2 * c, 0);
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) {
+        wrong += P.v[4 * c + 2 * i + j] != Pc(2 * c + j, i);
+        wrong += P3.v[9 * c + 3 * i + j] != Pc(2 * c + j, i);
+      }
+    wrong += E3.v[9 * c + 8] != 1.0;
+    wrong += std::abs(P3.v[9 * c + 8] - Ec.determinant() * s33(c)) >
+             1e-15 * std::abs(Ec.determinant() * s33(c));
+  }
+  for (int a = 0; a < nn; ++a)
+    for (int i = 0; i < 3; ++i) wrong += u3.v[3 * a + i] != (i < 2 ? s.state.u(a, i) : 0.0);
+  EXPECT_EQ(wrong, 0);
+}
+
 TEST_F(ResultsTest, ThreeDimensionalWithoutContact) {
   const std::string path = file("hex");  // no .h5: the XDMF file is hex.xdmf
   const Mesh m = mesh3d();
