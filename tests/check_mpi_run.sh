@@ -8,7 +8,9 @@
 # ALG2 and with the Newton phase, ends within 1e-8 of one process, and resumed on 2 ranks from
 # inside its step 1, within 1e-8 of the same resumed on one process. --checkpoint: a serial
 # run stopped in its step resumes on 2 ranks from its checkpoint, the counts adding up. A step
-# that diverges under mpirun leaves its last iterate in the file (rank 0 writes it).
+# that diverges under mpirun leaves its last iterate in the file (rank 0 writes it, with the
+# fields every rank made on its cells: E, sigma, det F, the nodal stress). A geometry script that
+# calls `Exit;` ends the job at once with rank 0's message.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -136,8 +138,21 @@ if "$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --set time.steps=1 --set algori
   fail "a diverging run under mpirun exited 0"
 fi
 grep -q "last iterate are saved in" "$tmp/d.err" || fail "a diverging run under mpirun: $(cat "$tmp/d.err")"
-/usr/bin/python3 -c 'import sys, h5py; sys.exit(0 if "000001" in h5py.File(sys.argv[1])["unconverged"] else 1)' \
-  "$tmp/d.h5" || fail "no /unconverged/000001 in the file of a diverging run under mpirun"
+/usr/bin/python3 -c 'import sys, h5py; u = h5py.File(sys.argv[1])["unconverged"]; sys.exit(0 if "000001" in u and all(k in u["000001"] for k in ("E", "sigma", "detF", "sigma_node")) else 1)' \
+  "$tmp/d.h5" || fail "no /unconverged/000001 with E, sigma, detF and sigma_node in the file of a diverging run under mpirun"
+# A geometry script that ends the program (`Exit;`) on rank 0, which alone runs gmsh: the job ends
+# at once (not a hang in the mesh's broadcast), non-zero, with rank 0's message and no file.
+cp "$src/experiments/fig5/fig5.toml" "$src/experiments/fig5/half_disc.geo" "$tmp/"
+{ cat "$src/experiments/fig5/half_disc.geo"; echo "Exit;"; } > "$tmp/exit.geo"
+timeout 60 "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/fig5.toml" --set 'mesh.geometry="exit.geo"' \
+  -o "$tmp/x.h5" > "$tmp/x.txt" 2>&1
+status=$?
+[ $status != 0 ] || fail "a geometry script that calls Exit; under mpirun exited 0"
+[ $status != 124 ] || fail "a geometry script that calls Exit; under mpirun: no end within 60 s"
+echo "Exit; in the geometry script under mpirun -n 2: exit status $status"
+grep -q "exit.geo: the geometry script ended the program" "$tmp/x.txt" ||
+  fail "Exit; under mpirun: $(head -3 "$tmp/x.txt")"
+[ ! -e "$tmp/x.h5" ] || fail "Exit; under mpirun left a results file"
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"
