@@ -81,18 +81,31 @@ std::string shape_text(const std::vector<hsize_t>& dims) {
   return s.str();
 }
 
+namespace {
+/// A new dataset `path` of shape `dims` and its dataspace in the file.
+struct NewDataset {
+  Handle space, set;
+};
+NewDataset create_dataset(hid_t file_id, const std::string& path, hid_t file_type,
+                          const std::vector<hsize_t>& dims, const std::string& file) {
+  NewDataset d;
+  d.space = checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose,
+                    file, cat("cannot create the dataspace of dataset ", path));
+  d.set = checked(H5Dcreate2(file_id, path.c_str(), file_type, d.space.get(), H5P_DEFAULT,
+                             H5P_DEFAULT, H5P_DEFAULT),
+                  H5Dclose, file, cat("cannot create dataset ", path));
+  return d;
+}
+}  // namespace
+
 /// Writes a dataset `path` (absolute) of the given shape from row-major `data`.
 void write_array(hid_t file_id, const std::string& path, hid_t mem_type, hid_t file_type,
                  const std::vector<hsize_t>& dims, const void* data, const std::string& file) {
-  Handle space = checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
-                         H5Sclose, file, cat("cannot create the dataspace of dataset ", path));
-  Handle set = checked(H5Dcreate2(file_id, path.c_str(), file_type, space.get(), H5P_DEFAULT,
-                                  H5P_DEFAULT, H5P_DEFAULT),
-                       H5Dclose, file, cat("cannot create dataset ", path));
+  const NewDataset d = create_dataset(file_id, path, file_type, dims, file);
   hsize_t total = 1;
-  for (hsize_t d : dims) total *= d;
+  for (hsize_t n : dims) total *= n;
   errno = 0;
-  if (total > 0 && H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+  if (total > 0 && H5Dwrite(d.set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
     fail(file,
          cat("cannot write dataset ", path, errno ? ": " + std::string(std::strerror(errno)) : ""));
 }
@@ -101,11 +114,7 @@ void write_rows(hid_t file_id, const std::string& path, hid_t file_type,
                 const std::vector<hsize_t>& dims, hsize_t rows_per_block,
                 const std::function<void(hsize_t, hsize_t, std::vector<double>&)>& rows,
                 const std::string& file) {
-  Handle space = checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
-                         H5Sclose, file, cat("cannot create the dataspace of dataset ", path));
-  Handle set = checked(H5Dcreate2(file_id, path.c_str(), file_type, space.get(), H5P_DEFAULT,
-                                  H5P_DEFAULT, H5P_DEFAULT),
-                       H5Dclose, file, cat("cannot create dataset ", path));
+  const NewDataset d = create_dataset(file_id, path, file_type, dims, file);
   hsize_t per_row = 1;
   for (std::size_t k = 1; k < dims.size(); ++k) per_row *= dims[k];
   std::vector<hsize_t> start(dims.size(), 0), count = dims;
@@ -121,9 +130,9 @@ void write_rows(hid_t file_id, const std::string& path, hid_t file_type,
     Handle memory = checked(H5Screate_simple(1, &n, nullptr), H5Sclose, file,
                             cat("cannot create a dataspace for dataset ", path));
     errno = 0;
-    if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(),
+    if (H5Sselect_hyperslab(d.space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(),
                             nullptr) < 0 ||
-        H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, memory.get(), space.get(), H5P_DEFAULT,
+        H5Dwrite(d.set.get(), H5T_NATIVE_DOUBLE, memory.get(), d.space.get(), H5P_DEFAULT,
                  data.data()) < 0)
       fail(file, cat("cannot write dataset ", path,
                      errno ? ": " + std::string(std::strerror(errno)) : ""));
