@@ -101,13 +101,14 @@ class Solver {
   /// The whole state from a state between steps, on every rank (collective; a copy when it is
   /// whole already).
   State whole_state(const State& s) const;
-  /// A per-cell field of a state between steps (rows_per_cell rows per cell: every cell's, or
-  /// the rank's held cells' in their order) made whole on rank 0 alone, the results writer
-  /// (collective when rows_between_steps(); else `whole` is a copy): on the other ranks `whole`
-  /// is left empty, and no rank but the writer holds the whole field. E, lambda, and the fields
-  /// computed from them (lib/step_fields.hpp) are gathered so, one at a time.
-  void cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& whole,
-                       int rows_per_cell) const;
+  /// The cells first_cell .. first_cell + count - 1 (count < 0: to the last) of a per-cell field
+  /// of a state between steps (rows_per_cell rows per cell: every cell's, or the rank's held
+  /// cells' in their order), on rank 0 alone, the results writer, in `block` (collective when
+  /// rows_between_steps(); else a copy of those rows): on the other ranks `block` is left empty.
+  /// E, lambda, and the fields computed from them (lib/step_fields.hpp) are gathered so, a block
+  /// of cells at a time: no rank holds a whole field.
+  void cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& block, int rows_per_cell,
+                       int first_cell = 0, int count = -1) const;
   /// A whole state (a results file's, --resume, --init) made the state between steps: E and
   /// lambda cut to the rank's rows (nothing when they are whole between steps).
   void hold_rows(State& s) const;

@@ -325,13 +325,15 @@ State Solver::whole_state(const State& s) const {
   return w;
 }
 
-void Solver::cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& whole,
-                             int rows_per_cell) const {
+void Solver::cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& block, int rows_per_cell,
+                             int first_cell, int count) const {
   if (!rows_between_steps()) {
-    whole = rows;
+    if (count < 0) count = disc_.num_cells() - first_cell;
+    block = rows.middleRows(static_cast<Eigen::Index>(rows_per_cell) * first_cell,
+                            static_cast<Eigen::Index>(rows_per_cell) * count);
     return;
   }
-  mpi::gather_rows_to_writer(rows, whole, dist_->cells, rows_per_cell);
+  mpi::gather_rows_to_writer(rows, block, dist_->cells, rows_per_cell, first_cell, count);
 }
 
 State Solver::whole_cells(const State& rows) const {

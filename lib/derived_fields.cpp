@@ -46,18 +46,25 @@ DerivedFields cell_fields(const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma
 
 Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
                                   const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33,
-                                  const std::vector<int>* cells) {
+                                  const std::vector<int>* cells, int first_node, int count) {
   const int d = mesh.dim;
   const int n = cells ? static_cast<int>(cells->size()) : mesh.num_cells();
   if (sigma.rows() != static_cast<Eigen::Index>(d) * n)
     throw Error(cat("nodal_stress_sums: ", sigma.rows(), " rows of sigma for ", n, " cells"));
-  Eigen::MatrixXd sums = Eigen::MatrixXd::Zero(mesh.num_nodes(), 10);
+  if (count < 0) count = mesh.num_nodes() - first_node;
+  if (first_node < 0 || count < 0 || first_node + count > mesh.num_nodes())
+    throw Error(
+        cat("nodal_stress_sums: nodes ", first_node, " + ", count, " of ", mesh.num_nodes()));
+  Eigen::MatrixXd sums = Eigen::MatrixXd::Zero(count, 10);
   for (int k = 0; k < n; ++k) {
     const int c = cells ? (*cells)[k] : k;
-    const Eigen::Matrix3d St = stress_3x3(sigma, sigma33, d, k).transpose();
-    const double w = cell_volume(c);
+    bool stressed = false;  // sigma_c made for this block: the cell has a node in it
+    Eigen::Matrix3d St;
     for (int a = 0; a < mesh.nodes_per_cell(); ++a) {
-      const int node = mesh.cells(c, a);
+      const int node = mesh.cells(c, a) - first_node;
+      if (node < 0 || node >= count) continue;
+      if (!stressed) St = stress_3x3(sigma, sigma33, d, k).transpose(), stressed = true;
+      const double w = cell_volume(c);
       sums.block<1, 9>(node, 0) += w * Eigen::Map<const Eigen::RowVectorXd>(St.data(), 9);
       sums(node, 9) += w;
     }

@@ -39,14 +39,18 @@ DerivedFields cell_fields(const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma
                           const Eigen::VectorXd& sigma33);
 
 /// The sums of the nodal stress average over the cells `cells` (sorted; null: every cell),
-/// whose blocks sigma (and sigma33) hold in that order: #nodes x 10, columns 0-8
+/// whose blocks sigma (and sigma33) hold in that order, at the nodes first_node ..
+/// first_node + count - 1 (count < 0: every node from first_node): count x 10, columns 0-8
 /// sum_c |O_c| sigma_c (3x3, row-major), column 9 sum_c |O_c|. The sums of the ranks' cells add
-/// up to the whole mesh's (one reduction), from which nodal_stress makes the average.
+/// up to the whole mesh's (one reduction), from which nodal_stress makes the average; a block of
+/// nodes at a time, the writer holds that block's sums alone.
 Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
                                   const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33,
-                                  const std::vector<int>* cells = nullptr);
+                                  const std::vector<int>* cells = nullptr, int first_node = 0,
+                                  int count = -1);
 
-/// sigma_node (#nodes x 9) and von_mises_node from the sums of every cell (nodal_stress_sums),
+/// sigma_node (#nodes x 9) and von_mises_node from the sums of every cell (nodal_stress_sums;
+/// of a block of nodes: those nodes' rows),
 /// which become sigma_node in place (the column of weights dropped): no second nodal array.
 void nodal_stress(Eigen::MatrixXd&& sums, DerivedFields& out);
 

@@ -8,6 +8,8 @@
 #include <cstring>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "error.hpp"
 
@@ -63,11 +65,47 @@ void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Parti
   gather_rows(whole, part, m);
 }
 
+namespace {
+/// Rank r's items among first .. first + count - 1: positions [a, b) in its part of the order
+/// (its items are sorted).
+std::pair<int, int> items_in(const Partition& part, int r, int first, int count) {
+  const int* begin = part.order.data() + part.offset[r];
+  const int* end = part.order.data() + part.offset[r + 1];
+  return {static_cast<int>(std::lower_bound(begin, end, first) - begin),
+          static_cast<int>(std::lower_bound(begin, end, first + count) - begin)};
+}
+
+/// Puts rank r's rows of its items at positions [a, b) (m rows each, one column `from`, item a's
+/// first) in place in one column `to` of the rows of items first, first + 1, ...
+void put_rows(const Partition& part, int r, int a, int b, const double* from, double* to, int m,
+              int first) {
+  const int* items = part.order.data() + part.offset[r];
+  for_each_run(items + a, items + b, [&](int item, int n, int at) {
+    std::memcpy(to + static_cast<long>(m) * (item - first), from + static_cast<long>(m) * at,
+                sizeof(double) * m * n);
+  });
+}
+
+/// The checked range of items of gather_rows_to_writer (count < 0: to the last).
+int items_counted(const Partition& part, int first, int count) {
+  const int n = static_cast<int>(part.order.size());
+  if (count < 0) count = n - first;
+  if (first < 0 || count < 0 || first + count > n)
+    throw Error(cat("gather_rows_to_writer: items ", first, " + ", count, " of ", n));
+  return count;
+}
+}  // namespace
+
 #ifndef LTL_HAVE_MPI
 
-void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole,
-                           const Partition& part, int m) {
-  gather_rows(own, whole, part, m);
+void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
+                           const Partition& part, int m, int first, int count) {
+  count = items_counted(part, first, count);
+  const auto [a, b] = items_in(part, 0, first, count);
+  block.resize(static_cast<Eigen::Index>(m) * count, own.cols());
+  for (Eigen::Index k = 0; k < own.cols(); ++k)
+    put_rows(part, 0, a, b, own.data() + k * own.rows() + static_cast<long>(m) * a,
+             block.data() + k * block.rows(), m, first);
 }
 
 bool built() {
@@ -342,44 +380,50 @@ void gather_rows(Eigen::VectorXd& v, const Partition& part) {
   gather_columns(v.data(), v.size(), 1, part.offset, 1, &part.order);
 }
 
-void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole,
-                           const Partition& part, int m) {
-  if (!up || size_ == 1) return gather_rows(own, whole, part, m);
+void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
+                           const Partition& part, int m, int first, int count) {
+  count = items_counted(part, first, count);
+  const int P = up ? size_ : 1, me = up ? rank_ : 0;
+  const bool writer = me == 0;
   const auto t0 = clock_type::now();
-  const int P = size_;
-  const bool writer = rank_ == 0;
   counts_.resize(P);
   displs_.resize(P);
+  std::vector<std::pair<int, int> > range(P);
   long total = 0;
   for (int r = 0; r < P; ++r) {
-    counts_[r] = m * (part.offset[r + 1] - part.offset[r]);
+    range[r] = items_in(part, r, first, count);
+    counts_[r] = m * (range[r].second - range[r].first);
     displs_[r] = static_cast<int>(total);
     total += counts_[r];
   }
-  if (own.rows() != counts_[rank_])
-    throw Error(cat("gather_rows_to_writer: ", own.rows(), " rows on rank ", rank_, " for ",
-                    counts_[rank_], " (", m, " per item)"));
+  if (own.rows() != static_cast<Eigen::Index>(m) * (part.offset[me + 1] - part.offset[me]))
+    throw Error(cat("gather_rows_to_writer: ", own.rows(), " rows on rank ", me, " for ",
+                    part.offset[me + 1] - part.offset[me], " items (", m, " per item)"));
   if (writer)
-    whole.resize(total, own.cols()), recv_.resize(total);
+    block.resize(static_cast<Eigen::Index>(m) * count, own.cols());
   else
-    whole = Eigen::MatrixXd();
-  // Each column of `own` is the rank's items in their order: sent as it is; the writer puts
+    block = Eigen::MatrixXd();
+  if (P > 1 && writer) recv_.resize(total);
+  // Each column of `own` sends the rank's rows of those items as they are; the writer puts
   // every rank's runs of items in place.
   for (Eigen::Index k = 0; k < own.cols(); ++k) {
-    check(MPI_Gatherv(own.data() + k * own.rows(), counts_[rank_], MPI_DOUBLE, recv_.data(),
-                      counts_.data(), displs_.data(), MPI_DOUBLE, 0, MPI_COMM_WORLD),
+    const double* mine = own.data() + k * own.rows() + static_cast<long>(m) * range[me].first;
+    if (P == 1) {
+      put_rows(part, 0, range[0].first, range[0].second, mine, block.data() + k * block.rows(), m,
+               first);
+      continue;
+    }
+    check(MPI_Gatherv(mine, counts_[me], MPI_DOUBLE, recv_.data(), counts_.data(), displs_.data(),
+                      MPI_DOUBLE, 0, MPI_COMM_WORLD),
           "MPI_Gatherv");
     if (!writer) continue;
     for (int r = 0; r < P; ++r)
-      for_each_run(part.order.data() + part.offset[r], part.order.data() + part.offset[r + 1],
-                   [&](int first, int n, int at) {
-                     std::memcpy(whole.data() + k * whole.rows() + static_cast<long>(m) * first,
-                                 recv_.data() + displs_[r] + static_cast<long>(m) * at,
-                                 sizeof(double) * m * n);
-                   });
+      put_rows(part, r, range[r].first, range[r].second, recv_.data() + displs_[r],
+               block.data() + k * block.rows(), m, first);
   }
   std::vector<double>().swap(recv_);
-  if (writer) traffic_.bytes += 8.0 * own.cols() * (total - counts_[rank_]);
+  if (P == 1) return;
+  if (writer) traffic_.bytes += 8.0 * own.cols() * (total - counts_[me]);
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);
 }

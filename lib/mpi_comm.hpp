@@ -103,11 +103,12 @@ void gather_rows(Eigen::VectorXd& v, const Partition& part);
 void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part,
                  int rows_per_item);
 
-/// The same to rank 0 alone (the results writer): there `whole` gets every item's rows; on the
-/// other ranks it is released (left empty), so that no rank but the writer holds the whole array.
-/// Column by column, like the gathers above.
-void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole,
-                           const Partition& part, int rows_per_item);
+/// The same to rank 0 alone (the results writer), for the items first .. first + count - 1
+/// (count < 0: every item from first): there `block` gets their rows_per_item rows each, in item
+/// order; on the other ranks it is released (left empty). Read a block of items at a time, no
+/// rank holds a whole array it does not own. Column by column, like the gathers above.
+void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
+                           const Partition& part, int rows_per_item, int first = 0, int count = -1);
 
 /// What our collectives moved since the start: bytes received (payload), calls, wall seconds.
 struct Traffic {

@@ -53,6 +53,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "contact_points.hpp"
@@ -80,16 +81,25 @@ struct RunInfo {
   std::map<std::string, std::string> attributes;  ///< extra string attributes (versions, ...)
 };
 
-/// The fields of a step made when the writer asks for them, one at a time (the simulation's
-/// StepFields, lib/step_fields.hpp): the writer then holds one whole field at a time, not every
-/// field of the step at once.
+/// The fields of a step made when the writer asks for them, one at a time, and read by blocks of
+/// rows (the simulation's StepFields, lib/step_fields.hpp): the writer then holds one block of
+/// one field at a time, not every field of the step at once, nor one whole field.
 class FieldSource {
  public:
   virtual ~FieldSource() = default;
-  /// The field `name` of the field table (a per-step row: the state's or a computed one) in the
-  /// layout of StepData::fields, whole; null when the step has none. The value may live in
-  /// `buffer` (or in the state), and stays valid while `buffer` does.
-  virtual const Eigen::MatrixXd* field(const std::string& name, Eigen::MatrixXd& buffer) = 0;
+  /// Makes the field `name` of the field table (a per-step row: the state's or a computed one)
+  /// ready to be read; returns its whole size (rows, columns) in the layout of StepData::fields,
+  /// {0, 0} when the step has none.
+  virtual std::pair<Eigen::Index, Eigen::Index> open(const std::string& name) = 0;
+  /// Rows first .. first + count - 1 of the field opened as `name` (whole rows of its entities:
+  /// a tensor's dim rows each) into `rows`.
+  virtual void read(const std::string& name, Eigen::Index first, Eigen::Index count,
+                    Eigen::MatrixXd& rows) = 0;
+  /// Done with the field opened as `name`: what was made for it is released. Never throws.
+  virtual void close(const std::string& name) noexcept = 0;
+  /// The whole field `name` in `buffer` (open, read every row, close), or null when the step has
+  /// none.
+  const Eigen::MatrixXd* whole(const std::string& name, Eigen::MatrixXd& buffer);
 };
 
 /// Everything written for one completed time step.
@@ -103,10 +113,10 @@ struct StepData {
   /// (#entities), a vector #entities x dim, a tensor dim x dim blocks stacked like State::E.
   /// Each one given is written (wrong sizes and names not in the table are an Error).
   std::map<std::string, Eigen::MatrixXd> fields;
-  /// The other fields, the state's among them, asked for one at a time (null: the state's from
-  /// `state`, the computed ones from `fields` alone). `state` is then the step's state in the
-  /// solver's form (under mpirun E and lambda on each rank's rows): only its u, e, lambda_c and
-  /// beta are read directly, and every field asked for is checked against its shape.
+  /// The other fields, the state's among them, asked for one at a time and read by blocks (null:
+  /// the state's from `state`, the computed ones from `fields` alone). `state` is then the step's
+  /// state in the solver's form (under mpirun E and lambda on each rank's rows): only its u, e,
+  /// lambda_c and beta are read directly, and every field asked for is checked against its shape.
   FieldSource* source = nullptr;
   std::vector<StoredMeasure> measures;  ///< /steps/N/measures (none: no group)
   Eigen::VectorXi in_contact;           ///< #points, 1 in the contact set (may be empty)

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <optional>
+#include <tuple>
 
 #include "error.hpp"
 #include "fe.hpp"
@@ -147,21 +149,67 @@ void write_described(hid_t f, const std::string& path, hid_t mem_type, hid_t fil
 /// Entities of a step field converted to the file's layout at a time (write_field).
 constexpr hsize_t kEntitiesPerBlock = 16384;
 
+/// A step field being written: given in StepData::fields, asked of the step's source, or the
+/// state's. Its whole size is known at once; its rows are read a block at a time, so that from
+/// a source the writer never holds the whole field (the source makes and releases it: open in
+/// the constructor, close in the destructor).
+class OpenField {
+ public:
+  OpenField(const StepData& step, const Field& f) : name_(f.name) {
+    const auto it = step.fields.find(name_);
+    if (it != step.fields.end()) {
+      whole_ = &it->second;
+    } else if (step.source) {
+      source_ = step.source;
+      std::tie(rows_, cols_) = source_->open(name_);
+      return;
+    } else if (f.source == Source::State) {
+      whole_ = &state_field(*step.state, name_, buffer_);
+    }
+    if (whole_) rows_ = whole_->rows(), cols_ = whole_->cols();
+  }
+  ~OpenField() {
+    if (source_) source_->close(name_);
+  }
+  OpenField(const OpenField&) = delete;
+  OpenField& operator=(const OpenField&) = delete;
+
+  bool empty() const { return rows_ * cols_ == 0; }
+  Eigen::Index rows() const { return rows_; }
+  Eigen::Index cols() const { return cols_; }
+  /// Rows first .. first + count - 1 into `out`.
+  void read(Eigen::Index first, Eigen::Index count, Eigen::MatrixXd& out) {
+    if (source_)
+      source_->read(name_, first, count, out);
+    else
+      out = whole_->middleRows(first, count);
+  }
+
+ private:
+  std::string name_;
+  FieldSource* source_ = nullptr;
+  const Eigen::MatrixXd* whole_ = nullptr;
+  Eigen::MatrixXd buffer_;
+  Eigen::Index rows_ = 0, cols_ = 0;
+};
+
 /// Writes a step field `v` (the layout of StepData::fields, n entities) as dataset `path` in
 /// the file's layout padded to `pad` components, kEntitiesPerBlock entities at a time: the writer
-/// holds one block's copy in the file's layout, not the whole field's. `fix(first, data)` may
-/// change a block in the file's layout (the out-of-plane entries of a padded copy).
-void write_field(hid_t f, const std::string& path, const Field& row, const Eigen::MatrixXd& v,
-                 int n, int dim, int pad, const std::string& file,
-                 const std::function<void(int, std::vector<double>&)>& fix = {}) {
+/// holds one block of it (read from `v`) and the block's copy in the file's layout, not the whole
+/// field. `fix(first, count, data)` may change a block in the file's layout (the out-of-plane
+/// entries of a padded copy).
+void write_field(hid_t f, const std::string& path, const Field& row, OpenField& v, int n, int dim,
+                 int pad, const std::string& file,
+                 const std::function<void(int, int, std::vector<double>&)>& fix = {}) {
   const Eigen::Index per = row.shape == Shape::Tensor ? dim : 1;  // rows of v per entity
+  Eigen::MatrixXd block;
   write_rows(
       f, path, H5T_IEEE_F64LE, file_shape(row, n, pad), kEntitiesPerBlock,
       [&](hsize_t first, hsize_t count, std::vector<double>& data) {
-        const Eigen::MatrixXd block = v.middleRows(per * static_cast<Eigen::Index>(first),
-                                                   per * static_cast<Eigen::Index>(count));
+        v.read(per * static_cast<Eigen::Index>(first), per * static_cast<Eigen::Index>(count),
+               block);
         data = file_data(row, block, dim, pad);
-        if (fix) fix(static_cast<int>(first), data);
+        if (fix) fix(static_cast<int>(first), static_cast<int>(count), data);
       },
       file);
   describe(f, path, dim, file);
@@ -175,16 +223,6 @@ void write_doubles(hid_t f, const std::string& path, const std::vector<hsize_t>&
 void write_ints(hid_t f, const std::string& path, const std::vector<hsize_t>& dims,
                 const std::vector<int>& data, int dim, const std::string& file) {
   write_described(f, path, H5T_NATIVE_INT, H5T_STD_I32LE, dims, data.data(), dim, file);
-}
-
-/// The value of a step field given in `step` (the state's, or a computed one), or null: from
-/// StepData::fields, else from its source, else the state's.
-const Eigen::MatrixXd* given(const StepData& step, const Field& f, Eigen::MatrixXd& buffer) {
-  const auto it = step.fields.find(f.name);
-  if (it != step.fields.end()) return &it->second;
-  if (step.source) return step.source->field(f.name, buffer);
-  if (f.source == Source::State) return &state_field(*step.state, f.name, buffer);
-  return nullptr;
 }
 
 /// The rows of the field table written per step: node, cell, contact-point and support
@@ -484,31 +522,33 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
   // given), P33 = det E sigma33 (sigma = P F^T / det F).
   const bool padded = dim == 2 && converged;
   if (padded) create_group(f, g + "/xdmf", file);
-  // One field held at a time (a source makes each when asked); the padding's E and sigma33 are
-  // asked for again where a padded tensor needs them.
-  Eigen::MatrixXd buffer, E_buffer, s33_buffer;
+  // One field open at a time (a source makes each when asked), read a block at a time; the
+  // padding's E and sigma33 are opened beside the field whose padded copy needs them.
   for (const Field& row : kFields) {
     if (!per_step(row) || (row.at == Location::Point && !n.contact)) continue;
-    const Eigen::MatrixXd* v = given(step, row, buffer);
-    if (!v || v->size() == 0) continue;
-    const int count = n.count(row, *v);
+    OpenField v(step, row);
+    if (v.empty()) continue;
+    const int count = row.at == Location::Support ? static_cast<int>(v.rows()) : n.count(row.at);
     const auto [r, c] = layout_size(row, count, dim);
-    if (v->rows() != r || v->cols() != c)
-      fail(file, cat("step ", step.p, ": ", row.name, " is ", v->rows(), " x ", v->cols(),
+    if (v.rows() != r || v.cols() != c)
+      fail(file, cat("step ", step.p, ": ", row.name, " is ", v.rows(), " x ", v.cols(),
                      ", expected ", r, " x ", c));
-    write_field(f, g + "/" + row.name, row, *v, count, dim, dim, file);
+    write_field(f, g + "/" + row.name, row, v, count, dim, dim, file);
     if (!padded || row.xdmf == Pad33::None || shown_as_stored(row)) continue;
-    std::function<void(int, std::vector<double>&)> fix;
-    const Eigen::MatrixXd *E = nullptr, *s33 = nullptr;
+    std::function<void(int, int, std::vector<double>&)> fix;
+    std::optional<OpenField> E, s33;
+    Eigen::MatrixXd E_block, s33_block;
     if (row.shape == Shape::Tensor) {
-      if (row.xdmf == Pad33::DetESigma33) E = given(step, field("E", file), E_buffer);
+      if (row.xdmf == Pad33::DetESigma33) E.emplace(step, field("E", file));
       if (row.xdmf == Pad33::Sigma33 || row.xdmf == Pad33::DetESigma33)
-        s33 = given(step, field("sigma33", file), s33_buffer);
-      fix = [&](int first, std::vector<double>& data) {
-        for (int b = 0; b < static_cast<int>(data.size()) / 9; ++b) {
-          const int k = first + b;
-          const double sigma33 = s33 && s33->size() ? (*s33)(k, 0) : 0.0;
-          const double detE = E && E->size() ? E->block<2, 2>(2 * k, 0).determinant() : 1.0;
+        s33.emplace(step, field("sigma33", file));
+      fix = [&](int first, int n_block, std::vector<double>& data) {
+        const bool has_E = E && !E->empty(), has_s33 = s33 && !s33->empty();
+        if (has_E) E->read(2 * first, 2 * n_block, E_block);
+        if (has_s33) s33->read(first, n_block, s33_block);
+        for (int b = 0; b < n_block; ++b) {
+          const double sigma33 = has_s33 ? s33_block(b, 0) : 0.0;
+          const double detE = has_E ? E_block.block<2, 2>(2 * b, 0).determinant() : 1.0;
           data[9 * b + 8] = row.xdmf == Pad33::One           ? 1.0
                             : row.xdmf == Pad33::Sigma33     ? sigma33
                             : row.xdmf == Pad33::DetESigma33 ? detE * sigma33
@@ -516,7 +556,7 @@ void write_step(hid_t f, const std::string& g, const StepData& step, bool conver
         }
       };
     }
-    write_field(f, g + "/xdmf/" + row.name, row, *v, count, dim, 3, file, fix);
+    write_field(f, g + "/xdmf/" + row.name, row, v, count, dim, 3, file, fix);
   }
   if (!step.measures.empty() || step.in_contact.size()) {
     // The step's measures (lib/measures.hpp): scalar datasets with the unit and description

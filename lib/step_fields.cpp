@@ -1,7 +1,8 @@
-// The fields of a step made one at a time (step_fields.hpp).
+// The fields of a step made one at a time and read by blocks (step_fields.hpp).
 #include "step_fields.hpp"
 
 #include <exception>
+#include <sstream>
 
 #include "derived_fields.hpp"
 #include "error.hpp"
@@ -25,6 +26,13 @@ void cauchy_stress(const Discretization& disc, const State& s, Eigen::MatrixXd& 
   sigma33.swap(st.sigma33);
 }
 
+/// Is `name` a field of the cells made from E (sigma33: in plane strain only)?
+bool cell_field(const std::string& name, int dim) {
+  for (const char* f : {"E", "lambda", "P", "sigma", "pressure", "detF", "stretches", "von_mises"})
+    if (name == f) return true;
+  return name == "sigma33" && dim == 2;
+}
+
 }  // namespace
 
 StepFields::StepFields(const Solver& solver, const State& state)
@@ -32,16 +40,39 @@ StepFields::StepFields(const Solver& solver, const State& state)
       state_(state),
       rows_(solver.rows_between_steps() && !solver.discretization().whole_field(state.E)) {}
 
-const Eigen::MatrixXd* StepFields::field(const std::string& name, Eigen::MatrixXd& buffer) {
-  if (rows_) {
-    if (mpi::rank() != 0 || !writing_)
-      throw Error(
-          cat("internal: under mpirun the fields of a step are asked for by rank 0 "
-              "inside StepFields::written only (asked for ",
-              name, " on rank ", mpi::rank(), ")"));
-    mpi::broadcast(name);  // the other ranks make their part of it (written())
+std::pair<Eigen::Index, Eigen::Index> StepFields::open(const std::string& name) {
+  Eigen::MatrixXd none;
+  return ask("open " + name, none);
+}
+
+void StepFields::read(const std::string& name, Eigen::Index first, Eigen::Index count,
+                      Eigen::MatrixXd& rows) {
+  const auto it = open_.find(name);
+  if (it != open_.end() && it->second.kind == Part::Kind::Here) {  // whole here: no collective
+    ++reads_;
+    rows = it->second.data().middleRows(first, count);
+    return;
   }
-  return make(name, buffer);
+  ask(cat("read ", name, " ", first, " ", count), rows);
+}
+
+void StepFields::close(const std::string& name) noexcept {
+  open_.erase(name);
+  if (rows_) closed_ += "close " + name + "\n";  // the other ranks release it with the next request
+}
+
+std::pair<Eigen::Index, Eigen::Index> StepFields::ask(const std::string& request,
+                                                      Eigen::MatrixXd& rows) {
+  if (!rows_) return serve(request, rows);
+  if (mpi::rank() != 0 || !writing_)
+    throw Error(
+        cat("internal: under mpirun the fields of a step are asked for by rank 0 inside "
+            "StepFields::written only (asked: ",
+            request, " on rank ", mpi::rank(), ")"));
+  const std::string sent = closed_ + request;
+  closed_.clear();
+  mpi::broadcast(sent);  // the other ranks serve it too (written())
+  return serve(sent, rows);
 }
 
 std::string StepFields::written(const std::function<void()>& write) {
@@ -54,86 +85,140 @@ std::string StepFields::written(const std::function<void()>& write) {
       failure = e.what();
     }
     writing_ = false;
+    open_.clear();
+    closed_.clear();
     if (!rows_) return failure;
-    mpi::broadcast(std::string());  // done: no name is empty
+    mpi::broadcast(std::string());  // done: no request is empty
     return mpi::broadcast(failure);
   }
   for (;;) {
-    const std::string name = mpi::broadcast(std::string());
-    if (name.empty()) break;
-    Eigen::MatrixXd part;
-    make(name, part);
+    const std::string request = mpi::broadcast(std::string());
+    if (request.empty()) break;
+    Eigen::MatrixXd none;
+    serve(request, none);
   }
+  open_.clear();
   return mpi::broadcast(failure);
 }
 
-const Eigen::MatrixXd* StepFields::cells(Eigen::MatrixXd&& own, Eigen::MatrixXd& buffer,
-                                         int rows_per_cell) const {
-  if (rows_) {
-    solver_.cells_to_writer(own, buffer, rows_per_cell);
-    return mpi::rank() == 0 ? &buffer : nullptr;
+std::pair<Eigen::Index, Eigen::Index> StepFields::serve(const std::string& request,
+                                                        Eigen::MatrixXd& rows) {
+  std::istringstream lines(request);
+  std::string line;
+  std::pair<Eigen::Index, Eigen::Index> size{0, 0};
+  while (std::getline(lines, line)) {
+    std::istringstream words(line);
+    std::string verb, name;
+    words >> verb >> name;
+    if (verb == "close") {
+      open_.erase(name);
+    } else if (verb == "open") {
+      make(name);
+      const auto it = open_.find(name);
+      size = it == open_.end() ? std::make_pair(Eigen::Index(0), Eigen::Index(0))
+                               : std::make_pair(it->second.rows, it->second.cols);
+    } else if (verb == "read") {
+      Eigen::Index first = -1, count = -1;
+      words >> first >> count;
+      const auto it = open_.find(name);
+      if (it == open_.end() || first < 0 || count < 0 || first + count > it->second.rows)
+        throw Error(cat("internal: StepFields on rank ", mpi::rank(), ": cannot serve '", line,
+                        "' (", it == open_.end() ? "not open" : "rows out of range", ")"));
+      ++reads_;
+      const Part& p = it->second;
+      const bool writer = !rows_ || mpi::rank() == 0;
+      if (p.kind == Part::Kind::Here) {
+        if (writer) rows = p.data().middleRows(first, count);
+      } else if (p.kind == Part::Kind::Cells) {
+        if (first % p.m || count % p.m)
+          throw Error(cat("internal: StepFields: rows ", first, " + ", count, " of ", name,
+                          " are not whole cells of ", p.m, " rows"));
+        solver_.cells_to_writer(p.data(), rows, p.m, static_cast<int>(first / p.m),
+                                static_cast<int>(count / p.m));
+      } else {  // the nodal stress of nodes first .. first + count - 1, summed over the ranks
+        const Discretization& disc = solver_.discretization();
+        Eigen::MatrixXd sums = nodal_stress_sums(disc.problem().mesh, disc.cells().vol, p.own,
+                                                 p.sigma33, rows_ ? &disc.held_cells() : nullptr,
+                                                 static_cast<int>(first), static_cast<int>(count));
+        if (rows_) mpi::sum_to_writer(sums.data(), sums.size());
+        if (!writer) continue;
+        DerivedFields df;
+        nodal_stress(std::move(sums), df);
+        if (p.von_mises)
+          rows = df.von_mises_node;
+        else
+          rows.swap(df.sigma_node);
+      }
+    } else {
+      throw Error(cat("internal: StepFields: unknown request '", line, "'"));
+    }
   }
-  buffer.swap(own);
-  return &buffer;
+  return size;
 }
 
-const Eigen::MatrixXd* StepFields::make(const std::string& name, Eigen::MatrixXd& buffer) {
+void StepFields::make(const std::string& name) {
   ++made_;
+  open_.erase(name);
   const Discretization& disc = solver_.discretization();
   const State& s = state_;
   const int d = disc.dim();
   const bool writer = !rows_ || mpi::rank() == 0;
-  // Whole on every rank: the nodes' and the contact points' fields.
-  if (name == "u" || name == "e" || name == "lambda_c" || name == "beta")
-    return writer ? &layout::state_field(s, name, buffer) : nullptr;
-  if (name == "contact_pressure" || name == "gap") {
-    if (!writer || !disc.points()) return nullptr;
-    buffer = name == "gap" ? disc.contact_gap(s) : disc.contact_pressure(s);
-    return &buffer;
+  Part& p = open_[name];
+  // Whole on every rank: the nodes' and the contact points' fields, read on the writer alone.
+  if (name == "u" || name == "e" || name == "lambda_c" || name == "beta") {
+    const Eigen::MatrixXd& v = layout::state_field(s, name, p.own);
+    if (&v != &p.own) p.state = &v;
+  } else if (name == "contact_pressure" || name == "gap") {
+    if (writer && disc.points())
+      p.own = name == "gap" ? disc.contact_gap(s) : disc.contact_pressure(s);
+  } else if (s.E.size() == 0) {  // no cell unknowns (the Signorini problem, section 7)
+  } else if (name == "sigma_node" || name == "von_mises_node") {
+    // The nodal stress: every rank's sums over its cells, added up on the writer block by block.
+    cauchy_stress(disc, s, p.own, p.sigma33);
+    p.kind = Part::Kind::Nodes;
+    p.von_mises = name == "von_mises_node";
+    p.rows = disc.problem().mesh.num_nodes();
+    p.cols = p.von_mises ? 1 : 9;
+    return;
+  } else if (cell_field(name, d)) {
+    // The cells' fields: on the state's cells (a rank's rows), gathered block by block.
+    const bool tensor = name == "E" || name == "lambda" || name == "P" || name == "sigma";
+    p.m = tensor ? d : 1;
+    if (name == "E" || name == "lambda") {
+      p.state = name == "E" ? &s.E : &s.lambda;
+    } else if (name == "P") {
+      p.own = disc.piola(s);
+    } else if (name == "sigma") {
+      p.own = disc.cauchy(s);
+    } else if (name == "sigma33" || name == "pressure") {
+      Discretization::Stresses st = disc.stresses(s);
+      p.own = name == "sigma33" ? st.sigma33 : st.pressure;
+    } else {
+      Eigen::MatrixXd sigma;
+      Eigen::VectorXd sigma33;
+      cauchy_stress(disc, s, sigma, sigma33);
+      DerivedFields df = cell_fields(s.E, sigma, sigma33);
+      if (name == "stretches")
+        p.own.swap(df.stretches);
+      else
+        p.own = name == "detF" ? df.detF : df.von_mises;
+    }
+    if (!rows_) {  // whole here: its size as made
+      p.rows = p.data().rows();
+      p.cols = p.data().cols();
+      return;
+    }
+    p.kind = Part::Kind::Cells;  // each rank's rows (their number checked by the gather)
+    p.rows = static_cast<Eigen::Index>(p.m) * disc.num_cells();
+    p.cols = tensor ? d : name == "stretches" ? 3 : 1;
+    return;
   }
-  if (s.E.size() == 0) return nullptr;  // no cell unknowns (the Signorini problem, section 7)
-  // The cells' fields: on the state's cells (a rank's rows), gathered.
-  if (name == "E" || name == "lambda") {
-    const Eigen::MatrixXd& v = name == "E" ? s.E : s.lambda;
-    if (!rows_) return &v;
-    solver_.cells_to_writer(v, buffer, d);
-    return writer ? &buffer : nullptr;
+  if (p.data().size() && writer) {
+    p.rows = p.data().rows();
+    p.cols = p.data().cols();
+    return;
   }
-  if (name == "P") return cells(disc.piola(s), buffer, d);
-  if (name == "sigma") return cells(disc.cauchy(s), buffer, d);
-  if (name == "sigma33" && d != 2) return nullptr;
-  if (name == "sigma33" || name == "pressure") {
-    Discretization::Stresses st = disc.stresses(s);
-    return cells(Eigen::MatrixXd(name == "sigma33" ? st.sigma33 : st.pressure), buffer, 1);
-  }
-  const bool per_cell = name == "detF" || name == "stretches" || name == "von_mises";
-  const bool per_node = name == "sigma_node" || name == "von_mises_node";
-  if (!per_cell && !per_node) return nullptr;
-  Eigen::MatrixXd sigma;
-  Eigen::VectorXd sigma33;
-  cauchy_stress(disc, s, sigma, sigma33);
-  if (per_cell) {
-    DerivedFields df = cell_fields(s.E, sigma, sigma33);
-    Eigen::MatrixXd own;
-    if (name == "stretches")
-      own.swap(df.stretches);
-    else
-      own = name == "detF" ? df.detF : df.von_mises;
-    return cells(std::move(own), buffer, 1);
-  }
-  // The nodal stress: every rank's sums over its cells, added up on the writer.
-  Eigen::MatrixXd sums = nodal_stress_sums(disc.problem().mesh, disc.cells().vol, sigma, sigma33,
-                                           rows_ ? &disc.held_cells() : nullptr);
-  Eigen::MatrixXd().swap(sigma);
-  if (rows_) mpi::sum_to_writer(sums.data(), sums.size());
-  if (!writer) return nullptr;
-  DerivedFields df;
-  nodal_stress(std::move(sums), df);
-  if (name == "sigma_node")
-    buffer.swap(df.sigma_node);
-  else
-    buffer = df.von_mises_node;
-  return &buffer;
+  open_.erase(name);  // none (or, on a rank that does not write, a field read on the writer)
 }
 
 }  // namespace ltl

@@ -1,22 +1,24 @@
 // The fields of a step for the results file, made one at a time when the writer asks for them
-// (FieldSource, lib/results.hpp): the state's (u, E, lambda, e, lambda_c, beta) and those computed
-// from it, the Derived rows of lib/results_fields.hpp: the stresses, one definition each
-// (Discretization::stresses: P, sigma, sigma33 and the pressure of (1.5)), the strain's derived
-// fields (lib/derived_fields.hpp: det F of (2.7), the principal stretches, von Mises, the nodal
-// stress), the contact pressure and gap. The writer then holds one whole field at a time, not
-// every field of the step at once.
+// and read by blocks of rows (FieldSource, lib/results.hpp): the state's (u, E, lambda, e,
+// lambda_c, beta) and those computed from it, the Derived rows of lib/results_fields.hpp: the
+// stresses, one definition each (Discretization::stresses: P, sigma, sigma33 and the pressure of
+// (1.5)), the strain's derived fields (lib/derived_fields.hpp: det F of (2.7), the principal
+// stretches, von Mises, the nodal stress), the contact pressure and gap. The writer then holds
+// one block of one field at a time.
 //
 // Under mpirun, with a solver whose state between steps holds E and lambda on each rank's rows
-// (Solver::rows_between_steps), each rank computes a cell field on its own cells and rank 0, the
-// writer, gathers it (Solver::cells_to_writer); the nodal stress is summed over the ranks' cells
-// (mpi::sum_to_writer). Asking is then collective: rank 0 sends each name it asks for to the
-// other ranks, which serve it, until the write is done (written()). paper_notes/mpi.md,
-// "The writer holds one field at a time".
+// (Solver::rows_between_steps), each rank makes a cell field on its own cells when it is opened,
+// and rank 0, the writer, gathers the rows of each block it reads (Solver::cells_to_writer); the
+// nodal stress of a block of nodes is summed over the ranks' cells (mpi::sum_to_writer). Opening
+// and reading are then collective: rank 0 sends each request to the other ranks, which serve it,
+// until the write is done (written()). paper_notes/mpi.md, "The writer holds one block".
 #pragma once
 
 #include <Eigen/Dense>
 #include <functional>
+#include <map>
 #include <string>
+#include <utility>
 
 #include "alg2.hpp"
 #include "results.hpp"
@@ -28,32 +30,58 @@ class StepFields final : public FieldSource {
   /// The fields of `state` (the solver's state between steps), which must outlive this.
   StepFields(const Solver& solver, const State& state);
 
-  /// The whole field `name` on rank 0, or null when the step has none (e.g. sigma33 in 3-D, the
-  /// contact fields without contact, every field of the cells of a problem without E). Under
-  /// mpirun, on rank 0 inside written() only (collective).
-  const Eigen::MatrixXd* field(const std::string& name, Eigen::MatrixXd& buffer) override;
+  /// Makes the field `name` on this rank (its cells' part): its whole size, {0, 0} when the step
+  /// has none (e.g. sigma33 in 3-D, the contact fields without contact, every field of the cells
+  /// of a problem without E). Under mpirun, on rank 0 inside written() only (collective).
+  std::pair<Eigen::Index, Eigen::Index> open(const std::string& name) override;
+  /// Rows first .. first + count - 1 of the open field `name`, on rank 0: under mpirun the ranks'
+  /// rows of those cells gathered, or the nodal sums of those nodes added up (collective).
+  void read(const std::string& name, Eigen::Index first, Eigen::Index count,
+            Eigen::MatrixXd& rows) override;
+  /// Releases the field `name` on this rank; under mpirun, on the others with the next request.
+  void close(const std::string& name) noexcept override;
 
-  /// Runs `write` on rank 0, the writer (on one process: the process), which may ask for fields
-  /// (field()); meanwhile every other rank serves the fields asked for. Returns the message of
-  /// the error `write` threw (empty: none), on every rank.
+  /// Runs `write` on rank 0, the writer (on one process: the process), which may open and read
+  /// fields; meanwhile every other rank serves the requests. Returns the message of the error
+  /// `write` threw (empty: none), on every rank. Every field left open is released.
   std::string written(const std::function<void()>& write);
 
-  /// Fields asked for so far (by rank 0) or served (by the other ranks).
+  /// Fields opened so far (by rank 0) or served (by the other ranks).
   int fields_made() const { return made_; }
+  /// Blocks read so far (by rank 0) or served (by the other ranks), of the fields made here.
+  int blocks_read() const { return reads_; }
 
  private:
-  /// The field `name` made on this rank: on rank 0 the whole field (null: none), elsewhere its
-  /// part of the collective (the result null).
-  const Eigen::MatrixXd* make(const std::string& name, Eigen::MatrixXd& buffer);
-  /// A per-cell field of the state's cells (rows_per_cell rows each) made whole on rank 0.
-  const Eigen::MatrixXd* cells(Eigen::MatrixXd&& own, Eigen::MatrixXd& buffer,
-                               int rows_per_cell) const;
+  /// A field made on this rank.
+  struct Part {
+    /// Where its rows are read: whole on this rank (the nodes' and contact points' fields, every
+    /// field on one process), the ranks' cells' rows gathered, or the nodal sums of the ranks'
+    /// cells added up.
+    enum class Kind { Here, Cells, Nodes } kind = Kind::Here;
+    const Eigen::MatrixXd* state = nullptr;  ///< Here, Cells: its rows in the state, or null:
+    Eigen::MatrixXd own;              ///< what was made for it (Nodes: sigma of the rank's cells)
+    Eigen::VectorXd sigma33;          ///< Nodes in plane strain: sigma33 of the rank's cells
+    int m = 1;                        ///< Cells: rows per cell
+    bool von_mises = false;           ///< Nodes: von_mises_node, else sigma_node
+    Eigen::Index rows = 0, cols = 0;  ///< the whole field's size
+    const Eigen::MatrixXd& data() const { return state ? *state : own; }
+  };
+  /// Carries out a request of rank 0 (every rank alike): lines "close NAME", "open NAME",
+  /// "read NAME FIRST COUNT". A read's rows land in `rows` on rank 0.
+  std::pair<Eigen::Index, Eigen::Index> serve(const std::string& request, Eigen::MatrixXd& rows);
+  /// Makes the part of field `name` on this rank (no part: the step has none).
+  void make(const std::string& name);
+  /// Sends `request`, after the fields closed since the last one, to the other ranks (under
+  /// mpirun), then serves it here.
+  std::pair<Eigen::Index, Eigen::Index> ask(const std::string& request, Eigen::MatrixXd& rows);
 
   const Solver& solver_;
   const State& state_;
   bool rows_;             ///< E and lambda on each rank's rows: asking is collective
   bool writing_ = false;  ///< rank 0 inside written()
-  int made_ = 0;
+  int made_ = 0, reads_ = 0;
+  std::map<std::string, Part> open_;
+  std::string closed_;  ///< "close NAME" lines not yet sent to the other ranks
 };
 
 }  // namespace ltl

@@ -735,14 +735,17 @@ TEST(Mpi, CheckFindsARankThatDiffers) {
   EXPECT_EQ(same_on_every_rank(changed), mpi::size() == 1);
 }
 
-/// The fields of a step made one at a time (lib/step_fields.hpp): rank 0 asks for a field, every
-/// rank makes its cells' part, rank 0 gets the whole field: the 3x3 nodal Cauchy stress (summed
-/// over the ranks' cells) and the first Piola-Kirchhoff stress P = 2 C1 E - lambda of the coarse
-/// gutter after 30 iterations are the serial discretization's of the whole state to 1e-12. A
-/// write that fails on rank 0 after two fields fails every rank with its message, the other ranks
-/// having made those two fields and no more; the next write asks again. Fails when a rank's part
-/// is left out, when the others are not told the write ended, or when they do not hear its error.
-TEST(Mpi, Eq2_7_StepFieldsAreMadeOnEachRanksCellsAndAFailedWriteFailsEveryRank) {
+/// The fields of a step made one at a time (lib/step_fields.hpp): rank 0 opens a field, every
+/// rank makes its cells' part, rank 0 reads it by blocks of rows: the 3x3 nodal Cauchy stress
+/// (summed over the ranks' cells) and the first Piola-Kirchhoff stress P = 2 C1 E - lambda of the
+/// coarse gutter after 30 iterations are the serial discretization's of the whole state to 1e-12,
+/// read whole, and read by blocks of 5 nodes and of 7 cells (blocks that hold some ranks' cells
+/// and not others'). A write that fails on rank 0 after two fields fails every rank with its
+/// message, the other ranks having made those two fields and no more; the next write asks again,
+/// and every rank has served each of rank 0's reads. Fails when a rank's part is left out, when a
+/// block's rows are put at another's place, when the others are not told the write ended, or when
+/// they do not hear its error.
+TEST(Mpi, Eq2_7_StepFieldsAreMadeOnEachRanksCellsAndReadByBlocks) {
   std::vector<std::string> keys = kCoarseGutter;
   keys.push_back("algorithm.max_iter=30");
   keys.push_back("algorithm.tol=1e-300");
@@ -752,32 +755,58 @@ TEST(Mpi, Eq2_7_StepFieldsAreMadeOnEachRanksCellsAndAFailedWriteFailsEveryRank) 
   const Eigen::VectorXd beta_prev = s.beta;
   dist.solve_step(s, beta_prev);
   const State whole = dist.whole_state(s);
+  const Solver serial(p, Ranks::One);
+  const Discretization& d = serial.discretization();
+  const Discretization::Stresses st = d.stresses(whole);
+  const DerivedFields df = derived_fields(p.mesh, d.cells().vol, whole.E, st.sigma, st.sigma33);
+  ASSERT_GT(st.P.norm(), 0);
   StepFields fields(dist, s);
   Eigen::MatrixXd a, b;
   const std::string failure = fields.written([&] {
-    const Eigen::MatrixXd* sigma_node = fields.field("sigma_node", a);
-    const Eigen::MatrixXd* P = fields.field("P", b);
-    const Solver serial(p, Ranks::One);
-    const Discretization& d = serial.discretization();
-    const Discretization::Stresses st = d.stresses(whole);
-    const DerivedFields df = derived_fields(p.mesh, d.cells().vol, whole.E, st.sigma, st.sigma33);
+    const Eigen::MatrixXd* sigma_node = fields.whole("sigma_node", a);
+    const Eigen::MatrixXd* P = fields.whole("P", b);
     EXPECT_TRUE(sigma_node && P);
     if (!sigma_node || !P) return;
     ASSERT_EQ(sigma_node->rows(), p.mesh.num_nodes());
     ASSERT_EQ(P->rows(), 3 * p.mesh.num_cells());
     EXPECT_LE(relative(*sigma_node, df.sigma_node), 1e-12);
     EXPECT_LE(relative(*P, st.P), 1e-12);
-    EXPECT_GT(st.P.norm(), 0);
     throw Error("no space left on the device");
   });
   EXPECT_EQ(failure, "no space left on the device") << "rank " << mpi::rank();
   EXPECT_EQ(fields.fields_made(), 2) << "rank " << mpi::rank();
+  int blocks = 0;
   const std::string again = fields.written([&] {
-    const Eigen::MatrixXd* E = fields.field("E", a);
+    const Eigen::MatrixXd* E = fields.whole("E", a);
     EXPECT_TRUE(E && *E == whole.E);
+    const auto [nodes, nine] = fields.open("sigma_node");
+    const auto [rows, three] = fields.open("P");  // two fields open at once
+    ASSERT_EQ(nodes, p.mesh.num_nodes());
+    ASSERT_EQ(rows, 3 * p.mesh.num_cells());
+    ASSERT_EQ(nine, 9);
+    ASSERT_EQ(three, 3);
+    Eigen::MatrixXd sigma_node(nodes, 9), P(rows, 3), block;
+    for (Eigen::Index first = 0; first < nodes; first += 5, ++blocks) {
+      fields.read("sigma_node", first, std::min<Eigen::Index>(5, nodes - first), block);
+      sigma_node.middleRows(first, block.rows()) = block;
+    }
+    for (Eigen::Index first = 0; first < rows; first += 3 * 7, ++blocks) {
+      fields.read("P", first, std::min<Eigen::Index>(3 * 7, rows - first), block);
+      P.middleRows(first, block.rows()) = block;
+    }
+    fields.close("sigma_node");
+    fields.close("P");
+    EXPECT_LE(relative(sigma_node, df.sigma_node), 1e-12);
+    EXPECT_LE(relative(P, st.P), 1e-12);
   });
   EXPECT_EQ(again, "") << "rank " << mpi::rank();
-  EXPECT_EQ(fields.fields_made(), 3) << "rank " << mpi::rank();
+  EXPECT_EQ(fields.fields_made(), 5) << "rank " << mpi::rank();
+  // Rank 0 read sigma_node and P whole, E whole, and `blocks` blocks; every rank served them.
+  const int n = p.mesh.num_nodes(), nc = p.mesh.num_cells();
+  EXPECT_EQ(fields.blocks_read(), 3 + (n + 4) / 5 + (nc + 6) / 7) << "rank " << mpi::rank();
+  if (mpi::rank() == 0) {
+    EXPECT_EQ(blocks, (n + 4) / 5 + (nc + 6) / 7);
+  }
 }
 
 /// The field datasets of one step group of a results file: each row of the field table stored

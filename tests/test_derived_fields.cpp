@@ -3,9 +3,11 @@
 // code), the von Mises stress, and the nodal stresses recovered by volume-weighted averaging.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "derived_fields.hpp"
+#include "error.hpp"
 #include "fe.hpp"
 #include "testing.hpp"
 
@@ -134,6 +136,60 @@ TEST(DerivedFields, Eq2_7_FieldsOfSomeCellsAddUpToTheWholeMeshs) {
     DerivedFields half;
     ltl::nodal_stress(ltl::nodal_stress_sums(mesh, vol, Se, s33e, &even), half);
     EXPECT_GT((half.sigma_node - whole.sigma_node).cwiseAbs().maxCoeff(), 1e-3 * scale) << geo;
+  }
+}
+
+/// The nodal stress a block of nodes at a time, as the results writer reads it
+/// (lib/step_fields.hpp): the sums of the nodes first .. first + count - 1 over some cells
+/// (nodal_stress_sums' node range) are those nodes' rows of the sums of every node, and
+/// nodal_stress of a block gives those rows of derived_fields' nodal stress, over blocks of 7
+/// nodes that cut through cells. A range outside the nodes is an error. Fails when a block's sums
+/// are put at the whole array's rows or count the nodes of another block.
+TEST(DerivedFields, Eq2_7_NodalStressOfABlockOfNodesIsThoseNodesRows) {
+  for (const char* geo : {"geometry/square.geo", "geometry/box.geo"}) {
+    const ltl::Mesh mesh = ltl::load_mesh(ltl::testing::test_path(geo));
+    const int d = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+    const Eigen::VectorXd vol = ltl::cell_operators(mesh).vol;
+    std::mt19937_64 g(11);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(d * nc, d), sigma(d * nc, d);
+    Eigen::VectorXd s33(d == 2 ? nc : 0);
+    for (int c = 0; c < nc; ++c) {
+      Eigen::MatrixXd S(d, d);
+      for (int i = 0; i < d; ++i)
+        for (int j = 0; j < d; ++j) S(i, j) = 1e5 * U(g);
+      F.block(d * c, 0, d, d).setIdentity();
+      sigma.block(d * c, 0, d, d) = S + S.transpose();
+      if (d == 2) s33(c) = 1e5 * U(g);
+    }
+    const DerivedFields whole = ltl::derived_fields(mesh, vol, F, sigma, s33);
+    const Eigen::MatrixXd all = ltl::nodal_stress_sums(mesh, vol, sigma, s33);
+    const double scale = whole.sigma_node.cwiseAbs().maxCoeff();
+    ASSERT_GT(nn, 3 * 7) << geo;
+    int blocks = 0;
+    for (int first = 0; first < nn; first += 7, ++blocks) {
+      const int count = std::min(7, nn - first);
+      const Eigen::MatrixXd sums =
+          ltl::nodal_stress_sums(mesh, vol, sigma, s33, nullptr, first, count);
+      ASSERT_EQ(sums.rows(), count) << geo;
+      EXPECT_LT((sums - all.middleRows(first, count)).cwiseAbs().maxCoeff(),
+                1e-12 * all.cwiseAbs().maxCoeff())
+          << geo << ", nodes " << first << " + " << count;
+      DerivedFields block;
+      ltl::nodal_stress(Eigen::MatrixXd(sums), block);
+      EXPECT_LT(
+          (block.sigma_node - whole.sigma_node.middleRows(first, count)).cwiseAbs().maxCoeff(),
+          1e-12 * scale)
+          << geo << ", nodes " << first << " + " << count;
+      EXPECT_LT(
+          (block.von_mises_node - whole.von_mises_node.segment(first, count)).cwiseAbs().maxCoeff(),
+          1e-12 * scale)
+          << geo << ", nodes " << first << " + " << count;
+    }
+    EXPECT_EQ(blocks, (nn + 6) / 7);
+    EXPECT_THROW(ltl::nodal_stress_sums(mesh, vol, sigma, s33, nullptr, nn - 3, 7), ltl::Error)
+        << geo;
+    EXPECT_THROW(ltl::nodal_stress_sums(mesh, vol, sigma, s33, nullptr, -1, 2), ltl::Error) << geo;
   }
 }
 

@@ -592,6 +592,17 @@ Mesh p2_grid(int nx, int ny) {
   return m;
 }
 
+/// Gives step `s` (of make_step, on nc cells) its state, its report and the plane-strain sigma33
+/// = 1000 + c, which the padded copies of P and sigma read; returns sigma33.
+Eigen::VectorXd give_sigma33(Step& s, int nc) {
+  Eigen::VectorXd s33(nc);
+  for (int c = 0; c < nc; ++c) s33(c) = 1000.0 + c;
+  s.data.fields["sigma33"] = s33;
+  s.data.state = &s.state;
+  s.data.report = &s.report;
+  return s33;
+}
+
 /// A step's fields are written a block of entities at a time (lib/results_layout.cpp:
 /// write_field, 16 384 entities a block): on a mesh of 2.6 blocks of cells and 5.2 of nodes, every
 /// entry of u, E, lambda and P is where the file's layout puts it, and the padded ParaView copies
@@ -604,11 +615,7 @@ TEST_F(ResultsTest, Eq1_5_FieldsOfManyBlocksAreWrittenEntityByEntity) {
   const int nc = m.num_cells(), nn = m.num_nodes();
   ASSERT_GT(nc, 2 * 16384);
   Step s = make_step(m, 0, 1);
-  Eigen::VectorXd s33(nc);
-  for (int c = 0; c < nc; ++c) s33(c) = 1000.0 + c;
-  s.data.fields["sigma33"] = s33;
-  s.data.state = &s.state;
-  s.data.report = &s.report;
+  const Eigen::VectorXd s33 = give_sigma33(s, nc);
   {
     ResultsFile r = ResultsFile::create(path, m, run_info());
     r.append(s.data);
@@ -639,6 +646,95 @@ TEST_F(ResultsTest, Eq1_5_FieldsOfManyBlocksAreWrittenEntityByEntity) {
   for (int a = 0; a < nn; ++a)
     for (int i = 0; i < 3; ++i) wrong += u3.v[3 * a + i] != (i < 2 ? s.state.u(a, i) : 0.0);
   EXPECT_EQ(wrong, 0);
+}
+
+/// A FieldSource serving whole matrices, which records how the writer asks for them.
+class RecordingSource final : public FieldSource {
+ public:
+  std::map<std::string, Eigen::MatrixXd> fields;
+  std::map<std::string, Eigen::Index> largest;  ///< the most rows read at once, per field
+  std::map<std::string, int> reads;             ///< reads per field
+  std::map<std::string, int> open_now;
+  int most_open = 0;  ///< fields open at once, at most
+  int misuse = 0;     ///< reads of a field not open, closes of a field not open
+
+  std::pair<Eigen::Index, Eigen::Index> open(const std::string& name) override {
+    ++open_now[name];
+    int n = 0;
+    for (const auto& [k, v] : open_now) n += v;
+    most_open = std::max(most_open, n);
+    const auto it = fields.find(name);
+    return it == fields.end() ? std::make_pair(Eigen::Index(0), Eigen::Index(0))
+                              : std::make_pair(it->second.rows(), it->second.cols());
+  }
+  void read(const std::string& name, Eigen::Index first, Eigen::Index count,
+            Eigen::MatrixXd& rows) override {
+    misuse += open_now[name] <= 0;
+    largest[name] = std::max(largest[name], count);
+    ++reads[name];
+    rows = fields.at(name).middleRows(first, count);
+  }
+  void close(const std::string& name) noexcept override {
+    misuse += open_now[name] <= 0;
+    if (--open_now[name] == 0) open_now.erase(name);
+  }
+};
+
+/// The writer reads a source's fields a block at a time (lib/results_layout.cpp, 16 384 entities
+/// a block; lib/step_fields.hpp makes them so on the ranks' cells): on the mesh of 2.6 blocks of
+/// cells and 5.2 of nodes, the file written from a source is the file written from whole
+/// matrices, dataset by dataset; no read exceeds one block (a tensor's 2 rows per cell), every
+/// field is read block by block for the stored copy and the padded one, and the padded P holds E
+/// and sigma33 open beside it (det E sigma33 of (1.5)), the padded sigma sigma33: three fields at
+/// most, each closed. Fails when the writer reads a whole field at once or leaves one open.
+TEST_F(ResultsTest, Eq1_5_ASourcesFieldsAreReadABlockAtATime) {
+  const Mesh m = p2_grid(150, 140);
+  const int nc = m.num_cells(), nn = m.num_nodes();
+  Step s = make_step(m, 0, 1);
+  give_sigma33(s, nc);
+  const std::string whole = file("whole.h5"), blocks = file("source.h5");
+  {
+    ResultsFile r = ResultsFile::create(whole, m, run_info());
+    r.append(s.data);
+  }
+  RecordingSource source;
+  source.fields = s.data.fields;
+  source.fields["u"] = s.state.u;
+  source.fields["E"] = s.state.E;
+  source.fields["lambda"] = s.state.lambda;
+  StepData from_source = s.data;
+  from_source.fields.clear();
+  from_source.source = &source;
+  {
+    ResultsFile r = ResultsFile::create(blocks, m, run_info());
+    r.append(from_source);
+  }
+  int differ = 0, compared = 0;
+  for (const char* name : {"u", "E", "lambda", "P", "sigma", "sigma33", "pressure", "xdmf/u",
+                           "xdmf/E", "xdmf/P", "xdmf/sigma"}) {
+    const std::string path = std::string("/steps/000001/") + name;
+    const Raw a = raw_read(whole, path), b = raw_read(blocks, path);
+    EXPECT_EQ(a.dims, b.dims) << name;
+    differ += a.v != b.v;
+    compared += !a.v.empty();
+  }
+  EXPECT_EQ(compared, 11);
+  EXPECT_EQ(differ, 0);
+  const int cell_blocks = (nc + 16383) / 16384, node_blocks = (nn + 16383) / 16384;
+  ASSERT_EQ(cell_blocks, 3);
+  ASSERT_EQ(node_blocks, 6);
+  EXPECT_EQ(source.largest["u"], 16384);
+  EXPECT_EQ(source.largest["E"], 2 * 16384);
+  EXPECT_EQ(source.largest["P"], 2 * 16384);
+  EXPECT_EQ(source.largest["sigma33"], 16384);
+  EXPECT_EQ(source.reads["u"], 2 * node_blocks);  // stored, and its ParaView copy
+  EXPECT_EQ(source.reads["P"], 2 * cell_blocks);
+  // E: stored, its copy, and beside the padded P; sigma33: stored, and beside P and sigma.
+  EXPECT_EQ(source.reads["E"], 3 * cell_blocks);
+  EXPECT_EQ(source.reads["sigma33"], 3 * cell_blocks);
+  EXPECT_EQ(source.most_open, 3);
+  EXPECT_TRUE(source.open_now.empty());
+  EXPECT_EQ(source.misuse, 0);
 }
 
 TEST_F(ResultsTest, ThreeDimensionalWithoutContact) {
