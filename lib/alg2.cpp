@@ -48,13 +48,17 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   // The packed iterate: lambda, lambda_c; E, e unless only the multipliers are accelerated; beta
   // with "all". Mean-det: the lagged fluctuation terms make u part of the state the map acts on,
   // so u is extrapolated with the rest, weighted like a gradient, sqrt(q |Omega| / #nodes) / h.
-  // Distributed, the cells' part (first) is the rank's rows, the rest the same on every rank.
-  packed_size_ = dim * dim * static_cast<Eigen::Index>(n_own) + dim * n_points;
-  if (a.accelerate != Accelerated::Multipliers) packed_size_ *= 2;
-  if (dist_)
-    packed_distributed_ = (a.accelerate != Accelerated::Multipliers ? 2 : 1) * dim * dim *
-                          static_cast<Eigen::Index>(n_own);
-  if (a.accelerate == Accelerated::All) packed_size_ += n_points;
+  // Distributed, the cells' part (first) is the rank's rows, and so is the points' part when
+  // the contact step is distributed (the rank's block of points; else every point, the same on
+  // every rank); the rest (u) is the same on every rank.
+  const Range pr = point_range();
+  const Eigen::Index n_packed = pr.end - pr.first;  // the packed points
+  const int G = a.accelerate != Accelerated::Multipliers ? 2 : 1;
+  const Eigen::Index cells_part = G * dim * dim * static_cast<Eigen::Index>(n_own),
+                     points_part =
+                         G * dim * n_packed + (a.accelerate == Accelerated::All ? n_packed : 0);
+  packed_size_ = cells_part + points_part;
+  if (dist_) packed_distributed_ = cells_part + (points_distributed() ? points_part : 0);
   if (disc_.mean_det()) {
     packed_size_ += dim * nn;
     const double h = std::pow(disc_.volume() / nc, 1.0 / dim);
@@ -275,7 +279,6 @@ IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int&
   auto t0 = clock_type::now();
   update_phase(g, bm ? &half_ : nullptr, s);
   residuals(g, s, prev_, rec, iterate_finite_);
-  if (dist_) gather_points(s);  // the owned blocks of the points gathered (alg2_mpi.cpp)
   rec.t_update += seconds_since(t0);
   return rec;
 }
@@ -343,10 +346,11 @@ void Solver::for_each_packed(S& s, Cells&& cells, Points&& points, Beta&& beta, 
   if (G) cells(s.E, 1.0);
   cells(s.lambda, 1 / Rq);
   if (const ContactPoints* f = disc_.points()) {
-    if (G) points(s.e, 1.0);
-    points(s.lambda_c, 1 / Rqc);
+    const Range pr = point_range();  // the rank's points (all unless distributed)
+    if (G) points(s.e, 1.0, pr.first, pr.end - pr.first);
+    points(s.lambda_c, 1 / Rqc, pr.first, pr.end - pr.first);
     if (a.accelerate == Accelerated::All)
-      for (int k = 0; k < f->size(); ++k)
+      for (int k = pr.first; k < pr.end; ++k)
         beta(s.beta(k), std::sqrt(f->area(k) / disc_.contact_area()));
   }
   if (disc_.mean_det()) u(s.u);
@@ -360,9 +364,10 @@ void Solver::pack(const State& s, Eigen::VectorXd& z) const {
         Map(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_cell_.array()).matrix();
         p += A.size();
       },
-      [&](const Eigen::MatrixXd& A, double c) {
-        RowMap(p, A.rows(), A.cols()) = c * (A.array().colwise() * w_point_.array()).matrix();
-        p += A.size();
+      [&](const Eigen::MatrixXd& A, double c, int f0, int n) {
+        RowMap(p, n, A.cols()) =
+            c * (A.middleRows(f0, n).array().colwise() * w_point_.segment(f0, n).array()).matrix();
+        p += n * A.cols();
       },
       [&](double b, double w) { *p++ = w * b; },
       [&](const Eigen::MatrixXd& u) { Map(p, u.rows(), u.cols()) = w_u_ * u; });
@@ -376,10 +381,11 @@ void Solver::unpack(const Eigen::VectorXd& z, State& s) const {
         A = (ConstMap(p, A.rows(), A.cols()).array().colwise() / (c * w_cell_.array())).matrix();
         p += A.size();
       },
-      [&](Eigen::MatrixXd& A, double c) {
-        A = (ConstRowMap(p, A.rows(), A.cols()).array().colwise() / (c * w_point_.array()))
+      [&](Eigen::MatrixXd& A, double c, int f0, int n) {
+        A.middleRows(f0, n) =
+            (ConstRowMap(p, n, A.cols()).array().colwise() / (c * w_point_.segment(f0, n).array()))
                 .matrix();
-        p += A.size();
+        p += n * A.cols();
       },
       [&](double& b, double w) { b = *p++ / w; },
       [&](Eigen::MatrixXd& u) { u = ConstMap(p, u.rows(), u.cols()) / w_u_; });

@@ -226,8 +226,9 @@ class Solver {
   void pack(const State& s, Eigen::VectorXd& z) const;
   void unpack(const Eigen::VectorXd& z, State& s) const;
   /// The blocks of the packed vector in their order, one definition for pack and unpack:
-  /// cells(A, c) and points(A, c) for the cell and point fields with their scale c, beta(b, w)
-  /// for each beta_s with its weight, u(A) for the displacement (mean-det).
+  /// cells(A, c) and points(A, c, first, n) for the cell and point fields with their scale c
+  /// (the points first .. first + n - 1: the rank's block, point_range()), beta(b, w) for each of
+  /// those points' beta_s with its weight, u(A) for the displacement (mean-det).
   template <class S, class Cells, class Points, class Beta, class U>
   void for_each_packed(S& s, Cells&& cells, Points&& points, Beta&& beta, U&& u) const;
   /// Adaptive R at the check after iteration rec (every adapt_every iterations): the R that
@@ -274,7 +275,13 @@ class Solver {
   void global_phase_distributed(State& s, GlobalOutput& g);
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
-  /// The owned blocks of e, lambda_c and beta gathered (after each iteration).
+  /// Does each rank compute its own block of the contact points (the contact step distributed,
+  /// not replicated)? Its iterate's e, lambda_c and beta are then current on that block only,
+  /// until gather_points.
+  bool points_distributed() const;
+  /// The owned blocks of e, lambda_c and beta gathered (collective): at the end of an ALG2 phase
+  /// and wherever a whole state is made from the iterate (whole(), between_steps()), not after
+  /// each iteration.
   void gather_points(State& s) const;
   /// The rank's rows of a per-cell field (the k-th of own_cells() at rows dim k), cut from a
   /// whole field or copied from those rows.
@@ -284,11 +291,12 @@ class Solver {
   /// a whole s, moved from a state between steps on the rank's rows), u and the contact fields
   /// whole (moved).
   State own_rows(State& s) const;
-  /// The whole state from such an iterate (collective: E and lambda gathered from the ranks).
+  /// The whole state from such an iterate (collective: E, lambda and the points' blocks
+  /// gathered from the ranks).
   State whole(const State& own) const;
   /// The state between steps from such an iterate (collective): u made whole (the ghost layer's
-  /// solves leave other rows stale), E and lambda kept on the rank's rows when
-  /// rows_between_steps(), else gathered (whole()).
+  /// solves leave other rows stale), the points' blocks gathered, E and lambda kept on the rank's
+  /// rows when rows_between_steps(), else gathered (whole()).
   State between_steps(State own) const;
   /// E and lambda gathered from the rank's rows (collective), the contact fields copied; no u.
   State whole_cells(const State& rows) const;

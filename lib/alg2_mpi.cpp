@@ -249,9 +249,13 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   }
 }
 
+bool Solver::points_distributed() const {
+  return dist_ && disc_.points() && !dist_->contact_replicated;
+}
+
 void Solver::gather_points(State& s) const {
   const Distribution& d = *dist_;
-  if (disc_.points() && !d.contact_replicated) {
+  if (points_distributed()) {
     mpi::gather_rows(s.e, d.points, 1);
     mpi::gather_rows(s.lambda_c, d.points, 1);
     mpi::gather_rows(s.beta, d.points);
@@ -291,12 +295,14 @@ State Solver::whole(const State& own) const {
   State s = whole_cells(own);
   s.u = own.u;
   if (dist_->ksp) dist_->ksp->whole_u(s.u);  // after solves with a ghost layer
+  gather_points(s);                          // current on the rank's block of points only
   return s;
 }
 
 State Solver::between_steps(State own) const {
   if (!rows_between_steps()) return whole(own);
   if (dist_->ksp) dist_->ksp->whole_u(own.u);  // after solves with a ghost layer
+  gather_points(own);
   return own;
 }
 
