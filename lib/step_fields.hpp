@@ -58,7 +58,7 @@ class StepFields final : public FieldSource {
     /// field on one process), the ranks' cells' rows gathered, or the nodal sums of the ranks'
     /// cells added up.
     enum class Kind { Here, Cells, Nodes } kind = Kind::Here;
-    const Eigen::MatrixXd* state = nullptr;  ///< Here, Cells: its rows in the state, or null:
+    const Eigen::MatrixXd* state = nullptr;  ///< its rows in the state (null: in `own`)
     Eigen::MatrixXd own;              ///< what was made for it (Nodes: sigma of the rank's cells)
     Eigen::VectorXd sigma33;          ///< Nodes in plane strain: sigma33 of the rank's cells
     int m = 1;                        ///< Cells: rows per cell
