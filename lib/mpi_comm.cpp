@@ -94,18 +94,24 @@ int items_counted(const Partition& part, int first, int count) {
     throw Error(cat("gather_rows_to_writer: items ", first, " + ", count, " of ", n));
   return count;
 }
-}  // namespace
 
-#ifndef LTL_HAVE_MPI
-
-void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
-                           const Partition& part, int m, int first, int count) {
+/// gather_rows_to_writer on one process: rank 0's rows of the items, put in place.
+void rows_of_items(const Eigen::MatrixXd& own, Eigen::MatrixXd& block, const Partition& part, int m,
+                   int first, int count) {
   count = items_counted(part, first, count);
   const auto [a, b] = items_in(part, 0, first, count);
   block.resize(static_cast<Eigen::Index>(m) * count, own.cols());
   for (Eigen::Index k = 0; k < own.cols(); ++k)
     put_rows(part, 0, a, b, own.data() + k * own.rows() + static_cast<long>(m) * a,
              block.data() + k * block.rows(), m, first);
+}
+}  // namespace
+
+#ifndef LTL_HAVE_MPI
+
+void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
+                           const Partition& part, int m, int first, int count) {
+  rows_of_items(own, block, part, m, first, count);
 }
 
 bool built() {
@@ -382,8 +388,9 @@ void gather_rows(Eigen::VectorXd& v, const Partition& part) {
 
 void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
                            const Partition& part, int m, int first, int count) {
+  if (!up || size_ == 1) return rows_of_items(own, block, part, m, first, count);
   count = items_counted(part, first, count);
-  const int P = up ? size_ : 1, me = up ? rank_ : 0;
+  const int P = size_, me = rank_;
   const bool writer = me == 0;
   const auto t0 = clock_type::now();
   counts_.resize(P);
@@ -403,16 +410,11 @@ void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
     block.resize(static_cast<Eigen::Index>(m) * count, own.cols());
   else
     block = Eigen::MatrixXd();
-  if (P > 1 && writer) recv_.resize(total);
+  if (writer) recv_.resize(total);
   // Each column of `own` sends the rank's rows of those items as they are; the writer puts
   // every rank's runs of items in place.
   for (Eigen::Index k = 0; k < own.cols(); ++k) {
     const double* mine = own.data() + k * own.rows() + static_cast<long>(m) * range[me].first;
-    if (P == 1) {
-      put_rows(part, 0, range[0].first, range[0].second, mine, block.data() + k * block.rows(), m,
-               first);
-      continue;
-    }
     check(MPI_Gatherv(mine, counts_[me], MPI_DOUBLE, recv_.data(), counts_.data(), displs_.data(),
                       MPI_DOUBLE, 0, MPI_COMM_WORLD),
           "MPI_Gatherv");
@@ -422,7 +424,6 @@ void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
                block.data() + k * block.rows(), m, first);
   }
   std::vector<double>().swap(recv_);
-  if (P == 1) return;
   if (writer) traffic_.bytes += 8.0 * own.cols() * (total - counts_[me]);
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);

@@ -127,8 +127,8 @@ std::pair<Eigen::Index, Eigen::Index> StepFields::serve(const std::string& reque
       ++reads_;
       const Part& p = it->second;
       const bool writer = !rows_ || mpi::rank() == 0;
-      if (p.kind == Part::Kind::Here) {
-        if (writer) rows = p.data().middleRows(first, count);
+      if (p.kind == Part::Kind::Here) {  // read where it is (read()), never asked for
+        throw Error(cat("internal: StepFields: '", line, "' asked of a field whole on rank 0"));
       } else if (p.kind == Part::Kind::Cells) {
         if (first % p.m || count % p.m)
           throw Error(cat("internal: StepFields: rows ", first, " + ", count, " of ", name,
