@@ -70,17 +70,19 @@ class Solver {
  public:
   /// Discretizes the problem (discretization.hpp), then the precompute: assembles K with R q and
   /// factorizes it once [LTL87 (4.5)]. Ranks::All with the distributed KSP (plain ALG2 or with
-  /// the Newton phase): each rank discretizes its own cells only, a slab along the mesh's longest
-  /// extent (slab_cells; Discretization of some cells: Gbar, the Laplacian and its part of K of
+  /// the Newton phase): each rank discretizes its own cells only, its part of a graph partition
+  /// (cell_partition; Discretization of some cells: Gbar, the Laplacian and its part of K of
   /// its cells; paper_notes/mpi.md).
   /// With the replicated factor the whole discretization, on every rank.
   /// The problem is held by the discretization: pass it by std::move when the caller has no
   /// further use for it (ltl_run, bench_mpi), else it is copied (its mesh included).
   explicit Solver(Problem problem, Ranks ranks = Ranks::One);
   /// The same from a discretization built beforehand. Ranks::All (an MPI build, lib/mpi_comm.hpp)
-  /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): every rank holds the whole
-  /// discretization, computes its cells and its block of contact points on the rank's rows of E
-  /// and lambda, and gathers the whole state at the end of each ALG2 phase (solve_step).
+  /// distributes the iterations over the MPI ranks (alg2_mpi.cpp): each rank computes its cells
+  /// and its block of contact points on the rank's rows of E and lambda, and gathers the whole
+  /// state at the end of each ALG2 phase (solve_step). A rank's cells are those of its
+  /// discretization of some cells (the ranks' must add up to the mesh's: an Error otherwise),
+  /// else cell_partition's.
   explicit Solver(Discretization discretization, Ranks ranks = Ranks::One);
   ~Solver();
 
@@ -156,7 +158,7 @@ class Solver {
   int global_factors() const { return global_ ? global_->num_factors() : 0; }
   bool distributed() const { return dist_ != nullptr; }
   RankShare rank_share() const;
-  /// The ranks' cells (slab_cells) of a distributed solver; null on one rank. Its rows of a
+  /// The ranks' cells (cell_partition) of a distributed solver; null on one rank. Its rows of a
   /// per-cell array gather with mpi::gather_rows.
   const mpi::Partition* cell_partition() const;
   /// The bytes this process holds in the discretization and the solver's arrays (not PETSc's

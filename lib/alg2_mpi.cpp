@@ -2,10 +2,10 @@
 // lib/mpi_comm.hpp). The first slice of the distribution (paper_notes/mpi.md):
 //
 //   - PARTITIONED (Solver(Problem, Ranks::All), plain ALG2 or with the Newton phase): the cell
-//     operators. Each rank discretizes its own cells only, a slab along the mesh's longest
-//     extent (slab_cells, mpi_global.hpp; Discretization of some cells: Gbar and the
-//     Laplacian of its cells) and assembles its part of K (4.5), which the
-//     distributed KSP sums (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over
+//     operators. Each rank discretizes its own cells only, its part of the cells' dual graph
+//     by PT-Scotch (cell_partition, mpi_global.hpp; slabs with -ltl_mpi_slabs; Discretization
+//     of some cells: Gbar and the Laplacian of its cells) and assembles its part of K (4.5), which
+//     the distributed KSP sums (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over
 //     cells of the measures (equilibrium residual, energy) add the ranks' parts. The Newton phase
 //     holds its own per-cell data for its cells (newton.hpp). With the replicated factor, the
 //     whole discretization on every rank.
@@ -17,7 +17,7 @@
 //     the replicated contact part: its inner products sum the first over the ranks. The states
 //     the load subdivision keeps to go back to are the rank's rows and its block of u
 //     (kept_copy); the checks after a step run on the rank's cells (lib/admissibility.cpp).
-//   - DISTRIBUTED: the cells (the slabs above) and the contact points (contiguous blocks of
+//   - DISTRIBUTED: the cells (the partition above) and the contact points (contiguous blocks of
 //     their index, mpi::blocks). A rank computes, on its own cells and points: the global step's
 //     per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R
 //     q_c e + lambda_c] (4.1), the mean-det fluctuation terms and targets, Gbar u and ubar; the
@@ -42,7 +42,7 @@
 namespace ltl {
 
 struct Solver::Distribution {
-  mpi::Partition cells;            ///< the ranks' cells (slab_cells)
+  mpi::Partition cells;            ///< the ranks' cells (cell_partition)
   std::vector<int> own;            ///< this rank's cells, sorted
   std::vector<int> points, nodes;  ///< the ranks' blocks (mpi::blocks)
   int p0 = 0, p1 = 0, n0 = 0, n1 = 0;
@@ -72,7 +72,10 @@ void Solver::distribute() {
   const int np = points ? points->size() : 0;
   dist_.reset(new Distribution());
   Distribution& d = *dist_;
-  d.cells = slab_cells(problem().mesh, P);
+  // The ranks' cells: those of a discretization of some cells (each rank's, which must add up
+  // to the mesh's), else cell_partition's.
+  d.cells = disc_.partial() ? mpi::partition_of(disc_.held_cells(), problem().mesh.num_cells())
+                            : ltl::cell_partition(problem().mesh, P);
   d.own = d.cells.items(me);
   d.points = mpi::blocks(np, P);
   d.nodes = mpi::blocks(nn, P);
@@ -88,15 +91,12 @@ void Solver::distribute() {
   d.use_ksp = !mpi::option("-ltl_mpi_replicated");
   d.ksp_solver = alg().global_solver == GlobalSolver::CgAmg ? DistributedGlobalStep::Solver::CgGamg
                                                             : DistributedGlobalStep::Solver::Mumps;
-  if (disc_.partial() && disc_.held_cells() != d.own)
-    throw Error(cat("a discretization of ", disc_.held_cells().size(), " cells on a rank of ",
-                    d.own.size(), " other cells (slab_cells)"));
   if (disc_.partial() && !d.use_ksp)
     throw Error("the replicated factor needs the whole discretization (Solver(Discretization))");
   if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
 }
 
-// The rank's cells (slab_cells): its operators alone, unless the replicated serial
+// The rank's cells (cell_partition): its operators alone, unless the replicated serial
 // factor (-ltl_mpi_replicated: K whole on every rank) needs every cell. The Newton phase builds
 // its own per-cell data from the mesh for its cells (newton.hpp) and needs none of the
 // operators' other rows. The PETSc option -ltl_mpi_whole builds the whole discretization on
@@ -104,7 +104,7 @@ void Solver::distribute() {
 Discretization Solver::discretize(Problem problem, Ranks ranks) {
   if (ranks == Ranks::One || mpi::option("-ltl_mpi_replicated") || mpi::option("-ltl_mpi_whole"))
     return Discretization(std::move(problem));
-  const std::vector<int> cells = slab_cells(problem.mesh, mpi::size()).items(mpi::rank());
+  const std::vector<int> cells = ltl::cell_partition(problem.mesh, mpi::size()).items(mpi::rank());
   return Discretization(std::move(problem), &cells);
 }
 
@@ -136,8 +136,9 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   d.scale = scale;
   if (!d.use_ksp) return false;
   d.ksp.reset();
+  const std::vector<int> node_rank = node_ranks(problem().mesh, d.cells);
   d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
-                                                  d.ksp_solver, disc_.partial());
+                                                  d.ksp_solver, disc_.partial(), &node_rank);
   d.ksp->set_value_scale(scale);
   // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'
   // nodes and its contact points' (all points' when the contact step is replicated). Not on one

@@ -35,6 +35,35 @@ Traffic traffic() {
   return traffic_;
 }
 
+Partition partition_of_ranks(const std::vector<int>& rank, int ranks) {
+  Partition part;
+  part.offset.assign(ranks + 1, 0);
+  for (int r : rank) ++part.offset[r + 1];
+  for (int r = 0; r < ranks; ++r) part.offset[r + 1] += part.offset[r];
+  part.order.resize(rank.size());
+  std::vector<int> at(part.offset.begin(), part.offset.end() - 1);
+  for (std::size_t i = 0; i < rank.size(); ++i) part.order[at[rank[i]]++] = static_cast<int>(i);
+  return part;
+}
+
+Partition partition_of(const std::vector<int>& mine, int n) {
+  std::vector<double> held(2 * static_cast<std::size_t>(n), 0.0);  // counts, then rank sums
+  for (int i : mine) {
+    if (i < 0 || i >= n) throw Error(cat("rank ", rank(), " holds item ", i, " of ", n));
+    held[i] += 1;
+    held[n + i] += rank();
+  }
+  sum(held.data(), static_cast<long>(held.size()));
+  std::vector<int> owner(n);
+  for (int i = 0; i < n; ++i) {
+    if (held[i] != 1)
+      throw Error(cat("item ", i, " of ", n, " is held by ", held[i],
+                      " ranks: the ranks' items are not a partition"));
+    owner[i] = static_cast<int>(held[n + i]);
+  }
+  return partition_of_ranks(owner, size());
+}
+
 namespace {
 double status_bytes(const char* key) {  // a "Key:   N kB" line of /proc/self/status
   std::ifstream in("/proc/self/status");

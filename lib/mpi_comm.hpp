@@ -74,6 +74,13 @@ struct Partition {
     return {order.begin() + offset[r], order.begin() + offset[r + 1]};
   }
 };
+/// The Partition of items 0 .. rank.size() - 1 where item i is rank rank[i]'s (0 <= rank[i] <
+/// ranks).
+Partition partition_of_ranks(const std::vector<int>& rank, int ranks);
+/// The Partition of the items 0 .. n - 1 in which rank r's items are its `mine` (any order).
+/// Collective: one sum of 2 n values. An Error names an item that no rank holds, or two.
+Partition partition_of(const std::vector<int>& mine, int n);
+
 /// Calls f(first, n, at) for each maximal run first, first + 1, ..., first + n - 1 of
 /// consecutive items in the sorted `items`, at its position in them (one run when they are
 /// 0 .. n - 1): whole-block arithmetic on a rank's cells, which are runs of the cell index, and

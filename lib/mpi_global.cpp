@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <map>
 
 #include "error.hpp"
@@ -12,6 +13,7 @@
 
 #ifdef LTL_HAVE_MPI
 #include <petscksp.h>
+#include <scotch.h>  // (after PETSc's headers: it needs stdio.h's FILE)
 #endif
 
 namespace ltl {
@@ -41,12 +43,82 @@ mpi::Partition slab_cells(const Mesh& mesh, int ranks) {
   return part;
 }
 
+std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh, int first, int count) {
+  const int nc = mesh.num_cells(), nn = mesh.num_nodes(), npc = mesh.nodes_per_cell();
+  const int shared = mesh.nodes_per_facet();
+  std::vector<int> start(nn + 1, 0), cell_of(static_cast<std::size_t>(nc) * npc);
+  for (int c = 0; c < nc; ++c)
+    for (int a = 0; a < npc; ++a) ++start[mesh.cells(c, a) + 1];
+  for (int n = 0; n < nn; ++n) start[n + 1] += start[n];
+  {
+    std::vector<int> at(start.begin(), start.end() - 1);
+    for (int c = 0; c < nc; ++c)
+      for (int a = 0; a < npc; ++a) cell_of[at[mesh.cells(c, a)]++] = c;
+  }
+  std::vector<std::vector<int>> adj(count);
+  std::vector<int> near;
+  for (int c = first; c < first + count; ++c) {
+    near.clear();
+    for (int a = 0; a < npc; ++a) {
+      const int n = mesh.cells(c, a);
+      for (int k = start[n]; k < start[n + 1]; ++k)
+        if (cell_of[k] != c) near.push_back(cell_of[k]);
+    }
+    std::sort(near.begin(), near.end());
+    for (std::size_t j = 0; j < near.size();) {
+      std::size_t k = j;
+      while (k < near.size() && near[k] == near[j]) ++k;
+      if (static_cast<int>(k - j) >= shared) adj[c - first].push_back(near[j]);
+      j = k;
+    }
+  }
+  return adj;
+}
+
+long cut_facets(const Mesh& mesh, const mpi::Partition& cells) {
+  std::vector<int> rank(mesh.num_cells(), -1);
+  for (std::size_t r = 0; r + 1 < cells.offset.size(); ++r)
+    for (int j = cells.offset[r]; j < cells.offset[r + 1]; ++j)
+      rank[cells.order[j]] = static_cast<int>(r);
+  const std::vector<std::vector<int>> adj = facet_neighbours(mesh, 0, mesh.num_cells());
+  long cut = 0;
+  for (int c = 0; c < mesh.num_cells(); ++c)
+    for (int d : adj[c]) cut += d > c && rank[d] != rank[c];
+  return cut;
+}
+
+mpi::Partition cell_partition(const Mesh& mesh, int ranks) {
+  return mpi::option("-ltl_mpi_slabs") ? slab_cells(mesh, ranks) : graph_cells(mesh, ranks);
+}
+
+std::vector<int> node_ranks(const Mesh& mesh, const mpi::Partition& cells) {
+  const int P = static_cast<int>(cells.offset.size()) - 1;
+  std::vector<int> rank(mesh.num_nodes(), P);
+  for (int r = 0; r < P; ++r)
+    for (int j = cells.offset[r]; j < cells.offset[r + 1]; ++j)
+      for (int a = 0; a < mesh.nodes_per_cell(); ++a) {
+        int& owner = rank[mesh.cells(cells.order[j], a)];
+        owner = std::min(owner, r);
+      }
+  for (int& r : rank)
+    if (r == P) r = 0;
+  return rank;
+}
+
 #ifndef LTL_HAVE_MPI
+
+mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
+  if (ranks > 1)
+    throw Error(cat("the graph partition of the cells over ", ranks,
+                    " ranks needs PETSc (PT-Scotch): build with -DLTL_WITH_MPI=ON"));
+  return mpi::partition_of_ranks(std::vector<int>(mesh.num_cells(), 0), 1);
+}
 
 struct DistributedGlobalStep::Group {};
 
 DistributedGlobalStep::DistributedGlobalStep(SpMat&&, const DirichletData& bc,
-                                             const Eigen::MatrixXd&, Solver solver, bool)
+                                             const Eigen::MatrixXd&, Solver solver, bool,
+                                             const std::vector<int>*)
     : bc_(bc), solver_(solver) {
   throw Error(
       "the distributed global step needs MPI and PETSc: build with -DLTL_WITH_MPI=ON "
@@ -86,6 +158,67 @@ struct AllAtOnceGalerkinProducts {
 };
 }  // namespace
 
+mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
+  const int nc = mesh.num_cells();
+  if (ranks == 1) return mpi::partition_of_ranks(std::vector<int>(nc, 0), 1);
+  const char* what = "the graph partition of the cells (PT-Scotch)";
+  // Rank r gives the dual graph's rows of its block of the cells (mpi::blocks); PETSc's MPIAdj
+  // matrix takes the arrays, allocated by PETSc.
+  const std::vector<int> block = mpi::blocks(nc, mpi::size());
+  const int me = mpi::rank(), c0 = block[me], m = block[me + 1] - c0;
+  std::vector<std::vector<int>> adj = facet_neighbours(mesh, c0, m);
+  std::size_t edges = 0;
+  for (const std::vector<int>& a : adj) edges += a.size();
+  PetscInt *ia = nullptr, *ja = nullptr;
+  check(PetscMalloc1(m + 1, &ia), what, "PetscMalloc1");
+  check(PetscMalloc1(edges + 1, &ja), what, "PetscMalloc1");
+  ia[0] = 0;
+  for (int i = 0; i < m; ++i) {
+    ia[i + 1] = ia[i] + static_cast<PetscInt>(adj[i].size());
+    std::copy(adj[i].begin(), adj[i].end(), ja + ia[i]);
+    std::vector<int>().swap(adj[i]);
+  }
+  Mat graph = nullptr;
+  check(MatCreateMPIAdj(PETSC_COMM_WORLD, m, nc, ia, ja, nullptr, &graph), what, "MatCreateMPIAdj");
+  MatPartitioning partitioner = nullptr;
+  IS is = nullptr;
+  PetscErrorCode ierr = MatPartitioningCreate(PETSC_COMM_WORLD, &partitioner);
+  if (!ierr) ierr = MatPartitioningSetAdjacency(partitioner, graph);
+  if (!ierr) ierr = MatPartitioningSetType(partitioner, MATPARTITIONINGPTSCOTCH);
+  if (!ierr) ierr = MatPartitioningSetNParts(partitioner, ranks);
+  if (!ierr) ierr = MatPartitioningSetFromOptions(partitioner);
+  // The same mesh, the same partition. Debian's Scotch 7 runs threads (as many as cores) whose
+  // schedule changes the partition from run to run: one thread, unless the user's environment
+  // sets SCOTCH_PTHREAD_NUMBER. And it draws from one pseudo-random sequence per process: reset,
+  // so that a second partition in a process (the Solver's and its discretization's, tests) is
+  // the first one again.
+  setenv("SCOTCH_PTHREAD_NUMBER", "1", 0);
+  SCOTCH_randomReset();
+  if (!ierr) ierr = MatPartitioningApply(partitioner, &is);
+  std::vector<double> rank(nc, 0.0);  // each cell's rank, from its block's rank
+  if (!ierr) {
+    const PetscInt* r = nullptr;
+    ierr = ISGetIndices(is, &r);
+    if (!ierr) {
+      for (int i = 0; i < m; ++i) rank[c0 + i] = static_cast<double>(r[i]);
+      ISRestoreIndices(is, &r);
+    }
+  }
+  if (is) ISDestroy(&is);
+  if (partitioner) MatPartitioningDestroy(&partitioner);
+  MatDestroy(&graph);
+  check(ierr, what, "MatPartitioningApply");
+  mpi::gather(rank.data(), block);
+  std::vector<int> owner(nc);
+  for (int c = 0; c < nc; ++c) owner[c] = static_cast<int>(rank[c]);
+  mpi::Partition part = mpi::partition_of_ranks(owner, ranks);
+  for (int r = 0; r < ranks; ++r)
+    if (part.offset[r + 1] == part.offset[r])
+      throw Error(cat(what, " gave rank ", r, " of ", ranks, " no cell of the ", nc,
+                      ": fewer ranks, or a finer mesh"));
+  return part;
+}
+
 /// One distinct Dirichlet set: its free nodes (mesh order), this rank's block of them, the
 /// constant shift K_fd u_d on the owned rows, and PETSc's matrix, solver and vectors.
 struct DistributedGlobalStep::Group {
@@ -123,7 +256,8 @@ struct DistributedGlobalStep::Group {
 };
 
 DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
-                                             const Eigen::MatrixXd& X, Solver solver, bool parts)
+                                             const Eigen::MatrixXd& X, Solver solver, bool parts,
+                                             const std::vector<int>* node_rank)
     : bc_(bc), solver_(solver) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(K.rows());
@@ -136,19 +270,30 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
   PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_rtol", &rtol, nullptr);
   for (auto& gp : groups_) {
     Group& g = *gp;
-    // The free nodes in the order of their coordinate along the mesh's longest extent (a
+    // The free nodes, each rank's block of rows those of its nodes (node_rank: the rows of its
+    // cells' part of K), or in the order of their coordinate along the mesh's longest extent (a
     // coordinate partition: each rank's block of rows is a slab, its ghosts the slabs' faces).
     std::vector<int> local(n, -1);
     std::vector<char> fixed(n, 0);
     for (int i : bc.fixed[g.components[0]]) fixed[i] = 1;
     for (int i = 0; i < n; ++i)
       if (!fixed[i]) g.node.push_back(i);
-    g.node = slab_order(std::move(g.node), X);
-    for (std::size_t k = 0; k < g.node.size(); ++k) local[g.node[k]] = static_cast<int>(k);
     const int nf = static_cast<int>(g.node.size()), nc = static_cast<int>(g.components.size());
+    if (node_rank) {
+      std::vector<int> rank(nf);
+      for (int k = 0; k < nf; ++k) rank[k] = (*node_rank)[g.node[k]];
+      const mpi::Partition rows = mpi::partition_of_ranks(rank, P);
+      std::vector<int> node(nf);
+      for (int k = 0; k < nf; ++k) node[k] = g.node[rows.order[k]];
+      g.node = std::move(node);
+      g.offset = rows.offset;
+    } else {
+      g.node = slab_order(std::move(g.node), X);
+      g.offset = mpi::blocks(nf, P);
+    }
+    for (std::size_t k = 0; k < g.node.size(); ++k) local[g.node[k]] = static_cast<int>(k);
     g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
                  solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");
-    g.offset = mpi::blocks(nf, P);
     const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
     g.x.assign(nf, 0.0);
     // K_ff into PETSc's matrix, K_fd u_d into the shift (K is symmetric: row i is column i, the

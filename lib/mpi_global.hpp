@@ -34,10 +34,34 @@ namespace ltl {
 std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X);
 
 /// The cells dealt to `ranks` ranks in slabs along the mesh's longest extent (equal counts, in
-/// the order of their centroids' coordinate, stable), each rank's sorted. A rank's cells and the
-/// rows of the distributed matrices (slab_order) then lie in the same slab: its part of K (4.5)
-/// is added into its own rows but at the slabs' faces.
+/// the order of their centroids' coordinate, stable), each rank's sorted: a coordinate
+/// partition, the ranks' cells until 2026-12-02 (now the PETSc option -ltl_mpi_slabs).
 mpi::Partition slab_cells(const Mesh& mesh, int ranks);
+
+/// The cells' dual graph: cell c's neighbours, the cells that share a facet with it
+/// (Mesh::nodes_per_facet nodes), sorted; for the cells [first, first + count).
+std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh, int first, int count);
+
+/// The cells dealt to `ranks` ranks by a graph partitioner: PT-Scotch, through PETSc's
+/// MatPartitioning, on the cells' dual graph (facet_neighbours), which cuts few facets between
+/// the ranks whatever the body's shape (slabs cut a compact body's every slab face), each rank's
+/// sorted. Collective over MPI_COMM_WORLD (each rank gives the graph's rows of a block of the
+/// cells); the same partition on every rank. One rank: every cell. Several ranks without MPI
+/// (a build without LTL_WITH_MPI): an Error.
+mpi::Partition graph_cells(const Mesh& mesh, int ranks);
+
+/// The partition's cut: the facets between cells of two ranks. The ghost layer's nodes and the
+/// off-rank columns of the distributed matrices lie on them.
+long cut_facets(const Mesh& mesh, const mpi::Partition& cells);
+
+/// The ranks' cells of a distributed solver: graph_cells, or slab_cells with the PETSc option
+/// -ltl_mpi_slabs. Collective.
+mpi::Partition cell_partition(const Mesh& mesh, int ranks);
+
+/// The rank whose block of rows of the distributed matrices holds each node: the smallest of the
+/// ranks whose cells hold it (rank 0 for a node in no cell). A rank's part of K (4.5), added
+/// over its cells, then falls in its own rows but on the nodes it shares with lower ranks.
+std::vector<int> node_ranks(const Mesh& mesh, const mpi::Partition& cells);
 
 class DistributedGlobalStep {
  public:
@@ -56,8 +80,11 @@ class DistributedGlobalStep {
   /// the caller's left empty) once it is in PETSc's matrices, before the last AMG setup or
   /// factorization. (Eigen 3.4's SparseMatrix has no move constructor: a K taken by value from
   /// std::move would be a copy, and the caller's K would stay through every setup.)
+  /// node_rank (#nodes; node_ranks): the rank whose block of rows holds each node, the nodes in
+  /// their index order within a rank's block; null: the nodes in slab_order, in equal blocks.
   DistributedGlobalStep(SpMat&& K, const DirichletData& bc, const Eigen::MatrixXd& X,
-                        Solver solver = Solver::CgGamg, bool parts = false);
+                        Solver solver = Solver::CgGamg, bool parts = false,
+                        const std::vector<int>* node_rank = nullptr);
   ~DistributedGlobalStep();
   DistributedGlobalStep(const DistributedGlobalStep&) = delete;
   DistributedGlobalStep& operator=(const DistributedGlobalStep&) = delete;

@@ -374,12 +374,13 @@ TEST(Mpi, Eq4_5_GalerkinProductsAllAtOnceOnlyWhileTheDistributedStepIsSetUp) {
   mpi::set_option("-matptap_via", false);
 }
 
-/// The ranks' cells are slabs along the mesh's longest extent (slab_cells), like the rows of the
-/// distributed matrices: on a gutter 4 times longer than the coarse one (200 cells, 18 nodes in
-/// a cross-section), the nodes that cells of two ranks share are at most 2 cross-sections per
-/// cut. Blocks of gmsh's cell index (which runs over the layers of each cross-section element)
-/// cut along the length instead: 63 nodes on 2 ranks, and the rank's part of K (4.5) then falls
-/// in other ranks' rows (paper_notes/mpi.md, "The ranks' cells").
+/// The ranks' cells (cell_partition, PT-Scotch's parts of the dual graph since 2026-12-02, slabs
+/// along the longest extent before) cut the gutter across: on a gutter 4 times longer than the
+/// coarse one (200 cells, 18 nodes in a cross-section), the nodes that cells of two ranks share
+/// are at most 2 cross-sections per cut (measured: 18 on 2 ranks, 50 on 3; slabs 18 and 47).
+/// Blocks of gmsh's cell index (which runs over the layers of each cross-section element) cut
+/// along the length instead: 63 nodes on 2 ranks, and the rank's part of K (4.5) then falls in
+/// other ranks' rows (paper_notes/mpi.md, "The ranks' cells").
 /// The fingerprint of a mesh: its sizes, nodes and cells, every boundary part, its source.
 std::uint64_t fingerprint_of(const Mesh& m) {
   Fingerprint f;
@@ -432,7 +433,7 @@ TEST(Mpi, TheMeshIsMadeOnceAndSentToEveryRank) {
   }
 }
 
-TEST(Mpi, EachRanksCellsAreASlab) {
+TEST(Mpi, TheRanksCellsCutTheGutterAcross) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6),
                                  {"mesh.parameters.nl=20", "mesh.parameters.na=5"});
   const Solver dist(p, Ranks::All);
@@ -454,8 +455,103 @@ TEST(Mpi, EachRanksCellsAreASlab) {
               << " nodes in two ranks' cells\n";
 }
 
+/// The partition of the cells (mpi_global.hpp) on a cube of 12^3 H8 (experiments/bench/cube.geo),
+/// a compact body, into K = 4 and 8 parts, on any number of ranks:
+/// - the dual graph (facet_neighbours) is symmetric, with 6 neighbours inside, 3 at a corner and
+///   3 n^2 (n - 1) interior facets; 2 slabs cut n^2 facets;
+/// - graph_cells is a partition (every cell once, each part sorted, within 2 % of the mean), the
+///   same on every rank and in a second call (Scotch's single thread and reset);
+/// - it cuts near the cube's blocks (2 x 2: 2 n^2 facets, 2 x 2 x 2: 3 n^2), where slabs cut
+///   (K - 1) n^2 or more: measured 288-312 against 432 for K = 4, 432-480 against 1 056 for 8;
+/// - node_ranks gives a node the smallest rank of its cells;
+/// - the Solver's cells are graph_cells', slab_cells' with -ltl_mpi_slabs, and partition_of
+///   refuses a cell held twice, naming it.
+TEST(Mpi, TheRanksCellsAreAGraphPartitionThatCutsFewFacets) {
+  const int n = 12, nc = n * n * n;
+  const Mesh m = load_mesh(ltl::testing::source_path("experiments/bench/cube.geo"), {{"n", n}});
+  ASSERT_EQ(m.num_cells(), nc);
+  const std::vector<std::vector<int>> adj = facet_neighbours(m, 0, nc);
+  long pairs = 0;
+  std::size_t fewest = 99, most = 0;
+  for (int c = 0; c < nc; ++c) {
+    pairs += static_cast<long>(adj[c].size());
+    fewest = std::min(fewest, adj[c].size());
+    most = std::max(most, adj[c].size());
+    for (int d : adj[c])
+      EXPECT_TRUE(std::binary_search(adj[d].begin(), adj[d].end(), c)) << c << " " << d;
+  }
+  EXPECT_EQ(pairs, 2L * 3 * n * n * (n - 1));
+  EXPECT_EQ(fewest, 3u);
+  EXPECT_EQ(most, 6u);
+  EXPECT_EQ(cut_facets(m, slab_cells(m, 2)), n * n);
+  for (const int K : {4, 8}) {
+    const mpi::Partition g = graph_cells(m, K);
+    ASSERT_EQ(g.offset.size(), static_cast<std::size_t>(K + 1));
+    ASSERT_EQ(g.offset[K], nc);
+    std::vector<int> held(nc, 0);
+    for (int r = 0; r < K; ++r) {
+      const std::vector<int> items = g.items(r);
+      EXPECT_TRUE(std::is_sorted(items.begin(), items.end())) << "part " << r;
+      EXPECT_LE(items.size(), 1.02 * nc / K) << "part " << r;
+      for (int c : items) ++held[c];
+    }
+    EXPECT_EQ(std::count(held.begin(), held.end(), 1), nc) << K << " parts";
+    EXPECT_EQ(graph_cells(m, K).order, g.order) << "a second partition differs, " << K << " parts";
+    std::uint64_t lo = 0, hi = 0;
+    mpi::min_max(std::stoull(Fingerprint().add(g.order.data(), sizeof(int) * g.order.size()).hex(),
+                             nullptr, 16),
+                 lo, hi);
+    EXPECT_EQ(lo, hi) << "the ranks' partitions differ, " << K << " parts";
+    const long cut = cut_facets(m, g), blocks = (K == 4 ? 2 : 3) * n * n;
+    EXPECT_LE(cut, 1.15 * blocks) << K << " parts";
+    EXPECT_LT(cut, cut_facets(m, slab_cells(m, K))) << K << " parts";
+    if (mpi::rank() == 0)
+      std::cout << "cube of " << nc << " cells, " << K << " parts on " << mpi::size()
+                << " rank(s): " << cut << " facets cut (slabs " << cut_facets(m, slab_cells(m, K))
+                << ", the cube's blocks " << blocks << ")\n";
+    const std::vector<int> node_rank = node_ranks(m, g);
+    std::vector<char> has_cell_of_its_rank(m.num_nodes(), 0);
+    for (int r = 0; r < K; ++r)
+      for (int c : g.items(r))
+        for (int a = 0; a < m.nodes_per_cell(); ++a) {
+          const int v = m.cells(c, a);
+          EXPECT_LE(node_rank[v], r) << "node " << v;
+          if (node_rank[v] == r) has_cell_of_its_rank[v] = 1;
+        }
+    EXPECT_EQ(std::count(has_cell_of_its_rank.begin(), has_cell_of_its_rank.end(), 1),
+              m.num_nodes());
+  }
+  // The Solver's cells, and partition_of.
+  const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
+  const int P = mpi::size(), me = mpi::rank();
+  {
+    const Solver dist(p, Ranks::All);
+    EXPECT_EQ(dist.discretization().held_cells(), graph_cells(p.mesh, P).items(me));
+    EXPECT_EQ(dist.cell_partition()->order, graph_cells(p.mesh, P).order);
+  }
+  mpi::set_option("-ltl_mpi_slabs", true);
+  {
+    const Solver dist(p, Ranks::All);
+    EXPECT_EQ(dist.discretization().held_cells(), slab_cells(p.mesh, P).items(me));
+  }
+  mpi::set_option("-ltl_mpi_slabs", false);
+  std::vector<int> mine = slab_cells(p.mesh, P).items(me);
+  EXPECT_EQ(mpi::partition_of(mine, p.mesh.num_cells()).order, slab_cells(p.mesh, P).order);
+  const int twice = slab_cells(p.mesh, P).items(0).front();
+  if (me == 0) mine.push_back(twice);  // held twice, by rank 0
+  std::string message;
+  try {
+    mpi::partition_of(mine, p.mesh.num_cells());
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find(cat("item ", twice, " of ", p.mesh.num_cells(), " is held by 2")),
+            std::string::npos)
+      << message;
+}
+
 /// Each rank holds the operators of its own cells only (Discretization of some cells, plain
-/// ALG2): its cells with rows of Gbar are its slab (slab_cells), the slabs' Gbar
+/// ALG2): its cells with rows of Gbar are its part (cell_partition), the parts' Gbar
 /// entries add up to the serial Gbar's (no cell on two ranks), and on several ranks a rank's
 /// Laplacian and operators are a fraction of the serial ones. Fails when every rank builds the
 /// whole discretization.
@@ -464,7 +560,7 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   const Solver serial(p, Ranks::One);
   const Solver dist(p, Ranks::All);
   const int P = mpi::size(), me = mpi::rank();
-  const std::vector<int> cells = slab_cells(p.mesh, P).items(me);
+  const std::vector<int> cells = cell_partition(p.mesh, P).items(me);
   EXPECT_EQ(dist.holdings().cells_with_operators, static_cast<int>(cells.size()));
   EXPECT_EQ(dist.discretization().held_cells(), cells);
   EXPECT_EQ(serial.holdings().cells_with_operators, p.mesh.num_cells());
@@ -564,7 +660,7 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
     EXPECT_NEAR(equilibrium_error(dist.discretization(), F, *t), err, 1e-12 * err);
   }
   const State kept = dist.kept_copy(rows);
-  const std::vector<int> cells = slab_cells(p.mesh, mpi::size()).items(mpi::rank());
+  const std::vector<int> cells = cell_partition(p.mesh, mpi::size()).items(mpi::rank());
   EXPECT_EQ(kept.E.rows(), 3 * static_cast<Eigen::Index>(cells.size()));
   EXPECT_EQ(kept.lambda.rows(), kept.E.rows());
   const std::vector<int> nodes = mpi::blocks(p.mesh.num_nodes(), mpi::size());
@@ -718,8 +814,7 @@ TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
   EXPECT_GT(hs.newton_positions, 0.0);
   EXPECT_EQ(hd.newton_positions, 0.0);
   EXPECT_LT(hd.newton_whole, 0.5 * hs.newton_whole);
-  EXPECT_EQ(hd.cells_with_operators,
-            static_cast<int>(slab_cells(p.mesh, mpi::size()).items(me).size()));
+  EXPECT_EQ(hd.cells_with_operators, static_cast<int>(dist.discretization().held_cells().size()));
   EXPECT_EQ(dist.discretization().partial(), mpi::size() > 1);
   if (me == 0)
     std::cout << "coarse gutter with Newton, " << mpi::size() << " rank(s): rank 0's Newton holds "

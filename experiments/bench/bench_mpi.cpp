@@ -17,11 +17,20 @@
 //           PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every rank (the memory
 //           before the partition of the operators, paper_notes/mpi.md).
 //
+//           --cuts K1,K2,...: only the partition of the cells into K parts for each K, by
+//           slabs and by PT-Scotch (run on the ranks of mpirun): the facets cut, the largest part
+//           over the mean, the partitioner's seconds; then it stops.
+//           --body cube N: a cube of N^3 H8 glued to its base instead (experiments/bench/
+//           cube.toml), a compact body for the partition of the cells (PETSC_OPTIONS=
+//           -ltl_mpi_slabs: slabs instead of PT-Scotch's graph partition).
+//
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi NT NA NL [--iters N] [--warm N]
 //               [--solver mumps|cg-amg] [--distribute 1] [--label TEXT]
+//           mpirun -n P build-mpi/experiments/bench_mpi --body cube N [options]
 //           (make bench-mpi runs the table of paper_notes/mpi.md). Without MPI (the default
 //           build) it runs on one rank with the serial solver.
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -37,6 +46,7 @@
 #include "config.hpp"
 #include "error.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_global.hpp"
 
 namespace {
 
@@ -74,7 +84,7 @@ double max_of(double v) {
 
 const char* kUsage =
     "usage: bench_mpi NT NA NL [--iters N] [--warm N] [--solver mumps|cg-amg] [--distribute 1]"
-    " [--label TEXT]\n";
+    " [--label TEXT]\n       bench_mpi --body cube N [the same options]\n";
 
 int bench(int argc, char** argv) {
   for (int i = 1; i < argc; ++i)
@@ -83,13 +93,13 @@ int bench(int argc, char** argv) {
       return 0;
     }
   int iters = 20, warm = 3;
-  std::string solver_name = "mumps", label = "-";
+  std::string solver_name = "mumps", label = "-", body = "gutter", cuts;
   bool distribute = false;  // --distribute 1: the distributed solver on one rank too
   std::vector<std::string> positional;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    const bool known =
-        a == "--iters" || a == "--warm" || a == "--solver" || a == "--label" || a == "--distribute";
+    const bool known = a == "--iters" || a == "--warm" || a == "--solver" || a == "--label" ||
+                       a == "--distribute" || a == "--body" || a == "--cuts";
     if (a.rfind("-", 0) == 0 && (!known || i + 1 >= argc)) {
       std::fprintf(stderr, "bench_mpi: bad option %s\n%s", a.c_str(), kUsage);
       return 2;
@@ -104,18 +114,23 @@ int bench(int argc, char** argv) {
     if (a == "--solver") solver_name = v;
     if (a == "--label") label = v;
     if (a == "--distribute") distribute = std::atoi(v.c_str()) != 0;
+    if (a == "--body") body = v;
+    if (a == "--cuts") cuts = v;
   }
-  if (positional.size() != 3 || (solver_name != "mumps" && solver_name != "cg-amg")) {
+  const bool cube = body == "cube";
+  if (positional.size() != (cube ? 1u : 3u) || (!cube && body != "gutter") ||
+      (solver_name != "mumps" && solver_name != "cg-amg")) {
     std::fprintf(stderr, "%s", kUsage);
     return 2;
   }
-  std::vector<std::string> ov = {"mesh.parameters.nt=" + positional[0],
-                                 "mesh.parameters.na=" + positional[1],
-                                 "mesh.parameters.nl=" + positional[2],
-                                 "algorithm.tol=1e-300",
-                                 "algorithm.blowup=1e100",
-                                 "algorithm.solver=alg2",
-                                 "algorithm.max_iter=" + std::to_string(iters + warm)};
+  std::vector<std::string> ov;
+  if (cube)
+    ov = {"mesh.parameters.n=" + positional[0]};
+  else
+    ov = {"mesh.parameters.nt=" + positional[0], "mesh.parameters.na=" + positional[1],
+          "mesh.parameters.nl=" + positional[2]};
+  ov.insert(ov.end(), {"algorithm.tol=1e-300", "algorithm.blowup=1e100", "algorithm.solver=alg2",
+                       "algorithm.max_iter=" + std::to_string(iters + warm)});
   if (solver_name == "cg-amg") ov.push_back("algorithm.global_solver=\"cg-amg\"");
   // The resident memory (VmRSS, then VmHWM) after each setup phase, the largest over the ranks.
   std::string phases;
@@ -129,7 +144,9 @@ int bench(int argc, char** argv) {
   phase("start");
   const double t_load = now_seconds();
   ltl::Problem problem =
-      ltl::load_problem(std::string(LTL_SOURCE_DIR) + "/experiments/fig6/fig6.toml", ov);
+      ltl::load_problem(std::string(LTL_SOURCE_DIR) +
+                            (cube ? "/experiments/bench/cube.toml" : "/experiments/fig6/fig6.toml"),
+                        ov);
   const double load_s = max_of(now_seconds() - t_load);
   phase("mesh");
   {  // the mesh phase of the ranks that do not run gmsh (load_mesh: rank 0 alone does)
@@ -142,6 +159,29 @@ int bench(int argc, char** argv) {
                          static_cast<int>(live), ", load_s ", std::round(100 * load_s) / 100, ")");
     else
       phases += ltl::cat(" (load_s ", std::round(100 * load_s) / 100, ")");
+  }
+  if (!cuts.empty()) {  // the partitions alone
+    for (std::size_t at = 0; at < cuts.size();) {
+      const std::size_t end = std::min(cuts.find(',', at), cuts.size());
+      const int K = std::atoi(cuts.substr(at, end - at).c_str());
+      at = end + 1;
+      const double t0 = now_seconds();
+      const ltl::mpi::Partition graph = ltl::graph_cells(problem.mesh, K);
+      const double graph_s = max_of(now_seconds() - t0);
+      const ltl::mpi::Partition slabs = ltl::slab_cells(problem.mesh, K);
+      int largest = 0;
+      for (int r = 0; r < K; ++r)
+        largest = std::max(largest, graph.offset[r + 1] - graph.offset[r]);
+      const double mean = static_cast<double>(problem.mesh.num_cells()) / K;
+      if (ltl::mpi::rank() == 0)
+        std::printf(
+            "CUT label=%s body=%s cells=%d on_ranks=%d parts=%d facets_cut_slabs=%ld "
+            "facets_cut_graph=%ld graph_largest_over_mean=%.3f graph_s=%.2f\n",
+            label.c_str(), body.c_str(), problem.mesh.num_cells(), ltl::mpi::size(), K,
+            ltl::cut_facets(problem.mesh, slabs), ltl::cut_facets(problem.mesh, graph),
+            largest / mean, graph_s);
+    }
+    return 0;
   }
   const int P = ltl::mpi::size();
   const bool all = P > 1 || distribute;

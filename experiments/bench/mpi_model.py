@@ -87,8 +87,11 @@ def allgather(n, P, alpha, beta):
 
 def ghosts(g, P, partition):
     """Ghost values per rank (summed over the SOLVES component solves) and neighbours.
-    slabs: cuts across the gutter's length (the KSP rows today), two faces of the cross-section;
-    blocks: a 2-D partition of the (na, nl) surface (the wall is 8 cells thick), four faces."""
+    slabs: cuts across the gutter's length (the ranks' cells until 2026-12-02, now
+    -ltl_mpi_slabs), two faces of the cross-section;
+    blocks: a 2-D partition of the (na, nl) surface (the wall is 8 cells thick), four faces: what
+    PT-Scotch's graph partition cuts, the ranks' cells since 2026-12-02 (check() compares the
+    facets cut)."""
     if P == 1:
         return 0, 0
     if partition == "slabs":
@@ -106,8 +109,7 @@ def iteration(g, P, net, design):
     cells, nodes, points = g["cells"], g["nodes"], g["points"]
     k = K0 + K1 * math.log2(P)
     compute = C_LOCAL * cells / P + C_KRYLOV * k * cells / P
-    partition = "slabs" if design == "as built" else "blocks"
-    gh = ghosts(g, P, partition)
+    gh = ghosts(g, P, "blocks")
     if gh is None:
         return None
     ghost, nb = gh
@@ -116,7 +118,7 @@ def iteration(g, P, net, design):
     solves = 1 if design == "ghost layer, one block solve" else SOLVES
     petsc = solves * k * (MSG_PER_ITER * nb * alpha + RED_PER_ITER * allreduce(8, P, alpha, beta))
     petsc += k * B_PER_GHOST * ghost * beta
-    if design == "as built":  # slabs; since 2026-11-28 the right-hand side and u on the ghost
+    if design == "as built":  # since 2026-11-28 the right-hand side and u on the ghost
         # layer, an assembly and a scatter per component (paper_notes/mpi.md); E and lambda stay
         # on their ranks; since 2026-12-02 the contact points' fields too (gathered once per
         # ALG2 phase, not per iteration: not in the time of an iteration)
@@ -143,7 +145,7 @@ def table(cells_total=None, cells_per_rank=None, file=sys.stdout):
                 g = gutter(cells_total if cells_total else cells_per_rank * P)
                 r = iteration(g, P, net, design)
                 if r is None:
-                    print("| %d | %d | slabs thinner than 2 cells | | | | |" % (P, g["cells"]),
+                    print("| %d | %d | parts thinner than 2 cells | | | | |" % (P, g["cells"]),
                           file=file)
                     continue
                 t = sum(r)
@@ -182,6 +184,14 @@ def check():
         fails.append("1-rank compute: model %.3f s, measured 1.205 s" % t1)
     print("bytes ours per iteration: model %.0f, measured %.0f; 1 rank: model %.3f s, measured"
           " 1.205 s" % (ours, measured, t1))
+    # The partition: the facets that 2-D blocks of the (na, nl) surface cut, nt deep, P 4
+    # sides / 2 of sqrt(na nl / P) cells, against PT-Scotch's cut of the 102 400-cell gutter
+    # measured by `bench_mpi 8 80 160 --cuts 64,256` on 2 ranks (2026-12-02): 14 976 and 31 308.
+    for P, cut in ((64, 14976), (256, 31308)):
+        model = P * 4 * g["nt"] * math.sqrt(g["na"] * g["nl"] / P) / 2
+        print("facets cut by %d parts: 2-D blocks %.0f, PT-Scotch %d" % (P, model, cut))
+        if abs(cut / model - 1) > 0.10:
+            fails.append("facets cut by %d parts: blocks %.0f, PT-Scotch %d" % (P, model, cut))
     return fails
 
 
