@@ -6,7 +6,7 @@
 set -euo pipefail
 packages=(cmake make g++ pkg-config libeigen3-dev libsuitesparse-dev libopenblas-dev
           gmsh libgmsh-dev libhdf5-dev libtomlplusplus-dev libgtest-dev clang-format
-          python3-matplotlib python3-h5py python3-numpy python3-meshio)
+          python3-matplotlib python3-h5py python3-numpy python3-meshio ccache)
 if [[ ${1:-} == peer ]]; then packages+=(python3-dolfinx python3-gmsh); fi
 missing=()
 for p in "${packages[@]}"; do

@@ -63,6 +63,7 @@ struct RankShare {
   bool replicated_cholesky = false;  ///< -ltl_mpi_replicated: the serial factor on every rank
   bool mumps = false;                ///< the distributed solve is MUMPS's Cholesky
   long ksp_iterations = 0, ksp_solves = 0, ghosts = 0;
+  long rows = 0;  ///< the rank's rows of the distributed matrices, summed over the sets
   double ksp_seconds = 0, ksp_setup_seconds = 0;
 };
 

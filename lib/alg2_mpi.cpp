@@ -191,6 +191,7 @@ RankShare Solver::rank_share() const {
     r.ksp_iterations = d.ksp->iterations();
     r.ksp_solves = d.ksp->solves();
     r.ghosts = d.ksp->ghosts();
+    r.rows = d.ksp->owned_rows();
     r.ksp_seconds = d.ksp->ksp_seconds();
     r.ksp_setup_seconds = d.ksp->setup_seconds();
   }

@@ -47,18 +47,26 @@ Partition partition_of_ranks(const std::vector<int>& rank, int ranks) {
 }
 
 Partition partition_of(const std::vector<int>& mine, int n) {
-  std::vector<double> held(2 * static_cast<std::size_t>(n), 0.0);  // counts, then rank sums
+  // Counts, then sums of the holders' ranks, then the items out of range; summed first, so that
+  // every rank throws the same Error.
+  std::vector<double> held(2 * static_cast<std::size_t>(n) + 1, 0.0);
   for (int i : mine) {
-    if (i < 0 || i >= n) throw Error(cat("rank ", rank(), " holds item ", i, " of ", n));
+    if (i < 0 || i >= n) {
+      held[2 * n] += 1;
+      continue;
+    }
     held[i] += 1;
     held[n + i] += rank();
   }
   sum(held.data(), static_cast<long>(held.size()));
+  if (held[2 * n] > 0)
+    throw Error(cat(held[2 * n], " items held outside 0 .. ", n - 1,
+                    ": the ranks' items are not a partition"));
   std::vector<int> owner(n);
   for (int i = 0; i < n; ++i) {
     if (held[i] != 1)
-      throw Error(cat("item ", i, " of ", n, " is held by ", held[i],
-                      " ranks: the ranks' items are not a partition"));
+      throw Error(cat("item ", i, " of ", n, " is held ", held[i],
+                      " times over the ranks: the ranks' items are not a partition"));
     owner[i] = static_cast<int>(held[n + i]);
   }
   return partition_of_ranks(owner, size());

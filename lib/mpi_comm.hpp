@@ -66,7 +66,7 @@ void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset);
 void gather(double* x, const std::vector<int>& offset);
 
 /// Items (cells) dealt to the ranks in any sets: rank r holds the items order[j], offset[r] <= j
-/// < offset[r + 1], each rank's sorted (slab_cells in mpi_global.hpp).
+/// < offset[r + 1], each rank's sorted (cell_partition in mpi_global.hpp).
 struct Partition {
   std::vector<int> order, offset;
   /// Rank r's items, sorted.
@@ -78,7 +78,8 @@ struct Partition {
 /// ranks).
 Partition partition_of_ranks(const std::vector<int>& rank, int ranks);
 /// The Partition of the items 0 .. n - 1 in which rank r's items are its `mine` (any order).
-/// Collective: one sum of 2 n values. An Error names an item that no rank holds, or two.
+/// Collective: one sum of 2 n values. An Error, on every rank, names an item outside 0 .. n - 1,
+/// or one that the ranks hold no time or more than once.
 Partition partition_of(const std::vector<int>& mine, int n);
 
 /// Calls f(first, n, at) for each maximal run first, first + 1, ..., first + n - 1 of

@@ -13,7 +13,7 @@
 
 #ifdef LTL_HAVE_MPI
 #include <petscksp.h>
-#include <scotch.h>  // (after PETSc's headers: it needs stdio.h's FILE)
+#include <ptscotch.h>  // (after PETSc's headers: it needs stdio.h's FILE and mpi.h)
 #endif
 
 namespace ltl {
@@ -158,73 +158,99 @@ struct AllAtOnceGalerkinProducts {
 };
 }  // namespace
 
-mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
+namespace {
+/// PT-Scotch's parts of the cells' dual graph, on this process alone (PETSC_COMM_SELF): the
+/// part of each cell. Scotch's threads run one at a time (SCOTCH_PTHREAD_NUMBER, unless the
+/// user's environment sets it; put back afterwards) and its pseudo-random state is reset: the
+/// same mesh, the same parts.
+std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   const int nc = mesh.num_cells();
-  if (ranks == 1) return mpi::partition_of_ranks(std::vector<int>(nc, 0), 1);
   const char* what = "the graph partition of the cells (PT-Scotch)";
-  // Rank r gives the dual graph's rows of its block of the cells (mpi::blocks); PETSc's MPIAdj
-  // matrix takes the arrays, allocated by PETSc.
-  const std::vector<int> block = mpi::blocks(nc, mpi::size());
-  const int me = mpi::rank(), c0 = block[me], m = block[me + 1] - c0;
-  std::vector<std::vector<int>> adj = facet_neighbours(mesh, c0, m);
+  std::vector<std::vector<int>> adj = facet_neighbours(mesh, 0, nc);
   std::size_t edges = 0;
   for (const std::vector<int>& a : adj) edges += a.size();
-  PetscInt *ia = nullptr, *ja = nullptr;
-  check(PetscMalloc1(m + 1, &ia), what, "PetscMalloc1");
-  check(PetscMalloc1(edges + 1, &ja), what, "PetscMalloc1");
+  PetscInt *ia = nullptr, *ja = nullptr;  // PETSc's: the MPIAdj matrix takes and frees them
+  check(PetscMalloc1(nc + 1, &ia), what, "PetscMalloc1");
+  if (PetscMalloc1(edges + 1, &ja)) {
+    PetscFree(ia);
+    throw Error(cat(what, ": PETSc's PetscMalloc1 failed"));
+  }
   ia[0] = 0;
-  for (int i = 0; i < m; ++i) {
+  for (int i = 0; i < nc; ++i) {
     ia[i + 1] = ia[i] + static_cast<PetscInt>(adj[i].size());
     std::copy(adj[i].begin(), adj[i].end(), ja + ia[i]);
     std::vector<int>().swap(adj[i]);
   }
   Mat graph = nullptr;
-  check(MatCreateMPIAdj(PETSC_COMM_WORLD, m, nc, ia, ja, nullptr, &graph), what, "MatCreateMPIAdj");
+  if (MatCreateMPIAdj(PETSC_COMM_SELF, nc, nc, ia, ja, nullptr, &graph)) {
+    PetscFree(ia);
+    PetscFree(ja);
+    throw Error(cat(what, ": PETSc's MatCreateMPIAdj failed"));
+  }
+  const char* threads = std::getenv("SCOTCH_PTHREAD_NUMBER");
+  if (!threads) setenv("SCOTCH_PTHREAD_NUMBER", "1", 1);
+  SCOTCH_randomReset();
   MatPartitioning partitioner = nullptr;
   IS is = nullptr;
-  PetscErrorCode ierr = MatPartitioningCreate(PETSC_COMM_WORLD, &partitioner);
+  PetscErrorCode ierr = MatPartitioningCreate(PETSC_COMM_SELF, &partitioner);
   if (!ierr) ierr = MatPartitioningSetAdjacency(partitioner, graph);
   if (!ierr) ierr = MatPartitioningSetType(partitioner, MATPARTITIONINGPTSCOTCH);
-  if (!ierr) ierr = MatPartitioningSetNParts(partitioner, ranks);
+  if (!ierr) ierr = MatPartitioningSetNParts(partitioner, parts);
   if (!ierr) ierr = MatPartitioningSetFromOptions(partitioner);
-  // The same mesh, the same partition. Debian's Scotch 7 runs threads (as many as cores) whose
-  // schedule changes the partition from run to run: one thread, unless the user's environment
-  // sets SCOTCH_PTHREAD_NUMBER. And it draws from one pseudo-random sequence per process: reset,
-  // so that a second partition in a process (the Solver's and its discretization's, tests) is
-  // the first one again.
-  setenv("SCOTCH_PTHREAD_NUMBER", "1", 0);
-  SCOTCH_randomReset();
   if (!ierr) ierr = MatPartitioningApply(partitioner, &is);
-  std::vector<double> rank(nc, 0.0);  // each cell's rank, from its block's rank
+  std::vector<int> part(nc, 0);
   if (!ierr) {
     const PetscInt* r = nullptr;
     ierr = ISGetIndices(is, &r);
     if (!ierr) {
-      for (int i = 0; i < m; ++i) rank[c0 + i] = static_cast<double>(r[i]);
+      for (int c = 0; c < nc; ++c) part[c] = static_cast<int>(r[c]);
       ISRestoreIndices(is, &r);
     }
   }
+  if (!threads) unsetenv("SCOTCH_PTHREAD_NUMBER");
   if (is) ISDestroy(&is);
   if (partitioner) MatPartitioningDestroy(&partitioner);
   MatDestroy(&graph);
   check(ierr, what, "MatPartitioningApply");
-  mpi::gather(rank.data(), block);
-  std::vector<int> owner(nc);
-  for (int c = 0; c < nc; ++c) owner[c] = static_cast<int>(rank[c]);
-  mpi::Partition part = mpi::partition_of_ranks(owner, ranks);
-  for (int r = 0; r < ranks; ++r)
-    if (part.offset[r + 1] == part.offset[r])
-      throw Error(cat(what, " gave rank ", r, " of ", ranks, " no cell of the ", nc,
-                      ": fewer ranks, or a finer mesh"));
+  for (int c = 0; c < nc; ++c)
+    if (part[c] < 0 || part[c] >= parts)
+      throw Error(cat(what, ": cell ", c, " in part ", part[c], " of ", parts));
   return part;
+}
+}  // namespace
+
+mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
+  const int nc = mesh.num_cells();
+  if (ranks == 1) return mpi::partition_of_ranks(std::vector<int>(nc, 0), 1);
+  // Rank 0 partitions, the other ranks wait for its parts or its error (every rank throws the
+  // same message): one partition of the whole graph, the same whatever the number of processes.
+  // PT-Scotch over the ranks would hold a block of the graph each, but its parallel coarsening
+  // takes other ranks' messages in their order of arrival.
+  std::vector<int> part;
+  std::string error;
+  if (mpi::rank() == 0) try {
+      part = scotch_parts(mesh, ranks);
+    } catch (const Error& e) {
+      error = e.what();
+    }
+  error = mpi::broadcast(error);
+  if (!error.empty()) throw Error(error);
+  part.resize(nc);
+  mpi::broadcast(part.data(), nc);
+  mpi::Partition p = mpi::partition_of_ranks(part, ranks);
+  for (int r = 0; r < ranks; ++r)
+    if (p.offset[r + 1] == p.offset[r])
+      throw Error(cat("the graph partition of the cells (PT-Scotch) gave rank ", r, " of ", ranks,
+                      " no cell of the ", nc, ": fewer ranks, or a finer mesh"));
+  return p;
 }
 
 /// One distinct Dirichlet set: its free nodes (mesh order), this rank's block of them, the
 /// constant shift K_fd u_d on the owned rows, and PETSc's matrix, solver and vectors.
 struct DistributedGlobalStep::Group {
   std::vector<int> components;
-  std::vector<int> node;    ///< #free, mesh node of each free row (in the coordinate order)
-  std::vector<int> offset;  ///< the ranks' blocks of free rows (mpi::blocks)
+  std::vector<int> node;    ///< #free, mesh node of each free row (the ranks' blocks in turn)
+  std::vector<int> offset;  ///< the ranks' blocks of free rows
   Eigen::MatrixXd shift;    ///< #owned x #components
   std::vector<double> x;    ///< #free: one component's solution, gathered
   std::string what;
@@ -295,6 +321,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
                  solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");
     const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
+    owned_rows_ += own;
     g.x.assign(nf, 0.0);
     // K_ff into PETSc's matrix, K_fd u_d into the shift (K is symmetric: row i is column i, the
     // columns in the free numbering): each rank adds the rows it holds, every row of its part of

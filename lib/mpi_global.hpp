@@ -45,9 +45,10 @@ std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh, int first, int 
 /// The cells dealt to `ranks` ranks by a graph partitioner: PT-Scotch, through PETSc's
 /// MatPartitioning, on the cells' dual graph (facet_neighbours), which cuts few facets between
 /// the ranks whatever the body's shape (slabs cut a compact body's every slab face), each rank's
-/// sorted. Collective over MPI_COMM_WORLD (each rank gives the graph's rows of a block of the
-/// cells); the same partition on every rank. One rank: every cell. Several ranks without MPI
-/// (a build without LTL_WITH_MPI): an Error.
+/// sorted. Collective over MPI_COMM_WORLD: rank 0 partitions the whole graph and sends the parts
+/// (or its error) to the others, so that the same mesh gives the same partition on any number
+/// of processes. One rank: every cell. Several ranks without MPI (a build without
+/// LTL_WITH_MPI), or a part with no cell: an Error.
 mpi::Partition graph_cells(const Mesh& mesh, int ranks);
 
 /// The partition's cut: the facets between cells of two ranks. The ghost layer's nodes and the
@@ -118,6 +119,9 @@ class DistributedGlobalStep {
   /// Ghost values a rank's row block needs in a product with K (the fine level's message size
   /// per matrix-vector product, summed over the Dirichlet sets, this rank).
   long ghosts() const { return ghosts_; }
+  /// This rank's rows, summed over the Dirichlet sets (its nodes: node_rank's, or its block of
+  /// the slab order).
+  long owned_rows() const { return owned_rows_; }
 
  private:
   struct Group;
@@ -126,7 +130,7 @@ class DistributedGlobalStep {
   Solver solver_;
   double scale_ = 1;
   bool ghost_layer_ = false;
-  long iterations_ = 0, solves_ = 0, ghosts_ = 0;
+  long iterations_ = 0, solves_ = 0, ghosts_ = 0, owned_rows_ = 0;
   double setup_seconds_ = 0, ksp_seconds_ = 0;
 };
 
