@@ -6,7 +6,11 @@
 #   weak scaling:   25 600 cells per rank on 1 and 2 ranks (MUMPS); 4 ranks is the strong
 #                   row of the 102 400-cell gutter;
 #   Newton:         bench_mpi_newton's step on the 102 400-cell gutter, 1, 2 and 4 ranks, with
-#                   every rank's peak memory (not with --quick).
+#                   every rank's peak memory (not with --quick);
+#   partition:      the facets cut by slabs and by PT-Scotch's graph partition into 2 to 256
+#                   parts, on the 102 400-cell gutter and a cube of 46^3 H8 ("CUT ..." lines),
+#                   then ALG2 with CG + GAMG on the cube, 2 and 4 ranks, graph and slabs
+#                   (-ltl_mpi_slabs) (not with --quick).
 # 20 timed iterations after 3 (1 080 and 9 900 cells), 8 after 2 (the larger gutters).
 # Usage: bench_mpi.sh BUILD_DIR [--quick]   (--quick: the gutters of 1 080 and 9 900 cells only)
 set -u
@@ -51,5 +55,15 @@ for gs in cholesky cg-amg; do
       mesh.parameters.nt=8 mesh.parameters.na=80 mesh.parameters.nl=160 \
       algorithm.newton_switch=1e9 algorithm.newton_max_iter=2 algorithm.max_iter=3 \
       "algorithm.global_solver=\"$gs\"" < /dev/null
+  done
+done
+# The partition of the cells (paper_notes/mpi.md, "The ranks' cells: a graph partition").
+"$bench" 8 80 160 --cuts 2,4,8,16,64,256 --label cuts
+"$bench" --body cube 46 --cuts 2,4,8,16,64,256 --label cuts
+for p in 2 4; do
+  for part in graph slabs; do
+    if [ "$part" = slabs ]; then options=-ltl_mpi_slabs; else options=; fi
+    PETSC_OPTIONS=$options mpirun -n "$p" --oversubscribe -x PETSC_OPTIONS "$bench" --body cube 46 \
+      --solver cg-amg --iters 8 --warm 2 --label "$part" < /dev/null
   done
 done
