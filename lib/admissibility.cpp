@@ -268,26 +268,11 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
         R.push_back(Eigen::Map<const Eigen::Matrix3d>(all.data() + k + 1));
       }
     }
-    // The cells of each touched node (compressed rows over the nodes).
-    std::vector<int> first(nn + 1, 0);
-    for (int c = 0; c < nc; ++c)
-      for (int a = 0; a < npc; ++a)
-        if (const int n = mesh.cells(c, a); touched[n]) ++first[n + 1];
-    for (int n = 0; n < nn; ++n) first[n + 1] += first[n];
-    std::vector<int> cells_of(first[nn]), fill(first.begin(), first.end() - 1);
-    for (int c = 0; c < nc; ++c)
-      for (int a = 0; a < npc; ++a)
-        if (const int n = mesh.cells(c, a); touched[n]) cells_of[fill[n]++] = c;
+    const NodeCells of = node_cells(mesh, &touched);  // the cells of each touched node
     std::vector<int> nbr;
     std::vector<double> angles;
     for (int c : held) {
-      nbr.clear();
-      for (int a = 0; a < npc; ++a) {
-        const int n = mesh.cells(c, a);
-        for (int k = first[n]; k < first[n + 1]; ++k)
-          if (cells_of[k] != c) nbr.push_back(cells_of[k]);
-      }
-      std::sort(nbr.begin(), nbr.end());
+      of.around(mesh, c, nbr);
       nbr.erase(std::unique(nbr.begin(), nbr.end()), nbr.end());
       if (nbr.empty()) continue;
       angles.clear();

@@ -481,6 +481,32 @@ int meshes_made_with_gmsh() {
 // arrays (a few bytes per cell) instead of meshing the geometry itself, which would hold
 // gmsh's own model and work arrays, several times the mesh, on every rank. An error on rank 0
 // is every rank's error (none waits for a mesh that will not come).
+void NodeCells::around(const Mesh& mesh, int c, std::vector<int>& out) const {
+  out.clear();
+  for (int a = 0; a < mesh.nodes_per_cell(); ++a) {
+    const int v = mesh.cells(c, a);
+    for (int k = start[v]; k < start[v + 1]; ++k)
+      if (cell[k] != c) out.push_back(cell[k]);
+  }
+  std::sort(out.begin(), out.end());
+}
+
+NodeCells node_cells(const Mesh& mesh, const std::vector<char>* only) {
+  const int nn = mesh.num_nodes(), nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
+  NodeCells m;
+  m.start.assign(nn + 1, 0);
+  for (int c = 0; c < nc; ++c)
+    for (int a = 0; a < npc; ++a)
+      if (const int v = mesh.cells(c, a); !only || (*only)[v]) ++m.start[v + 1];
+  for (int v = 0; v < nn; ++v) m.start[v + 1] += m.start[v];
+  m.cell.resize(m.start[nn]);
+  std::vector<int> at(m.start.begin(), m.start.end() - 1);
+  for (int c = 0; c < nc; ++c)
+    for (int a = 0; a < npc; ++a)
+      if (const int v = mesh.cells(c, a); !only || (*only)[v]) m.cell[at[v]++] = c;
+  return m;
+}
+
 Mesh load_mesh(const std::string& path, const std::map<std::string, double>& parameters) {
   if (mpi::size() == 1) return load_mesh_with_gmsh(path, parameters);
   Mesh mesh;

@@ -48,6 +48,17 @@ struct Mesh {
   std::vector<int> boundary_nodes(const std::string& name, const std::string& what = "") const;
 };
 
+/// The cells of each node, compressed: node v's cells are cell[start[v] .. start[v + 1]), in
+/// increasing order. With `only` (a flag per node), those of the flagged nodes alone, the others
+/// having none (the memory of the flagged nodes' cells only).
+struct NodeCells {
+  std::vector<int> start, cell;
+  /// The cells other than c that share a node with cell c, sorted, each as many times as the
+  /// nodes it shares with c (into `out`, whose memory is reused).
+  void around(const Mesh& mesh, int c, std::vector<int>& out) const;
+};
+NodeCells node_cells(const Mesh& mesh, const std::vector<char>* only = nullptr);
+
 /// Generates (from a .geo) or reads (from a .msh) the mesh with gmsh. `parameters` set gmsh
 /// ONELAB numbers before the file is read, so that a .geo written with
 ///   DefineConstant[ nx = {28, Name "Parameters/nx"} ];

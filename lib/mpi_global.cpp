@@ -43,32 +43,17 @@ mpi::Partition slab_cells(const Mesh& mesh, int ranks) {
   return part;
 }
 
-std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh, int first, int count) {
-  const int nc = mesh.num_cells(), nn = mesh.num_nodes(), npc = mesh.nodes_per_cell();
-  const int shared = mesh.nodes_per_facet();
-  std::vector<int> start(nn + 1, 0), cell_of(static_cast<std::size_t>(nc) * npc);
-  for (int c = 0; c < nc; ++c)
-    for (int a = 0; a < npc; ++a) ++start[mesh.cells(c, a) + 1];
-  for (int n = 0; n < nn; ++n) start[n + 1] += start[n];
-  {
-    std::vector<int> at(start.begin(), start.end() - 1);
-    for (int c = 0; c < nc; ++c)
-      for (int a = 0; a < npc; ++a) cell_of[at[mesh.cells(c, a)]++] = c;
-  }
-  std::vector<std::vector<int>> adj(count);
+std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh) {
+  const int nc = mesh.num_cells(), shared = mesh.nodes_per_facet();
+  const NodeCells of = node_cells(mesh);
+  std::vector<std::vector<int>> adj(nc);
   std::vector<int> near;
-  for (int c = first; c < first + count; ++c) {
-    near.clear();
-    for (int a = 0; a < npc; ++a) {
-      const int n = mesh.cells(c, a);
-      for (int k = start[n]; k < start[n + 1]; ++k)
-        if (cell_of[k] != c) near.push_back(cell_of[k]);
-    }
-    std::sort(near.begin(), near.end());
+  for (int c = 0; c < nc; ++c) {
+    of.around(mesh, c, near);
     for (std::size_t j = 0; j < near.size();) {
       std::size_t k = j;
       while (k < near.size() && near[k] == near[j]) ++k;
-      if (static_cast<int>(k - j) >= shared) adj[c - first].push_back(near[j]);
+      if (static_cast<int>(k - j) >= shared) adj[c].push_back(near[j]);
       j = k;
     }
   }
@@ -80,7 +65,7 @@ long cut_facets(const Mesh& mesh, const mpi::Partition& cells) {
   for (std::size_t r = 0; r + 1 < cells.offset.size(); ++r)
     for (int j = cells.offset[r]; j < cells.offset[r + 1]; ++j)
       rank[cells.order[j]] = static_cast<int>(r);
-  const std::vector<std::vector<int>> adj = facet_neighbours(mesh, 0, mesh.num_cells());
+  const std::vector<std::vector<int>> adj = facet_neighbours(mesh);
   long cut = 0;
   for (int c = 0; c < mesh.num_cells(); ++c)
     for (int d : adj[c]) cut += d > c && rank[d] != rank[c];
@@ -107,12 +92,12 @@ std::vector<int> node_ranks(const Mesh& mesh, const mpi::Partition& cells) {
 
 #ifndef LTL_HAVE_MPI
 
-mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
-  if (ranks > 1)
-    throw Error(cat("the graph partition of the cells over ", ranks,
-                    " ranks needs PETSc (PT-Scotch): build with -DLTL_WITH_MPI=ON"));
-  return mpi::partition_of_ranks(std::vector<int>(mesh.num_cells(), 0), 1);
+namespace {
+std::vector<int> scotch_parts(const Mesh&, int parts) {
+  throw Error(cat("the graph partition of the cells into ", parts,
+                  " parts needs PETSc (PT-Scotch): build with -DLTL_WITH_MPI=ON"));
 }
+}  // namespace
 
 struct DistributedGlobalStep::Group {};
 
@@ -166,7 +151,7 @@ namespace {
 std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   const int nc = mesh.num_cells();
   const char* what = "the graph partition of the cells (PT-Scotch)";
-  std::vector<std::vector<int>> adj = facet_neighbours(mesh, 0, nc);
+  std::vector<std::vector<int>> adj = facet_neighbours(mesh);
   std::size_t edges = 0;
   for (const std::vector<int>& a : adj) edges += a.size();
   PetscInt *ia = nullptr, *ja = nullptr;  // PETSc's: the MPIAdj matrix takes and frees them
@@ -218,32 +203,6 @@ std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   return part;
 }
 }  // namespace
-
-mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
-  const int nc = mesh.num_cells();
-  if (ranks == 1) return mpi::partition_of_ranks(std::vector<int>(nc, 0), 1);
-  // Rank 0 partitions, the other ranks wait for its parts or its error (every rank throws the
-  // same message): one partition of the whole graph, the same whatever the number of processes.
-  // PT-Scotch over the ranks would hold a block of the graph each, but its parallel coarsening
-  // takes other ranks' messages in their order of arrival.
-  std::vector<int> part;
-  std::string error;
-  if (mpi::rank() == 0) try {
-      part = scotch_parts(mesh, ranks);
-    } catch (const Error& e) {
-      error = e.what();
-    }
-  error = mpi::broadcast(error);
-  if (!error.empty()) throw Error(error);
-  part.resize(nc);
-  mpi::broadcast(part.data(), nc);
-  mpi::Partition p = mpi::partition_of_ranks(part, ranks);
-  for (int r = 0; r < ranks; ++r)
-    if (p.offset[r + 1] == p.offset[r])
-      throw Error(cat("the graph partition of the cells (PT-Scotch) gave rank ", r, " of ", ranks,
-                      " no cell of the ", nc, ": fewer ranks, or a finer mesh"));
-  return p;
-}
 
 /// One distinct Dirichlet set: its free nodes (mesh order), this rank's block of them, the
 /// constant shift K_fd u_d on the owned rows, and PETSc's matrix, solver and vectors.
@@ -586,5 +545,31 @@ void DistributedGlobalStep::whole_u(Eigen::MatrixXd& u) {
 }
 
 #endif
+
+mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
+  const int nc = mesh.num_cells();
+  if (ranks == 1) return mpi::partition_of_ranks(std::vector<int>(nc, 0), 1);
+  // Rank 0 partitions, the other ranks wait for its parts or its error (every rank throws the
+  // same message): one partition of the whole graph, the same whatever the number of processes.
+  // PT-Scotch over the ranks would hold a block of the graph each, but its parallel coarsening
+  // takes other ranks' messages in their order of arrival.
+  std::vector<int> part;
+  std::string error;
+  if (mpi::rank() == 0) try {
+      part = scotch_parts(mesh, ranks);
+    } catch (const Error& e) {
+      error = e.what();
+    }
+  error = mpi::broadcast(error);
+  if (!error.empty()) throw Error(error);
+  part.resize(nc);
+  mpi::broadcast(part.data(), nc);
+  mpi::Partition p = mpi::partition_of_ranks(part, ranks);
+  for (int r = 0; r < ranks; ++r)
+    if (p.offset[r + 1] == p.offset[r])
+      throw Error(cat("the graph partition of the cells (PT-Scotch) gave rank ", r, " of ", ranks,
+                      " no cell of the ", nc, ": fewer ranks, or a finer mesh"));
+  return p;
+}
 
 }  // namespace ltl

@@ -39,8 +39,8 @@ std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X);
 mpi::Partition slab_cells(const Mesh& mesh, int ranks);
 
 /// The cells' dual graph: cell c's neighbours, the cells that share a facet with it
-/// (Mesh::nodes_per_facet nodes), sorted; for the cells [first, first + count).
-std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh, int first, int count);
+/// (Mesh::nodes_per_facet nodes), sorted.
+std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh);
 
 /// The cells dealt to `ranks` ranks by a graph partitioner: PT-Scotch, through PETSc's
 /// MatPartitioning, on the cells' dual graph (facet_neighbours), which cuts few facets between

@@ -473,7 +473,7 @@ TEST(Mpi, TheRanksCellsAreAGraphPartitionThatCutsFewFacets) {
   const int n = 12, nc = n * n * n;
   const Mesh m = load_mesh(ltl::testing::source_path("experiments/bench/cube.geo"), {{"n", n}});
   ASSERT_EQ(m.num_cells(), nc);
-  const std::vector<std::vector<int>> adj = facet_neighbours(m, 0, nc);
+  const std::vector<std::vector<int>> adj = facet_neighbours(m);
   long pairs = 0;
   std::size_t fewest = 99, most = 0;
   for (int c = 0; c < nc; ++c) {
