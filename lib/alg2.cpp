@@ -30,6 +30,10 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   F_ext_ = disc_.dead_load();
   norm_I_ = std::sqrt(a.q * disc_.volume() * dim);
   if (ranks == Ranks::All) distribute();  // alg2_mpi.cpp
+  if (!points_distributed()) {            // every point on this rank
+    all_points_.resize(n_points);
+    for (int k = 0; k < n_points; ++k) all_points_[k] = k;
+  }
   precompute(a.R);
 
   // Anderson weights: sqrt(q |O_e|) / ||I||_q per cell row, sqrt(q_c |G_s|) / ||I||_q per point.
@@ -51,8 +55,7 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   // Distributed, the cells' part (first) is the rank's rows, and so is the points' part when
   // the contact step is distributed (the rank's block of points; else every point, the same on
   // every rank); the rest (u) is the same on every rank.
-  const Range pr = point_range();
-  const Eigen::Index n_packed = pr.end - pr.first;  // the packed points
+  const Eigen::Index n_packed = static_cast<Eigen::Index>(own_points().size());  // packed points
   const int G = a.accelerate != Accelerated::Multipliers ? 2 : 1;
   const Eigen::Index cells_part = G * dim * dim * static_cast<Eigen::Index>(n_own),
                      points_part =
@@ -77,8 +80,9 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
     // Its linear systems by GMRES + AMG when the global step is CG + AMG (a factorization would
     // not fit; newton_krylov.hpp), else by CHOLMOD's (or over the ranks MUMPS's) factor.
     const bool krylov = !distributed() && global_ && global_->solver() == GlobalSolver::CgAmg;
-    // Distributed: its linear systems over the ranks (mpi_newton), its cells the rank's block.
-    newton_ = std::make_unique<Newton>(disc_, krylov, distributed());
+    // Distributed: its linear systems over the ranks (mpi_newton), its cells the rank's cells
+    // of the partition (ALG2's), its rows those of the global step.
+    newton_ = std::make_unique<Newton>(disc_, krylov, distributed(), cell_partition());
   }
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
 }
@@ -207,9 +211,10 @@ int Solver::local_phase(const GlobalOutput& g, const Eigen::MatrixXd& lambda,
   rec.t_strain += seconds_since(t0);
   if (contact_) {
     t0 = clock_type::now();
-    const Range points = point_range();  // this rank's points (all unless distributed)
-    contact_->solve(g.ubar, lambda_c, beta_prev, s.e, s.beta, alg().contact_sweeps, points.first,
-                    points.end);
+    // this rank's points (all unless distributed), a run of the point index at a time
+    mpi::for_each_run(own_points(), [&](int f0, int n, int) {
+      contact_->solve(g.ubar, lambda_c, beta_prev, s.e, s.beta, alg().contact_sweeps, f0, f0 + n);
+    });
     rec.t_contact += seconds_since(t0);
   }
   if (dist_) {
@@ -227,10 +232,11 @@ void Solver::half_step(const GlobalOutput& g, const State& s, Multipliers& m) co
   const auto I = identity_rows(dim(), static_cast<int>(own_cells().size()));
   m.lambda = s.lambda - Rq * (I + g.GU - s.E);
   if (contact_) {
-    const int p0 = point_range().first, np = point_range().end - p0;
     m.lambda_c.resize(s.lambda_c.rows(), s.lambda_c.cols());
-    m.lambda_c.middleRows(p0, np) =
-        s.lambda_c.middleRows(p0, np) - Rqc * (g.ubar.middleRows(p0, np) - s.e.middleRows(p0, np));
+    mpi::for_each_run(own_points(), [&](int f0, int n, int) {
+      m.lambda_c.middleRows(f0, n) =
+          s.lambda_c.middleRows(f0, n) - Rqc * (g.ubar.middleRows(f0, n) - s.e.middleRows(f0, n));
+    });
   }
 }
 
@@ -240,14 +246,15 @@ void Solver::update_phase(const GlobalOutput& g, const Multipliers* half, State&
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q, Rqc = R_ * a.q_c;
   const double step = half ? 2 * a.rho - 1 : a.rho;
-  const int p0 = point_range().first, np = point_range().end - p0;
   const auto I = identity_rows(dim(), static_cast<int>(own_cells().size()));
   if (half) s.lambda = half->lambda;
   s.lambda -= step * Rq * (I + g.GU - s.E);
-  if (half && contact_) s.lambda_c.middleRows(p0, np) = half->lambda_c.middleRows(p0, np);
   if (contact_)
-    s.lambda_c.middleRows(p0, np) -=
-        step * Rqc * (g.ubar.middleRows(p0, np) - s.e.middleRows(p0, np));
+    mpi::for_each_run(own_points(), [&](int f0, int n, int) {
+      if (half) s.lambda_c.middleRows(f0, n) = half->lambda_c.middleRows(f0, n);
+      s.lambda_c.middleRows(f0, n) -=
+          step * Rqc * (g.ubar.middleRows(f0, n) - s.e.middleRows(f0, n));
+    });
 }
 
 // [LTL87 (4.1)-(4.3) / (7.7)-(7.10)] One ALG2 iteration, in three phases.
@@ -310,7 +317,7 @@ void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
   B2 *= a.q;
   G2 *= a.q;
   if (const ContactPoints* points = disc_.points()) {
-    for (int f = residual_points().first; f < residual_points().end; ++f) {
+    for (int f : residual_points()) {
       const double w = points->area(f);
       B2 += a.q_c * w * (g.ubar.row(f) - s.e.row(f)).squaredNorm();
       G2 += a.q_c * w * (s.e.row(f) - prev.e.row(f)).squaredNorm();
@@ -346,12 +353,11 @@ void Solver::for_each_packed(S& s, Cells&& cells, Points&& points, Beta&& beta, 
   if (G) cells(s.E, 1.0);
   cells(s.lambda, 1 / Rq);
   if (const ContactPoints* f = disc_.points()) {
-    const Range pr = point_range();  // the rank's points (all unless distributed)
-    if (G) points(s.e, 1.0, pr.first, pr.end - pr.first);
-    points(s.lambda_c, 1 / Rqc, pr.first, pr.end - pr.first);
+    const std::vector<int>& own = own_points();  // all unless distributed; by runs
+    if (G) mpi::for_each_run(own, [&](int f0, int n, int) { points(s.e, 1.0, f0, n); });
+    mpi::for_each_run(own, [&](int f0, int n, int) { points(s.lambda_c, 1 / Rqc, f0, n); });
     if (a.accelerate == Accelerated::All)
-      for (int k = pr.first; k < pr.end; ++k)
-        beta(s.beta(k), std::sqrt(f->area(k) / disc_.contact_area()));
+      for (int k : own) beta(s.beta(k), std::sqrt(f->area(k) / disc_.contact_area()));
   }
   if (disc_.mean_det()) u(s.u);
 }

@@ -63,7 +63,8 @@ struct RankShare {
   bool replicated_cholesky = false;  ///< -ltl_mpi_replicated: the serial factor on every rank
   bool mumps = false;                ///< the distributed solve is MUMPS's Cholesky
   long ksp_iterations = 0, ksp_solves = 0, ghosts = 0;
-  long rows = 0;  ///< the rank's rows of the distributed matrices, summed over the sets
+  long rows = 0;          ///< the rank's rows of the distributed matrices, summed over the sets
+  long layer_ghosts = 0;  ///< the ghost layer's rows of other ranks, summed over the sets
   double ksp_seconds = 0, ksp_setup_seconds = 0;
 };
 
@@ -124,6 +125,8 @@ class Solver {
 
   /// The discrete problem: operators, contact points, Dirichlet data, loads, outputs.
   const Discretization& discretization() const { return disc_; }
+  /// The Newton phase (algorithm.solver = "newton"; else null).
+  const Newton* newton() const { return newton_.get(); }
   const Problem& problem() const { return disc_.problem(); }
   int dim() const { return disc_.dim(); }
   /// Discretization::energy_gradient at the current load.
@@ -230,7 +233,7 @@ class Solver {
   void unpack(const Eigen::VectorXd& z, State& s) const;
   /// The blocks of the packed vector in their order, one definition for pack and unpack:
   /// cells(A, c) and points(A, c, first, n) for the cell and point fields with their scale c
-  /// (the points first .. first + n - 1: the rank's block, point_range()), beta(b, w) for each of
+  /// (the points first .. first + n - 1: each run of own_points()), beta(b, w) for each of
   /// those points' beta_s with its weight, u(A) for the displacement (mean-det).
   template <class S, class Cells, class Points, class Beta, class U>
   void for_each_packed(S& s, Cells&& cells, Points&& points, Beta&& beta, U&& u) const;
@@ -253,21 +256,19 @@ class Solver {
   struct DropDistribution {  // defined where Distribution is (alg2_mpi.cpp)
     void operator()(Distribution* d) const;
   };
-  struct Range {
-    int first, end;
-  };
   void distribute();
   /// The discretization a Solver on `ranks` builds (a rank's cells, or every cell).
   static Discretization discretize(Problem problem, Ranks ranks);
   /// The contact points whose term R q_c M^T |G| M goes into this rank's part of K: all of them
   /// unless the discretization is partial, then on rank 0 alone.
   const ContactPoints* points_in_K() const;
-  /// The cells (sorted), and the contact points, whose local steps and updates this rank
-  /// computes (all of them unless distributed; all points when the contact step is replicated).
+  /// The cells, and the contact points, whose local steps and updates this rank computes (sorted;
+  /// all of them unless distributed; all points when the contact step is replicated).
   const std::vector<int>& own_cells() const;
-  Range point_range() const;
-  /// The contact points whose residual this rank sums (its own block when distributed).
-  Range residual_points() const;
+  const std::vector<int>& own_points() const;
+  /// The contact points whose residual and right-hand side this rank sums (sorted; its own
+  /// points of the partition when distributed, point_partition in mpi_global.hpp).
+  const std::vector<int>& residual_points() const;
   /// The distributed KSP in place of the factor, K moved into it (released once in PETSc's
   /// matrices); false with the replicated Cholesky, K untouched.
   bool distributed_global_step(SpMat& K, double scale);
@@ -311,6 +312,7 @@ class Solver {
   AdaptiveR adaptive_R_{alg()};  ///< algorithm.adaptive_R (adaptive_r.hpp)
   std::unique_ptr<GlobalStep> global_;
   std::unique_ptr<StrainStep> strain_;
+  std::vector<int> all_points_;            ///< 0 .. #points - 1 (own_points() unless distributed)
   std::unique_ptr<ContactSteps> contact_;  ///< one local contact step (4.7) per obstacle
   std::unique_ptr<Newton> newton_;         ///< algorithm.solver = "newton" (newton.hpp)
   double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q

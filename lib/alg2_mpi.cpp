@@ -17,19 +17,19 @@
 //     the replicated contact part: its inner products sum the first over the ranks. The states
 //     the load subdivision keeps to go back to are the rank's rows and its block of u
 //     (kept_copy); the checks after a step run on the rank's cells (lib/admissibility.cpp).
-//   - DISTRIBUTED: the cells (the partition above) and the contact points (contiguous blocks of
-//     their index, mpi::blocks). A rank computes, on its own cells and points: the global step's
-//     per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and the contact one M^T [R
-//     q_c e + lambda_c] (4.1), the mean-det fluctuation terms and targets, Gbar u and ubar; the
-//     strain step (4.6); the contact step (4.7) when the points are independent (d0 = 0); the
-//     update (4.3) and the residual sums (4.4). The global solve (4.5) is one distributed PETSc
-//     KSP (mpi_global.hpp) on a ghost layer: the ranks' parts of the right-hand side are added
-//     into PETSc's vector and u comes back on the nodes a rank reads (its other rows stale until
-//     the end of the phase); with mean-det under Anderson, or the PETSc option
-//     -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x dim) and u
-//     gathered whole; with -ltl_mpi_replicated the serial factor on every rank (replicated). The
-//     residual parts are summed (3 values); the blocks of e, lambda_c and beta are gathered
-//     (Allgatherv). E, lambda and u are gathered once, at the end of the phase.
+//   - DISTRIBUTED: the cells (the partition above) and the contact points (each on the rank of
+//     its facet's cell, point_partition in mpi_global.hpp). A rank computes, on its own cells and
+//     points: the global step's per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and
+//     the contact one M^T [R q_c e + lambda_c] (4.1), the mean-det fluctuation terms and targets,
+//     Gbar u and ubar; the strain step (4.6); the contact step (4.7) when the points are
+//     independent (d0 = 0); the update (4.3) and the residual sums (4.4). The global solve (4.5) is
+//     one distributed PETSc KSP (mpi_global.hpp) on a ghost layer: the ranks' parts of the
+//     right-hand side are added into PETSc's vector and u comes back on the nodes a rank reads (its
+//     other rows stale until the end of the phase); with mean-det under Anderson, or the PETSc
+//     option -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x dim) and
+//     u gathered whole; with -ltl_mpi_replicated the serial factor on every rank (replicated). The
+//     residual parts are summed (3 values). E, lambda, u and the points' e, lambda_c and beta
+//     are gathered once, at the end of the phase.
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
@@ -42,14 +42,17 @@
 namespace ltl {
 
 struct Solver::Distribution {
-  mpi::Partition cells;            ///< the ranks' cells (cell_partition)
-  std::vector<int> own;            ///< this rank's cells, sorted
-  std::vector<int> points, nodes;  ///< the ranks' blocks (mpi::blocks)
-  int p0 = 0, p1 = 0, n0 = 0, n1 = 0;
+  mpi::Partition cells;         ///< the ranks' cells (cell_partition)
+  std::vector<int> own;         ///< this rank's cells, sorted
+  mpi::Partition points;        ///< the ranks' contact points (point_partition)
+  std::vector<int> own_points;  ///< this rank's points, sorted
+  std::vector<int> nodes;       ///< the ranks' blocks of nodes (mpi::blocks)
+  int n0 = 0, n1 = 0;
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  SpMatR meanT_own;  ///< #nodes x #owned points: the owned columns of meanT_area
+  SpMatR meanT_own;           ///< #nodes x #owned points: the owned columns of meanT_area
+  Eigen::MatrixXd point_rhs;  ///< #owned points x dim: R q_c e + lambda_c of the owned points
   std::unique_ptr<DistributedGlobalStep> ksp;
   double scale = 1;
 };
@@ -77,9 +80,11 @@ void Solver::distribute() {
   d.cells = disc_.partial() ? mpi::partition_of(disc_.held_cells(), problem().mesh.num_cells())
                             : ltl::cell_partition(problem().mesh, P);
   d.own = d.cells.items(me);
-  d.points = mpi::blocks(np, P);
+  // The ranks' contact points: each on the rank of a cell that holds all its nodes (its facet's
+  // cell), so that its nodes are the rank's cells' (point_partition, mpi_global.hpp).
+  if (points) d.points = point_partition(problem().mesh, *points, d.cells);
+  d.own_points = points ? d.points.items(me) : std::vector<int>();
   d.nodes = mpi::blocks(nn, P);
-  d.p0 = d.points[me], d.p1 = d.points[me + 1];
   d.n0 = d.nodes[me], d.n1 = d.nodes[me + 1];
   d.contact_replicated = false;
   if (points)
@@ -93,7 +98,16 @@ void Solver::distribute() {
                                                             : DistributedGlobalStep::Solver::Mumps;
   if (disc_.partial() && !d.use_ksp)
     throw Error("the replicated factor needs the whole discretization (Solver(Discretization))");
-  if (points) d.meanT_own = points->meanT_area.middleCols(d.p0, d.p1 - d.p0);
+  if (points) {  // meanT_area times the selection of the owned points' columns
+    const int own = static_cast<int>(d.own_points.size());
+    SpMatR select(np, own);
+    std::vector<Eigen::Triplet<double> > t;
+    t.reserve(own);
+    for (int k = 0; k < own; ++k) t.emplace_back(d.own_points[k], k, 1.0);
+    select.setFromTriplets(t.begin(), t.end());
+    d.meanT_own = points->meanT_area * select;
+    d.point_rhs.resize(own, disc_.dim());
+  }
 }
 
 // The rank's cells (cell_partition): its operators alone, unless the replicated serial
@@ -120,15 +134,12 @@ const std::vector<int>& Solver::own_cells() const {
   return dist_ ? dist_->own : disc_.held_cells();
 }
 
-Solver::Range Solver::point_range() const {
-  const int np = disc_.points() ? disc_.points()->size() : 0;
-  if (!dist_ || dist_->contact_replicated) return {0, np};
-  return {dist_->p0, dist_->p1};
+const std::vector<int>& Solver::own_points() const {
+  return points_distributed() ? dist_->own_points : all_points_;
 }
 
-Solver::Range Solver::residual_points() const {
-  if (!dist_) return {0, disc_.points() ? disc_.points()->size() : 0};
-  return {dist_->p0, dist_->p1};
+const std::vector<int>& Solver::residual_points() const {
+  return dist_ ? dist_->own_points : all_points_;
 }
 
 bool Solver::distributed_global_step(SpMat& K, double scale) {
@@ -153,8 +164,7 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     for (int c : d.own)
       for (int a = 0; a < mesh.nodes_per_cell(); ++a) touched[mesh.cells(c, a)] = 1;
     if (const ContactPoints* points = disc_.points()) {
-      const Range pr = point_range();
-      for (int f = pr.first; f < pr.end; ++f)
+      for (int f : own_points())
         for (SpMatR::InnerIterator it(points->mean, f); it; ++it) touched[it.col()] = 1;
     }
     std::vector<int> nodes;
@@ -183,7 +193,7 @@ RankShare Solver::rank_share() const {
   if (!dist_) return r;
   const Distribution& d = *dist_;
   r.cells = static_cast<int>(d.own.size());
-  r.points = d.p1 - d.p0;
+  r.points = static_cast<int>(d.own_points.size());
   r.contact_replicated = d.contact_replicated;
   r.replicated_cholesky = !d.ksp;
   r.mumps = d.ksp && d.ksp->solver() == DistributedGlobalStep::Solver::Mumps;
@@ -192,6 +202,7 @@ RankShare Solver::rank_share() const {
     r.ksp_solves = d.ksp->solves();
     r.ghosts = d.ksp->ghosts();
     r.rows = d.ksp->owned_rows();
+    r.layer_ghosts = d.ksp->layer_ghosts();
     r.ksp_seconds = d.ksp->ksp_seconds();
     r.ksp_setup_seconds = d.ksp->setup_seconds();
   }
@@ -206,7 +217,7 @@ RankShare Solver::rank_share() const {
 // side is sum over the runs of the rank's cells of Gbar_run^T (|O_e| T_e), Gbar's rows read in
 // place.
 void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
-  const Distribution& d = *dist_;
+  Distribution& d = *dist_;
   const AlgorithmParams& a = alg();
   const double Rq = R_ * a.q;
   const int dim = this->dim();
@@ -223,9 +234,11 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own);
   if (points) {
-    const int np = d.p1 - d.p0;
-    rhs_.noalias() +=
-        d.meanT_own * (R_ * a.q_c * s.e.middleRows(d.p0, np) + s.lambda_c.middleRows(d.p0, np));
+    mpi::for_each_run(d.own_points, [&](int f0, int n, int at) {
+      d.point_rhs.middleRows(at, n) =
+          R_ * a.q_c * s.e.middleRows(f0, n) + s.lambda_c.middleRows(f0, n);
+    });
+    rhs_.noalias() += d.meanT_own * d.point_rhs;
   }
   if (ghosts) {  // the ranks' parts added into PETSc's vector; u on this rank's nodes
     d.ksp->solve(rhs_, s.u, &F_ext_);
@@ -245,9 +258,9 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     g.J = 1.0 - g.J.array();
   }
   if (points) {
-    const Range pr = point_range();
-    g.ubar.middleRows(pr.first, pr.end - pr.first).noalias() =
-        points->mean.middleRows(pr.first, pr.end - pr.first) * s.u;
+    mpi::for_each_run(own_points(), [&](int f0, int n, int) {
+      g.ubar.middleRows(f0, n).noalias() = points->mean.middleRows(f0, n) * s.u;
+    });
   }
 }
 

@@ -90,6 +90,37 @@ std::vector<int> node_ranks(const Mesh& mesh, const mpi::Partition& cells) {
   return rank;
 }
 
+mpi::Partition point_partition(const Mesh& mesh, const ContactPoints& points,
+                               const mpi::Partition& cells) {
+  const int P = static_cast<int>(cells.offset.size()) - 1, np = points.size();
+  const int nn = mesh.num_nodes(), npc = mesh.nodes_per_cell();
+  std::vector<int> cell_rank(mesh.num_cells(), 0);
+  for (int r = 0; r < P; ++r)
+    for (int j = cells.offset[r]; j < cells.offset[r + 1]; ++j) cell_rank[cells.order[j]] = r;
+  std::vector<char> on_points(nn, 0);  // the cells of the points' nodes only
+  for (int k = 0; k < points.mean.outerSize(); ++k)
+    for (SpMatR::InnerIterator it(points.mean, k); it; ++it) on_points[it.col()] = 1;
+  const NodeCells around = node_cells(mesh, &on_points);
+  std::vector<int> rank(np, P);
+  for (int s = 0; s < np; ++s) {
+    SpMatR::InnerIterator first(points.mean, s);
+    if (!first) throw Error(cat("point_partition: contact point ", s, " has no node"));
+    for (int j = around.start[first.col()]; j < around.start[first.col() + 1]; ++j) {
+      const int c = around.cell[j];
+      bool all = true;  // does cell c hold every node of point s?
+      for (SpMatR::InnerIterator it(points.mean, s); it && all; ++it) {
+        bool found = false;
+        for (int a = 0; a < npc && !found; ++a) found = mesh.cells(c, a) == it.col();
+        all = found;
+      }
+      if (all) rank[s] = std::min(rank[s], cell_rank[c]);
+    }
+    if (rank[s] == P)
+      throw Error(cat("point_partition: no cell holds every node of contact point ", s));
+  }
+  return mpi::partition_of_ranks(rank, P);
+}
+
 #ifndef LTL_HAVE_MPI
 
 namespace {
@@ -432,6 +463,7 @@ DistributedGlobalStep::~DistributedGlobalStep() = default;
 
 void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
   const int me = mpi::rank();
+  layer_ghosts_ = 0;
   for (auto& gp : groups_) {
     Group& g = *gp;
     const int f0 = g.offset[me], f1 = g.offset[me + 1];
@@ -441,6 +473,7 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
     for (int n : nodes)
       if (free_row[n] >= 0) g.add_row.push_back(free_row[n]);
     g.add_value.resize(g.add_row.size());
+    for (int r : g.add_row) layer_ghosts_ += r < f0 || r >= f1;
     // Read: the added rows and the owned block (the warm start of the next solve), each once.
     std::vector<PetscInt> read(g.add_row.begin(), g.add_row.end());
     for (int r = f0; r < f1; ++r) read.push_back(r);

@@ -23,6 +23,7 @@
 #include <memory>
 #include <vector>
 
+#include "contact_points.hpp"
 #include "global_step.hpp"
 #include "mesh.hpp"
 #include "mpi_comm.hpp"
@@ -63,6 +64,13 @@ mpi::Partition cell_partition(const Mesh& mesh, int ranks);
 /// ranks whose cells hold it (rank 0 for a node in no cell). A rank's part of K (4.5), added
 /// over its cells, then falls in its own rows but on the nodes it shares with lower ranks.
 std::vector<int> node_ranks(const Mesh& mesh, const mpi::Partition& cells);
+
+/// [(4.7), (4.3)] The ranks' contact points: point s on the smallest rank among those whose
+/// cells hold every node of s (the cell of its facet for a facet-mean point; for a nodal point,
+/// the node's rank of node_ranks), so that a rank's points add no node outside its cells to its
+/// ghost layer. Each rank's sorted.
+mpi::Partition point_partition(const Mesh& mesh, const ContactPoints& points,
+                               const mpi::Partition& cells);
 
 class DistributedGlobalStep {
  public:
@@ -119,6 +127,10 @@ class DistributedGlobalStep {
   /// Ghost values a rank's row block needs in a product with K (the fine level's message size
   /// per matrix-vector product, summed over the Dirichlet sets, this rank).
   long ghosts() const { return ghosts_; }
+  /// The ghost layer's rows held by other ranks (set_ghost_layer: the nodes this rank adds into
+  /// and reads, less its own rows), summed over the Dirichlet sets: what one solve's scatter of u
+  /// brings to this rank, and its addition of b sends, per component.
+  long layer_ghosts() const { return layer_ghosts_; }
   /// This rank's rows, summed over the Dirichlet sets (its nodes: node_rank's, or its block of
   /// the slab order).
   long owned_rows() const { return owned_rows_; }
@@ -130,7 +142,7 @@ class DistributedGlobalStep {
   Solver solver_;
   double scale_ = 1;
   bool ghost_layer_ = false;
-  long iterations_ = 0, solves_ = 0, ghosts_ = 0, owned_rows_ = 0;
+  long iterations_ = 0, solves_ = 0, ghosts_ = 0, owned_rows_ = 0, layer_ghosts_ = 0;
   double setup_seconds_ = 0, ksp_seconds_ = 0;
 };
 

@@ -24,31 +24,30 @@ NewtonSolveStats& newton_solve_stats() {
   return stats_;
 }
 
-NewtonRows::NewtonRows(const std::vector<int>& free_of_dof, int d, const Eigen::MatrixXd& X,
-                       int extra) {
-  const int nn = static_cast<int>(X.rows()), P = mpi::size();
+NewtonRows::NewtonRows(const std::vector<int>& free_of_dof, int d,
+                       const std::vector<int>& node_rank, int extra) {
+  const int nn = static_cast<int>(node_rank.size()), P = mpi::size();
+  if (static_cast<int>(free_of_dof.size()) != d * nn)
+    throw Error(
+        cat("NewtonRows: ", free_of_dof.size(), " dofs for ", nn, " nodes of dimension ", d));
+  std::vector<int> count(P + 1, 0);  // free dofs per rank, then their first PETSc rows
   int nfree = 0;
-  std::vector<int> nodes;  // the nodes with a free dof
   for (int a = 0; a < nn; ++a) {
-    bool any = false;
+    if (node_rank[a] < 0 || node_rank[a] >= P)
+      throw Error(cat("NewtonRows: node ", a, " on rank ", node_rank[a], " of ", P));
     for (int i = 0; i < d; ++i)
-      if (free_of_dof[d * a + i] >= 0) any = true, ++nfree;
-    if (any) nodes.push_back(a);
+      if (free_of_dof[d * a + i] >= 0) ++count[node_rank[a] + 1], ++nfree;
   }
-  nodes = slab_order(std::move(nodes), X);
-  const std::vector<int> nb = mpi::blocks(static_cast<int>(nodes.size()), P);
   const std::vector<int> eb = mpi::blocks(extra, P);
-  perm.assign(nfree + extra, -1);
   offset.assign(P + 1, 0);
-  int g = 0;
-  for (int r = 0; r < P; ++r) {
-    offset[r] = g;
-    for (int k = nb[r]; k < nb[r + 1]; ++k)
-      for (int i = 0; i < d; ++i)
-        if (free_of_dof[d * nodes[k] + i] >= 0) perm[free_of_dof[d * nodes[k] + i]] = g++;
-    for (int k = eb[r]; k < eb[r + 1]; ++k) perm[nfree + k] = g++;
-  }
-  offset[P] = g;
+  for (int r = 0; r < P; ++r) offset[r + 1] = offset[r] + count[r + 1] + eb[r + 1] - eb[r];
+  perm.assign(nfree + extra, -1);
+  std::vector<int> next(offset.begin(), offset.end() - 1);
+  for (int a = 0; a < nn; ++a)
+    for (int i = 0; i < d; ++i)
+      if (const int k = free_of_dof[d * a + i]; k >= 0) perm[k] = next[node_rank[a]]++;
+  for (int r = 0; r < P; ++r)
+    for (int k = eb[r]; k < eb[r + 1]; ++k) perm[nfree + k] = next[r]++;
 }
 
 #ifndef LTL_HAVE_MPI
@@ -352,6 +351,10 @@ bool DistributedCholesky::factorize() {
   NewtonSolveStats& st = stats_;
   auto t0 = std::chrono::steady_clock::now();
   check(MatAssemblyBegin(f.A, MAT_FINAL_ASSEMBLY), f.what, "MatAssemblyBegin");
+  PetscInt stashed = 0, reallocs = 0, bstashed = 0, breallocs = 0;
+  check(MatStashGetInfo(f.A, &stashed, &reallocs, &bstashed, &breallocs), f.what,
+        "MatStashGetInfo");
+  st.mumps_offrank_entries += stashed + bstashed;
   check(MatAssemblyEnd(f.A, MAT_FINAL_ASSEMBLY), f.what, "MatAssemblyEnd");
   if (!m.analyzed) {
     f.analyze(MAT_FACTOR_CHOLESKY);

@@ -10,12 +10,12 @@
 //   - the full KKT system (u, p, the active mu, with glue every beta; UMFPACK's LU in the serial
 //     solver) by MUMPS's LU (KSPPREONLY + PCLU), analyzed again only when its pattern changes.
 //
-// The rows are split like the distributed global step's (mpi_global.hpp): the nodes with a free
-// dof in the order of their coordinate along the mesh's longest extent (slabs, slab_order),
-// blocks of them per rank (mpi::blocks), a node's free dofs on its rank; the KKT system's other
-// rows (p, mu, beta) in blocks of their index. Each rank computes the tangent's terms of its block
-// of cells, the values are summed over the ranks (Newton::augmented_step), and each rank inserts
-// its own rows; the right-hand side is whole on every rank and the solution is gathered to every
+// The rows are split like the distributed global step's (mpi_global.hpp): a node's free dofs on
+// the rank of node_ranks, the smallest rank among its cells' (the cells are the Solver's
+// partition, PT-Scotch's parts of the dual graph); the KKT system's other rows (p, mu, beta) in
+// blocks of their index. Each rank computes the tangent's terms of its cells, the same cells as
+// ALG2's, and adds them into PETSc's matrix (a term in another rank's rows travels at the end of
+// the assembly); the right-hand side is whole on every rank and the solution is gathered to every
 // rank (mpi::gather), so that the rest of Newton stays identical on every rank. The LU's full KKT
 // system is still assembled whole on every rank.
 //
@@ -42,6 +42,9 @@ struct NewtonSolveStats {
   /// Factorizations analyzed and made again because MUMPS found its workspace short (its
   /// estimate plus 20 %, then twice the estimate; mpi_newton.cpp).
   long mumps_workspace_retries = 0;
+  /// The augmented tangent's entries this rank added into other ranks' rows (PETSc's stash, sent
+  /// at the assembly), summed over the assemblies.
+  long mumps_offrank_entries = 0;
   double cholmod_analysis_s = 0, cholmod_factor_s = 0, cholmod_solve_s = 0, umfpack_s = 0;
   double mumps_analysis_s = 0, mumps_factor_s = 0, mumps_solve_s = 0, mumps_lu_s = 0;
   /// The Krylov solves (newton_krylov.hpp): solves, GMRES iterations, the most in one solve,
@@ -57,12 +60,14 @@ NewtonSolveStats& newton_solve_stats();
 bool distributed_newton_solves();
 
 /// The rows of the distributed Newton systems: the free dofs (dim * #nodes, interleaved; -1:
-/// fixed) in slab order, blocks of nodes per rank; `extra` further rows in blocks of their
-/// index. perm[k]: the global PETSc row of system row k (free dofs first, then the extra rows);
-/// offset: the ranks' blocks of PETSc rows.
+/// fixed) of the nodes of rank r (node_rank[a] == r: node_ranks of the ranks' cells,
+/// mpi_global.hpp, the rows of the global step) in their index order, rank after rank; `extra`
+/// further rows in blocks of their index. perm[k]: the global PETSc row of system row k (free dofs
+/// first, then the extra rows); offset: the ranks' blocks of PETSc rows.
 struct NewtonRows {
   std::vector<int> perm, offset;
-  NewtonRows(const std::vector<int>& free_of_dof, int dim, const Eigen::MatrixXd& X, int extra);
+  NewtonRows(const std::vector<int>& free_of_dof, int dim, const std::vector<int>& node_rank,
+             int extra);
 };
 
 /// The augmented tangent on the free dofs by MUMPS over every rank, assembled in place: each rank

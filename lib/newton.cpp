@@ -9,6 +9,7 @@
 #include "cofactor.hpp"
 #include "error.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_global.hpp"
 #include "mpi_newton.hpp"
 
 namespace ltl {
@@ -23,7 +24,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
+Newton::Newton(const Discretization& disc, bool krylov, bool distributed,
+               const mpi::Partition* cells)
     : disc_(disc), distributed_(distributed), krylov_(krylov) {
   const Mesh& mesh = disc.problem().mesh;
   dim_ = disc.dim();
@@ -40,28 +42,28 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed)
   for (int& f : free_)
     if (f >= 0) f = nfree_++;
   // This rank's cells (all of them on one rank): the per-cell data below is built for them.
-  // With the distributed solves a cell goes to the rank of the matrix row of its first free dof
-  // (NewtonRows' slabs), so that its terms land in the rank's own rows but at the slabs'
-  // interfaces; a cell without a free dof, and the cells of the replicated solves, by blocks of
-  // the cell index.
-  const std::vector<int> block = mpi::blocks(nc, split_ ? mpi::size() : 1);
+  // On several ranks, its cells of the Solver's partition (ALG2's cells; blocks of the cell
+  // index without one). With the distributed solves a node's rows are on the rank of
+  // node_ranks, the smallest among its cells' ranks (the global step's rows): a cell's terms land
+  // in its rank's rows but at the interfaces of the parts, whose nodes are on the other side's
+  // rows or its own.
   const int me = split_ ? mpi::rank() : 0;
-  slot_.assign(nc, -1);
-  if (split_ && distributed_newton_solves()) {
-    const NewtonRows rows(free_, d, mesh.X, 0);
-    for (int e = 0; e < nc; ++e) {
-      int first = -1;
-      for (int r = 0; r < d * npc_; ++r)
-        if (const int k = free_[d * nodes_[e * npc_ + r / d] + r % d]; k >= 0)
-          first = first < 0 ? rows.perm[k] : std::min(first, rows.perm[k]);
-      const bool mine = first >= 0 ? first >= rows.offset[me] && first < rows.offset[me + 1]
-                                   : e >= block[me] && e < block[me + 1];
-      if (mine) slot_[e] = static_cast<int>(cells_.size()), cells_.push_back(e);
-    }
+  if (split_ && cells) {
+    if (cells->offset.size() != static_cast<std::size_t>(mpi::size()) + 1 ||
+        static_cast<int>(cells->order.size()) != nc)
+      throw Error(cat("Newton: a partition of ", cells->order.size(), " cells into ",
+                      cells->offset.size() - 1, " parts for ", nc, " cells on ", mpi::size(),
+                      " ranks"));
+    cells_ = cells->items(me);
   } else {
-    for (int e = block[me]; e < block[me + 1]; ++e)
-      slot_[e] = static_cast<int>(cells_.size()), cells_.push_back(e);
+    const std::vector<int> block = mpi::blocks(nc, split_ ? mpi::size() : 1);
+    for (int e = block[me]; e < block[me + 1]; ++e) cells_.push_back(e);
   }
+  if (distributed && distributed_newton_solves())  // (on one rank: every node on rank 0)
+    node_rank_ = split_ && cells ? node_ranks(mesh, *cells)
+                                 : node_ranks(mesh, mpi::partition_of(cells_, nc));
+  slot_.assign(nc, -1);
+  for (std::size_t k = 0; k < cells_.size(); ++k) slot_[cells_[k]] = static_cast<int>(k);
   // Per cell of this rank, from the sums of cell_integrals (fe.cpp), from which the
   // discretization's cell operators are built too: the mean
   // gradient gbar_e = (1 / |O_e|) sum_q w_q grad_q, the constraint points (mean-det: the
@@ -160,7 +162,8 @@ Newton::Holdings Newton::holdings() const {
   h.cell_data += 8.0 * (wq_.size() + lf_.size());
   h.positions = 4.0 * cell_pos_.size();
   auto sparse = [](const SpMat& A) { return 12.0 * A.nonZeros() + 4.0 * (A.outerSize() + 1); };
-  h.whole = 4.0 * (nodes_.size() + free_.size() + diag_pos_.size() + dof_of_free_.size()) +
+  h.whole = 4.0 * (nodes_.size() + free_.size() + node_rank_.size() + diag_pos_.size() +
+                   dof_of_free_.size()) +
             sparse(pattern_);
   return h;
 }

@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "discretization.hpp"
+#include "mpi_comm.hpp"
 #include "obstacles.hpp"
 #include "problem.hpp"
 #include "state.hpp"
@@ -57,12 +58,15 @@ class Newton {
   /// linear systems are then solved over the ranks (mpi_newton.hpp), unless the PETSc option
   /// -ltl_mpi_newton_replicated keeps them replicated. On more than one rank the per-cell data
   /// (mean gradients, constraint points, the cells' positions in the tangent's values) is built
-  /// for the rank's cells only (those whose first free dof is in its slab of the tangent's rows;
-  /// newton.cpp), so that it takes 1/P of the memory; the cell loops of the residual, of the
-  /// augmented tangent and of the det F check run on those cells and are summed over the ranks, so
-  /// that every rank holds the same whole residual and matrix. The LU step's system (and tangent(),
-  /// constraint_gradient()) gathers the ranks' cell terms: it is whole on every rank.
-  explicit Newton(const Discretization& disc, bool krylov = false, bool distributed = false);
+  /// for the rank's cells only, so that it takes 1/P of the memory: its cells of `cells` (the
+  /// Solver's partition, ALG2's cells; null: blocks of the cell index), and the distributed
+  /// systems' rows are those of its nodes (node_ranks of the partition, the global step's rows);
+  /// the cell loops of the residual, of the augmented tangent and of the det F check run on those
+  /// cells and are summed over the ranks, so that every rank holds the same whole residual and
+  /// matrix. The LU step's system (and tangent(), constraint_gradient()) gathers the ranks' cell
+  /// terms: it is whole on every rank.
+  explicit Newton(const Discretization& disc, bool krylov = false, bool distributed = false,
+                  const mpi::Partition* cells = nullptr);
 
   /// The unknowns of the discrete problem: u (#nodes x dim), a pressure per cell (empty for the
   /// compressible law), a force per contact point (N in 3-D, N/m in plane strain), and with glue
@@ -88,6 +92,10 @@ class Newton {
     double cell_data = 0, positions = 0, whole = 0;
   };
   Holdings holdings() const;
+  /// This rank's cells (sorted; every cell on one rank), and with the distributed solves the
+  /// rank of each node's rows (node_ranks of the cells' partition; else empty).
+  const std::vector<int>& cells() const { return cells_; }
+  const std::vector<int>& node_rank() const { return node_rank_; }
   /// [(2.2)] The beta-derivative of the discrete functional over |G_s|, at e_s = ubar_s:
   ///   g_s = kappa beta_s |ubar_s|^2 - w + (1/dt) sum_s' k_ss' (beta_s' - beta_prev_s'),
   /// the stationarity of the local step's point problem (6.1)-(6.5) in gamma. Empty without glue.
@@ -195,6 +203,8 @@ class Newton {
   /// residual and tangent (assemble).
   std::vector<double> lf_;
   std::vector<int> free_;  ///< per dof, its free index or -1
+  /// Distributed solves: per node the rank of its rows (node_ranks of the cells' partition).
+  std::vector<int> node_rank_;
   int nfree_ = 0;
   Eigen::VectorXd c_;  ///< per contact point, the NCP parameter 0.02 C1 |G_s| / h
   /// The pattern of the augmented tangent (free dofs, lower triangle) and where each entry of a

@@ -383,8 +383,8 @@ void Newton::ScatterDeleter::operator()(Scatter* w) const {
 Newton::ScatterPtr Newton::new_scatter() const {
   ScatterPtr w(new Scatter);
   if (distributed_ && distributed_newton_solves() && !krylov_) {  // mpi_newton.hpp
-    w->mumps = std::make_unique<DistributedCholesky>(
-        NewtonRows(free_, dim_, disc_.problem().mesh.X, 0), dim_, nodes_, npc_, free_);
+    w->mumps = std::make_unique<DistributedCholesky>(NewtonRows(free_, dim_, node_rank_, 0), dim_,
+                                                     nodes_, npc_, free_);
     w->mumps_lu = std::make_unique<DistributedLU>();
   } else if (krylov_) {
     std::vector<char> fixed(free_.size());
@@ -523,9 +523,9 @@ bool Newton::lu_step(const Unknowns& base, const Eigen::VectorXd& Ru, const Eige
   if (nb) add_glue_kkt(base, bstate, nfree_ + np_ + nA, kkt, rhs);
   SpMat A(n, n);
   A.setFromTriplets(kkt.begin(), kkt.end());
-  if (w.mumps_lu) {  // the u rows in slabs, the others in blocks (mpi_newton.hpp)
+  if (w.mumps_lu) {  // the u rows on their nodes' ranks, the others in blocks (mpi_newton.hpp)
     if (!w.lu_rows || static_cast<int>(w.lu_rows->perm.size()) != n)
-      w.lu_rows = std::make_unique<NewtonRows>(free_, d, disc_.problem().mesh.X, n - nfree_);
+      w.lu_rows = std::make_unique<NewtonRows>(free_, d, node_rank_, n - nfree_);
     return w.mumps_lu->solve(A, *w.lu_rows, rhs, dx);
   }
   const auto t0 = std::chrono::steady_clock::now();

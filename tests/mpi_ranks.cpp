@@ -246,14 +246,20 @@ TEST(Mpi, Eq2_2_ShortMumpsWorkspaceIsFactorizedAgain) {
 /// shifted by s, MUMPS's symmetric factorization reports positive definite iff the smallest
 /// eigenvalue 2 - 2 cos(pi / (n + 1)) + s is positive (the inertia: the decision CHOLMOD's LL'
 /// makes in the serial solver), and solves it; the LU solves a nonsymmetric matrix. Nodes on a
-/// line, in reverse order (the slab order permutes them). The tridiagonal is assembled as Newton
-/// assembles its tangent: each rank adds the blocks [1, -1; -1, 1] of its own segments (cells of
-/// 2 nodes, mpi::blocks) and rank 0 every diagonal correction, most of them in other ranks' rows.
+/// line, dealt to the ranks in reverse blocks (rank 0 holds the last nodes' rows). The tridiagonal
+/// is assembled as Newton assembles its tangent: each rank adds the blocks [1, -1; -1, 1] of its
+/// own segments (cells of 2 nodes, mpi::blocks) and rank 0 every diagonal correction, most of them
+/// in other ranks' rows.
 TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
   const int n = 40;
-  Eigen::MatrixXd X(n, 1);
-  std::vector<int> free_of_dof(n);
-  for (int i = 0; i < n; ++i) X(i, 0) = n - i, free_of_dof[i] = i;
+  std::vector<int> free_of_dof(n), node_rank(n);
+  const std::vector<int> reverse = mpi::blocks(n, mpi::size());
+  for (int i = 0; i < n; ++i) {
+    free_of_dof[i] = i;
+    node_rank[i] = static_cast<int>(std::upper_bound(reverse.begin(), reverse.end(), n - 1 - i) -
+                                    reverse.begin()) -
+                   1;
+  }
   auto tridiagonal = [&](double shift, double upper) {
     std::vector<Eigen::Triplet<double>> t;
     for (int i = 0; i < n; ++i) {
@@ -270,7 +276,22 @@ TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
   const double lowest = 2 - 2 * std::cos(M_PI / (n + 1));
   std::vector<int> segments;  // cell k: the nodes k, k + 1
   for (int k = 0; k + 1 < n; ++k) segments.insert(segments.end(), {k, k + 1});
-  DistributedCholesky chol(NewtonRows(free_of_dof, 1, X, 0), 1, segments, 2, free_of_dof);
+  const NewtonRows rows(free_of_dof, 1, node_rank, 3);  // 3 extra rows: in blocks of 3
+  ASSERT_EQ(rows.offset.size(), static_cast<std::size_t>(mpi::size()) + 1);
+  ASSERT_EQ(rows.offset.back(), n + 3);
+  std::vector<int> seen(n + 3, 0);
+  const std::vector<int> extra = mpi::blocks(3, mpi::size());
+  for (int k = 0; k < n + 3; ++k) {
+    const int r = k < n ? node_rank[k]
+                        : static_cast<int>(std::upper_bound(extra.begin(), extra.end(), k - n) -
+                                           extra.begin()) -
+                              1;
+    EXPECT_GE(rows.perm[k], rows.offset[r]) << "row " << k;
+    EXPECT_LT(rows.perm[k], rows.offset[r + 1]) << "row " << k;
+    ++seen[rows.perm[k]];
+  }
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n + 3);
+  DistributedCholesky chol(NewtonRows(free_of_dof, 1, node_rank, 0), 1, segments, 2, free_of_dof);
   const std::vector<int> mine = mpi::blocks(n - 1, mpi::size());
   for (double shift : {1e-3, -0.5 * lowest, -1.0, 0.5 * lowest}) {
     chol.zero();
@@ -291,7 +312,7 @@ TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
   for (double upper : {-0.3, 0.7}) {  // the same pattern, new values: refactorized
     const SpMat A = tridiagonal(0.1, upper);
     Eigen::VectorXd x;
-    ASSERT_TRUE(lu.solve(A, NewtonRows(free_of_dof, 1, X, 0), b, x));
+    ASSERT_TRUE(lu.solve(A, NewtonRows(free_of_dof, 1, node_rank, 0), b, x));
     EXPECT_LE((A * x - b).norm(), 1e-12 * b.norm() * (1 + x.norm()));
   }
 }
@@ -563,6 +584,66 @@ TEST(Mpi, TheRanksCellsAreAGraphPartitionThatCutsFewFacets) {
       << message;
 }
 
+/// [(4.7), (4.3)] The contact points of the coarse gutter, nodal and facet-mean, on 1, 2, 3 ranks:
+/// point_partition deals each to a rank whose cells hold all its nodes (the smallest such rank),
+/// the Solver's points are its part (RankShare::points), and so the ghost layer of its global
+/// step (4.5) is the free rows of its cells' nodes that other ranks own, counted here from the
+/// cells alone. With the points in blocks of their index (before 2026-12-02, third session) the
+/// layer has the blocks' nodes outside the rank's cells too: on 2 ranks 21 and 78 rows (nodal),
+/// 26 and 81 (facet means), against 0 and 63.
+TEST(Mpi, Eq4_7_EachContactPointIsOnARankOfItsCell) {
+  const int P = mpi::size(), me = mpi::rank();
+  for (const char* kind : {"nodal", "facet-mean"}) {
+    std::vector<std::string> keys = kCoarseGutter;
+    keys.push_back(cat("discretization.contact=\"", kind, "\""));
+    const Problem p = load_problem(ltl::testing::source_path(kFig6), keys);
+    const Solver dist(p, Ranks::All);
+    const ContactPoints& pts = *dist.discretization().points();
+    const mpi::Partition& cells = *dist.cell_partition();
+    const mpi::Partition part = point_partition(p.mesh, pts, cells);
+    ASSERT_EQ(part.order.size(), static_cast<std::size_t>(pts.size())) << kind;
+    std::vector<int> cell_rank(p.mesh.num_cells());
+    for (int r = 0; r < P; ++r)
+      for (int c : cells.items(r)) cell_rank[c] = r;
+    for (int r = 0; r < P; ++r)
+      for (int s : part.items(r)) {
+        int lowest = P;  // the smallest rank of a cell holding every node of s
+        for (int c = 0; c < p.mesh.num_cells(); ++c) {
+          bool all = true;
+          for (SpMatR::InnerIterator it(pts.mean, s); it; ++it) {
+            bool in = false;
+            for (int a = 0; a < p.mesh.nodes_per_cell(); ++a)
+              in = in || p.mesh.cells(c, a) == it.col();
+            all = all && in;
+          }
+          if (all) lowest = std::min(lowest, cell_rank[c]);
+        }
+        EXPECT_EQ(r, lowest) << kind << " point " << s;
+      }
+    EXPECT_EQ(dist.rank_share().points, static_cast<int>(part.items(me).size())) << kind;
+    // The ghost layer from the cells alone.
+    const std::vector<int> node_rank = node_ranks(p.mesh, cells);
+    std::vector<char> near(p.mesh.num_nodes(), 0);
+    for (int c : cells.items(me))
+      for (int a = 0; a < p.mesh.nodes_per_cell(); ++a) near[p.mesh.cells(c, a)] = 1;
+    const DirichletData& bc = dist.discretization().dirichlet();
+    long layer = 0;
+    for (const std::vector<int>& set : components_by_dirichlet_set(bc)) {
+      std::vector<char> fixed(p.mesh.num_nodes(), 0);
+      for (int v : bc.fixed[set[0]]) fixed[v] = 1;
+      for (int v = 0; v < p.mesh.num_nodes(); ++v)
+        layer += near[v] && !fixed[v] && node_rank[v] != me;
+    }
+    EXPECT_EQ(dist.rank_share().layer_ghosts, P > 1 ? layer : 0) << kind << ", rank " << me;
+    double largest = static_cast<double>(dist.rank_share().layer_ghosts);
+    mpi::max(&largest, 1);
+    if (me == 0)
+      std::cout << "coarse gutter, " << kind << " contact, " << P << " rank(s): rank 0 holds "
+                << part.items(0).size() << " of " << pts.size()
+                << " points; the largest ghost layer " << largest << " rows\n";
+  }
+}
+
 /// Each rank holds the operators of its own cells only (Discretization of some cells, plain
 /// ALG2): its cells with rows of Gbar are its part (cell_partition), the parts' Gbar
 /// entries add up to the serial Gbar's (no cell on two ranks), and on several ranks a rank's
@@ -798,13 +879,14 @@ TEST(Mpi, Eq4_1to4_4_NoIterationMovesACellField) {
 }
 
 /// With the Newton phase each rank builds the per-cell data of Newton (mean gradients,
-/// fluctuation blocks, constraint points) for its own cells only (with the distributed solves,
-/// the cells whose first free dof is in its slab of matrix rows): the ranks' cells add up to the
-/// mesh's, none holds more than 3/4 of them on several ranks, and their bytes add up to the
-/// serial Newton's. With the distributed solves no rank holds the tangent's whole pattern or the
-/// cells' positions in it (PETSc's matrix holds its rows): less whole-mesh data than the serial
-/// Newton. The discretization's operators are the rank's cells (its part of the partition), as with
-/// plain ALG2. Fails when every rank builds the data of every cell, the whole pattern, or the whole
+/// fluctuation blocks, constraint points) for its own cells only, ALG2's cells (the Solver's
+/// partition): the ranks' cells add up to the mesh's, none holds more than 3/4 of them on several
+/// ranks, and their bytes add up to the serial Newton's. With the distributed solves a node's
+/// rows are on the smallest rank among its cells' (computed here from the cells' nodes). With the
+/// distributed solves no rank holds the tangent's whole pattern or the cells' positions in it
+/// (PETSc's matrix holds its rows): less whole-mesh data than the serial Newton. The
+/// discretization's operators are the rank's cells (its part of the partition), as with plain ALG2.
+/// Fails when every rank builds the data of every cell, the whole pattern, or the whole
 /// discretization.
 TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
   std::vector<std::string> keys = kCoarseGutter;
@@ -829,6 +911,19 @@ TEST(Mpi, Eq2_2_EachRankHoldsTheNewtonDataOfItsCellsOnly) {
   EXPECT_LT(hd.newton_whole, 0.5 * hs.newton_whole);
   EXPECT_EQ(hd.cells_with_operators, static_cast<int>(dist.discretization().held_cells().size()));
   EXPECT_EQ(dist.discretization().partial(), mpi::size() > 1);
+  ASSERT_NE(dist.newton(), nullptr);
+  if (mpi::size() > 1) {
+    EXPECT_EQ(dist.newton()->cells(), dist.discretization().held_cells());
+  }
+  {
+    const mpi::Partition& part = *dist.cell_partition();
+    std::vector<int> lowest(p.mesh.num_nodes(), mpi::size());
+    for (int r = 0; r < mpi::size(); ++r)
+      for (int e : part.items(r))
+        for (int a = 0; a < p.mesh.cells.cols(); ++a)
+          lowest[p.mesh.cells(e, a)] = std::min(lowest[p.mesh.cells(e, a)], r);
+    EXPECT_EQ(dist.newton()->node_rank(), lowest);
+  }
   if (me == 0)
     std::cout << "coarse gutter with Newton, " << mpi::size() << " rank(s): rank 0's Newton holds "
               << hd.newton_cells << " of " << p.mesh.num_cells() << " cells' data, "

@@ -232,6 +232,8 @@ int bench(int argc, char** argv) {
   const double its = solves > 0 ? double(r.ksp_iterations - ksp_it0) / solves : 0.0;
   const std::vector<double> peak = all_ranks(ltl::mpi::peak_resident_bytes() / 1048576.0);
   const double ghosts = max_of(static_cast<double>(r.ghosts));
+  // The ghost layer's rows of other ranks (u scattered in, b added out), the largest rank.
+  const double layer = max_of(static_cast<double>(r.layer_ghosts));
   // The ranks' rows of the distributed matrices (summed over the Dirichlet sets): the largest
   // over the mean (node_ranks gives a rank the nodes it shares with higher ranks).
   const std::vector<double> rows = all_ranks(static_cast<double>(r.rows));
@@ -259,7 +261,7 @@ int bench(int argc, char** argv) {
         "ms_per_it=%.2f global=%.2f (ksp %.2f, collectives %.2f) strain=%.2f contact=%.2f "
         "update=%.2f ksp_its_per_solve=%.1f bytes_per_it_ours=%.0f calls_per_it=%.0f "
         "bytes_per_it_petsc=%.0f messages_per_it_petsc=%.0f reductions_per_it_petsc=%.0f "
-        "ghosts=%.0f rows_max_over_mean=%.3f peak_MB_per_rank=%s load=%s\n"
+        "ghosts=%.0f layer_ghosts=%.0f rows_max_over_mean=%.3f peak_MB_per_rank=%s load=%s\n"
         "MEM label=%s ranks=%d rss/hwm_MB_after:%s held_B_per_cell: %s\n",
         label.c_str(), P,
         all ? (r.replicated_cholesky ? "replicated-cholesky"
@@ -267,7 +269,7 @@ int bench(int argc, char** argv) {
                                      : "cg-gamg")
             : "serial",
         mesh.num_cells(), mesh.num_nodes(), setup, timed, t_it, t_g, t_ksp, t_coll, t_s, t_c, t_u,
-        its, bytes_ours, calls_ours, bytes_petsc, msgs_petsc, reductions, ghosts, rows_ratio,
+        its, bytes_ours, calls_ours, bytes_petsc, msgs_petsc, reductions, ghosts, layer, rows_ratio,
         peaks.c_str(), loadavg().c_str(), label.c_str(), P, phases.c_str(), held.c_str());
   std::fflush(stdout);
   return 0;

@@ -10,7 +10,9 @@
 #   partition:      the facets cut by slabs and by PT-Scotch's graph partition into 2 to 256
 #                   parts, on the 102 400-cell gutter and a cube of 46^3 H8 ("CUT ..." lines),
 #                   then ALG2 with CG + GAMG on the cube, 2 and 4 ranks, graph and slabs
-#                   (-ltl_mpi_slabs) (not with --quick).
+#                   (-ltl_mpi_slabs) (not with --quick);
+#   Newton, cube:   bench_mpi_newton on a cube of 30^3 H8, 2 and 4 ranks, graph and slabs: the
+#                   tangent's entries sent to other ranks' rows per assembly (not with --quick).
 # 20 timed iterations after 3 (1 080 and 9 900 cells), 8 after 2 (the larger gutters).
 # Usage: bench_mpi.sh BUILD_DIR [--quick]   (--quick: the gutters of 1 080 and 9 900 cells only)
 set -u
@@ -65,5 +67,16 @@ for p in 2 4; do
     if [ "$part" = slabs ]; then options=-ltl_mpi_slabs; else options=; fi
     PETSC_OPTIONS=$options mpirun -n "$p" --oversubscribe -x PETSC_OPTIONS "$bench" --body cube 46 \
       --solver cg-amg --iters 8 --warm 2 --label "$part" < /dev/null
+  done
+done
+# The Newton phase on either partition (paper_notes/mpi.md, "The Newton phase and the contact
+# points on the cells' partition").
+for p in 2 4; do
+  for part in graph slabs; do
+    if [ "$part" = slabs ]; then options=-ltl_mpi_slabs; else options=; fi
+    echo "newton: cube 30^3, $part, $p ranks"
+    PETSC_OPTIONS=$options mpirun -n "$p" --oversubscribe -x PETSC_OPTIONS "$newton" \
+      "$(dirname "$0")/cube.toml" mesh.parameters.n=30 algorithm.newton_switch=1e9 \
+      algorithm.newton_max_iter=2 algorithm.max_iter=3 < /dev/null
   done
 done

@@ -95,6 +95,13 @@ int bench(int argc, char** argv) {
   const double mf = per(st.mumps_factor_s, st.mumps_factorizations);
   const double ms = per(st.mumps_solve_s, st.mumps_solves);
   const double ml = per(st.mumps_lu_s, st.mumps_lu_factorizations);
+  // The tangent's entries a rank sent to other ranks' rows per assembly: the largest, and the sum.
+  const double sent = st.mumps_factorizations > 0
+                          ? static_cast<double>(st.mumps_offrank_entries) / st.mumps_factorizations
+                          : 0.0;
+  double sent_max = sent, sent_sum = sent;
+  ltl::mpi::max(&sent_max, 1);
+  ltl::mpi::sum(&sent_sum, 1);
   if (ltl::mpi::rank() == 0) {
     std::printf(
         "  CHOLMOD: %ld analyses %.4f s, %ld factorizations %.4f s, %ld solves %.5f s each\n",
@@ -106,6 +113,10 @@ int bench(int argc, char** argv) {
         st.mumps_analyses, ma, st.mumps_factorizations, mf, st.mumps_solves, ms);
     std::printf("  MUMPS LU: %ld (%ld analyses), %.4f s each\n", st.mumps_lu_factorizations,
                 st.mumps_lu_analyses, ml);
+    std::printf(
+        "  tangent entries sent to other ranks' rows per assembly: %.0f (largest rank), %.0f "
+        "(all ranks)\n",
+        sent_max, sent_sum);
     std::printf("  MUMPS workspace short of its estimate + 20 %%: %ld refactorization(s)\n",
                 st.mumps_workspace_retries);
     std::printf("  peak resident memory per rank (VmHWM, 10^6 KiB):");
