@@ -53,7 +53,7 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   // with "all". Mean-det: the lagged fluctuation terms make u part of the state the map acts on,
   // so u is extrapolated with the rest, weighted like a gradient, sqrt(q |Omega| / #nodes) / h.
   // Distributed, the cells' part (first) is the rank's rows, and so is the points' part when
-  // the contact step is distributed (the rank's block of points; else every point, the same on
+  // the contact step is distributed (the rank's points, own_points(); else every point, the same on
   // every rank); the rest (u) is the same on every rank.
   const Eigen::Index n_packed = static_cast<Eigen::Index>(own_points().size());  // packed points
   const int G = a.accelerate != Accelerated::Multipliers ? 2 : 1;

@@ -165,6 +165,8 @@ class Solver {
   /// The ranks' cells (cell_partition) of a distributed solver; null on one rank. Its rows of a
   /// per-cell array gather with mpi::gather_rows.
   const mpi::Partition* cell_partition() const;
+  /// The ranks' contact points (point_partition) of a distributed solver with contact; else null.
+  const mpi::Partition* contact_point_partition() const;
   /// The bytes this process holds in the discretization and the solver's arrays (not PETSc's
   /// or the factor's).
   Holdings holdings() const;
@@ -279,13 +281,13 @@ class Solver {
   void global_phase_distributed(State& s, GlobalOutput& g);
   /// Sums over the ranks (residual parts, failures); nothing unless distributed.
   void sum_over_ranks(double* x, int n) const;
-  /// Does each rank compute its own block of the contact points (the contact step distributed,
-  /// not replicated)? Its iterate's e, lambda_c and beta are then current on that block only,
-  /// until gather_points.
+  /// Does each rank compute its own contact points (point_partition: the contact step
+  /// distributed, not replicated)? Its iterate's e, lambda_c and beta are then current on those
+  /// points only, until gather_points.
   bool points_distributed() const;
-  /// The owned blocks of e, lambda_c and beta gathered (collective): at the end of an ALG2 phase
-  /// and wherever a whole state is made from the iterate (whole(), between_steps()), not after
-  /// each iteration.
+  /// The owned points' rows of e, lambda_c and beta gathered (collective): at the end of an ALG2
+  /// phase and wherever a whole state is made from the iterate (whole(), between_steps()), not
+  /// after each iteration.
   void gather_points(State& s) const;
   /// The rank's rows of a per-cell field (the k-th of own_cells() at rows dim k), cut from a
   /// whole field or copied from those rows.

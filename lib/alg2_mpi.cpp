@@ -13,23 +13,24 @@
 //     rank reads the whole problem. The whole E and lambda exist only between ALG2 phases (for
 //     the Newton phase, the measures and the output) and when the equilibrium stopping test is
 //     due; the iterations run on the rank's rows of E and lambda (own_rows, whole), and so do
-//     T, Gbar u, J and the previous E. Anderson's packed iterate is the rank's cell rows then
-//     the replicated contact part: its inner products sum the first over the ranks. The states
+//     T, Gbar u, J and the previous E. Anderson's packed iterate is the rank's cell rows and its
+//     contact points' rows (every point when the contact step is replicated, then in the
+//     replicated tail): its inner products sum the distributed head over the ranks. The states
 //     the load subdivision keeps to go back to are the rank's rows and its block of u
 //     (kept_copy); the checks after a step run on the rank's cells (lib/admissibility.cpp).
-//   - DISTRIBUTED: the cells (the partition above) and the contact points (each on the rank of
-//     its facet's cell, point_partition in mpi_global.hpp). A rank computes, on its own cells and
-//     points: the global step's per-cell right-hand side Gbar^T [R q (E - I) + lambda - 2 C1 I] and
-//     the contact one M^T [R q_c e + lambda_c] (4.1), the mean-det fluctuation terms and targets,
-//     Gbar u and ubar; the strain step (4.6); the contact step (4.7) when the points are
-//     independent (d0 = 0); the update (4.3) and the residual sums (4.4). The global solve (4.5) is
-//     one distributed PETSc KSP (mpi_global.hpp) on a ghost layer: the ranks' parts of the
-//     right-hand side are added into PETSc's vector and u comes back on the nodes a rank reads (its
-//     other rows stale until the end of the phase); with mean-det under Anderson, or the PETSc
-//     option -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x dim) and
-//     u gathered whole; with -ltl_mpi_replicated the serial factor on every rank (replicated). The
-//     residual parts are summed (3 values). E, lambda, u and the points' e, lambda_c and beta
-//     are gathered once, at the end of the phase.
+//   - DISTRIBUTED: the cells (the partition above) and the contact points (each on the smallest
+//     rank whose cells hold all its nodes, point_partition in mpi_global.hpp). A rank computes, on
+//     its own cells and points: the global step's per-cell right-hand side Gbar^T [R q (E - I) +
+//     lambda - 2 C1 I] and the contact one M^T [R q_c e + lambda_c] (4.1), the mean-det fluctuation
+//     terms and targets, Gbar u and ubar; the strain step (4.6); the contact step (4.7) when the
+//     points are independent (d0 = 0); the update (4.3) and the residual sums (4.4). The global
+//     solve (4.5) is one distributed PETSc KSP (mpi_global.hpp) on a ghost layer: the ranks' parts
+//     of the right-hand side are added into PETSc's vector and u comes back on the nodes a rank
+//     reads (its other rows stale until the end of the phase); with mean-det under Anderson, or the
+//     PETSc option -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x
+//     dim) and u gathered whole; with -ltl_mpi_replicated the serial factor on every rank
+//     (replicated). The residual parts are summed (3 values). E, lambda, u and the points' e,
+//     lambda_c and beta are gathered once, at the end of the phase.
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
@@ -134,6 +135,10 @@ const std::vector<int>& Solver::own_cells() const {
   return dist_ ? dist_->own : disc_.held_cells();
 }
 
+const mpi::Partition* Solver::contact_point_partition() const {
+  return dist_ && disc_.points() ? &dist_->points : nullptr;
+}
+
 const std::vector<int>& Solver::own_points() const {
   return points_distributed() ? dist_->own_points : all_points_;
 }
@@ -149,7 +154,7 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   d.ksp.reset();
   const std::vector<int> node_rank = node_ranks(problem().mesh, d.cells);
   d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
-                                                  d.ksp_solver, disc_.partial(), &node_rank);
+                                                  node_rank, d.ksp_solver, disc_.partial());
   d.ksp->set_value_scale(scale);
   // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'
   // nodes and its contact points' (all points' when the contact step is replicated). Not on one
@@ -310,7 +315,7 @@ State Solver::whole(const State& own) const {
   State s = whole_cells(own);
   s.u = own.u;
   if (dist_->ksp) dist_->ksp->whole_u(s.u);  // after solves with a ghost layer
-  gather_points(s);                          // current on the rank's block of points only
+  gather_points(s);                          // current on the rank's points only
   return s;
 }
 

@@ -89,8 +89,9 @@ class ContactStep {
   ///   lambda_c:  #points x dim, current multiplier
   ///   beta_prev: #points, beta at the previous time step (beta_{p-1})
   ///   e, beta:   in: current iterate, out: updated.
-  /// Only the points first <= s < end are updated (end < 0: all; a rank's block when the
-  /// points are distributed, which is exact without dissipation, where they are independent).
+  /// Only the points first <= s < end are updated (end < 0: all; each run of consecutive
+  /// indices of a rank's points when the points are distributed, which is exact without
+  /// dissipation, where they are independent).
   /// Allocation-free. O(nnz(k)) per sweep: O(#points x neighbours within the cutoff).
   void solve(ConstMatRef ubar, ConstMatRef lambda_c, ConstVecRef beta_prev, MatRef e, VecRef beta,
              int sweeps = 1, int first = 0, int end = -1) const;

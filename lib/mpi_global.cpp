@@ -18,14 +18,6 @@
 
 namespace ltl {
 
-std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X) {
-  Eigen::Index axis = 0;
-  (X.colwise().maxCoeff() - X.colwise().minCoeff()).maxCoeff(&axis);
-  std::stable_sort(nodes.begin(), nodes.end(),
-                   [&](int a, int b) { return X(a, axis) < X(b, axis); });
-  return nodes;
-}
-
 mpi::Partition slab_cells(const Mesh& mesh, int ranks) {
   const int nc = mesh.num_cells();
   Eigen::Index axis = 0;
@@ -133,8 +125,8 @@ std::vector<int> scotch_parts(const Mesh&, int parts) {
 struct DistributedGlobalStep::Group {};
 
 DistributedGlobalStep::DistributedGlobalStep(SpMat&&, const DirichletData& bc,
-                                             const Eigen::MatrixXd&, Solver solver, bool,
-                                             const std::vector<int>*)
+                                             const Eigen::MatrixXd&, const std::vector<int>&,
+                                             Solver solver, bool)
     : bc_(bc), solver_(solver) {
   throw Error(
       "the distributed global step needs MPI and PETSc: build with -DLTL_WITH_MPI=ON "
@@ -272,8 +264,9 @@ struct DistributedGlobalStep::Group {
 };
 
 DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
-                                             const Eigen::MatrixXd& X, Solver solver, bool parts,
-                                             const std::vector<int>* node_rank)
+                                             const Eigen::MatrixXd& X,
+                                             const std::vector<int>& node_rank, Solver solver,
+                                             bool parts)
     : bc_(bc), solver_(solver) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(K.rows());
@@ -287,26 +280,23 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
   for (auto& gp : groups_) {
     Group& g = *gp;
     // The free nodes, each rank's block of rows those of its nodes (node_rank: the rows of its
-    // cells' part of K), or in the order of their coordinate along the mesh's longest extent (a
-    // coordinate partition: each rank's block of rows is a slab, its ghosts the slabs' faces).
+    // cells' part of K), in their index order.
     std::vector<int> local(n, -1);
     std::vector<char> fixed(n, 0);
     for (int i : bc.fixed[g.components[0]]) fixed[i] = 1;
     for (int i = 0; i < n; ++i)
       if (!fixed[i]) g.node.push_back(i);
     const int nf = static_cast<int>(g.node.size()), nc = static_cast<int>(g.components.size());
-    if (node_rank) {
-      std::vector<int> rank(nf);
-      for (int k = 0; k < nf; ++k) rank[k] = (*node_rank)[g.node[k]];
-      const mpi::Partition rows = mpi::partition_of_ranks(rank, P);
-      std::vector<int> node(nf);
-      for (int k = 0; k < nf; ++k) node[k] = g.node[rows.order[k]];
-      g.node = std::move(node);
-      g.offset = rows.offset;
-    } else {
-      g.node = slab_order(std::move(g.node), X);
-      g.offset = mpi::blocks(nf, P);
-    }
+    if (static_cast<int>(node_rank.size()) != n)
+      throw Error(cat("the distributed global step (4.5): ranks of ", node_rank.size(),
+                      " nodes for ", n, " rows"));
+    std::vector<int> rank(nf);
+    for (int k = 0; k < nf; ++k) rank[k] = node_rank[g.node[k]];
+    const mpi::Partition rows = mpi::partition_of_ranks(rank, P);
+    std::vector<int> node(nf);
+    for (int k = 0; k < nf; ++k) node[k] = g.node[rows.order[k]];
+    g.node = std::move(node);
+    g.offset = rows.offset;
     for (std::size_t k = 0; k < g.node.size(); ++k) local[g.node[k]] = static_cast<int>(k);
     g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
                  solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");

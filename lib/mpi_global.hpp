@@ -30,10 +30,6 @@
 
 namespace ltl {
 
-/// The nodes in the order of their coordinate in X (#nodes x dim) along the mesh's longest extent
-/// (stable): the slabs of the distributed rows, here and in the Newton phase (mpi_newton.hpp).
-std::vector<int> slab_order(std::vector<int> nodes, const Eigen::MatrixXd& X);
-
 /// The cells dealt to `ranks` ranks in slabs along the mesh's longest extent (equal counts, in
 /// the order of their centroids' coordinate, stable), each rank's sorted: a coordinate
 /// partition, the ranks' cells until 2026-12-02 (now the PETSc option -ltl_mpi_slabs).
@@ -68,7 +64,8 @@ std::vector<int> node_ranks(const Mesh& mesh, const mpi::Partition& cells);
 /// [(4.7), (4.3)] The ranks' contact points: point s on the smallest rank among those whose
 /// cells hold every node of s (the cell of its facet for a facet-mean point; for a nodal point,
 /// the node's rank of node_ranks), so that a rank's points add no node outside its cells to its
-/// ghost layer. Each rank's sorted.
+/// ghost layer (when the contact step is distributed). Each rank's sorted. An Error when no cell
+/// holds every node of a point (a point must lie on one cell's facet or node).
 mpi::Partition point_partition(const Mesh& mesh, const ContactPoints& points,
                                const mpi::Partition& cells);
 
@@ -89,11 +86,11 @@ class DistributedGlobalStep {
   /// the caller's left empty) once it is in PETSc's matrices, before the last AMG setup or
   /// factorization. (Eigen 3.4's SparseMatrix has no move constructor: a K taken by value from
   /// std::move would be a copy, and the caller's K would stay through every setup.)
-  /// node_rank (#nodes; node_ranks): the rank whose block of rows holds each node, the nodes in
-  /// their index order within a rank's block; null: the nodes in slab_order, in equal blocks.
+  /// node_rank (#nodes; node_ranks of the ranks' cells): the rank whose block of rows holds each
+  /// node, the nodes in their index order within a rank's block.
   DistributedGlobalStep(SpMat&& K, const DirichletData& bc, const Eigen::MatrixXd& X,
-                        Solver solver = Solver::CgGamg, bool parts = false,
-                        const std::vector<int>* node_rank = nullptr);
+                        const std::vector<int>& node_rank, Solver solver = Solver::CgGamg,
+                        bool parts = false);
   ~DistributedGlobalStep();
   DistributedGlobalStep(const DistributedGlobalStep&) = delete;
   DistributedGlobalStep& operator=(const DistributedGlobalStep&) = delete;
@@ -131,8 +128,7 @@ class DistributedGlobalStep {
   /// and reads, less its own rows), summed over the Dirichlet sets: what one solve's scatter of u
   /// brings to this rank, and its addition of b sends, per component.
   long layer_ghosts() const { return layer_ghosts_; }
-  /// This rank's rows, summed over the Dirichlet sets (its nodes: node_rank's, or its block of
-  /// the slab order).
+  /// This rank's rows, summed over the Dirichlet sets (its nodes of node_rank).
   long owned_rows() const { return owned_rows_; }
 
  private:

@@ -8,7 +8,6 @@
 
 #include "error.hpp"
 #include "mpi_comm.hpp"
-#include "mpi_global.hpp"
 
 #ifdef LTL_HAVE_MPI
 #include <petscmat.h>

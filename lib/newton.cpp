@@ -59,9 +59,12 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed,
     const std::vector<int> block = mpi::blocks(nc, split_ ? mpi::size() : 1);
     for (int e = block[me]; e < block[me + 1]; ++e) cells_.push_back(e);
   }
-  if (distributed && distributed_newton_solves())  // (on one rank: every node on rank 0)
-    node_rank_ = split_ && cells ? node_ranks(mesh, *cells)
-                                 : node_ranks(mesh, mpi::partition_of(cells_, nc));
+  if (distributed && distributed_newton_solves()) {
+    if (!split_)
+      node_rank_.assign(nn, 0);  // one rank: every row its own
+    else
+      node_rank_ = node_ranks(mesh, cells ? *cells : mpi::partition_of(cells_, nc));
+  }
   slot_.assign(nc, -1);
   for (std::size_t k = 0; k < cells_.size(); ++k) slot_[cells_[k]] = static_cast<int>(k);
   // Per cell of this rank, from the sums of cell_integrals (fe.cpp), from which the

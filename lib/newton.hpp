@@ -81,12 +81,12 @@ class Newton {
   /// Several obstacles: the glue of one only (Problem::validate refuses glued obstacles among
   /// several under solver = "newton").
   void set_glue(const ContactSteps& contact, const Eigen::VectorXd& beta_prev);
-  /// What this Newton holds (bytes): the per-cell data of its cells (the rank's block on several
-  /// ranks: mean gradients, fluctuation blocks, constraint points and weights), the cells'
-  /// positions in the values of the tangent's pattern (none with the distributed solves: PETSc's
-  /// matrix holds the pattern, each rank its rows), and the whole-mesh data every rank keeps (the
-  /// cells' nodes, the free-dof numbering; the tangent's pattern and the positions of the
-  /// diagonal unless the solves are distributed).
+  /// What this Newton holds (bytes): the per-cell data of its cells (the rank's cells of the
+  /// partition on several ranks: mean gradients, fluctuation blocks, constraint points and
+  /// weights), the cells' positions in the values of the tangent's pattern (none with the
+  /// distributed solves: PETSc's matrix holds the pattern, each rank its rows), and the whole-mesh
+  /// data every rank keeps (the cells' nodes, the free-dof numbering; the tangent's pattern and the
+  /// positions of the diagonal unless the solves are distributed).
   struct Holdings {
     int cells = 0;
     double cell_data = 0, positions = 0, whole = 0;

@@ -289,6 +289,9 @@ TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
     EXPECT_GE(rows.perm[k], rows.offset[r]) << "row " << k;
     EXPECT_LT(rows.perm[k], rows.offset[r + 1]) << "row " << k;
     ++seen[rows.perm[k]];
+    if (k > 0 && k < n && node_rank[k - 1] == node_rank[k]) {  // index order within a rank
+      EXPECT_EQ(rows.perm[k], rows.perm[k - 1] + 1) << "row " << k;
+    }
   }
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n + 3);
   DistributedCholesky chol(NewtonRows(free_of_dof, 1, node_rank, 0), 1, segments, 2, free_of_dof);
@@ -620,6 +623,9 @@ TEST(Mpi, Eq4_7_EachContactPointIsOnARankOfItsCell) {
         }
         EXPECT_EQ(r, lowest) << kind << " point " << s;
       }
+    ASSERT_NE(dist.contact_point_partition(), nullptr);
+    EXPECT_EQ(dist.contact_point_partition()->order, part.order) << kind;
+    EXPECT_EQ(dist.contact_point_partition()->offset, part.offset) << kind;
     EXPECT_EQ(dist.rank_share().points, static_cast<int>(part.items(me).size())) << kind;
     // The ghost layer from the cells alone.
     const std::vector<int> node_rank = node_ranks(p.mesh, cells);
