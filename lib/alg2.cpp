@@ -82,7 +82,7 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
     const bool krylov = !distributed() && global_ && global_->solver() == GlobalSolver::CgAmg;
     // Distributed: its linear systems over the ranks (mpi_newton), its cells the rank's cells
     // of the partition (ALG2's), its rows those of the global step.
-    newton_ = std::make_unique<Newton>(disc_, krylov, distributed(), cell_partition());
+    newton_ = std::make_unique<Newton>(disc_, krylov, cell_partition());
   }
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
 }

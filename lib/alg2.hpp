@@ -162,8 +162,8 @@ class Solver {
   int global_factors() const { return global_ ? global_->num_factors() : 0; }
   bool distributed() const { return dist_ != nullptr; }
   RankShare rank_share() const;
-  /// The ranks' cells (cell_partition) of a distributed solver; null on one rank. Its rows of a
-  /// per-cell array gather with mpi::gather_rows.
+  /// The ranks' cells (cell_partition) of a distributed solver (Ranks::All); else null. Its rows of
+  /// a per-cell array gather with mpi::gather_rows.
   const mpi::Partition* cell_partition() const;
   /// The ranks' contact points (point_partition) of a distributed solver with contact; else null.
   const mpi::Partition* contact_point_partition() const;

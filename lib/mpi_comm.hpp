@@ -73,6 +73,13 @@ struct Partition {
   std::vector<int> items(int r) const {
     return {order.begin() + offset[r], order.begin() + offset[r + 1]};
   }
+  /// Each item's rank (what partition_of_ranks takes).
+  std::vector<int> owners() const {
+    std::vector<int> rank(order.size());
+    for (std::size_t r = 0; r + 1 < offset.size(); ++r)
+      for (int j = offset[r]; j < offset[r + 1]; ++j) rank[order[j]] = static_cast<int>(r);
+    return rank;
+  }
 };
 /// The Partition of items 0 .. rank.size() - 1 where item i is rank rank[i]'s (0 <= rank[i] <
 /// ranks).

@@ -53,10 +53,7 @@ std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh) {
 }
 
 long cut_facets(const Mesh& mesh, const mpi::Partition& cells) {
-  std::vector<int> rank(mesh.num_cells(), -1);
-  for (std::size_t r = 0; r + 1 < cells.offset.size(); ++r)
-    for (int j = cells.offset[r]; j < cells.offset[r + 1]; ++j)
-      rank[cells.order[j]] = static_cast<int>(r);
+  const std::vector<int> rank = cells.owners();
   const std::vector<std::vector<int>> adj = facet_neighbours(mesh);
   long cut = 0;
   for (int c = 0; c < mesh.num_cells(); ++c)
@@ -86,9 +83,7 @@ mpi::Partition point_partition(const Mesh& mesh, const ContactPoints& points,
                                const mpi::Partition& cells) {
   const int P = static_cast<int>(cells.offset.size()) - 1, np = points.size();
   const int nn = mesh.num_nodes(), npc = mesh.nodes_per_cell();
-  std::vector<int> cell_rank(mesh.num_cells(), 0);
-  for (int r = 0; r < P; ++r)
-    for (int j = cells.offset[r]; j < cells.offset[r + 1]; ++j) cell_rank[cells.order[j]] = r;
+  const std::vector<int> cell_rank = cells.owners();
   std::vector<char> on_points(nn, 0);  // the cells of the points' nodes only
   for (int k = 0; k < points.mean.outerSize(); ++k)
     for (SpMatR::InnerIterator it(points.mean, k); it; ++it) on_points[it.col()] = 1;

@@ -24,14 +24,13 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-Newton::Newton(const Discretization& disc, bool krylov, bool distributed,
-               const mpi::Partition* cells)
-    : disc_(disc), distributed_(distributed), krylov_(krylov) {
+Newton::Newton(const Discretization& disc, bool krylov, const mpi::Partition* cells)
+    : disc_(disc), distributed_(cells != nullptr), krylov_(krylov) {
   const Mesh& mesh = disc.problem().mesh;
   dim_ = disc.dim();
   const int d = dim_, nc = disc.num_cells(), nn = disc.num_nodes();
   npc_ = static_cast<int>(mesh.cells.cols());
-  split_ = distributed && mpi::size() > 1;
+  split_ = distributed_ && mpi::size() > 1;
   incompressible_ = disc.split().incompressible();
   nodes_.resize(static_cast<std::size_t>(nc) * npc_);
   for (int e = 0; e < nc; ++e)
@@ -41,30 +40,23 @@ Newton::Newton(const Discretization& disc, bool krylov, bool distributed,
     for (int a : disc.dirichlet().fixed[i]) free_[d * a + i] = -1;
   for (int& f : free_)
     if (f >= 0) f = nfree_++;
-  // This rank's cells (all of them on one rank): the per-cell data below is built for them.
-  // On several ranks, its cells of the Solver's partition (ALG2's cells; blocks of the cell
-  // index without one). With the distributed solves a node's rows are on the rank of
-  // node_ranks, the smallest among its cells' ranks (the global step's rows): a cell's terms land
-  // in its rank's rows but at the interfaces of the parts, whose nodes are on the other side's
-  // rows or its own.
-  const int me = split_ ? mpi::rank() : 0;
-  if (split_ && cells) {
-    if (cells->offset.size() != static_cast<std::size_t>(mpi::size()) + 1 ||
-        static_cast<int>(cells->order.size()) != nc)
-      throw Error(cat("Newton: a partition of ", cells->order.size(), " cells into ",
-                      cells->offset.size() - 1, " parts for ", nc, " cells on ", mpi::size(),
-                      " ranks"));
-    cells_ = cells->items(me);
+  // This rank's cells: its cells of the Solver's partition (ALG2's cells), every cell on one
+  // process; the per-cell data below is built for them. With the distributed solves a node's
+  // rows are on the rank of node_ranks, the smallest among its cells' ranks (the global step's
+  // rows): a cell's terms land in its rank's rows but at the interfaces of the parts, whose
+  // nodes are on the other side's rows or its own.
+  if (cells && (cells->offset.size() != static_cast<std::size_t>(mpi::size()) + 1 ||
+                static_cast<int>(cells->order.size()) != nc))
+    throw Error(cat("Newton: a partition of ", cells->order.size(), " cells into ",
+                    cells->offset.size() - 1, " parts for ", nc, " cells on ", mpi::size(),
+                    " ranks"));
+  if (split_) {
+    cells_ = cells->items(mpi::rank());
   } else {
-    const std::vector<int> block = mpi::blocks(nc, split_ ? mpi::size() : 1);
-    for (int e = block[me]; e < block[me + 1]; ++e) cells_.push_back(e);
+    cells_.resize(nc);
+    for (int e = 0; e < nc; ++e) cells_[e] = e;
   }
-  if (distributed && distributed_newton_solves()) {
-    if (!split_)
-      node_rank_.assign(nn, 0);  // one rank: every row its own
-    else
-      node_rank_ = node_ranks(mesh, cells ? *cells : mpi::partition_of(cells_, nc));
-  }
+  if (distributed_ && distributed_newton_solves()) node_rank_ = node_ranks(mesh, *cells);
   slot_.assign(nc, -1);
   for (std::size_t k = 0; k < cells_.size(); ++k) slot_[cells_[k]] = static_cast<int>(k);
   // Per cell of this rank, from the sums of cell_integrals (fe.cpp), from which the

@@ -54,18 +54,18 @@ class Newton {
   /// run whose global step is CG + AMG (the Solver sets it); then the factor's pattern is not
   /// built.
   ///
-  /// distributed: the Newton phase of a distributed Solver (Ranks::All; the Solver sets it). Its
-  /// linear systems are then solved over the ranks (mpi_newton.hpp), unless the PETSc option
-  /// -ltl_mpi_newton_replicated keeps them replicated. On more than one rank the per-cell data
-  /// (mean gradients, constraint points, the cells' positions in the tangent's values) is built
-  /// for the rank's cells only, so that it takes 1/P of the memory: its cells of `cells` (the
-  /// Solver's partition, ALG2's cells; null: blocks of the cell index), and the distributed
-  /// systems' rows are those of its nodes (node_ranks of the partition, the global step's rows);
+  /// cells: for the Newton phase of a distributed Solver (Ranks::All), the Solver's partition of
+  /// the cells (the Solver sets it; null: not distributed). Its linear systems are then solved
+  /// over the ranks (mpi_newton.hpp), unless the PETSc option -ltl_mpi_newton_replicated keeps
+  /// them replicated. On more than one rank the per-cell data (mean gradients, constraint points,
+  /// the cells' positions in the tangent's values) is built for the rank's cells of the partition
+  /// only (ALG2's cells), so that it takes 1/P of the memory, and the distributed systems' rows
+  /// are those of its nodes (node_ranks of the partition, the global step's rows);
   /// the cell loops of the residual, of the augmented tangent and of the det F check run on those
   /// cells and are summed over the ranks, so that every rank holds the same whole residual and
   /// matrix. The LU step's system (and tangent(), constraint_gradient()) gathers the ranks' cell
   /// terms: it is whole on every rank.
-  explicit Newton(const Discretization& disc, bool krylov = false, bool distributed = false,
+  explicit Newton(const Discretization& disc, bool krylov = false,
                   const mpi::Partition* cells = nullptr);
 
   /// The unknowns of the discrete problem: u (#nodes x dim), a pressure per cell (empty for the
@@ -223,7 +223,7 @@ class Newton {
     Eigen::VectorXd beta_prev, a;
   };
   bool glued_ = false;
-  bool distributed_ = false;  ///< the constructor's distributed
+  bool distributed_ = false;  ///< a partition of the cells given: a distributed Solver's
   /// distributed on more than one rank: the per-cell data and the cell loops on this rank's
   /// cells, summed over the ranks.
   bool split_ = false;

@@ -524,6 +524,7 @@ TEST(Mpi, TheRanksCellsAreAGraphPartitionThatCutsFewFacets) {
     }
     EXPECT_EQ(std::count(held.begin(), held.end(), 1), nc) << K << " parts";
     EXPECT_EQ(graph_cells(m, K).order, g.order) << "a second partition differs, " << K << " parts";
+    EXPECT_EQ(mpi::partition_of_ranks(g.owners(), K).order, g.order) << K << " parts";
     const long cut = cut_facets(m, g), blocks = (K == 4 ? 2 : 3) * n * n;
     EXPECT_LE(cut, 1.15 * blocks) << K << " parts";
     EXPECT_LT(cut, cut_facets(m, slab_cells(m, K))) << K << " parts";
@@ -605,9 +606,7 @@ TEST(Mpi, Eq4_7_EachContactPointIsOnARankOfItsCell) {
     const mpi::Partition& cells = *dist.cell_partition();
     const mpi::Partition part = point_partition(p.mesh, pts, cells);
     ASSERT_EQ(part.order.size(), static_cast<std::size_t>(pts.size())) << kind;
-    std::vector<int> cell_rank(p.mesh.num_cells());
-    for (int r = 0; r < P; ++r)
-      for (int c : cells.items(r)) cell_rank[c] = r;
+    const std::vector<int> cell_rank = cells.owners();
     for (int r = 0; r < P; ++r)
       for (int s : part.items(r)) {
         int lowest = P;  // the smallest rank of a cell holding every node of s

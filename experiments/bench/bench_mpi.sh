@@ -62,18 +62,13 @@ done
 # The partition of the cells (paper_notes/mpi.md, "The ranks' cells: a graph partition").
 "$bench" 8 80 160 --cuts 2,4,8,16,64,256 --label cuts
 "$bench" --body cube 46 --cuts 2,4,8,16,64,256 --label cuts
+# ALG2 on the cube of 46^3, and the Newton phase on one of 30^3, with either partition ("The
+# Newton phase and the contact points on the cells' partition").
 for p in 2 4; do
   for part in graph slabs; do
     if [ "$part" = slabs ]; then options=-ltl_mpi_slabs; else options=; fi
     PETSC_OPTIONS=$options mpirun -n "$p" --oversubscribe -x PETSC_OPTIONS "$bench" --body cube 46 \
       --solver cg-amg --iters 8 --warm 2 --label "$part" < /dev/null
-  done
-done
-# The Newton phase on either partition (paper_notes/mpi.md, "The Newton phase and the contact
-# points on the cells' partition").
-for p in 2 4; do
-  for part in graph slabs; do
-    if [ "$part" = slabs ]; then options=-ltl_mpi_slabs; else options=; fi
     echo "newton: cube 30^3, $part, $p ranks"
     PETSC_OPTIONS=$options mpirun -n "$p" --oversubscribe -x PETSC_OPTIONS "$newton" \
       "$(dirname "$0")/cube.toml" mesh.parameters.n=30 algorithm.newton_switch=1e9 \
