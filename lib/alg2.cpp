@@ -27,7 +27,6 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   const ContactPoints* points = disc_.points();
   const int n_points = points ? points->size() : 0;
   const AlgorithmParams& a = alg();
-  F_ext_ = disc_.dead_load();
   norm_I_ = std::sqrt(a.q * disc_.volume() * dim);
   if (ranks == Ranks::All) distribute();  // alg2_mpi.cpp
   if (!points_distributed()) {            // every point on this rank
@@ -127,7 +126,8 @@ State Solver::initial_state(bool whole) const {
   const int dim = this->dim();
   const int n_points = disc_.points() ? disc_.points()->size() : 0;
   State s;
-  s.u = disc_.dirichlet().value;
+  s.u = Eigen::MatrixXd::Zero(disc_.problem().mesh.num_nodes(), dim);
+  for (int i = 0; i < dim; ++i) disc_.dirichlet().impose(s.u, i, 1.0);
   s.E = whole || !rows_between_steps()
             ? disc_.identity()
             : Eigen::MatrixXd(identity_rows(dim, static_cast<int>(disc_.held_cells().size())));
@@ -155,7 +155,7 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   const auto I = identity_rows(dim(), disc_.num_cells());
   T_ = Rq * (s.E - I) + s.lambda - 2 * disc_.split().C1 * I;
   rhs_.noalias() = cells.GbarT_vol * T_;
-  rhs_ += F_ext_;
+  rhs_ += load_factor_ * disc_.dead_load();
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, lagged
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_);
   if (points) rhs_.noalias() += points->meanT_area * (R_ * a.q_c * s.e + s.lambda_c);
@@ -490,7 +490,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       if (contact_) newton_->set_glue(*contact_, beta_prev);
       const bool glued = contact_ && contact_->glued();
       const State before = glued ? s : State();
-      Newton::Result r = newton_->solve(s, F_ext_, a, report, progress);
+      Newton::Result r = newton_->solve(s, external_load(), a, report, progress);
       if (r.converged && glued && !local_contact_step_holds(s, beta_prev)) {
         s = before;
         r.converged = false;
@@ -538,8 +538,7 @@ bool Solver::adapt_R(const IterationRecord& rec, State& s) {
 void Solver::set_load_factor(double factor) {
   if (!std::isfinite(factor)) throw Error(cat("load factor ", factor, ": must be finite"));
   load_factor_ = factor;
-  F_ext_ = factor * disc_.dead_load();  // same size: no allocation
-  set_displacement_factor(factor);      // prescribed displacements follow the same factor
+  set_displacement_factor(factor);  // prescribed displacements follow the same factor
 }
 
 void Solver::set_displacement_factor(double factor) {
@@ -549,7 +548,7 @@ void Solver::set_displacement_factor(double factor) {
 }
 
 double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {
-  double J = disc_.elastic_energy(s, F_ext_);
+  double J = disc_.elastic_energy(s, external_load());
   if (contact_) J += contact_->energy(s.e, s.beta, beta_prev);
   return J;
 }

@@ -131,7 +131,7 @@ class Solver {
   int dim() const { return disc_.dim(); }
   /// Discretization::energy_gradient at the current load.
   Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u) const {
-    return disc_.energy_gradient(u, F_ext_);
+    return disc_.energy_gradient(u, external_load());
   }
 
   /// [LTL87 (2.2)] The discrete functional J_p at a state, with beta_prev = beta_{p-1}:
@@ -170,7 +170,9 @@ class Solver {
   /// The bytes this process holds in the discretization and the solver's arrays (not PETSc's
   /// or the factor's).
   Holdings holdings() const;
-  const Eigen::MatrixXd& external_load() const { return F_ext_; }
+  /// load_factor() x the assembled dead loads f, g (#nodes x dim; made on each call: the Solver
+  /// keeps the dead loads once, in the discretization, and the factor).
+  Eigen::MatrixXd external_load() const { return load_factor_ * disc_.dead_load(); }
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
   /// external_load() = factor x the assembled dead loads f, g, and the prescribed displacements
   /// at factor x their values (set_displacement_factor(factor)). K is unchanged.
@@ -317,8 +319,7 @@ class Solver {
   std::vector<int> all_points_;            ///< 0 .. #points - 1 (own_points() unless distributed)
   std::unique_ptr<ContactSteps> contact_;  ///< one local contact step (4.7) per obstacle
   std::unique_ptr<Newton> newton_;         ///< algorithm.solver = "newton" (newton.hpp)
-  double gamma_ = 0;       ///< mean-det's proximal stiffness on the fluctuations, 2 R q
-  Eigen::MatrixXd F_ext_;  ///< #nodes x dim, load_factor_ x the dead loads f, g
+  double gamma_ = 0;  ///< mean-det's proximal stiffness on the fluctuations, 2 R q
   double load_factor_ = 1;
   bool whole_in_progress_ = false;  ///< set_whole_state_in_progress
   bool iterate_finite_ = true;      ///< u of the last iteration finite on every rank

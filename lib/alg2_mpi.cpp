@@ -235,7 +235,8 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   });
   const SpMatR& G = disc_.cells().Gbar;  // rows dim c .. dim c + dim - 1 of cell c
   const bool ghosts = d.ksp && d.ksp->ghost_layer();
-  if (mpi::rank() == 0 && !ghosts) rhs_ += F_ext_;  // with ghosts, on the owned rows (solve)
+  if (mpi::rank() == 0 && !ghosts)  // with ghosts, on the owned rows (solve)
+    rhs_ += load_factor_ * disc_.dead_load();
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own);
   if (points) {
@@ -246,7 +247,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     rhs_.noalias() += d.meanT_own * d.point_rhs;
   }
   if (ghosts) {  // the ranks' parts added into PETSc's vector; u on this rank's nodes
-    d.ksp->solve(rhs_, s.u, &F_ext_);
+    d.ksp->solve(rhs_, s.u, &disc_.dead_load(), load_factor_);
   } else {
     mpi::sum(rhs_.data(), rhs_.size());
     if (d.ksp)
@@ -427,8 +428,9 @@ Holdings Solver::holdings() const {
                   bytes_of(prev_.E) + bytes_of(half_.lambda) + bytes_of(w_cell_) +
                   4.0 * static_cast<double>(disc_.held_cells().size());
   if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
-  h.node_arrays = bytes_of(disc_.dead_load()) + bytes_of(F_ext_) +
-                  bytes_of(disc_.dirichlet().value) + bytes_of(rhs_);
+  h.node_arrays = bytes_of(disc_.dead_load()) + bytes_of(rhs_);
+  for (std::size_t i = 0; i < disc_.dirichlet().fixed.size(); ++i)
+    h.node_arrays += 12.0 * static_cast<double>(disc_.dirichlet().fixed[i].size());
   if (const ContactPoints* p = disc_.points()) {
     h.contact = bytes_of_sparse(p->mean) + bytes_of_sparse(p->meanT_area) + bytes_of(p->area) +
                 bytes_of(p->centre) + bytes_of(p->gap) + bytes_of(p->normals) +

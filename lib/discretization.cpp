@@ -169,22 +169,28 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
   if (points()) contact_area_ = points()->area.sum();
 
   // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
-  bc_.fixed.assign(dim, {});
-  bc_.value = Eigen::MatrixXd::Zero(nn, dim);
+  // A node's component fixed by several conditions is listed once, with the last one's value
+  // (the problem's validation refuses conditions that prescribe different values there).
+  std::vector<std::vector<std::pair<int, double>>> prescribed(dim);
   for (const auto& d : problem_.dirichlet) {
     for (int node : mesh.boundary_nodes(d.group, d.origin)) {
       Eigen::Vector3d x = Eigen::Vector3d::Zero();
       x.head(dim) = mesh.X.row(node).transpose();
       const Eigen::Vector3d value = d.field(x);
-      for (int c : d.components) {
-        bc_.fixed[c].push_back(node);
-        bc_.value(node, c) = value(c);
-      }
+      for (int c : d.components) prescribed[c].emplace_back(node, value(c));
     }
   }
-  for (auto& f : bc_.fixed) {
-    std::sort(f.begin(), f.end());
-    f.erase(std::unique(f.begin(), f.end()), f.end());
+  bc_.fixed.assign(dim, {});
+  bc_.value.assign(dim, {});
+  for (int c = 0; c < dim; ++c) {
+    auto& p = prescribed[c];
+    std::stable_sort(p.begin(), p.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (k + 1 < p.size() && p[k + 1].first == p[k].first) continue;  // a later one follows
+      bc_.fixed[c].push_back(p[k].first);
+      bc_.value[c].push_back(p[k].second);
+    }
   }
 
   // [LTL87 (1.2)] The consistent dead loads f and g at load factor 1.

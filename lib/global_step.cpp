@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <map>
 #include <set>
 
@@ -119,7 +120,7 @@ void restrict_to_free(const SpMat& K, const DirichletData& bc, const std::vector
           ++count[1 + (lower_only ? r.local[col] : r.local[row])];
       } else {
         for (int k = 0; k < nc; ++k)
-          r.shift(r.local[row], k) += it.value() * bc.value(col, components[k]);
+          r.shift(r.local[row], k) += it.value() * bc.value_at(col, components[k]);
       }
     }
   for (int i = 0; i < nf; ++i) count[i + 1] += count[i];
@@ -169,6 +170,23 @@ double GlobalStep::predicted_factor_nonzeros(const SpMat& K, const DirichletData
 GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver,
                        const Eigen::MatrixXd* X)
     : GlobalStep(SpMat(K), bc, solver, X) {}
+
+double DirichletData::value_at(int a, int i) const {
+  const std::vector<int>& f = fixed[i];
+  const auto it = std::lower_bound(f.begin(), f.end(), a);
+  return it != f.end() && *it == a ? value[i][it - f.begin()] : 0.0;
+}
+
+void DirichletData::impose(Eigen::MatrixXd& u, int i, double scale) const {
+  for (std::size_t k = 0; k < fixed[i].size(); ++k) u(fixed[i][k], i) = scale * value[i][k];
+}
+
+double DirichletData::max_abs_value() const {
+  double m = 0;
+  for (const std::vector<double>& v : value)
+    for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
 
 std::vector<std::vector<int>> components_by_dirichlet_set(const DirichletData& bc) {
   std::vector<std::vector<int>> groups;
@@ -287,7 +305,7 @@ void GlobalStep::iterate(Group& g, const Eigen::MatrixXd& b, Eigen::MatrixXd& u)
     }
     g.amg->solve(g.b.data(), g.x.data());
     for (int i = 0; i < nf; ++i) u(g.node[i], c) = g.x[i];
-    for (int i : bc_.fixed[c]) u(i, c) = scale_ * bc_.value(i, c);
+    bc_.impose(u, c, scale_);
   }
 }
 
@@ -351,7 +369,7 @@ void GlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) {
       const int c = g.components[k];
       double* uc = u.col(c).data();
       for (int i = 0; i < nf; ++i) uc[g.node[i]] = y[nc * i + k];
-      for (int i : bc_.fixed[c]) uc[i] = scale_ * bc_.value(i, c);
+      bc_.impose(u, c, scale_);  // column c alone: the groups' columns are distinct
     }
   };
   // Distinct factors are independent (and each has its own CHOLMOD state): solve them

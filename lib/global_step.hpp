@@ -32,11 +32,19 @@
 
 namespace ltl {
 
-/// Per-component Dirichlet data: fixed[i] lists the fixed nodes of component i (sorted, unique);
-/// value (#nodes x dim) holds the prescribed values at those nodes.
+/// [LTL87 (1.1)] Per-component Dirichlet data, u = value on Gamma_1: fixed[i] lists the fixed
+/// nodes of component i (sorted, unique) and value[i][k] is the prescribed value at fixed[i][k].
+/// O(#fixed nodes), not a dense #nodes x dim array: every MPI rank holds it (paper_notes/mpi.md).
 struct DirichletData {
   std::vector<std::vector<int>> fixed;
-  Eigen::MatrixXd value;
+  std::vector<std::vector<double>> value;
+  /// The prescribed value of component i at node a (a binary search in fixed[i]); 0 where the
+  /// component is free.
+  double value_at(int a, int i) const;
+  /// Component i of u at every fixed node set to scale x its prescribed value.
+  void impose(Eigen::MatrixXd& u, int i, double scale) const;
+  /// The largest |prescribed value| (0 with none: no step is driven by a displacement).
+  double max_abs_value() const;
 };
 
 /// The displacement components grouped by Dirichlet set, in order of first appearance: the

@@ -128,8 +128,8 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&&, const DirichletData& bc,
       "(`make test-mpi`)");
 }
 DistributedGlobalStep::~DistributedGlobalStep() = default;
-void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&,
-                                  const Eigen::MatrixXd*) {}
+void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&, const Eigen::MatrixXd*,
+                                  double) {}
 void DistributedGlobalStep::set_ghost_layer(const std::vector<int>&) {}
 void DistributedGlobalStep::whole_u(Eigen::MatrixXd&) {}
 
@@ -262,7 +262,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
                                              const Eigen::MatrixXd& X,
                                              const std::vector<int>& node_rank, Solver solver,
                                              bool parts)
-    : bc_(bc), solver_(solver) {
+    : bc_(bc), solver_(solver), num_nodes_(static_cast<int>(K.rows())) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(K.rows());
   const int P = mpi::size(), me = mpi::rank();
@@ -318,9 +318,9 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
             vals.push_back(it.value());
           } else if (with_shift) {
             for (int k = 0; k < nc; ++k)
-              check(
-                  VecSetValue(shift[k], row, it.value() * bc.value(m, g.components[k]), ADD_VALUES),
-                  g.what, "VecSetValue");
+              check(VecSetValue(shift[k], row, it.value() * bc.value_at(m, g.components[k]),
+                                ADD_VALUES),
+                    g.what, "VecSetValue");
           }
         }
         if (!cols.empty())
@@ -452,7 +452,7 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
   for (auto& gp : groups_) {
     Group& g = *gp;
     const int f0 = g.offset[me], f1 = g.offset[me + 1];
-    std::vector<int> free_row(bc_.value.rows(), -1);
+    std::vector<int> free_row(num_nodes_, -1);
     for (std::size_t k = 0; k < g.node.size(); ++k) free_row[g.node[k]] = static_cast<int>(k);
     g.add_row.clear();
     for (int n : nodes)
@@ -485,7 +485,7 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
 // it b is this rank's part, added into PETSc's vector, and u is scattered back on the rows the
 // rank reads.
 void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
-                                  const Eigen::MatrixXd* loads) {
+                                  const Eigen::MatrixXd* loads, double load_scale) {
   if (u.rows() != b.rows() || u.cols() != b.cols()) u = Eigen::MatrixXd::Zero(b.rows(), b.cols());
   const int me = mpi::rank();
   for (auto& gp : groups_) {
@@ -509,7 +509,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       for (int r = 0; r < own; ++r) {
         const int node = g.node[f0 + r];
         if (ghost_layer_)
-          pb[r] += (loads ? (*loads)(node, c) : 0.0) - scale_ * g.shift(r, k);
+          pb[r] += (loads ? load_scale * (*loads)(node, c) : 0.0) - scale_ * g.shift(r, k);
         else
           pb[r] = b(node, c) - scale_ * g.shift(r, k);
         px[r] = u(node, c);
@@ -544,7 +544,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
         check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
         g.gather_into(u, c);
       }
-      for (int i : bc_.fixed[c]) u(i, c) = scale_ * bc_.value(i, c);
+      bc_.impose(u, c, scale_);
     }
   }
 }

@@ -98,10 +98,11 @@ class DistributedGlobalStep {
   /// [LTL87 (4.1), (4.5)] K u = b with u = value_scale x value on the fixed nodes; b whole on
   /// every rank, u in: the warm start, out: the solution, whole on every rank. Collective.
   /// With a ghost layer: b is this rank's part (its rows `nodes` are read; the parts of the ranks
-  /// add up to the right-hand side), `loads` (whole, the same on every rank; may be null) is
-  /// added on the owned rows, and u is the solution on `nodes` and the owned rows, its other rows
-  /// unchanged.
-  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u, const Eigen::MatrixXd* loads = nullptr);
+  /// add up to the right-hand side), `load_scale` x `loads` (whole, the same on every rank; may
+  /// be null) is added on the owned rows, and u is the solution on `nodes` and the owned rows, its
+  /// other rows unchanged.
+  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u, const Eigen::MatrixXd* loads = nullptr,
+             double load_scale = 1);
   /// The ghost layer: `nodes` (sorted, distinct) are the nodes whose rows of b this rank
   /// fills and whose u it reads (its cells' and contact points' nodes). Collective.
   void set_ghost_layer(const std::vector<int>& nodes);
@@ -138,6 +139,7 @@ class DistributedGlobalStep {
   Solver solver_;
   double scale_ = 1;
   bool ghost_layer_ = false;
+  int num_nodes_ = 0;  ///< the mesh's nodes (the rows of u)
   long iterations_ = 0, solves_ = 0, ghosts_ = 0, owned_rows_ = 0, layer_ghosts_ = 0;
   double setup_seconds_ = 0, ksp_seconds_ = 0;
 };

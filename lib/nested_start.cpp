@@ -74,8 +74,7 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   // The prescribed values where this problem prescribes them, at its step 1.
   const DirichletData& bc = disc.dirichlet();
   const double f1 = problem.ramp.factor(1, problem.time.dt);
-  for (int i = 0; i < d; ++i)
-    for (int a : bc.fixed[i]) s.u(a, i) = f1 * bc.value(a, i);
+  for (int i = 0; i < d; ++i) bc.impose(s.u, i, f1);
 
   // E = Fbar(u) (2.7), (3.3); lambda from the law at Fbar with the pressure of the source cell
   // that contains the cell's centroid (4.6).

@@ -159,8 +159,7 @@ Increment load_increment(const Problem& problem, int p) {
 void check_load_scale(const Solver& solver, double load_scale, int p) {
   const Problem& problem = solver.problem();
   const int dim = problem.mesh.dim;
-  const Eigen::MatrixXd& displaced = solver.discretization().dirichlet().value;
-  if (!(load_scale > 0) || (displaced.size() > 0 && displaced.cwiseAbs().maxCoeff() > 0)) return;
+  if (!(load_scale > 0) || solver.discretization().dirichlet().max_abs_value() > 0) return;
   const double h =
       std::pow(solver.discretization().cells().vol.sum() / problem.mesh.num_cells(), 1.0 / dim);
   const double unit = problem.material.C1 * std::pow(h, dim - 1);
@@ -260,7 +259,7 @@ std::string subdivision_refused(const Solver& solver, double f0, double f1) {
   if (f1 == f0)
     return cat("not subdivided: the load factor does not change at this step (", f1,
                "); nothing to subdivide");
-  const bool displaced = solver.discretization().dirichlet().value.cwiseAbs().maxCoeff() > 0;
+  const bool displaced = solver.discretization().dirichlet().max_abs_value() > 0;
   if (!(solver.external_load().cwiseAbs().maxCoeff() > 0) && !displaced)
     return "not subdivided: no dead load and no prescribed displacement";
   return "";

@@ -33,8 +33,9 @@ BoxSystem box_system(int n) {
   const std::vector<int> z0 = s.mesh.boundary_nodes("z0");
   s.bc.fixed.assign(3, z0);
   s.bc.fixed[0] = s.mesh.boundary_nodes("x0");  // a second Dirichlet set: two groups
-  s.bc.value = Eigen::MatrixXd::Zero(s.mesh.num_nodes(), 3);
-  for (int i : z0) s.bc.value(i, 2) = 0.01 * s.mesh.X(i, 0);
+  s.bc.value.assign(3, {});
+  for (int c = 0; c < 3; ++c) s.bc.value[c].assign(s.bc.fixed[c].size(), 0.0);
+  for (std::size_t k = 0; k < z0.size(); ++k) s.bc.value[2][k] = 0.01 * s.mesh.X(z0[k], 0);
   return s;
 }
 

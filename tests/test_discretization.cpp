@@ -4,6 +4,8 @@
 // the deformed area), then the behaviour that made us change: det-mean loses area on every mesh.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <random>
 
@@ -180,4 +182,41 @@ TEST(Discretization, Eq4_5_IsIndependentOfTheAugmentationAndFeedsTheSolverUnchan
   EXPECT_FALSE(from_discretization.solve_step(s2, s2.beta).converged);
   EXPECT_EQ((s1.u - s2.u).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ((s1.lambda - s2.lambda).cwiseAbs().maxCoeff(), 0.0);
+}
+
+// [LTL87 (1.1)] u = value on Gamma_1, held per fixed node (value[i][k] at fixed[i][k], not a
+// dense #nodes x dim array). Two conditions on one part fix the same component with the same
+// affine value (different values are refused when the problem is validated): the node is listed
+// once, with that value; the initial state and value_at give it, and 0 on the free nodes.
+TEST(Discretization, Eq1_1_DirichletValuesHeldPerFixedNodeEachOnce) {
+  ltl::Problem p = fig5(7);
+  const ltl::DirichletCondition sym = p.dirichlet.at(0);  // a copy: the list grows below
+  ltl::DirichletCondition first{sym.group, {1}, {}, "test.first"};
+  first.field.value(1) = -0.2;
+  first.field.gradient(1, 1) = 0.5;  // affine: -0.2 + 0.5 y (the part is the plane x = 0)
+  ltl::DirichletCondition later = first;
+  later.origin = "test.later";
+  p.dirichlet.push_back(first);
+  p.dirichlet.push_back(later);
+  const ltl::Discretization d(p);
+  const ltl::DirichletData& bc = d.dirichlet();
+  const std::vector<int> part = p.mesh.boundary_nodes(sym.group);
+  ASSERT_EQ(bc.fixed.size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_EQ(bc.value[i].size(), bc.fixed[i].size());
+    EXPECT_TRUE(std::is_sorted(bc.fixed[i].begin(), bc.fixed[i].end()));
+    EXPECT_EQ(std::adjacent_find(bc.fixed[i].begin(), bc.fixed[i].end()), bc.fixed[i].end());
+  }
+  EXPECT_EQ(bc.fixed[1], part);
+  const ltl::State s = ltl::Solver(p).initial_state();
+  std::vector<char> on_part(p.mesh.num_nodes(), 0);
+  for (int a : part) on_part[a] = 1;
+  for (int a = 0; a < p.mesh.num_nodes(); ++a) {
+    const double expected = on_part[a] ? -0.2 + 0.5 * p.mesh.X(a, 1) : 0.0;
+    EXPECT_EQ(bc.value_at(a, 1), expected) << "node " << a;
+    EXPECT_EQ(s.u(a, 1), expected) << "node " << a;
+  }
+  double largest = 0;
+  for (int a : part) largest = std::max(largest, std::abs(-0.2 + 0.5 * p.mesh.X(a, 1)));
+  EXPECT_EQ(bc.max_abs_value(), largest);
 }

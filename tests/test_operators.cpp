@@ -100,11 +100,13 @@ TEST(GlobalStep, SolvesWithDirichletValuesAndOneFactorPerDistinctSet) {
   const CellOperators c = cell_operators(m);
   const SpMat K = global_matrix(c, nullptr, 1.0, 2.0, 0);
   DirichletData bc;
-  bc.value = Eigen::MatrixXd::Zero(m.num_nodes(), 2);
-  // Component x fixed on left and bottom, y only on the left (two distinct sets).
+  // Component x fixed on left and bottom, y only on the left (two distinct sets); the values
+  // are held per fixed node (value[i][k] at fixed[i][k]), u = value there (1.1).
   bc.fixed = {m.boundary_nodes("boundary"), m.boundary_nodes("left")};
-  for (int i : bc.fixed[0]) bc.value(i, 0) = 0.1 * m.X(i, 1);
-  for (int i : bc.fixed[1]) bc.value(i, 1) = -0.2;
+  bc.value.assign(2, {});
+  for (int i : bc.fixed[0]) bc.value[0].push_back(0.1 * m.X(i, 1));
+  bc.value[1].assign(bc.fixed[1].size(), -0.2);
+  EXPECT_EQ(bc.max_abs_value(), 0.2);
   GlobalStep step(K, bc);
   EXPECT_EQ(step.num_factors(), 2);
   EXPECT_GT(step.min_rcond(), 1e-6);
@@ -113,25 +115,27 @@ TEST(GlobalStep, SolvesWithDirichletValuesAndOneFactorPerDistinctSet) {
   const Eigen::MatrixXd r = K * u - b;
   for (int comp = 0; comp < 2; ++comp) {
     std::vector<char> fixed(m.num_nodes(), 0);
-    for (int i : bc.fixed[comp]) {
-      fixed[i] = 1;
-      EXPECT_EQ(u(i, comp), bc.value(i, comp));
-    }
+    for (int i : bc.fixed[comp]) fixed[i] = 1;
     for (int i = 0; i < m.num_nodes(); ++i) {
-      if (!fixed[i]) {
+      if (fixed[i]) {
+        EXPECT_EQ(u(i, comp), comp == 0 ? 0.1 * m.X(i, 1) : -0.2) << "node " << i;
+        EXPECT_EQ(bc.value_at(i, comp), u(i, comp)) << "node " << i;
+      } else {
         EXPECT_LT(std::abs(r(i, comp)), 1e-10) << "node " << i;
+        EXPECT_EQ(bc.value_at(i, comp), 0.0) << "node " << i;
       }
     }
   }
   // Same set for both components: one factor, solved as one two-column right-hand side.
   bc.fixed = {m.boundary_nodes("left"), m.boundary_nodes("left")};
+  bc.value.assign(2, std::vector<double>(bc.fixed[0].size(), 0.0));
   EXPECT_EQ(GlobalStep(K, bc).num_factors(), 1);
 }
 
 TEST(GlobalStep, SingularMatrixIsAClearError) {
   const Mesh m = load_mesh(test_path("geometry/square.geo"));
   const SpMat K = global_matrix(cell_operators(m), nullptr, 1.0, 2.0, 0);
-  DirichletData bc{{{}, {}}, Eigen::MatrixXd::Zero(m.num_nodes(), 2)};  // nothing fixed
+  DirichletData bc{{{}, {}}, {{}, {}}};  // nothing fixed
   try {
     GlobalStep step(K, bc);
     FAIL() << "no error; condition estimate " << step.min_rcond();
