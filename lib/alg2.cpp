@@ -424,8 +424,9 @@ class Solver::Alg2Map final : public FixedPointMap {
   // Distributed, on the state between steps made from the iterate (when the stopping test is
   // due): u whole, E and lambda the rank's rows (or gathered with the replicated factor).
   double equilibrium_error() const override {
-    return ltl::equilibrium_error(solver_.discretization(), solver_.external_load(),
-                                  solver_.dist_ ? solver_.between_steps(s_) : s_);
+    return ltl::equilibrium_error(solver_.discretization(), solver_.discretization().dead_load(),
+                                  solver_.dist_ ? solver_.between_steps(s_) : s_,
+                                  solver_.load_factor());
   }
   int R_changes = 0;
 
@@ -508,7 +509,8 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     }
   }
   hold_rows(s);  // after a Newton phase (whole): the state between steps
-  const EquilibriumMeasure eq = equilibrium_measure(discretization(), external_load(), s);
+  const EquilibriumMeasure eq =
+      equilibrium_measure(discretization(), disc_.dead_load(), s, load_factor_);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;
   report.det_min = eq.det_min;

@@ -450,7 +450,8 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
 
 Eigen::MatrixXd Discretization::held_cell_forces(
     const Eigen::MatrixXd& u,
-    const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress) const {
+    const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
+    const State* less_fluctuation) const {
   const int d = dim();
   Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * u);
   Eigen::MatrixXd T;
@@ -459,6 +460,14 @@ Eigen::MatrixXd Discretization::held_cell_forces(
     stress(c0, n, at, T);
     add_cell_forces(cells_, c0, n, T, f);
   });
+  if (less_fluctuation && mean_det_) {  // f - force as -(-f + force): negation is exact
+    const State& s = *less_fluctuation;
+    if (whole_field(s.E) && partial_)
+      throw Error("held_cell_forces: the fluctuation needs E and lambda on the held cells' rows");
+    f = -f;
+    fluctuation(s.u, &s.lambda, &s.E, nullptr, &f, 0.0, partial_ ? &held_ : nullptr);
+    f = -f;
+  }
   if (partial_) mpi::sum(f.data(), f.size());
   return f;
 }

@@ -158,9 +158,13 @@ class Discretization {
   /// cells c0 .. c0 + n - 1 ((dim n) x dim, at `at` in held_cells()), into their T_e in place.
   /// The sum over cells of energy_gradient and of measures.cpp's equilibrium residual on a
   /// rank's cells.
+  /// With `less_fluctuation` (mean-det, its E and lambda on the held cells' rows): less those
+  /// cells' fluctuation_force, before the one sum over the ranks (no second #nodes x dim array,
+  /// no second reduction).
   Eigen::MatrixXd held_cell_forces(
       const Eigen::MatrixXd& u,
-      const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress) const;
+      const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
+      const State* less_fluctuation = nullptr) const;
   /// The elastic and load part of the discrete functional J_p (2.2) at a state, load F:
   ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - F.u
   double elastic_energy(const State& s, const Eigen::MatrixXd& F) const;

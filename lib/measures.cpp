@@ -187,27 +187,34 @@ double load_along_normal(const Problem& pb, const Eigen::MatrixXd& f_ext) {
 }
 
 Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                     const State& s) {
+                                     const State& s, double load_scale) {
   const CellOperators& c = d.cells();
   const double C1 = d.split().C1;
   Eigen::MatrixXd r;
+  // On a rank's cells with E and lambda on their rows, mean-det's fluctuation force goes into
+  // the same sum over the ranks as the cells' forces (one array, one reduction).
+  const bool fold = d.partial() && d.mean_det() && !d.whole_field(s.E);
   if (d.partial()) {
     // The held cells' part, run by run with Gbar^T |O_e| in place of GbarT_vol (no per-cell
     // array of the whole mesh), summed over the ranks (collective):
     //   Gbar^T |O_e| [2 C1 (E - Gbar u) - lambda] + 2 C1 L u,
     // E and lambda whole or on the held cells' rows (Discretization::cell_row).
     const int dim = d.dim();
-    r = d.held_cell_forces(s.u, [&](int c0, int n, int at, Eigen::MatrixXd& T) {
-      const Eigen::Index row = d.cell_row(s.E, c0, at);
-      T = 2 * C1 * (s.E.middleRows(row, dim * n) - T) - s.lambda.middleRows(row, dim * n);
-    });
-    r -= f_ext;
+    r = d.held_cell_forces(
+        s.u,
+        [&](int c0, int n, int at, Eigen::MatrixXd& T) {
+          const Eigen::Index row = d.cell_row(s.E, c0, at);
+          T = 2 * C1 * (s.E.middleRows(row, dim * n) - T) - s.lambda.middleRows(row, dim * n);
+        },
+        fold ? &s : nullptr);
+    r -= load_scale * f_ext;
   } else {
     const Eigen::MatrixXd GU = c.Gbar * s.u;
-    r = c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) - f_ext;
+    r = c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) -
+        load_scale * f_ext;
   }
   if (d.points()) r -= d.points()->meanT_area * s.lambda_c;
-  if (d.mean_det()) r -= d.fluctuation_force(s);
+  if (d.mean_det() && !fold) r -= d.fluctuation_force(s);
   return r;
 }
 
@@ -218,8 +225,8 @@ struct FreeAndFixed {
   double free = 0, reaction = 0;
 };
 FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                     const State& s) {
-  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
+                                     const State& s, double load_scale) {
+  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s, load_scale);
   FreeAndFixed m;
   const auto& fixed = d.dirichlet().fixed;
   for (int c = 0; c < d.dim(); ++c)
@@ -230,10 +237,11 @@ FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::Matri
 }  // namespace
 
 EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                       const State& s) {
+                                       const State& s, double load_scale) {
   EquilibriumMeasure m;
-  const double load = f_ext.cwiseAbs().maxCoeff();
-  m.force_residual = residual_free_and_fixed(d, f_ext, s).free / (load > 0 ? load : 1.0);
+  const double load = std::abs(load_scale) * f_ext.cwiseAbs().maxCoeff();
+  m.force_residual =
+      residual_free_and_fixed(d, f_ext, s, load_scale).free / (load > 0 ? load : 1.0);
   if (d.problem().material.incompressible()) {
     // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
     // On a rank's cells (a discretization of some cells), the largest over the ranks; E whole
@@ -273,11 +281,12 @@ double max_penetration(const Discretization& d, const State& s) {
   return pen;
 }
 
-double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s) {
+double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s,
+                         double load_scale) {
   const int dim = d.dim();
-  const FreeAndFixed r = residual_free_and_fixed(d, f_ext, s);
+  const FreeAndFixed r = residual_free_and_fixed(d, f_ext, s, load_scale);
   const double h = std::pow(d.volume() / d.num_cells(), 1.0 / dim);
-  double scale = f_ext.cwiseAbs().maxCoeff();
+  double scale = std::abs(load_scale) * f_ext.cwiseAbs().maxCoeff();
   if (!(scale > 0)) scale = r.reaction;
   if (!(scale > 0)) scale = d.split().C1 * std::pow(h, dim - 1);
   double err = r.free / scale;

@@ -134,8 +134,10 @@ double load_along_normal(const Problem& problem, const Eigen::MatrixXd& f_ext);
 ///   dim, Solver::external_load).
 /// Zero on every free degree of freedom at a fixed point of (4.1)-(4.3); on a fixed one it is the
 /// reaction of the support.
+/// The loads are load_scale x f_ext: a caller holding the dead loads and a load factor
+/// (Solver) passes them so, with no #nodes x dim copy.
 Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                     const State& s);
+                                     const State& s, double load_scale = 1);
 
 struct EquilibriumMeasure {
   double force_residual = 0;  ///< max |r| over free dofs / max |f_ext| (largest nodal load)
@@ -153,7 +155,7 @@ struct EquilibriumMeasure {
 
 /// The equilibrium measure of a state under the loads f_ext (reported with every converged step).
 EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                       const State& s);
+                                       const State& s, double load_scale = 1);
 
 /// Max over the obstacles and their contact groups' nodes of (x - x_0) . N, the deformed node's
 /// distance behind the obstacle plane (m; > 0: penetration); -inf without contact.
@@ -170,6 +172,7 @@ double penetration_of(const Discretization& d, const State& s, int k);
 ///   incompressible law the constraint on u itself, max |det(I + Gbar_e u) + c_e(u) - 1|;
 /// - the penetration (max_penetration, when positive) relative to the body's size |Omega|^(1/d).
 /// A step is converged when this is at most `algorithm.force_tol`, whatever the iteration.
-double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s);
+double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s,
+                         double load_scale = 1);
 
 }  // namespace ltl

@@ -205,7 +205,7 @@ double seconds_since(clock_type::time_point t0) {
 }
 bool up = false;
 int rank_ = 0, size_ = 1;
-constexpr long kReducePiece = 1L << 17;  ///< doubles a reduction to the writer at a time (1 MB)
+constexpr long kReducePiece = 1L << 17;  ///< doubles a reduction takes at a time (1 MB)
 std::vector<double> send_, recv_;
 std::vector<int> counts_, displs_;
 
@@ -260,8 +260,12 @@ void barrier() {
 void sum(double* x, long n) {
   if (!up || size_ == 1) return;
   const auto t0 = clock_type::now();
-  check(MPI_Allreduce(MPI_IN_PLACE, x, static_cast<int>(n), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD),
-        "MPI_Allreduce");
+  // In pieces of kReducePiece doubles, as sum_to_writer: Open MPI's temporary buffer of an
+  // in-place reduction (which it keeps) is of one piece, not of a whole #nodes x dim array.
+  for (long i = 0; i < n; i += kReducePiece)
+    check(MPI_Allreduce(MPI_IN_PLACE, x + i, static_cast<int>(std::min(kReducePiece, n - i)),
+                        MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD),
+          "MPI_Allreduce");
   traffic_.bytes += 8.0 * n;
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);
@@ -286,8 +290,10 @@ void sum_to_writer(double* x, long n) {
 void max(double* x, long n) {
   if (!up || size_ == 1) return;
   const auto t0 = clock_type::now();
-  check(MPI_Allreduce(MPI_IN_PLACE, x, static_cast<int>(n), MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD),
-        "MPI_Allreduce");
+  for (long i = 0; i < n; i += kReducePiece)  // in pieces, as sum
+    check(MPI_Allreduce(MPI_IN_PLACE, x + i, static_cast<int>(std::min(kReducePiece, n - i)),
+                        MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD),
+          "MPI_Allreduce");
   traffic_.bytes += 8.0 * n;
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);

@@ -42,7 +42,7 @@ void barrier();
 /// Contiguous blocks of n items over the ranks: rank r owns [offset[r], offset[r + 1]).
 std::vector<int> blocks(int n, int ranks);
 
-/// In place: x[i] = sum over ranks of x[i].
+/// In place: x[i] = sum over ranks of x[i] (in pieces of 1 MB: MPI's buffers stay that size).
 void sum(double* x, long n);
 /// The same to rank 0 alone (the results writer): there x[i] = sum over ranks of x[i]; elsewhere
 /// x is left as it was (and may be released).

@@ -5,11 +5,11 @@
 namespace ltl {
 
 SupportReactions support_reactions(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                   const State& s) {
+                                   const State& s, double load_scale) {
   const Problem& pb = d.problem();
   const int dim = pb.mesh.dim, nn = pb.mesh.num_nodes();
   const int nd = static_cast<int>(pb.dirichlet.size());
-  const Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s);
+  const Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s, load_scale);
   SupportReactions out;
   out.force = Eigen::MatrixXd::Zero(nd, dim);
   out.u = Eigen::MatrixXd::Zero(nd, dim);

@@ -35,9 +35,10 @@ struct SupportReactions {
 };
 
 /// [LTL87 (1.2), (4.5)] The reactions and support displacements at a converged state under the
-/// loads f_ext (#nodes x dim, Solver::external_load: the step's load factor applied).
+/// loads load_scale x f_ext (#nodes x dim: Solver::external_load, or the dead loads and the
+/// step's load factor).
 SupportReactions support_reactions(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                   const State& s);
+                                   const State& s, double load_scale = 1);
 
 /// The labels joined by "; " (the attribute `conditions` of the datasets).
 std::string joined_labels(const SupportReactions& r);

@@ -103,8 +103,8 @@ StepData step_data(const Solver& solver, const TimeStep& step, StepFields* field
   d.measures.push_back({"load_factor", solver.load_factor(), "1",
                         "load factor of the step ([load] ramp): multiplies the body force, the "
                         "tractions and the prescribed displacements"});
-  const SupportReactions r =
-      support_reactions(solver.discretization(), solver.external_load(), state);
+  const SupportReactions r = support_reactions(
+      solver.discretization(), solver.discretization().dead_load(), state, solver.load_factor());
   d.fields["reactions"] = r.force;
   d.fields["support_u"] = r.u;
   d.conditions = joined_labels(r);
@@ -187,7 +187,8 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   const int P = problem.time.steps;
   // LoadRamp, or a substep of its increment: the dead loads and the prescribed displacements.
   solver.set_load_factor(factor);
-  const double load_scale = solver.external_load().cwiseAbs().maxCoeff();
+  const double load_scale =
+      std::abs(factor) * solver.discretization().dead_load().cwiseAbs().maxCoeff();
   check_load_scale(solver, load_scale, p);
   const Eigen::VectorXd beta_prev = beta_prev_given ? *beta_prev_given : state.beta;
   IterationRecord shown;  // the first record printed: the rate of the step since then

@@ -690,6 +690,16 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   mpi::broadcast(s.lambda.data(), s.lambda.size());
   const Eigen::MatrixXd r = equilibrium_residual(serial.discretization(), F, s);
   EXPECT_LE((equilibrium_residual(dist.discretization(), F, s) - r).norm(), 1e-12 * r.norm());
+  // E and lambda on the rank's rows: mean-det's fluctuation force goes into the one sum of the
+  // cells' forces; the loads as the dead loads and a factor (here 1) make the same residual.
+  State rows = s;
+  dist.hold_rows(rows);
+  ASSERT_TRUE(P == 1 || rows.E.rows() < s.E.rows());
+  const Eigen::MatrixXd& f = dist.discretization().dead_load();
+  EXPECT_LE((equilibrium_residual(dist.discretization(), f, rows, dist.load_factor()) - r).norm(),
+            1e-12 * r.norm());
+  EXPECT_LE((equilibrium_residual(dist.discretization(), 0.5 * f, rows, 2.0) - r).norm(),
+            1e-12 * r.norm());
   const double err = equilibrium_error(serial.discretization(), F, s);
   EXPECT_GT(err, 0);
   EXPECT_NEAR(equilibrium_error(dist.discretization(), F, s), err, 1e-12 * err);
