@@ -48,8 +48,9 @@ struct Holdings {
   double mesh = 0;         ///< the mesh in the discretization's problem: X, cells, boundary facets
   double operators = 0;    ///< Gbar, GbarT_vol, the Laplacian, vol (the solver's copies too)
   double cell_arrays = 0;  ///< dense per-cell arrays: the work arrays, the cell lists
-  double node_arrays = 0;  ///< dense per-node arrays: dead loads, Dirichlet values, rhs
-  double contact = 0;      ///< the contact points' operators and arrays
+  /// Dense per-node arrays (dead loads, rhs) and the Dirichlet values (12 B per fixed dof).
+  double node_arrays = 0;
+  double contact = 0;  ///< the contact points' operators and arrays
   /// With the Newton phase (newton.hpp): its cells (the rank's on several ranks), their
   /// data, their positions in the tangent's pattern, and the whole-mesh data it keeps.
   int newton_cells = 0;

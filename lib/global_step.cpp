@@ -181,6 +181,23 @@ void DirichletData::impose(Eigen::MatrixXd& u, int i, double scale) const {
   for (std::size_t k = 0; k < fixed[i].size(); ++k) u(fixed[i][k], i) = scale * value[i][k];
 }
 
+void DirichletData::check(int nodes) const {
+  if (value.size() != fixed.size())
+    throw Error(cat("Dirichlet data: values for ", value.size(), " components, fixed nodes for ",
+                    fixed.size()));
+  for (std::size_t i = 0; i < fixed.size(); ++i) {
+    const std::vector<int>& f = fixed[i];
+    if (value[i].size() != f.size())
+      throw Error(cat("Dirichlet data, component ", i, ": ", value[i].size(), " values for ",
+                      f.size(), " fixed nodes"));
+    for (std::size_t k = 0; k < f.size(); ++k)
+      if (f[k] < 0 || f[k] >= nodes || (k > 0 && f[k] <= f[k - 1]))
+        throw Error(cat("Dirichlet data, component ", i, ": fixed node ", f[k], " at ", k,
+                        " is out of 0 .. ", nodes - 1, " or not after ", k > 0 ? f[k - 1] : -1,
+                        " (the list must be sorted, without repeats)"));
+  }
+}
+
 double DirichletData::max_abs_value() const {
   double m = 0;
   for (const std::vector<double>& v : value)
@@ -203,6 +220,7 @@ GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
                        const Eigen::MatrixXd* X)
     : bc_(bc) {
   const int n = static_cast<int>(K.rows());
+  bc.check(n);
   // One group per distinct Dirichlet set.
   for (std::vector<int>& components : components_by_dirichlet_set(bc)) {
     groups_.push_back(std::make_unique<Group>());

@@ -45,6 +45,9 @@ struct DirichletData {
   void impose(Eigen::MatrixXd& u, int i, double scale) const;
   /// The largest |prescribed value| (0 with none: no step is driven by a displacement).
   double max_abs_value() const;
+  /// An Error unless every fixed[i] is sorted, without repeats, within 0 .. nodes - 1, and
+  /// value[i] has one entry per fixed node (value_at's binary search relies on it).
+  void check(int nodes) const;
 };
 
 /// The displacement components grouped by Dirichlet set, in order of first appearance: the

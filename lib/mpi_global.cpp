@@ -263,6 +263,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
                                              const std::vector<int>& node_rank, Solver solver,
                                              bool parts)
     : bc_(bc), solver_(solver), num_nodes_(static_cast<int>(K.rows())) {
+  bc.check(num_nodes_);
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(K.rows());
   const int P = mpi::size(), me = mpi::rank();

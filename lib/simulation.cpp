@@ -261,7 +261,9 @@ std::string subdivision_refused(const Solver& solver, double f0, double f1) {
     return cat("not subdivided: the load factor does not change at this step (", f1,
                "); nothing to subdivide");
   const bool displaced = solver.discretization().dirichlet().max_abs_value() > 0;
-  if (!(solver.external_load().cwiseAbs().maxCoeff() > 0) && !displaced)
+  const double load = std::abs(solver.load_factor()) *  // max |factor f|, no copy of the loads
+                      solver.discretization().dead_load().cwiseAbs().maxCoeff();
+  if (!(load > 0) && !displaced)
     return "not subdivided: no dead load and no prescribed displacement";
   return "";
 }

@@ -130,6 +130,12 @@ TEST(GlobalStep, SolvesWithDirichletValuesAndOneFactorPerDistinctSet) {
   bc.fixed = {m.boundary_nodes("left"), m.boundary_nodes("left")};
   bc.value.assign(2, std::vector<double>(bc.fixed[0].size(), 0.0));
   EXPECT_EQ(GlobalStep(K, bc).num_factors(), 1);
+  // value_at's binary search needs sorted lists with one value each: anything else is an Error.
+  std::swap(bc.fixed[1][0], bc.fixed[1][1]);
+  EXPECT_THROW(GlobalStep(K, bc), Error);
+  std::swap(bc.fixed[1][0], bc.fixed[1][1]);
+  bc.value[1].pop_back();
+  EXPECT_THROW(GlobalStep(K, bc), Error);
 }
 
 TEST(GlobalStep, SingularMatrixIsAClearError) {
