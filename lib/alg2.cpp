@@ -549,6 +549,10 @@ void Solver::set_displacement_factor(double factor) {
   if (dist_) set_distributed_value_scale(factor);
 }
 
+double Solver::largest_load() const {
+  return ltl::largest_load(disc_.dead_load(), load_factor_);
+}
+
 double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {
   double J = disc_.elastic_energy(s, external_load());
   if (contact_) J += contact_->energy(s.e, s.beta, beta_prev);

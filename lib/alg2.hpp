@@ -174,6 +174,8 @@ class Solver {
   /// load_factor() x the assembled dead loads f, g (#nodes x dim; made on each call: the Solver
   /// keeps the dead loads once, in the discretization, and the factor).
   Eigen::MatrixXd external_load() const { return load_factor_ * disc_.dead_load(); }
+  /// max |external_load()|, the largest nodal load, without making the array (measures.hpp).
+  double largest_load() const;
   /// The load factor of the current step (LoadRamp, set by the time loop before each step):
   /// external_load() = factor x the assembled dead loads f, g, and the prescribed displacements
   /// at factor x their values (set_displacement_factor(factor)). K is unchanged.

@@ -429,8 +429,10 @@ Holdings Solver::holdings() const {
                   4.0 * static_cast<double>(disc_.held_cells().size());
   if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
   h.node_arrays = bytes_of(disc_.dead_load()) + bytes_of(rhs_);
-  for (std::size_t i = 0; i < disc_.dirichlet().fixed.size(); ++i)
-    h.node_arrays += 12.0 * static_cast<double>(disc_.dirichlet().fixed[i].size());
+  const DirichletData& bc = disc_.dirichlet();
+  for (std::size_t i = 0; i < bc.fixed.size(); ++i)
+    h.node_arrays +=
+        static_cast<double>(sizeof(int) * bc.fixed[i].size() + sizeof(double) * bc.value[i].size());
   if (const ContactPoints* p = disc_.points()) {
     h.contact = bytes_of_sparse(p->mean) + bytes_of_sparse(p->meanT_area) + bytes_of(p->area) +
                 bytes_of(p->centre) + bytes_of(p->gap) + bytes_of(p->normals) +

@@ -186,6 +186,10 @@ double load_along_normal(const Problem& pb, const Eigen::MatrixXd& f_ext) {
   return (f_ext * pb.contacts.front().plane_normal.head(pb.mesh.dim)).sum();
 }
 
+double largest_load(const Eigen::MatrixXd& f_ext, double load_scale) {
+  return std::abs(load_scale) * f_ext.cwiseAbs().maxCoeff();
+}
+
 Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::MatrixXd& f_ext,
                                      const State& s, double load_scale) {
   const CellOperators& c = d.cells();
@@ -239,7 +243,7 @@ FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::Matri
 EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
                                        const State& s, double load_scale) {
   EquilibriumMeasure m;
-  const double load = std::abs(load_scale) * f_ext.cwiseAbs().maxCoeff();
+  const double load = largest_load(f_ext, load_scale);
   m.force_residual =
       residual_free_and_fixed(d, f_ext, s, load_scale).free / (load > 0 ? load : 1.0);
   if (d.problem().material.incompressible()) {
@@ -286,7 +290,7 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   const int dim = d.dim();
   const FreeAndFixed r = residual_free_and_fixed(d, f_ext, s, load_scale);
   const double h = std::pow(d.volume() / d.num_cells(), 1.0 / dim);
-  double scale = std::abs(load_scale) * f_ext.cwiseAbs().maxCoeff();
+  double scale = largest_load(f_ext, load_scale);
   if (!(scale > 0)) scale = r.reaction;
   if (!(scale > 0)) scale = d.split().C1 * std::pow(h, dim - 1);
   double err = r.free / scale;

@@ -127,6 +127,10 @@ int node_at(const Mesh& mesh, const Eigen::VectorXd& X);
 /// Solver::external_load). 0 without contact.
 double load_along_normal(const Problem& problem, const Eigen::MatrixXd& f_ext);
 
+/// max |load_scale f_ext|, the largest nodal load, without making the array: |load_scale| max
+/// |f_ext|, which is max |fl(load_scale f_ext)| exactly (rounding is monotonic).
+double largest_load(const Eigen::MatrixXd& f_ext, double load_scale = 1);
+
 /// Residual of the discrete equilibrium, #nodes x dim:
 ///   r = GbarT_vol P + 2 C1 (L u - GbarT_vol Gbar u) - f_ext - meanT_area lambda_c^T
 ///       - Discretization::fluctuation_force (mean-det incompressibility only),

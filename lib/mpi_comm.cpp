@@ -257,27 +257,32 @@ void barrier() {
   if (up) MPI_Barrier(MPI_COMM_WORLD);
 }
 
-void sum(double* x, long n) {
+namespace {
+/// x[i] = op over the ranks of x[i], in place, in pieces of kReducePiece doubles: Open MPI's
+/// temporary buffer of a reduction (which it keeps) is of one piece, not of a whole #nodes x dim
+/// array. One call in the traffic counters.
+void allreduce_in_pieces(double* x, long n, MPI_Op op) {
   if (!up || size_ == 1) return;
   const auto t0 = clock_type::now();
-  // In pieces of kReducePiece doubles, as sum_to_writer: Open MPI's temporary buffer of an
-  // in-place reduction (which it keeps) is of one piece, not of a whole #nodes x dim array.
   for (long i = 0; i < n; i += kReducePiece)
     check(MPI_Allreduce(MPI_IN_PLACE, x + i, static_cast<int>(std::min(kReducePiece, n - i)),
-                        MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD),
+                        MPI_DOUBLE, op, MPI_COMM_WORLD),
           "MPI_Allreduce");
   traffic_.bytes += 8.0 * n;
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);
+}
+}  // namespace
+
+void sum(double* x, long n) {
+  allreduce_in_pieces(x, n, MPI_SUM);
 }
 
 void sum_to_writer(double* x, long n) {
   if (!up || size_ == 1) return;
   const auto t0 = clock_type::now();
   const bool writer = rank_ == 0;
-  // In pieces of kReducePiece doubles: MPI's temporary buffers of a reduction (Open MPI keeps
-  // them) stay of that size, not of the whole array's.
-  for (long i = 0; i < n; i += kReducePiece)
+  for (long i = 0; i < n; i += kReducePiece)  // in pieces, as allreduce_in_pieces
     check(MPI_Reduce(writer ? MPI_IN_PLACE : x + i, writer ? x + i : nullptr,
                      static_cast<int>(std::min(kReducePiece, n - i)), MPI_DOUBLE, MPI_SUM, 0,
                      MPI_COMM_WORLD),
@@ -288,15 +293,7 @@ void sum_to_writer(double* x, long n) {
 }
 
 void max(double* x, long n) {
-  if (!up || size_ == 1) return;
-  const auto t0 = clock_type::now();
-  for (long i = 0; i < n; i += kReducePiece)  // in pieces, as sum
-    check(MPI_Allreduce(MPI_IN_PLACE, x + i, static_cast<int>(std::min(kReducePiece, n - i)),
-                        MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD),
-          "MPI_Allreduce");
-  traffic_.bytes += 8.0 * n;
-  traffic_.calls += 1;
-  traffic_.seconds += seconds_since(t0);
+  allreduce_in_pieces(x, n, MPI_MAX);
 }
 
 namespace {

@@ -187,8 +187,7 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   const int P = problem.time.steps;
   // LoadRamp, or a substep of its increment: the dead loads and the prescribed displacements.
   solver.set_load_factor(factor);
-  const double load_scale =
-      std::abs(factor) * solver.discretization().dead_load().cwiseAbs().maxCoeff();
+  const double load_scale = solver.largest_load();
   check_load_scale(solver, load_scale, p);
   const Eigen::VectorXd beta_prev = beta_prev_given ? *beta_prev_given : state.beta;
   IterationRecord shown;  // the first record printed: the rate of the step since then
@@ -261,9 +260,7 @@ std::string subdivision_refused(const Solver& solver, double f0, double f1) {
     return cat("not subdivided: the load factor does not change at this step (", f1,
                "); nothing to subdivide");
   const bool displaced = solver.discretization().dirichlet().max_abs_value() > 0;
-  const double load = std::abs(solver.load_factor()) *  // max |factor f|, no copy of the loads
-                      solver.discretization().dead_load().cwiseAbs().maxCoeff();
-  if (!(load > 0) && !displaced)
+  if (!(solver.largest_load() > 0) && !displaced)
     return "not subdivided: no dead load and no prescribed displacement";
   return "";
 }
