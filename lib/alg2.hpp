@@ -26,6 +26,7 @@
 #include "discretization.hpp"
 #include "fe.hpp"
 #include "global_step.hpp"
+#include "mpi_global.hpp"
 #include "newton.hpp"
 #include "obstacles.hpp"
 #include "problem.hpp"
@@ -66,6 +67,10 @@ struct RankShare {
   long ksp_iterations = 0, ksp_solves = 0, ghosts = 0;
   long rows = 0;          ///< the rank's rows of the distributed matrices, summed over the sets
   long layer_ghosts = 0;  ///< the ghost layer's rows of other ranks, summed over the sets
+  /// The distributed step's Dirichlet sets on this rank (DistributedGlobalStep::set_shares)
+  std::vector<DistributedGlobalStep::SetShare> sets;
+  /// GAMG's coarse operators, and those still holding their products' data (none after setup)
+  int coarse_operators = 0, coarse_products = 0;
   double ksp_seconds = 0, ksp_setup_seconds = 0;
 };
 

@@ -132,6 +132,15 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&, cons
                                   double) {}
 void DistributedGlobalStep::set_ghost_layer(const std::vector<int>&) {}
 void DistributedGlobalStep::whole_u(Eigen::MatrixXd&) {}
+std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares() const {
+  return {};
+}
+int DistributedGlobalStep::coarse_operators() const {
+  return 0;
+}
+int DistributedGlobalStep::coarse_products() const {
+  return 0;
+}
 
 #else
 
@@ -220,16 +229,33 @@ std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
       throw Error(cat(what, ": cell ", c, " in part ", part[c], " of ", parts));
   return part;
 }
+
+// The coarse operators P^T A P of GAMG's levels keep what PETSc needs to compute them again for a
+// new A (for each, the rows of P that other ranks hold, and the pattern of the products). The
+// matrix of (4.5) is assembled once and never changes, so nothing computes them again: released
+// (PETSc's MatProductClear) once the hierarchy is built. On 8 ranks of the 102 400-cell gutter that
+// data was 11 MB of each rank's 88 MB live at the step's end; on one rank too little to measure
+// (paper_notes/mpi.md, "GAMG's coarse operators without their products' data").
+void release_coarse_products(PC pc, const std::string& what) {
+  PetscInt levels = 0;
+  check(PCMGGetLevels(pc, &levels), what, "PCMGGetLevels");
+  for (PetscInt l = 0; l + 1 < levels; ++l) {  // level levels - 1 is A itself
+    KSP smoother = nullptr;
+    Mat coarse = nullptr;
+    check(PCMGGetSmoother(pc, l, &smoother), what, "PCMGGetSmoother");
+    check(KSPGetOperators(smoother, &coarse, nullptr), what, "KSPGetOperators");
+    check(MatProductClear(coarse), what, "MatProductClear");
+  }
+}
 }  // namespace
 
 /// One distinct Dirichlet set: its free nodes (mesh order), this rank's block of them, the
 /// constant shift K_fd u_d on the owned rows, and PETSc's matrix, solver and vectors.
 struct DistributedGlobalStep::Group {
   std::vector<int> components;
-  std::vector<int> node;    ///< #free, mesh node of each free row (the ranks' blocks in turn)
-  std::vector<int> offset;  ///< the ranks' blocks of free rows
-  Eigen::MatrixXd shift;    ///< #owned x #components
-  std::vector<double> x;    ///< #free: one component's solution, gathered
+  std::vector<int> offset;    ///< the ranks' blocks of free rows
+  std::vector<int> own_node;  ///< #owned, the mesh node of each of this rank's free rows
+  Eigen::MatrixXd shift;      ///< #owned x #components
   std::string what;
   Mat A = nullptr;
   KSP ksp = nullptr;
@@ -238,13 +264,34 @@ struct DistributedGlobalStep::Group {
   // free rows of u it reads (the added ones and its owned block) with their scatter from xv into
   // `read`.
   std::vector<PetscInt> add_row;
+  std::vector<int> add_node;  ///< the mesh node of each added row
   std::vector<PetscScalar> add_value;
   std::vector<int> read_node;
   Vec read = nullptr;
   VecScatter scatter = nullptr;
-  /// x's blocks of every rank (this rank's filled) gathered, into u's column c on the free
-  /// nodes.
-  void gather_into(Eigen::MatrixXd& u, int c) {
+  // Without a ghost layer (one rank, mean-det under Anderson, -ltl_mpi_no_ghosts) every solve
+  // gathers u whole: the whole node list and one column's buffer, kept from the first solve.
+  std::vector<int> whole_node;
+  std::vector<double> whole_x;
+  /// The mesh node of every free row (the ranks' blocks in turn), gathered from the ranks'
+  /// own_node. Collective.
+  std::vector<int> whole_nodes() const {
+    std::vector<double> node(offset.back());
+    std::copy(own_node.begin(), own_node.end(), node.begin() + offset[mpi::rank()]);
+    mpi::gather(node.data(), offset);
+    return std::vector<int>(node.begin(), node.end());
+  }
+  /// Every rank's owned rows of u's column c (own: this rank's, in its row order) gathered into
+  /// u's column c on the free nodes of every rank. keep: into whole_node and whole_x, kept for
+  /// the next call; else into arrays freed on return. Collective.
+  void gather_into(Eigen::MatrixXd& u, int c, const double* own, bool keep) {
+    std::vector<int> node_here;
+    std::vector<double> x_here;
+    std::vector<int>& node = keep ? whole_node : node_here;
+    std::vector<double>& x = keep ? whole_x : x_here;
+    if (node.empty()) node = whole_nodes();
+    x.resize(offset.back());
+    std::copy(own, own + own_node.size(), x.begin() + offset[mpi::rank()]);
     mpi::gather(x.data(), offset);
     for (std::size_t i = 0; i < node.size(); ++i) u(node[i], c) = x[i];
   }
@@ -280,25 +327,26 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     std::vector<int> local(n, -1);
     std::vector<char> fixed(n, 0);
     for (int i : bc.fixed[g.components[0]]) fixed[i] = 1;
+    std::vector<int> free_node;  // in the mesh's order, then in the ranks' blocks (node)
     for (int i = 0; i < n; ++i)
-      if (!fixed[i]) g.node.push_back(i);
-    const int nf = static_cast<int>(g.node.size()), nc = static_cast<int>(g.components.size());
+      if (!fixed[i]) free_node.push_back(i);
+    const int nf = static_cast<int>(free_node.size()), nc = static_cast<int>(g.components.size());
     if (static_cast<int>(node_rank.size()) != n)
       throw Error(cat("the distributed global step (4.5): ranks of ", node_rank.size(),
                       " nodes for ", n, " rows"));
     std::vector<int> rank(nf);
-    for (int k = 0; k < nf; ++k) rank[k] = node_rank[g.node[k]];
+    for (int k = 0; k < nf; ++k) rank[k] = node_rank[free_node[k]];
     const mpi::Partition rows = mpi::partition_of_ranks(rank, P);
     std::vector<int> node(nf);
-    for (int k = 0; k < nf; ++k) node[k] = g.node[rows.order[k]];
-    g.node = std::move(node);
+    for (int k = 0; k < nf; ++k) node[k] = free_node[rows.order[k]];
+    std::vector<int>().swap(free_node);
     g.offset = rows.offset;
-    for (std::size_t k = 0; k < g.node.size(); ++k) local[g.node[k]] = static_cast<int>(k);
+    for (int k = 0; k < nf; ++k) local[node[k]] = k;
     g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
                  solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");
     const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
     owned_rows_ += own;
-    g.x.assign(nf, 0.0);
+    g.own_node.assign(node.begin() + f0, node.begin() + f1);
     // K_ff into PETSc's matrix, K_fd u_d into the shift (K is symmetric: row i is column i, the
     // columns in the free numbering): each rank adds the rows it holds, every row of its part of
     // K (parts), else its own block of rows; the rows of other ranks travel at the assembly
@@ -365,7 +413,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     {  // the near-null space (cg_amg.hpp): constants and centred coordinates, orthonormalized
       std::vector<Eigen::VectorXd> basis;
       Eigen::MatrixXd Xf(nf, X.cols());
-      for (int k = 0; k < nf; ++k) Xf.row(k) = X.row(g.node[k]);
+      for (int k = 0; k < nf; ++k) Xf.row(k) = X.row(node[k]);
       for (int k = 0; k < Xf.cols(); ++k) {
         Eigen::VectorXd v = Xf.col(k).array() - Xf.col(k).mean();
         for (int pass = 0; pass < 2; ++pass)
@@ -429,6 +477,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
         const AllAtOnceGalerkinProducts products;
         check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the factor or the AMG hierarchy)");
       }
+      if (type && std::string(type) == PCGAMG) release_coarse_products(pc, g.what);
       MatFactorError error = MAT_FACTOR_NOERROR;
       if (F) check(MatFactorGetError(F, &error), g.what, "MatFactorGetError");
       if (error == MAT_FACTOR_NOERROR) break;
@@ -454,19 +503,34 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
     Group& g = *gp;
     const int f0 = g.offset[me], f1 = g.offset[me + 1];
     std::vector<int> free_row(num_nodes_, -1);
-    for (std::size_t k = 0; k < g.node.size(); ++k) free_row[g.node[k]] = static_cast<int>(k);
+    {
+      const std::vector<int> node = g.whole_nodes();
+      for (std::size_t k = 0; k < node.size(); ++k) free_row[node[k]] = static_cast<int>(k);
+    }
+    std::vector<int>().swap(g.whole_node);  // u is no longer gathered whole by a solve
+    std::vector<double>().swap(g.whole_x);
     g.add_row.clear();
+    g.add_node.clear();
     for (int n : nodes)
-      if (free_row[n] >= 0) g.add_row.push_back(free_row[n]);
+      if (free_row[n] >= 0) {
+        g.add_row.push_back(free_row[n]);
+        g.add_node.push_back(n);
+      }
     g.add_value.resize(g.add_row.size());
     for (int r : g.add_row) layer_ghosts_ += r < f0 || r >= f1;
     // Read: the added rows and the owned block (the warm start of the next solve), each once.
-    std::vector<PetscInt> read(g.add_row.begin(), g.add_row.end());
-    for (int r = f0; r < f1; ++r) read.push_back(r);
-    std::sort(read.begin(), read.end());
-    read.erase(std::unique(read.begin(), read.end()), read.end());
-    g.read_node.resize(read.size());
-    for (std::size_t i = 0; i < read.size(); ++i) g.read_node[i] = g.node[read[i]];
+    std::vector<std::pair<PetscInt, int>> row_node;  // (free row, its mesh node)
+    for (std::size_t i = 0; i < g.add_row.size(); ++i)
+      row_node.emplace_back(g.add_row[i], g.add_node[i]);
+    for (int r = f0; r < f1; ++r) row_node.emplace_back(r, g.own_node[r - f0]);
+    std::sort(row_node.begin(), row_node.end());
+    row_node.erase(std::unique(row_node.begin(), row_node.end()), row_node.end());
+    std::vector<PetscInt> read(row_node.size());
+    g.read_node.resize(row_node.size());
+    for (std::size_t i = 0; i < row_node.size(); ++i) {
+      read[i] = row_node[i].first;
+      g.read_node[i] = row_node[i].second;
+    }
     if (g.scatter) VecScatterDestroy(&g.scatter);
     if (g.read) VecDestroy(&g.read);
     IS is = nullptr;
@@ -496,8 +560,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       const int c = g.components[k];
       if (ghost_layer_) {  // this rank's part of b, its other ranks' rows by the assembly
         check(VecSet(g.b, 0.0), g.what, "VecSet");
-        for (std::size_t i = 0; i < g.add_row.size(); ++i)
-          g.add_value[i] = b(g.node[g.add_row[i]], c);
+        for (std::size_t i = 0; i < g.add_row.size(); ++i) g.add_value[i] = b(g.add_node[i], c);
         check(VecSetValues(g.b, static_cast<PetscInt>(g.add_row.size()), g.add_row.data(),
                            g.add_value.data(), ADD_VALUES),
               g.what, "VecSetValues");
@@ -508,7 +571,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       check(VecGetArray(g.b, &pb), g.what, "VecGetArray");
       check(VecGetArray(g.xv, &px), g.what, "VecGetArray");
       for (int r = 0; r < own; ++r) {
-        const int node = g.node[f0 + r];
+        const int node = g.own_node[r];
         if (ghost_layer_)
           pb[r] += (loads ? load_scale * (*loads)(node, c) : 0.0) - scale_ * g.shift(r, k);
         else
@@ -541,9 +604,8 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       } else {
         const PetscScalar* cx = nullptr;
         check(VecGetArrayRead(g.xv, &cx), g.what, "VecGetArrayRead");
-        for (int r = 0; r < own; ++r) g.x[f0 + r] = cx[r];
+        g.gather_into(u, c, cx, true);
         check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
-        g.gather_into(u, c);
       }
       bc_.impose(u, c, scale_);
     }
@@ -555,12 +617,67 @@ void DistributedGlobalStep::whole_u(Eigen::MatrixXd& u) {
   const int me = mpi::rank();
   for (auto& gp : groups_) {
     Group& g = *gp;
-    const int f0 = g.offset[me], f1 = g.offset[me + 1];
+    std::vector<double> own(g.offset[me + 1] - g.offset[me]);
     for (const int c : g.components) {
-      for (int r = f0; r < f1; ++r) g.x[r] = u(g.node[r], c);
-      g.gather_into(u, c);
+      for (std::size_t r = 0; r < own.size(); ++r) own[r] = u(g.own_node[r], c);
+      g.gather_into(u, c, own.data(), false);
     }
   }
+}
+
+std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares() const {
+  std::vector<SetShare> shares;
+  const int me = mpi::rank();
+  for (const auto& gp : groups_) {
+    const Group& g = *gp;
+    SetShare s;
+    s.components = static_cast<int>(g.components.size());
+    s.free_rows = g.offset.back();
+    s.owned = g.offset[me + 1] - g.offset[me];
+    for (const PetscInt r : g.add_row) s.ghosts += r < g.offset[me] || r >= g.offset[me + 1];
+    s.bytes = sizeof(int) * (g.components.size() + g.offset.size() + g.own_node.size() +
+                             g.add_node.size() + g.read_node.size() + g.whole_node.size()) +
+              sizeof(double) * (g.shift.size() + g.whole_x.size()) +
+              sizeof(PetscInt) * g.add_row.size() + sizeof(PetscScalar) * g.add_value.size();
+    shares.push_back(s);
+  }
+  return shares;
+}
+
+namespace {
+/// The coarse operators of a KSP's GAMG hierarchy, and those holding their products' data.
+std::pair<int, int> coarse_levels(KSP ksp, const std::string& what) {
+  PC pc = nullptr;
+  check(KSPGetPC(ksp, &pc), what, "KSPGetPC");
+  PCType type = nullptr;
+  check(PCGetType(pc, &type), what, "PCGetType");
+  if (!type || std::string(type) != PCGAMG) return {0, 0};
+  PetscInt levels = 0;
+  check(PCMGGetLevels(pc, &levels), what, "PCMGGetLevels");
+  int with_product = 0;
+  for (PetscInt l = 0; l + 1 < levels; ++l) {
+    KSP smoother = nullptr;
+    Mat coarse = nullptr;
+    MatProductType product = MATPRODUCT_UNSPECIFIED;
+    check(PCMGGetSmoother(pc, l, &smoother), what, "PCMGGetSmoother");
+    check(KSPGetOperators(smoother, &coarse, nullptr), what, "KSPGetOperators");
+    check(MatProductGetType(coarse, &product), what, "MatProductGetType");
+    with_product += product != MATPRODUCT_UNSPECIFIED;
+  }
+  return {static_cast<int>(levels) - 1, with_product};
+}
+}  // namespace
+
+int DistributedGlobalStep::coarse_operators() const {
+  int n = 0;
+  for (const auto& gp : groups_) n += coarse_levels(gp->ksp, gp->what).first;
+  return n;
+}
+
+int DistributedGlobalStep::coarse_products() const {
+  int n = 0;
+  for (const auto& gp : groups_) n += coarse_levels(gp->ksp, gp->what).second;
+  return n;
 }
 
 #endif

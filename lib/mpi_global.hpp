@@ -131,6 +131,22 @@ class DistributedGlobalStep {
   long layer_ghosts() const { return layer_ghosts_; }
   /// This rank's rows, summed over the Dirichlet sets (its nodes of node_rank).
   long owned_rows() const { return owned_rows_; }
+  /// One Dirichlet set on this rank: its components, free rows (of the mesh), owned rows, the
+  /// ghost layer's rows of other ranks, and the bytes of this rank's own arrays for it (its rows'
+  /// nodes and shifts, the layer's rows, nodes and values; not PETSc's): O(owned + ghost rows).
+  /// Without a ghost layer a solve gathers u whole, and from the first one the set keeps the
+  /// node list and a buffer of #free rows for it.
+  struct SetShare {
+    int components = 0;
+    long free_rows = 0, owned = 0, ghosts = 0;
+    double bytes = 0;
+  };
+  std::vector<SetShare> set_shares() const;
+  /// GAMG's coarse operators (the levels below A, summed over the Dirichlet sets; 0 with MUMPS)
+  /// and those that still hold the data of the product P^T A P that made them (none once the
+  /// hierarchy is built: release_coarse_products, mpi_global.cpp).
+  int coarse_operators() const;
+  int coarse_products() const;
 
  private:
   struct Group;

@@ -398,6 +398,44 @@ TEST(Mpi, Eq4_5_GalerkinProductsAllAtOnceOnlyWhileTheDistributedStepIsSetUp) {
   mpi::set_option("-matptap_via", false);
 }
 
+/// [LTL87 (4.5)] What the distributed global step keeps once set up, with CG + GAMG: GAMG's
+/// coarse operators without the data of the products P^T A P that made them (PETSc keeps it to
+/// compute them again for a new A; the matrix of (4.5) never changes), and for each Dirichlet
+/// set arrays of the rank's rows and ghost layer only: for each owned row its node and its shift
+/// (4 + 8 B per component), for each row of the layer (owned and ghost) its index, node, value
+/// and place (24 B), the ranks' offsets and the components. Until 2026-12-02 every rank kept, for
+/// each set, the node and the solution of every free row of the mesh (12 B per free row), and
+/// each coarse operator its product's data (11 MB of a rank's 88 at the step's end on 8 ranks of
+/// the 102 400-cell gutter; paper_notes/mpi.md, "GAMG's coarse operators without their products'
+/// data"). The coarse gutter and Fig 5; on 1, 2 and 3 ranks fails with a whole array in a set,
+/// and on one rank (the small coarse levels of several ranks are gathered on one, without a
+/// product) with the products' data kept.
+TEST(Mpi, Eq4_5_TheDistributedStepKeepsItsRowsAndNoProductData) {
+  std::vector<std::string> gutter = kCoarseGutter;
+  gutter.push_back("algorithm.global_solver=\"cg-amg\"");
+  const std::vector<std::pair<const char*, std::vector<std::string>>> cases = {
+      {kFig6, gutter}, {kFig5, {"algorithm.global_solver=\"cg-amg\""}}};
+  const double P = mpi::size();
+  for (const auto& [config, overrides] : cases) {
+    const Solver dist(load_problem(ltl::testing::source_path(config), overrides), Ranks::All);
+    const RankShare r = dist.rank_share();
+    EXPECT_GT(r.coarse_operators, 0) << config << ", rank " << mpi::rank();
+    EXPECT_EQ(r.coarse_products, 0) << config << ", rank " << mpi::rank();
+    ASSERT_FALSE(r.sets.empty()) << config;
+    for (const DistributedGlobalStep::SetShare& s : r.sets) {
+      const double layer = P > 1 ? 24.0 * (s.owned + s.ghosts) : 0.0;
+      EXPECT_GT(s.owned, 0) << config << ", rank " << mpi::rank();
+      EXPECT_LE(s.bytes, (4.0 + 8 * s.components) * s.owned + layer + 4 * (P + 1 + s.components))
+          << config << ", rank " << mpi::rank() << ": a set of " << s.components << " components, "
+          << s.owned << " owned rows of " << s.free_rows << ", " << s.ghosts << " ghost rows";
+      if (mpi::rank() == 0)
+        std::cout << config << " on " << P << " rank(s), rank 0: a set of " << s.components
+                  << " component(s), " << s.bytes << " B for " << s.owned << " owned and "
+                  << s.ghosts << " ghost rows of " << s.free_rows << "\n";
+    }
+  }
+}
+
 /// The ranks' cells (cell_partition, PT-Scotch's parts of the dual graph since 2026-12-02, slabs
 /// along the longest extent before) cut the gutter across: on a gutter 4 times longer than the
 /// coarse one (200 cells, 18 nodes in a cross-section), the nodes that cells of two ranks share
