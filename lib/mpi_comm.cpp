@@ -407,8 +407,22 @@ void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset) {
   gather_columns(v.data(), v.size(), 1, offset, 1);
 }
 
+// In place (MPI_IN_PLACE): no buffer of the whole array is made or kept.
 void gather(double* x, const std::vector<int>& offset) {
-  gather_columns(x, offset.back(), 1, offset, 1);
+  if (!up || size_ == 1) return;
+  const auto t0 = clock_type::now();
+  counts_.resize(size_);
+  displs_.resize(size_);
+  for (int r = 0; r < size_; ++r) {
+    counts_[r] = offset[r + 1] - offset[r];
+    displs_[r] = offset[r];
+  }
+  check(MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, x, counts_.data(), displs_.data(),
+                       MPI_DOUBLE, MPI_COMM_WORLD),
+        "MPI_Allgatherv");
+  traffic_.bytes += 8.0 * (offset.back() - counts_[rank_]);
+  traffic_.calls += 1;
+  traffic_.seconds += seconds_since(t0);
 }
 
 // A whole per-cell array, gathered once per ALG2 phase: column by column, so that the buffers

@@ -249,8 +249,9 @@ void release_coarse_products(PC pc, const std::string& what) {
 }
 }  // namespace
 
-/// One distinct Dirichlet set: its free nodes (mesh order), this rank's block of them, the
-/// constant shift K_fd u_d on the owned rows, and PETSc's matrix, solver and vectors.
+/// One distinct Dirichlet set: the ranks' blocks of its free rows, the mesh nodes of this rank's
+/// block and of its ghost layer, the constant shift K_fd u_d on the owned rows, and PETSc's
+/// matrix, solver and vectors.
 struct DistributedGlobalStep::Group {
   std::vector<int> components;
   std::vector<int> offset;    ///< the ranks' blocks of free rows
@@ -282,13 +283,15 @@ struct DistributedGlobalStep::Group {
     return std::vector<int>(node.begin(), node.end());
   }
   /// Every rank's owned rows of u's column c (own: this rank's, in its row order) gathered into
-  /// u's column c on the free nodes of every rank. keep: into whole_node and whole_x, kept for
-  /// the next call; else into arrays freed on return. Collective.
-  void gather_into(Eigen::MatrixXd& u, int c, const double* own, bool keep) {
-    std::vector<int> node_here;
-    std::vector<double> x_here;
-    std::vector<int>& node = keep ? whole_node : node_here;
-    std::vector<double>& x = keep ? whole_x : x_here;
+  /// u's column c on the free nodes of every rank, through x (#free) and the node list of every
+  /// free row (whole_nodes; empty: gathered into it). On one rank own is every row: straight
+  /// into u. Collective.
+  void gather_into(Eigen::MatrixXd& u, int c, const double* own, std::vector<int>& node,
+                   std::vector<double>& x) const {
+    if (mpi::size() == 1) {
+      for (std::size_t i = 0; i < own_node.size(); ++i) u(own_node[i], c) = own[i];
+      return;
+    }
     if (node.empty()) node = whole_nodes();
     x.resize(offset.back());
     std::copy(own, own + own_node.size(), x.begin() + offset[mpi::rank()]);
@@ -441,6 +444,8 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     // K is in PETSc's matrices once the last set's is assembled: released before its AMG setup
     // or factorization, the rank's peak (paper_notes/mpi.md, "What a rank holds at its peak").
     if (gp == groups_.back()) SpMat().swap(K);
+    std::vector<int>().swap(local);  // whole-size: not through the AMG setup or the factor
+    std::vector<int>().swap(node);
     // MUMPS's workspace: its own estimate plus 20 % (ICNTL(14) = 20, MUMPS's default) first;
     // when that is short (INFOG(1) = -9 on 4 ranks of the 1 080-cell gutter: the factor reports
     // an error, the same on every rank) the KSP is set up again with twice the estimate (100 %).
@@ -604,7 +609,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       } else {
         const PetscScalar* cx = nullptr;
         check(VecGetArrayRead(g.xv, &cx), g.what, "VecGetArrayRead");
-        g.gather_into(u, c, cx, true);
+        g.gather_into(u, c, cx, g.whole_node, g.whole_x);
         check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
       }
       bc_.impose(u, c, scale_);
@@ -617,10 +622,11 @@ void DistributedGlobalStep::whole_u(Eigen::MatrixXd& u) {
   const int me = mpi::rank();
   for (auto& gp : groups_) {
     Group& g = *gp;
-    std::vector<double> own(g.offset[me + 1] - g.offset[me]);
+    std::vector<double> own(g.offset[me + 1] - g.offset[me]), x;
+    std::vector<int> node;  // gathered once for the set's components, freed on return
     for (const int c : g.components) {
       for (std::size_t r = 0; r < own.size(); ++r) own[r] = u(g.own_node[r], c);
-      g.gather_into(u, c, own.data(), false);
+      g.gather_into(u, c, own.data(), node, x);
     }
   }
 }
@@ -664,7 +670,7 @@ std::pair<int, int> coarse_levels(KSP ksp, const std::string& what) {
     check(MatProductGetType(coarse, &product), what, "MatProductGetType");
     with_product += product != MATPRODUCT_UNSPECIFIED;
   }
-  return {static_cast<int>(levels) - 1, with_product};
+  return {std::max(0, static_cast<int>(levels) - 1), with_product};
 }
 }  // namespace
 

@@ -398,18 +398,19 @@ TEST(Mpi, Eq4_5_GalerkinProductsAllAtOnceOnlyWhileTheDistributedStepIsSetUp) {
   mpi::set_option("-matptap_via", false);
 }
 
-/// [LTL87 (4.5)] What the distributed global step keeps once set up, with CG + GAMG: GAMG's
-/// coarse operators without the data of the products P^T A P that made them (PETSc keeps it to
-/// compute them again for a new A; the matrix of (4.5) never changes), and for each Dirichlet
-/// set arrays of the rank's rows and ghost layer only: for each owned row its node and its shift
-/// (4 + 8 B per component), for each row of the layer (owned and ghost) its index, node, value
-/// and place (24 B), the ranks' offsets and the components. Until 2026-12-02 every rank kept, for
-/// each set, the node and the solution of every free row of the mesh (12 B per free row), and
-/// each coarse operator its product's data (11 MB of a rank's 88 at the step's end on 8 ranks of
-/// the 102 400-cell gutter; paper_notes/mpi.md, "GAMG's coarse operators without their products'
-/// data"). The coarse gutter and Fig 5; on 1, 2 and 3 ranks fails with a whole array in a set,
-/// and on one rank (the small coarse levels of several ranks are gathered on one, without a
-/// product) with the products' data kept.
+/// [LTL87 (4.5)] What the distributed global step keeps once set up (before any solve), with
+/// CG + GAMG: GAMG's coarse operators without the data of the products P^T A P that made them
+/// (PETSc keeps it to compute them again for a new A; the matrix of (4.5) never changes), and,
+/// for each Dirichlet set, arrays of the rank's rows and ghost layer only, as set_shares counts
+/// them: for each owned row its node and its shift (4 + 8 B per component), for each row of the
+/// layer (owned and ghost) its free row, node, value and the node it reads back (at most 24 B),
+/// the ranks' offsets and the components. Until 2026-12-02 every rank kept, for each set, the
+/// node and the solution of every free row of the mesh (12 B per free row), and each coarse
+/// operator its product's data (on 8 ranks of the 102 400-cell gutter, 11 MB of a rank's 88 MB
+/// live at the step's end; paper_notes/mpi.md, "GAMG's coarse operators without their products'
+/// data"). The coarse gutter and Fig 5. On 1, 2 and 3 ranks it fails with a whole array in a
+/// set. It fails with the products' data kept on one rank only: on several ranks these small
+/// coarse levels are gathered on one, and PETSc's gathered operator has no product.
 TEST(Mpi, Eq4_5_TheDistributedStepKeepsItsRowsAndNoProductData) {
   std::vector<std::string> gutter = kCoarseGutter;
   gutter.push_back("algorithm.global_solver=\"cg-amg\"");
