@@ -209,8 +209,7 @@ RankShare Solver::rank_share() const {
     r.rows = d.ksp->owned_rows();
     r.layer_ghosts = d.ksp->layer_ghosts();
     r.sets = d.ksp->set_shares();
-    r.coarse_operators = d.ksp->coarse_operators();
-    r.coarse_products = d.ksp->coarse_products();
+    r.coarse_operators = d.ksp->coarse_operators(&r.coarse_products);
     r.ksp_seconds = d.ksp->ksp_seconds();
     r.ksp_setup_seconds = d.ksp->setup_seconds();
   }

@@ -336,7 +336,8 @@ void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi) {
 namespace {
 /// Allgatherv of `cols` columns of `n` rows each, rank r owning the rows [m offset[r], m
 /// offset[r + 1]) of every column (col(k) at data + k * ld); with `order`, the rows
-/// [m order[j], m order[j] + m) for offset[r] <= j < offset[r + 1].
+/// [m order[j], m order[j] + m) for offset[r] <= j < offset[r + 1]. One column in blocks of
+/// the ranks' order gathers in place (MPI_IN_PLACE): no buffer of the array is made or kept.
 void gather_columns(double* data, long ld, int cols, const std::vector<int>& offset, int m,
                     const std::vector<int>* order = nullptr) {
   if (!up || size_ == 1) return;
@@ -350,46 +351,52 @@ void gather_columns(double* data, long ld, int cols, const std::vector<int>& off
     displs_[r] = static_cast<int>(total);
     total += counts_[r];
   }
-  const long first = static_cast<long>(m) * offset[rank_];
-  const int own = m * (offset[rank_ + 1] - offset[rank_]);
-  send_.resize(static_cast<std::size_t>(cols) * own);
-  recv_.resize(total);
-  // The items order[j0 .. j1) (sorted: runs of consecutive items), their m rows of every column
-  // copied between A and a buffer (column blocks of m (j1 - j0) rows).
-  auto copy = [&](double* buffer, int j0, int j1, bool to_buffer) {
-    const int rows = m * (j1 - j0);
-    for_each_run(order->data() + j0, order->data() + j1, [&](int first, int n, int at_item) {
-      const long at = static_cast<long>(m) * at_item;  // the run's first row in the buffer
-      for (int k = 0; k < cols; ++k) {
-        double* a = data + k * ld + static_cast<long>(m) * first;
-        double* b = buffer + static_cast<long>(k) * rows + at;
-        if (to_buffer)
-          std::memcpy(b, a, sizeof(double) * m * n);
-        else
-          std::memcpy(a, b, sizeof(double) * m * n);
+  if (cols == 1 && !order) {
+    check(MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, data, counts_.data(), displs_.data(),
+                         MPI_DOUBLE, MPI_COMM_WORLD),
+          "MPI_Allgatherv");
+  } else {
+    const long first = static_cast<long>(m) * offset[rank_];
+    const int own = m * (offset[rank_ + 1] - offset[rank_]);
+    send_.resize(static_cast<std::size_t>(cols) * own);
+    recv_.resize(total);
+    // The items order[j0 .. j1) (sorted: runs of consecutive items), their m rows of every column
+    // copied between A and a buffer (column blocks of m (j1 - j0) rows).
+    auto copy = [&](double* buffer, int j0, int j1, bool to_buffer) {
+      const int rows = m * (j1 - j0);
+      for_each_run(order->data() + j0, order->data() + j1, [&](int first, int n, int at_item) {
+        const long at = static_cast<long>(m) * at_item;  // the run's first row in the buffer
+        for (int k = 0; k < cols; ++k) {
+          double* a = data + k * ld + static_cast<long>(m) * first;
+          double* b = buffer + static_cast<long>(k) * rows + at;
+          if (to_buffer)
+            std::memcpy(b, a, sizeof(double) * m * n);
+          else
+            std::memcpy(a, b, sizeof(double) * m * n);
+        }
+      });
+    };
+    if (order)
+      copy(send_.data(), offset[rank_], offset[rank_ + 1], true);
+    else
+      for (int k = 0; k < cols; ++k)
+        std::memcpy(send_.data() + static_cast<long>(k) * own, data + k * ld + first,
+                    sizeof(double) * own);
+    check(MPI_Allgatherv(send_.data(), counts_[rank_], MPI_DOUBLE, recv_.data(), counts_.data(),
+                         displs_.data(), MPI_DOUBLE, MPI_COMM_WORLD),
+          "MPI_Allgatherv");
+    for (int r = 0; r < P; ++r) {
+      if (r == rank_) continue;
+      if (order) {
+        copy(recv_.data() + displs_[r], offset[r], offset[r + 1], false);
+        continue;
       }
-    });
-  };
-  if (order)
-    copy(send_.data(), offset[rank_], offset[rank_ + 1], true);
-  else
-    for (int k = 0; k < cols; ++k)
-      std::memcpy(send_.data() + static_cast<long>(k) * own, data + k * ld + first,
-                  sizeof(double) * own);
-  check(MPI_Allgatherv(send_.data(), counts_[rank_], MPI_DOUBLE, recv_.data(), counts_.data(),
-                       displs_.data(), MPI_DOUBLE, MPI_COMM_WORLD),
-        "MPI_Allgatherv");
-  for (int r = 0; r < P; ++r) {
-    if (r == rank_) continue;
-    if (order) {
-      copy(recv_.data() + displs_[r], offset[r], offset[r + 1], false);
-      continue;
+      const int rows = m * (offset[r + 1] - offset[r]);
+      const long at = static_cast<long>(m) * offset[r];
+      for (int k = 0; k < cols; ++k)
+        std::memcpy(data + k * ld + at, recv_.data() + displs_[r] + static_cast<long>(k) * rows,
+                    sizeof(double) * rows);
     }
-    const int rows = m * (offset[r + 1] - offset[r]);
-    const long at = static_cast<long>(m) * offset[r];
-    for (int k = 0; k < cols; ++k)
-      std::memcpy(data + k * ld + at, recv_.data() + displs_[r] + static_cast<long>(k) * rows,
-                  sizeof(double) * rows);
   }
   traffic_.bytes += 8.0 * (total - counts_[rank_]);
   traffic_.calls += 1;
@@ -407,22 +414,8 @@ void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset) {
   gather_columns(v.data(), v.size(), 1, offset, 1);
 }
 
-// In place (MPI_IN_PLACE): no buffer of the whole array is made or kept.
 void gather(double* x, const std::vector<int>& offset) {
-  if (!up || size_ == 1) return;
-  const auto t0 = clock_type::now();
-  counts_.resize(size_);
-  displs_.resize(size_);
-  for (int r = 0; r < size_; ++r) {
-    counts_[r] = offset[r + 1] - offset[r];
-    displs_[r] = offset[r];
-  }
-  check(MPI_Allgatherv(MPI_IN_PLACE, 0, MPI_DATATYPE_NULL, x, counts_.data(), displs_.data(),
-                       MPI_DOUBLE, MPI_COMM_WORLD),
-        "MPI_Allgatherv");
-  traffic_.bytes += 8.0 * (offset.back() - counts_[rank_]);
-  traffic_.calls += 1;
-  traffic_.seconds += seconds_since(t0);
+  gather_columns(x, offset.back(), 1, offset, 1);
 }
 
 // A whole per-cell array, gathered once per ALG2 phase: column by column, so that the buffers

@@ -62,8 +62,9 @@ void min_max(std::uint64_t v, std::uint64_t& lo, std::uint64_t& hi);
 /// them.
 void gather_rows(Eigen::MatrixXd& A, const std::vector<int>& offset, int rows_per_item);
 void gather_rows(Eigen::VectorXd& v, const std::vector<int>& offset);
-/// The same for a plain array of n values where rank r holds [offset[r], offset[r + 1]), in place
-/// (no buffer of the array is made or kept).
+/// The same for a plain array of n values where rank r holds [offset[r], offset[r + 1]). These
+/// gathers of one column (a vector, a plain array, a one-column A) are in place: no buffer of
+/// the array is made or kept.
 void gather(double* x, const std::vector<int>& offset);
 
 /// Items (cells) dealt to the ranks in any sets: rank r holds the items order[j], offset[r] <= j

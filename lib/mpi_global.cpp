@@ -135,10 +135,8 @@ void DistributedGlobalStep::whole_u(Eigen::MatrixXd&) {}
 std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares() const {
   return {};
 }
-int DistributedGlobalStep::coarse_operators() const {
-  return 0;
-}
-int DistributedGlobalStep::coarse_products() const {
+int DistributedGlobalStep::coarse_operators(int* with_products) const {
+  if (with_products) *with_products = 0;
   return 0;
 }
 
@@ -230,13 +228,15 @@ std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   return part;
 }
 
-// The coarse operators P^T A P of GAMG's levels keep what PETSc needs to compute them again for a
-// new A (for each, the rows of P that other ranks hold, and the pattern of the products). The
-// matrix of (4.5) is assembled once and never changes, so nothing computes them again: released
-// (PETSc's MatProductClear) once the hierarchy is built. On 8 ranks of the 102 400-cell gutter that
-// data was 11 MB of each rank's 88 MB live at the step's end; on one rank too little to measure
-// (paper_notes/mpi.md, "GAMG's coarse operators without their products' data").
-void release_coarse_products(PC pc, const std::string& what) {
+/// f(M) for the operator M of each of GAMG's coarse levels (not A's, the finest); none when the
+/// KSP's preconditioner is not GAMG (MUMPS, or another from the options). Collective.
+template <class F>
+void for_each_coarse_operator(KSP ksp, const std::string& what, F f) {
+  PC pc = nullptr;
+  PCType type = nullptr;
+  check(KSPGetPC(ksp, &pc), what, "KSPGetPC");
+  check(PCGetType(pc, &type), what, "PCGetType");
+  if (!type || std::string(type) != PCGAMG) return;
   PetscInt levels = 0;
   check(PCMGGetLevels(pc, &levels), what, "PCMGGetLevels");
   for (PetscInt l = 0; l + 1 < levels; ++l) {  // level levels - 1 is A itself
@@ -244,8 +244,19 @@ void release_coarse_products(PC pc, const std::string& what) {
     Mat coarse = nullptr;
     check(PCMGGetSmoother(pc, l, &smoother), what, "PCMGGetSmoother");
     check(KSPGetOperators(smoother, &coarse, nullptr), what, "KSPGetOperators");
-    check(MatProductClear(coarse), what, "MatProductClear");
+    f(coarse);
   }
+}
+
+// The coarse operators P^T A P of GAMG's levels keep what PETSc needs to compute them again for a
+// new A (for each, the rows of P that other ranks hold, and the pattern of the products). The
+// matrix of (4.5) is assembled once and never changes, so nothing computes them again: released
+// (PETSc's MatProductClear) once the hierarchy is built. On 8 ranks of the 102 400-cell gutter that
+// data was 11 MB of each rank's 88 MB live at the step's end; on one rank too little to measure
+// (paper_notes/mpi.md, "GAMG's coarse operators without their products' data").
+void release_coarse_products(KSP ksp, const std::string& what) {
+  for_each_coarse_operator(
+      ksp, what, [&](Mat coarse) { check(MatProductClear(coarse), what, "MatProductClear"); });
 }
 }  // namespace
 
@@ -348,7 +359,6 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
                  solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");
     const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
-    owned_rows_ += own;
     g.own_node.assign(node.begin() + f0, node.begin() + f1);
     // K_ff into PETSc's matrix, K_fd u_d into the shift (K is symmetric: row i is column i, the
     // columns in the free numbering): each rank adds the rows it holds, every row of its part of
@@ -482,7 +492,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
         const AllAtOnceGalerkinProducts products;
         check(KSPSetUp(g.ksp), g.what, "KSPSetUp (the factor or the AMG hierarchy)");
       }
-      if (type && std::string(type) == PCGAMG) release_coarse_products(pc, g.what);
+      release_coarse_products(g.ksp, g.what);
       MatFactorError error = MAT_FACTOR_NOERROR;
       if (F) check(MatFactorGetError(F, &error), g.what, "MatFactorGetError");
       if (error == MAT_FACTOR_NOERROR) break;
@@ -503,7 +513,6 @@ DistributedGlobalStep::~DistributedGlobalStep() = default;
 
 void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
   const int me = mpi::rank();
-  layer_ghosts_ = 0;
   for (auto& gp : groups_) {
     Group& g = *gp;
     const int f0 = g.offset[me], f1 = g.offset[me + 1];
@@ -522,7 +531,6 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
         g.add_node.push_back(n);
       }
     g.add_value.resize(g.add_row.size());
-    for (int r : g.add_row) layer_ghosts_ += r < f0 || r >= f1;
     // Read: the added rows and the owned block (the warm start of the next solve), each once.
     std::vector<std::pair<PetscInt, int>> row_node;  // (free row, its mesh node)
     for (std::size_t i = 0; i < g.add_row.size(); ++i)
@@ -650,43 +658,32 @@ std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares()
   return shares;
 }
 
-namespace {
-/// The coarse operators of a KSP's GAMG hierarchy, and those holding their products' data.
-std::pair<int, int> coarse_levels(KSP ksp, const std::string& what) {
-  PC pc = nullptr;
-  check(KSPGetPC(ksp, &pc), what, "KSPGetPC");
-  PCType type = nullptr;
-  check(PCGetType(pc, &type), what, "PCGetType");
-  if (!type || std::string(type) != PCGAMG) return {0, 0};
-  PetscInt levels = 0;
-  check(PCMGGetLevels(pc, &levels), what, "PCMGGetLevels");
-  int with_product = 0;
-  for (PetscInt l = 0; l + 1 < levels; ++l) {
-    KSP smoother = nullptr;
-    Mat coarse = nullptr;
-    MatProductType product = MATPRODUCT_UNSPECIFIED;
-    check(PCMGGetSmoother(pc, l, &smoother), what, "PCMGGetSmoother");
-    check(KSPGetOperators(smoother, &coarse, nullptr), what, "KSPGetOperators");
-    check(MatProductGetType(coarse, &product), what, "MatProductGetType");
-    with_product += product != MATPRODUCT_UNSPECIFIED;
-  }
-  return {std::max(0, static_cast<int>(levels) - 1), with_product};
-}
-}  // namespace
-
-int DistributedGlobalStep::coarse_operators() const {
-  int n = 0;
-  for (const auto& gp : groups_) n += coarse_levels(gp->ksp, gp->what).first;
-  return n;
-}
-
-int DistributedGlobalStep::coarse_products() const {
-  int n = 0;
-  for (const auto& gp : groups_) n += coarse_levels(gp->ksp, gp->what).second;
+int DistributedGlobalStep::coarse_operators(int* with_products) const {
+  int n = 0, held = 0;
+  for (const auto& gp : groups_)
+    for_each_coarse_operator(gp->ksp, gp->what, [&](Mat coarse) {
+      MatProductType product = MATPRODUCT_UNSPECIFIED;
+      check(MatProductGetType(coarse, &product), gp->what, "MatProductGetType");
+      ++n;
+      held += product != MATPRODUCT_UNSPECIFIED;
+    });
+  if (with_products) *with_products = held;
   return n;
 }
 
 #endif
+
+long DistributedGlobalStep::owned_rows() const {
+  long n = 0;
+  for (const SetShare& s : set_shares()) n += s.owned;
+  return n;
+}
+
+long DistributedGlobalStep::layer_ghosts() const {
+  long n = 0;
+  for (const SetShare& s : set_shares()) n += s.ghosts;
+  return n;
+}
 
 mpi::Partition graph_cells(const Mesh& mesh, int ranks) {
   const int nc = mesh.num_cells();

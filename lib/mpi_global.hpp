@@ -128,9 +128,9 @@ class DistributedGlobalStep {
   /// The ghost layer's rows held by other ranks (set_ghost_layer: the nodes this rank adds into
   /// and reads, less its own rows), summed over the Dirichlet sets: what one solve's scatter of u
   /// brings to this rank, and its addition of b sends, per component.
-  long layer_ghosts() const { return layer_ghosts_; }
+  long layer_ghosts() const;
   /// This rank's rows, summed over the Dirichlet sets (its nodes of node_rank).
-  long owned_rows() const { return owned_rows_; }
+  long owned_rows() const;
   /// One Dirichlet set on this rank: its components, free rows (of the mesh), owned rows, the
   /// ghost layer's rows of other ranks, and the bytes of this rank's own arrays for it (its rows'
   /// nodes and shifts, the layer's rows, nodes and values; not PETSc's): O(owned + ghost rows).
@@ -142,11 +142,10 @@ class DistributedGlobalStep {
     double bytes = 0;
   };
   std::vector<SetShare> set_shares() const;
-  /// GAMG's coarse operators (the levels below A, summed over the Dirichlet sets; 0 with MUMPS)
-  /// and those that still hold the data of the product P^T A P that made them (none once the
-  /// hierarchy is built: release_coarse_products, mpi_global.cpp).
-  int coarse_operators() const;
-  int coarse_products() const;
+  /// GAMG's coarse operators (the levels below A, summed over the Dirichlet sets; 0 with MUMPS);
+  /// with_products (optional): those that still hold the data of the product P^T A P that made
+  /// them (none once the hierarchy is built: release_coarse_products, mpi_global.cpp).
+  int coarse_operators(int* with_products = nullptr) const;
 
  private:
   struct Group;
@@ -156,7 +155,7 @@ class DistributedGlobalStep {
   double scale_ = 1;
   bool ghost_layer_ = false;
   int num_nodes_ = 0;  ///< the mesh's nodes (the rows of u)
-  long iterations_ = 0, solves_ = 0, ghosts_ = 0, owned_rows_ = 0, layer_ghosts_ = 0;
+  long iterations_ = 0, solves_ = 0, ghosts_ = 0;
   double setup_seconds_ = 0, ksp_seconds_ = 0;
 };
 
