@@ -8,6 +8,7 @@
 #include "fixed_point.hpp"
 #include "measures.hpp"
 #include "mpi_comm.hpp"
+#include "mpi_newton.hpp"
 
 namespace ltl {
 
@@ -78,9 +79,12 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   if (a.solver == NonlinearSolver::Newton) {
     // Its linear systems by GMRES + AMG when the global step is CG + AMG (a factorization would
     // not fit; newton_krylov.hpp), else by CHOLMOD's (or over the ranks MUMPS's) factor.
-    const bool krylov = !distributed() && global_ && global_->solver() == GlobalSolver::CgAmg;
-    // Distributed: its linear systems over the ranks (mpi_newton), its cells the rank's cells
-    // of the partition (ALG2's), its rows those of the global step.
+    // Distributed: its linear systems over the ranks (mpi_newton, or newton_krylov's distributed
+    // GMRES + GAMG when the global step is the distributed CG + GAMG), its cells the rank's
+    // cells of the partition (ALG2's), its rows those of the global step.
+    const bool krylov = distributed()
+                            ? a.global_solver == GlobalSolver::CgAmg && distributed_newton_solves()
+                            : global_ && global_->solver() == GlobalSolver::CgAmg;
     newton_ = std::make_unique<Newton>(disc_, krylov, cell_partition());
   }
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);

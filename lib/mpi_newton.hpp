@@ -19,6 +19,10 @@
 // rank (mpi::gather), so that the rest of Newton stays identical on every rank. The LU's full KKT
 // system is still assembled whole on every rank.
 //
+// With the global step on the distributed CG + GAMG (algorithm.global_solver = "cg-amg") the
+// augmented tangent is not factorized: its system goes to GMRES + GAMG over the same rows
+// (newton_krylov.hpp), and only a glued or indefinite step's LU is MUMPS's.
+//
 // Without LTL_WITH_MPI the solvers are not compiled (their constructors throw) and
 // distributed_newton_solves() is false: the serial Newton is unchanged.
 #pragma once
@@ -51,6 +55,9 @@ struct NewtonSolveStats {
   /// the AMG set-ups' and the iterations' seconds, failures (not converged).
   long krylov_solves = 0, krylov_iterations = 0, krylov_max_iterations = 0, krylov_failures = 0;
   double krylov_setup_s = 0, krylov_solve_s = 0;
+  /// This rank's rows of the Krylov solves' matrix A and of their constraint rows G, in the last
+  /// solve (every dof and every row on one process; over the ranks, its block of each).
+  long krylov_rows = 0, krylov_constraint_rows = 0;
 };
 NewtonSolveStats& newton_solve_stats();
 

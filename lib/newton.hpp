@@ -51,7 +51,9 @@ class Newton {
   /// The per-cell data (nodes, mean gradients, the points of the incompressibility constraint)
   /// and the constant part of the tangent. disc must outlive the object. krylov: the linear
   /// systems by GMRES with an AMG V-cycle (newton_krylov.hpp) instead of CHOLMOD's factor, for a
-  /// run whose global step is CG + AMG (the Solver sets it); then the factor's pattern is not
+  /// run whose global step is CG + AMG (the Solver sets it; in a distributed Solver the
+  /// distributed CG + GAMG, and then the Krylov solves are over the ranks too, each rank adding
+  /// its cells' terms and holding their constraint rows); then the factor's pattern is not
   /// built.
   ///
   /// cells: for the Newton phase of a distributed Solver (Ranks::All), the Solver's partition of

@@ -1,6 +1,7 @@
 // Newton's method on ALG2's discrete problem (newton.hpp): the linear system of a step, by the
 // augmented Lagrangian (CHOLMOD) or in full by sparse LU, and the glue's terms [LTL87 (2.2)].
-// In a distributed Solver both by MUMPS over the MPI ranks (mpi_newton.hpp).
+// In a distributed Solver both by MUMPS over the MPI ranks (mpi_newton.hpp), or with the global
+// step on CG + GAMG the augmented system by GMRES + GAMG over the ranks (newton_krylov.hpp).
 #include <Eigen/CholmodSupport>
 #include <Eigen/UmfPackSupport>
 #include <chrono>
@@ -252,10 +253,14 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
                          double rtol, Scatter& w, Eigen::VectorXd& dx) const {
   const int d = dim_, nc = disc_.num_cells(), dn = d * npc_, ndof = static_cast<int>(free_.size());
   const int np = incompressible_ ? nc : 0, npts = static_cast<int>(active.size());
+  // On several ranks (split_) each adds its cells' terms and holds their constraint rows; the
+  // lead (rank 0) adds the contact points' and holds their rows (as augmented_step does); a term
+  // every rank knows (the residual, the damping) goes in by the rank that owns its row.
+  const bool lead = !split_ || mpi::rank() == 0;
   NewtonKrylov& kr = *w.krylov;
   const auto t0 = std::chrono::steady_clock::now();
   kr.zero();
-  w.be.resize(np);
+  w.be.resize(np ? cells_.size() : 0);  // the rank's cells: cell e at slot_[e]
   Eigen::VectorXd diag = Eigen::VectorXd::Zero(ndof);
   std::vector<int> dofs(dn);
   auto cell_dofs = [&](int e) {
@@ -269,12 +274,13 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
     kr.add(dn, dofs.data(), Ke.data());  // symmetric: its storage order does not matter
     for (int r = 0; r < dn; ++r)
       if (dofs[r] >= 0) diag(dofs[r]) += Ke(r, r);
-    if (np) w.be[e] = be;
+    if (np) w.be[slot_[e]] = be;
   };
   if (d == 2)
-    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+    assemble<2>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
   else
-    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink);
+    assemble<3>(base, nullptr, nullptr, nullptr, nullptr, &sink, split_);
+  if (split_) mpi::sum(diag.data(), ndof);  // the tangent's diagonal, as the matrix sums it
   double a = 0;
   for (int k = 0; k < ndof; ++k)
     if (free_[k] >= 0) a += std::abs(diag(k));
@@ -282,39 +288,44 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
   const double kappa = NewtonKrylov::option("-ltl_newton_penalty", 10.0) * a;
   const double mu = 2 * disc_.split().C1;
   const Eigen::VectorXd& vol = disc_.cells().vol;
-  // The constraint rows, scaled, and their part of A and of the right-hand side.
+  // The constraint rows of this rank, scaled, and their part of A and of the right-hand side:
+  // its cells', then (the lead) the active contact points'.
+  static const std::vector<int> none;
+  const std::vector<int>& own = np ? cells_ : none;
   std::vector<int> act;
-  for (int k = 0; k < npts; ++k)
-    if (active[k] && !point_dofs_[k].empty()) act.push_back(k);
-  const int m = np + static_cast<int>(act.size());
+  if (lead)
+    for (int k = 0; k < npts; ++k)
+      if (active[k] && !point_dofs_[k].empty()) act.push_back(k);
+  const int no = static_cast<int>(own.size()), m = no + static_cast<int>(act.size());
   Eigen::VectorXd f = Eigen::VectorXd::Zero(ndof), g(m), sinv(m), scale(m);
   for (int k = 0; k < ndof; ++k)
-    if (free_[k] >= 0) f(k) = -Ru(k);
+    if (free_[k] >= 0 && kr.owns(k)) f(k) = -Ru(k);
   std::vector<Eigen::Triplet<double>> tg;
-  tg.reserve(static_cast<std::size_t>(np) * dn);
+  tg.reserve(static_cast<std::size_t>(no) * dn);
   Eigen::MatrixXd blk(dn, dn);
-  for (int e = 0; e < np; ++e) {
+  for (int i = 0; i < no; ++i) {
+    const int e = own[i];
     cell_dofs(e);
-    const Eigen::VectorXd& be = w.be[e];
+    const Eigen::VectorXd& be = w.be[slot_[e]];
     double b2 = 0;
     for (int r = 0; r < dn; ++r)
       if (dofs[r] >= 0) b2 += be(r) * be(r);
     const double W = 1 / std::max(b2, 1e-300);
     blk.noalias() = (kappa * W) * be * be.transpose();
     kr.add(dn, dofs.data(), blk.data());
-    scale(e) = a * std::sqrt(W);
+    scale(i) = a * std::sqrt(W);
     for (int r = 0; r < dn; ++r)
       if (dofs[r] >= 0) {
-        tg.emplace_back(e, dofs[r], -scale(e) * be(r));
+        tg.emplace_back(i, dofs[r], -scale(i) * be(r));
         f(dofs[r]) -= kappa * W * G(e) * be(r);
       }
-    g(e) = scale(e) * G(e);
-    sinv(e) = -(kappa * W + mu / vol(e)) / (scale(e) * scale(e));
+    g(i) = scale(i) * G(e);
+    sinv(i) = -(kappa * W + mu / vol(e)) / (scale(i) * scale(i));
   }
   std::vector<int> pd;  // a point's dofs and block, reused
   Eigen::MatrixXd pb;
   for (int j = 0; j < static_cast<int>(act.size()); ++j) {
-    const int k = act[j], row = np + j;
+    const int k = act[j], row = no + j;
     const std::vector<double>& cf = point_coef_[k];
     const int n = static_cast<int>(cf.size());
     pd.resize(n);
@@ -339,7 +350,7 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
   }
   if (damping > 0)
     for (int k = 0; k < ndof; ++k)
-      if (free_[k] >= 0) {
+      if (free_[k] >= 0 && kr.owns(k)) {
         const double v = damping * std::abs(diag(k));
         kr.add_row(k, 1, &k, &v);
       }
@@ -352,11 +363,16 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
   Eigen::VectorXd du, dq;
   const NewtonKrylov::Result r = kr.solve(Gs, sinv, f, g, rtol, du, dq);
   ++st.krylov_solves;
+  st.krylov_rows = kr.rows();
+  st.krylov_constraint_rows = m;
   st.krylov_iterations += r.iterations;
   st.krylov_max_iterations = std::max<long>(st.krylov_max_iterations, r.iterations);
   st.krylov_setup_s += r.setup_seconds;
   st.krylov_solve_s += r.solve_seconds;
-  if (!r.converged || !du.allFinite() || !dq.allFinite()) {
+  // The same verdict on every rank (the solve's is; a non-finite value may be one rank's).
+  double bad = !r.converged || !du.allFinite() || !dq.allFinite();
+  if (split_) mpi::max(&bad, 1);
+  if (bad > 0) {
     ++st.krylov_failures;
     return false;
   }
@@ -365,15 +381,17 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
   dx = Eigen::VectorXd::Zero(nfree_ + np + nA);
   for (int k = 0; k < ndof; ++k)
     if (free_[k] >= 0) dx(free_[k]) = du(k);
-  for (int e = 0; e < np; ++e) dx(nfree_ + e) = scale(e) * dq(e);
+  for (int i = 0; i < no; ++i) dx(nfree_ + own[i]) = scale(i) * dq(i);
   for (int k = 0, i = 0, j = 0; k < npts; ++k) {
     if (!active[k]) continue;
     if (j < static_cast<int>(act.size()) && act[j] == k) {
-      dx(nfree_ + np + i) = scale(np + j) * dq(np + j);
+      dx(nfree_ + np + i) = scale(no + j) * dq(no + j);
       ++j;
     }
     ++i;
   }
+  // The multipliers: each rank's rows, summed (every other rank's entries are 0 here).
+  if (split_) mpi::sum(dx.data() + nfree_, np + nA);
   return true;
 }
 
@@ -382,14 +400,16 @@ void Newton::ScatterDeleter::operator()(Scatter* w) const {
 }
 Newton::ScatterPtr Newton::new_scatter() const {
   ScatterPtr w(new Scatter);
-  if (distributed_ && distributed_newton_solves() && !krylov_) {  // mpi_newton.hpp
+  const bool over_ranks = distributed_ && distributed_newton_solves();  // mpi_newton.hpp
+  if (over_ranks && !krylov_)
     w->mumps = std::make_unique<DistributedCholesky>(NewtonRows(free_, dim_, node_rank_, 0), dim_,
                                                      nodes_, npc_, free_);
-    w->mumps_lu = std::make_unique<DistributedLU>();
-  } else if (krylov_) {
+  if (over_ranks) w->mumps_lu = std::make_unique<DistributedLU>();  // glued or indefinite steps
+  if (krylov_) {  // over the ranks: the rows of node_rank_, this rank's cells (newton_krylov.hpp)
     std::vector<char> fixed(free_.size());
     for (std::size_t k = 0; k < free_.size(); ++k) fixed[k] = free_[k] < 0;
-    w->krylov = std::make_unique<NewtonKrylov>(dim_, disc_.problem().mesh.X, nodes_, npc_, fixed);
+    w->krylov = std::make_unique<NewtonKrylov>(dim_, disc_.problem().mesh.X, nodes_, npc_, fixed,
+                                               over_ranks ? &node_rank_ : nullptr, &cells_);
   }
   return w;
 }

@@ -8,6 +8,7 @@
 
 #include "cg_amg.hpp"  // initialize_petsc
 #include "error.hpp"
+#include "mpi_comm.hpp"
 
 #ifdef LTL_HAVE_PETSC
 #include <petscksp.h>
@@ -40,7 +41,8 @@ double NewtonKrylov::option(const char* name, double fallback) {
 
 struct NewtonKrylov::Impl {};
 NewtonKrylov::NewtonKrylov(int, const Eigen::MatrixXd&, const std::vector<int>&, int,
-                           const std::vector<char>&) {
+                           const std::vector<char>&, const std::vector<int>*,
+                           const std::vector<int>*) {
   throw Error(
       "Newton's Krylov solves (algorithm.solver = \"newton\" with global_solver = \"cg-amg\") "
       "need PETSc, and this build has none: install it (Debian: apt-get install petsc-dev) and "
@@ -59,6 +61,12 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR&, const Eigen::VectorXd&,
 double NewtonKrylov::matrix_nonzeros() const {
   return 0;
 }
+int NewtonKrylov::rows() const {
+  return 0;
+}
+bool NewtonKrylov::owns(int) const {
+  return true;
+}
 
 #else
 
@@ -73,26 +81,34 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 struct NewtonKrylov::Impl {
-  int n = 0;  ///< dofs (the u block)
-  std::vector<PetscInt> fixed_dofs, idx;
-  Mat A = nullptr;  ///< the augmented tangent, every dof
+  MPI_Comm comm = PETSC_COMM_SELF;
+  int n = 0;        ///< dofs (the u block), every rank's
+  int n_own = 0;    ///< this rank's rows of A (n on one process)
+  PetscInt r0 = 0;  ///< this rank's first row of A
+  /// The row of A of each dof (empty: the dof itself, one process), and the first row of each
+  /// rank's block (P + 1).
+  std::vector<PetscInt> row;
+  std::vector<int> offset;
+  std::vector<PetscInt> fixed_rows, idx;  ///< this rank's prescribed rows; a block's rows
+  Mat A = nullptr;                        ///< the augmented tangent, every dof
   PC amg = nullptr;
-  // The work of a solve: the shell operator [A, G^T; G, 0], its vectors, the u block's views.
-  Mat M = nullptr;
-  Vec x = nullptr, b = nullptr, vu = nullptr, wu = nullptr;
-  int m = -1;  ///< rows of G of the operator M
-  const SpMatR* G = nullptr;
+  // The work of a solve: the shell operator [A, G^T; G, 0], its vectors, the blocks' views.
+  Mat M = nullptr, G = nullptr;
+  Vec x = nullptr, b = nullptr, vu = nullptr, wu = nullptr, vq = nullptr, wq = nullptr;
+  Vec t = nullptr;  ///< r_u - G^T y_q
+  int m = -1;       ///< this rank's rows of G of the operator M
   const Eigen::VectorXd* schur_inv = nullptr;
-  Eigen::VectorXd t;  ///< r_u - G^T y_q
+  PetscInt at(int k) const { return k < 0 ? -1 : (row.empty() ? k : row[k]); }
   void release_system() {
+    for (Vec* v : {&x, &b, &vq, &wq})
+      if (*v) VecDestroy(v);
     if (M) MatDestroy(&M);
-    if (x) VecDestroy(&x);
-    if (b) VecDestroy(&b);
   }
   ~Impl() {
     release_system();
-    if (vu) VecDestroy(&vu);
-    if (wu) VecDestroy(&wu);
+    for (Vec* v : {&vu, &wu, &t})
+      if (*v) VecDestroy(v);
+    if (G) MatDestroy(&G);
     if (amg) PCDestroy(&amg);
     if (A) MatDestroy(&A);
   }
@@ -100,20 +116,16 @@ struct NewtonKrylov::Impl {
 
 namespace {
 using CVec = Eigen::Map<const Eigen::VectorXd>;
-using MVec = Eigen::Map<Eigen::VectorXd>;
 
-/// op(vu, wu) with vu viewing x and wu viewing y: the u block of the KKT vectors, no copy.
-template <class Op>
-PetscErrorCode on_u_block(NewtonKrylov::Impl* m, const double* x, double* y, Op op) {
-  PetscCall(VecPlaceArray(m->vu, x));
-  PetscCall(VecPlaceArray(m->wu, y));
-  PetscCall(op(m->vu, m->wu));
-  PetscCall(VecResetArray(m->vu));
-  PetscCall(VecResetArray(m->wu));
-  return 0;
+/// A vector of `local` entries (this rank's) of PETSc's layout over comm, viewing an array later
+/// (VecPlaceArray).
+Vec view(MPI_Comm comm, int local) {
+  Vec v = nullptr;
+  check(VecCreateMPIWithArray(comm, 1, local, PETSC_DECIDE, nullptr, &v), "VecCreateMPIWithArray");
+  return v;
 }
 
-/// y = M x: y_u = A x_u + G^T x_q, y_q = G x_u.
+/// y = M x: y_u = A x_u + G^T x_q, y_q = G x_u (the blocks: views of this rank's entries).
 PetscErrorCode kkt_mult(Mat M, Vec xv, Vec yv) {
   NewtonKrylov::Impl* m = nullptr;
   PetscCall(MatShellGetContext(M, &m));
@@ -121,12 +133,14 @@ PetscErrorCode kkt_mult(Mat M, Vec xv, Vec yv) {
   PetscScalar* ya = nullptr;
   PetscCall(VecGetArrayRead(xv, &xa));
   PetscCall(VecGetArray(yv, &ya));
-  PetscCall(on_u_block(m, xa, ya, [m](Vec x, Vec y) { return MatMult(m->A, x, y); }));
-  const int n = m->n, k = m->G->rows();
-  CVec xu(xa, n), xq(xa + n, k);
-  MVec yu(ya, n), yq(ya + n, k);
-  yu.noalias() += m->G->transpose() * xq;
-  yq.noalias() = *m->G * xu;
+  PetscCall(VecPlaceArray(m->vu, xa));
+  PetscCall(VecPlaceArray(m->vq, xa + m->n_own));
+  PetscCall(VecPlaceArray(m->wu, ya));
+  PetscCall(VecPlaceArray(m->wq, ya + m->n_own));
+  PetscCall(MatMult(m->A, m->vu, m->wu));
+  PetscCall(MatMultTransposeAdd(m->G, m->vq, m->wu, m->wu));
+  PetscCall(MatMult(m->G, m->vu, m->wq));
+  for (Vec v : {m->vu, m->vq, m->wu, m->wq}) PetscCall(VecResetArray(v));
   PetscCall(VecRestoreArrayRead(xv, &xa));
   PetscCall(VecRestoreArray(yv, &ya));
   return 0;
@@ -140,12 +154,15 @@ PetscErrorCode block_apply(PC pc, Vec rv, Vec yv) {
   PetscScalar* ya = nullptr;
   PetscCall(VecGetArrayRead(rv, &ra));
   PetscCall(VecGetArray(yv, &ya));
-  const int n = m->n, k = m->G->rows();
-  MVec yq(ya + n, k);
-  yq = m->schur_inv->cwiseProduct(CVec(ra + n, k));
-  m->t = CVec(ra, n);
-  m->t.noalias() -= m->G->transpose() * yq;
-  PetscCall(on_u_block(m, m->t.data(), ya, [m](Vec x, Vec y) { return PCApply(m->amg, x, y); }));
+  const int n = m->n_own, k = m->m;
+  for (int i = 0; i < k; ++i) ya[n + i] = (*m->schur_inv)(i)*ra[n + i];
+  PetscCall(VecPlaceArray(m->vu, ra));
+  PetscCall(VecPlaceArray(m->wq, ya + n));
+  PetscCall(VecPlaceArray(m->wu, ya));
+  PetscCall(MatMultTranspose(m->G, m->wq, m->t));
+  PetscCall(VecAYPX(m->t, -1.0, m->vu));
+  PetscCall(PCApply(m->amg, m->t, m->wu));
+  for (Vec v : {m->vu, m->wq, m->wu}) PetscCall(VecResetArray(v));
   PetscCall(VecRestoreArrayRead(rv, &ra));
   PetscCall(VecRestoreArray(yv, &ya));
   return 0;
@@ -153,7 +170,8 @@ PetscErrorCode block_apply(PC pc, Vec rv, Vec yv) {
 }  // namespace
 
 NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<int>& cell_nodes,
-                           int npc, const std::vector<char>& fixed)
+                           int npc, const std::vector<char>& fixed,
+                           const std::vector<int>* node_rank, const std::vector<int>* cells)
     : impl_(std::make_unique<Impl>()) {
   initialize_petsc();
   Impl& m = *impl_;
@@ -161,41 +179,88 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
   m.n = dim * nn;
   if (static_cast<int>(fixed.size()) != m.n)
     throw Error(cat("NewtonKrylov: ", fixed.size(), " dof flags for ", m.n, " dofs"));
+  const int P = mpi::size(), me = mpi::rank();
+  const bool split = node_rank && P > 1;
+  if (split) {  // a node's dofs on the rows of its rank, nodes in their order within a block
+    if (static_cast<int>(node_rank->size()) != nn)
+      throw Error(cat("NewtonKrylov: ranks of ", node_rank->size(), " nodes for ", nn, " nodes"));
+    if (!cells) throw Error("NewtonKrylov: over the ranks without this rank's cells");
+    m.comm = PETSC_COMM_WORLD;
+    m.offset.assign(P + 1, 0);
+    for (int a = 0; a < nn; ++a) {
+      const int r = (*node_rank)[a];
+      if (r < 0 || r >= P) throw Error(cat("NewtonKrylov: node ", a, " on rank ", r, " of ", P));
+      m.offset[r + 1] += dim;
+    }
+    for (int r = 0; r < P; ++r) m.offset[r + 1] += m.offset[r];
+    std::vector<int> next(m.offset.begin(), m.offset.end() - 1);
+    m.row.resize(m.n);
+    for (int a = 0; a < nn; ++a)
+      for (int i = 0; i < dim; ++i) m.row[dim * a + i] = next[(*node_rank)[a]]++;
+    m.r0 = m.offset[me];
+    m.n_own = m.offset[me + 1] - m.offset[me];
+  } else {
+    m.offset = {0, m.n};
+    m.n_own = m.n;
+  }
   for (int k = 0; k < m.n; ++k)
-    if (fixed[k]) m.fixed_dofs.push_back(k);
-  // The pattern: node a couples with every node of its cells, dim x dim blocks.
-  std::vector<int> start(nn + 1, 0), cells_of(static_cast<std::size_t>(nc) * npc);
-  for (int v : cell_nodes) ++start[v + 1];
-  for (int a = 0; a < nn; ++a) start[a + 1] += start[a];
-  {
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int e = 0; e < nc; ++e)
-      for (int j = 0; j < npc; ++j) cells_of[fill[cell_nodes[e * npc + j]]++] = e;
-  }
-  std::vector<PetscInt> nnz(m.n);
-  std::vector<int> stamp(nn, -1);
-  for (int a = 0; a < nn; ++a) {
-    int count = 0;
-    for (int k = start[a]; k < start[a + 1]; ++k)
-      for (int j = 0; j < npc; ++j) {
-        const int b = cell_nodes[cells_of[k] * npc + j];
-        if (stamp[b] != a) stamp[b] = a, ++count;
-      }
-    for (int i = 0; i < dim; ++i) nnz[dim * a + i] = dim * std::max(count, 1);
-  }
-  check(MatCreate(PETSC_COMM_SELF, &m.A), "MatCreate");
-  check(MatSetSizes(m.A, m.n, m.n, m.n, m.n), "MatSetSizes");
-  check(MatSetType(m.A, MATSEQAIJ), "MatSetType");
+    if (fixed[k] && owns(k)) m.fixed_rows.push_back(m.at(k));
+  check(MatCreate(m.comm, &m.A), "MatCreate");
+  check(MatSetSizes(m.A, m.n_own, m.n_own, m.n, m.n), "MatSetSizes");
+  check(MatSetType(m.A, split ? MATMPIAIJ : MATSEQAIJ), "MatSetType");
   check(MatSetBlockSize(m.A, dim), "MatSetBlockSize");
-  check(MatSeqAIJSetPreallocation(m.A, 0, nnz.data()), "MatSeqAIJSetPreallocation");
-  {  // the rigid-body modes of the coordinates (translations, rotations)
+  if (split) {  // the exact pattern of this rank's cells' blocks and its rows' diagonal
+    Mat pattern = nullptr;
+    check(MatCreate(m.comm, &pattern), "MatCreate");
+    check(MatSetSizes(pattern, m.n_own, m.n_own, m.n, m.n), "MatSetSizes");
+    check(MatSetType(pattern, MATPREALLOCATOR), "MatSetType");
+    check(MatSetBlockSize(pattern, dim), "MatSetBlockSize");
+    check(MatSetUp(pattern), "MatSetUp");
+    const int dn = dim * npc;
+    std::vector<PetscScalar> zero(static_cast<std::size_t>(dn) * dn, 0.0);
+    std::vector<PetscInt> rows(dn);
+    for (int e : *cells) {
+      for (int r = 0; r < dn; ++r) rows[r] = m.at(dim * cell_nodes[e * npc + r / dim] + r % dim);
+      check(MatSetValues(pattern, dn, rows.data(), dn, rows.data(), zero.data(), INSERT_VALUES),
+            "MatSetValues");
+    }
+    for (PetscInt r = m.r0; r < m.r0 + m.n_own; ++r)
+      check(MatSetValue(pattern, r, r, 0.0, INSERT_VALUES), "MatSetValue");
+    check(MatAssemblyBegin(pattern, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+    check(MatAssemblyEnd(pattern, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+    check(MatPreallocatorPreallocate(pattern, PETSC_TRUE, m.A), "MatPreallocatorPreallocate");
+    MatDestroy(&pattern);
+  } else {  // node a couples with every node of its cells, dim x dim blocks
+    std::vector<int> start(nn + 1, 0), cells_of(static_cast<std::size_t>(nc) * npc);
+    for (int v : cell_nodes) ++start[v + 1];
+    for (int a = 0; a < nn; ++a) start[a + 1] += start[a];
+    {
+      std::vector<int> fill(start.begin(), start.end() - 1);
+      for (int e = 0; e < nc; ++e)
+        for (int j = 0; j < npc; ++j) cells_of[fill[cell_nodes[e * npc + j]]++] = e;
+    }
+    std::vector<PetscInt> nnz(m.n);
+    std::vector<int> stamp(nn, -1);
+    for (int a = 0; a < nn; ++a) {
+      int count = 0;
+      for (int k = start[a]; k < start[a + 1]; ++k)
+        for (int j = 0; j < npc; ++j) {
+          const int b = cell_nodes[cells_of[k] * npc + j];
+          if (stamp[b] != a) stamp[b] = a, ++count;
+        }
+      for (int i = 0; i < dim; ++i) nnz[dim * a + i] = dim * std::max(count, 1);
+    }
+    check(MatSeqAIJSetPreallocation(m.A, 0, nnz.data()), "MatSeqAIJSetPreallocation");
+  }
+  {  // the rigid-body modes of the coordinates (translations, rotations), this rank's nodes
     Vec coords;
-    check(VecCreateSeq(PETSC_COMM_SELF, m.n, &coords), "VecCreateSeq");
+    check(VecCreateMPI(m.comm, m.n_own, m.n, &coords), "VecCreateMPI");
     check(VecSetBlockSize(coords, dim), "VecSetBlockSize");
     PetscScalar* c = nullptr;
     check(VecGetArray(coords, &c), "VecGetArray");
     for (int a = 0; a < nn; ++a)
-      for (int i = 0; i < dim; ++i) c[dim * a + i] = X(a, i);
+      if (owns(dim * a))
+        for (int i = 0; i < dim; ++i) c[m.at(dim * a + i) - m.r0] = X(a, i);
     check(VecRestoreArray(coords, &c), "VecRestoreArray");
     MatNullSpace nsp = nullptr;
     check(MatNullSpaceCreateRigidBody(coords, &nsp), "MatNullSpaceCreateRigidBody");
@@ -203,7 +268,7 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
     MatNullSpaceDestroy(&nsp);
     VecDestroy(&coords);
   }
-  check(PCCreate(PETSC_COMM_SELF, &m.amg), "PCCreate");
+  check(PCCreate(m.comm, &m.amg), "PCCreate");
   check(PCSetType(m.amg, PCGAMG), "PCSetType");
   check(PCGAMGSetType(m.amg, PCGAMGAGG), "PCGAMGSetType");
   check(PCSetOptionsPrefix(m.amg, "ltl_newton_amg_"), "PCSetOptionsPrefix");
@@ -217,33 +282,41 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
     if (!given) check(PetscOptionsSetValue(nullptr, name, "4"), "PetscOptionsSetValue");
   }
   check(PCSetFromOptions(m.amg), "PCSetFromOptions");
-  check(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, m.n, nullptr, &m.vu), "VecCreateSeqWithArray");
-  check(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, m.n, nullptr, &m.wu), "VecCreateSeqWithArray");
+  m.vu = view(m.comm, m.n_own);
+  m.wu = view(m.comm, m.n_own);
+  check(VecCreateMPI(m.comm, m.n_own, m.n, &m.t), "VecCreateMPI");
 }
 
 NewtonKrylov::~NewtonKrylov() = default;
+
+bool NewtonKrylov::owns(int k) const {
+  const PetscInt r = impl_->at(k);
+  return r >= impl_->r0 && r < impl_->r0 + impl_->n_own;
+}
 
 void NewtonKrylov::zero() {
   check(MatZeroEntries(impl_->A), "MatZeroEntries");
 }
 
 void NewtonKrylov::add(int n, const int* dofs, const double* v) {
-  std::vector<PetscInt>& idx = impl_->idx;
-  idx.assign(dofs, dofs + n);
-  check(MatSetValues(impl_->A, n, idx.data(), n, idx.data(), v, ADD_VALUES), "MatSetValues");
+  Impl& m = *impl_;
+  m.idx.resize(n);
+  for (int j = 0; j < n; ++j) m.idx[j] = m.at(dofs[j]);
+  check(MatSetValues(m.A, n, m.idx.data(), n, m.idx.data(), v, ADD_VALUES), "MatSetValues");
 }
 
 void NewtonKrylov::add_row(int row, int n, const int* cols, const double* v) {
-  std::vector<PetscInt>& idx = impl_->idx;
-  idx.assign(cols, cols + n);
-  const PetscInt r = row;
-  check(MatSetValues(impl_->A, 1, &r, n, idx.data(), v, ADD_VALUES), "MatSetValues");
+  Impl& m = *impl_;
+  m.idx.resize(n);
+  for (int j = 0; j < n; ++j) m.idx[j] = m.at(cols[j]);
+  const PetscInt r = m.at(row);
+  check(MatSetValues(m.A, 1, &r, n, m.idx.data(), v, ADD_VALUES), "MatSetValues");
 }
 
 void NewtonKrylov::finish(double fixed_diagonal) {
   Impl& m = *impl_;
-  for (PetscInt k : m.fixed_dofs)
-    check(MatSetValue(m.A, k, k, fixed_diagonal, ADD_VALUES), "MatSetValue");
+  for (PetscInt r : m.fixed_rows)
+    check(MatSetValue(m.A, r, r, fixed_diagonal, ADD_VALUES), "MatSetValue");
   check(MatAssemblyBegin(m.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(m.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
 }
@@ -254,12 +327,16 @@ double NewtonKrylov::matrix_nonzeros() const {
   return info.nz_used;
 }
 
+int NewtonKrylov::rows() const {
+  return impl_->n_own;
+}
+
 NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd& schur_inv,
                                          const Eigen::VectorXd& f, const Eigen::VectorXd& g,
                                          double rtol, Eigen::VectorXd& du, Eigen::VectorXd& dq) {
   Impl& m = *impl_;
   Result res;
-  const int k = static_cast<int>(G.rows()), N = m.n + k;
+  const int k = static_cast<int>(G.rows());
   if (G.cols() != m.n || schur_inv.size() != k || f.size() != m.n || g.size() != k)
     throw Error("NewtonKrylov::solve: the sizes of G, schur_inv, f and g do not match");
   auto t0 = std::chrono::steady_clock::now();
@@ -268,26 +345,71 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
   check(PCSetUp(m.amg), "PCSetUp (the AMG hierarchy of the augmented tangent)");
   res.setup_seconds = seconds_since(t0);
   t0 = std::chrono::steady_clock::now();
-  m.G = &G;
   m.schur_inv = &schur_inv;
-  m.t.resize(m.n);
-  if (m.m != k) {
+  // The system's layout: this rank's rows of A, then its k rows of G; made again when a rank's k
+  // changed (the active contact rows), on every rank (PETSc's layouts are collective).
+  double changed = m.m != k;
+  if (!m.row.empty()) mpi::max(&changed, 1);
+  if (changed > 0) {
     m.release_system();
-    check(MatCreateShell(PETSC_COMM_SELF, N, N, N, N, &m, &m.M), "MatCreateShell");
+    const int local = m.n_own + k;
+    check(MatCreateShell(m.comm, local, local, PETSC_DETERMINE, PETSC_DETERMINE, &m, &m.M),
+          "MatCreateShell");
     check(MatShellSetOperation(m.M, MATOP_MULT, reinterpret_cast<void (*)(void)>(kkt_mult)),
           "MatShellSetOperation");
-    check(VecCreateSeq(PETSC_COMM_SELF, N, &m.x), "VecCreateSeq");
-    check(VecDuplicate(m.x, &m.b), "VecDuplicate");
+    check(MatCreateVecs(m.M, &m.x, &m.b), "MatCreateVecs");
+    m.vq = view(m.comm, k);
+    m.wq = view(m.comm, k);
     m.m = k;
   }
-  PetscScalar* a = nullptr;
-  check(VecGetArray(m.b, &a), "VecGetArray");
-  std::copy(f.data(), f.data() + m.n, a);
-  std::copy(g.data(), g.data() + k, a + m.n);
-  check(VecRestoreArray(m.b, &a), "VecRestoreArray");
+  {  // G in PETSc's layout: this rank's k rows, the columns of A's rows
+    if (m.G) MatDestroy(&m.G);
+    std::vector<PetscInt> dnz(k, 0), onz(k, 0), cols;
+    std::vector<PetscScalar> vals;
+    for (int i = 0; i < k; ++i)
+      for (SpMatR::InnerIterator it(G, i); it; ++it)
+        ++(owns(static_cast<int>(it.col())) ? dnz[i] : onz[i]);
+    check(
+        MatCreateAIJ(m.comm, k, m.n_own, PETSC_DETERMINE, m.n, 0, dnz.data(), 0, onz.data(), &m.G),
+        "MatCreateAIJ");
+    PetscInt g0 = 0;
+    check(MatGetOwnershipRange(m.G, &g0, nullptr), "MatGetOwnershipRange");
+    for (int i = 0; i < k; ++i) {
+      cols.clear();
+      vals.clear();
+      for (SpMatR::InnerIterator it(G, i); it; ++it) {
+        cols.push_back(m.at(static_cast<int>(it.col())));
+        vals.push_back(it.value());
+      }
+      const PetscInt r = g0 + i;
+      check(MatSetValues(m.G, 1, &r, static_cast<PetscInt>(cols.size()), cols.data(), vals.data(),
+                         INSERT_VALUES),
+            "MatSetValues");
+    }
+    check(MatAssemblyBegin(m.G, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+    check(MatAssemblyEnd(m.G, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  }
+  {  // b: f's parts added into this rank's rows (theirs travel at the assembly), then g
+    check(VecSet(m.b, 0.0), "VecSet");
+    Vec bu = nullptr;
+    check(VecDuplicate(m.t, &bu), "VecDuplicate");
+    for (int j = 0; j < m.n; ++j)
+      if (f(j) != 0) check(VecSetValue(bu, m.at(j), f(j), ADD_VALUES), "VecSetValue");
+    check(VecAssemblyBegin(bu), "VecAssemblyBegin");
+    check(VecAssemblyEnd(bu), "VecAssemblyEnd");
+    const PetscScalar* cu = nullptr;
+    PetscScalar* a = nullptr;
+    check(VecGetArrayRead(bu, &cu), "VecGetArrayRead");
+    check(VecGetArray(m.b, &a), "VecGetArray");
+    std::copy(cu, cu + m.n_own, a);
+    std::copy(g.data(), g.data() + k, a + m.n_own);
+    check(VecRestoreArray(m.b, &a), "VecRestoreArray");
+    check(VecRestoreArrayRead(bu, &cu), "VecRestoreArrayRead");
+    VecDestroy(&bu);
+  }
   check(VecSet(m.x, 0.0), "VecSet");
   KSP ksp = nullptr;
-  check(KSPCreate(PETSC_COMM_SELF, &ksp), "KSPCreate");
+  check(KSPCreate(m.comm, &ksp), "KSPCreate");
   struct KspGuard {
     KSP& k;
     ~KspGuard() { KSPDestroy(&k); }
@@ -317,10 +439,20 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
   res.residual = bn > 0 ? rn / bn : 0.0;
   res.converged = reason > 0;
   if (!res.converged) res.reason = KSPConvergedReasons[reason];
+  // du whole on every rank: the ranks' blocks of rows gathered, in the dofs' order; dq this
+  // rank's rows.
   const PetscScalar* c = nullptr;
   check(VecGetArrayRead(m.x, &c), "VecGetArrayRead");
-  du = CVec(c, m.n);
-  dq = CVec(c + m.n, k);
+  dq = CVec(c + m.n_own, k);
+  if (m.row.empty()) {
+    du = CVec(c, m.n);
+  } else {
+    std::vector<double> rows(m.n);
+    std::copy(c, c + m.n_own, rows.begin() + m.r0);
+    mpi::gather(rows.data(), m.offset);
+    du.resize(m.n);
+    for (int j = 0; j < m.n; ++j) du(j) = rows[m.row[j]];
+  }
   check(VecRestoreArrayRead(m.x, &c), "VecRestoreArrayRead");
   res.solve_seconds = seconds_since(t0);
   return res;

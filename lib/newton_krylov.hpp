@@ -21,6 +21,15 @@
 // dofs. PETSc's options with the prefix -ltl_newton_ tune the outer Krylov method
 // (-ltl_newton_ksp_type, ..._ksp_gmres_restart) and -ltl_newton_amg_ the V-cycle.
 //
+// Over the MPI ranks (a distributed Solver's Newton phase, given node_rank): A, G and the
+// vectors are PETSc's distributed objects on PETSC_COMM_WORLD. A node's dofs are rows of the rank
+// of node_rank (the global step's and the distributed factorization's rows, mpi_newton.hpp),
+// nodes in their index order within a rank's block; each rank adds its cells' terms into A (a term
+// in another rank's rows travels at the assembly), holds its cells' rows of G (and, on the rank
+// that adds them, the contact rows), and GMRES's vectors and GAMG's hierarchy are split the same
+// way: nothing of the solve is whole on a rank but the solution du, gathered to every rank (the
+// rest of the Newton phase holds the whole state).
+//
 // PETSc is optional at build time: without it available() is false and the constructor throws.
 #pragma once
 
@@ -46,9 +55,12 @@ class NewtonKrylov {
 
   /// The matrix A's pattern: dim dofs per node (#nodes = X.rows(), interleaved: dim a + i), the
   /// cells' nodes (#cells x npc, cell after cell), prescribed dofs: fixed[dim a + i] true. X: the
-  /// coordinates, for the rigid-body modes.
+  /// coordinates, for the rigid-body modes. Over the ranks (collective; node_rank non-null on
+  /// more than one process): node_rank (#nodes) the rank whose rows hold each node's dofs, and
+  /// cells this rank's cells, the only ones whose blocks it adds (the pattern it preallocates).
   NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<int>& cell_nodes, int npc,
-               const std::vector<char>& fixed);
+               const std::vector<char>& fixed, const std::vector<int>* node_rank = nullptr,
+               const std::vector<int>* cells = nullptr);
   ~NewtonKrylov();
   NewtonKrylov(const NewtonKrylov&) = delete;
   NewtonKrylov& operator=(const NewtonKrylov&) = delete;
@@ -59,8 +71,11 @@ class NewtonKrylov {
   void add(int n, const int* dofs, const double* v);
   /// Adds v[k] at (row, cols[k]) (-1 columns left out).
   void add_row(int row, int n, const int* cols, const double* v);
-  /// Ends the assembly: the prescribed dofs' diagonal set to `fixed_diagonal`.
+  /// Ends the assembly: the prescribed dofs' diagonal set to `fixed_diagonal`. Collective.
   void finish(double fixed_diagonal);
+  /// Is dof k one of this rank's rows (every dof on one process)? A term that every rank knows
+  /// (the residual, the damping) is added by the rank that owns its row only.
+  bool owns(int k) const;
 
   struct Result {
     bool converged = false;
@@ -71,12 +86,17 @@ class NewtonKrylov {
   };
   /// [A, G^T; G, 0] (du, dq) = (f, g) to a relative residual rtol. G: the constraint rows over
   /// the dofs (zero in the prescribed columns); schur_inv: S_hat^{-1}, one per row of G
-  /// (negative); f: dim * #nodes (zero at prescribed dofs). du, dq: the solution.
+  /// (negative); f: dim * #nodes (zero at prescribed dofs). du, dq: the solution. Over the ranks
+  /// (collective): G, schur_inv, g and dq are this rank's rows of the constraints (the rows of
+  /// all ranks in turn are the system's), f is this rank's part (the parts of the ranks add up to
+  /// the right-hand side), and du is whole on every rank.
   Result solve(const SpMatR& G, const Eigen::VectorXd& schur_inv, const Eigen::VectorXd& f,
                const Eigen::VectorXd& g, double rtol, Eigen::VectorXd& du, Eigen::VectorXd& dq);
 
-  /// Nonzeros of A.
+  /// Nonzeros of A (this rank's rows).
   double matrix_nonzeros() const;
+  /// This rank's rows of A (every dof on one process).
+  int rows() const;
 
   struct Impl;  ///< PETSc's objects (declared here for PETSc's callbacks)
 

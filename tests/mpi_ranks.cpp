@@ -194,7 +194,25 @@ NewtonOutcome newton_step(const std::string& config, std::vector<std::string> ov
       after.mumps_lu_factorizations - before.mumps_lu_factorizations;
   out.solves.mumps_workspace_retries =
       after.mumps_workspace_retries - before.mumps_workspace_retries;
+  out.solves.krylov_solves = after.krylov_solves - before.krylov_solves;
+  out.solves.krylov_failures = after.krylov_failures - before.krylov_failures;
+  out.solves.krylov_iterations = after.krylov_iterations - before.krylov_iterations;
+  out.solves.krylov_rows = after.krylov_rows;
+  out.solves.krylov_constraint_rows = after.krylov_constraint_rows;
   return out;
+}
+
+/// Both converged, the distributed u within 1e-8 of the serial one (rel), the same ALG2 and
+/// Newton iteration counts (some Newton), the same state on every rank.
+void expect_serial_newton_path(const std::string& name, const NewtonOutcome& serial,
+                               const NewtonOutcome& dist, double rel) {
+  EXPECT_TRUE(serial.report.converged) << serial.report.status;
+  EXPECT_TRUE(dist.report.converged) << dist.report.status;
+  EXPECT_LE(rel, 1e-8) << name << ": relative difference in u on rank " << mpi::rank();
+  EXPECT_EQ(dist.report.iterations, serial.report.iterations) << name;
+  EXPECT_EQ(dist.report.newton_iterations, serial.report.newton_iterations) << name;
+  EXPECT_GT(dist.report.newton_iterations, 0) << name;
+  EXPECT_TRUE(same_on_every_rank(dist.state)) << name << ": the ranks' states differ";
 }
 
 /// [(2.2), (2.7), (1.1)] The Newton phase of a distributed Solver solves its linear systems by
@@ -219,13 +237,7 @@ NewtonOutcome expect_distributed_newton(const std::string& name, const std::stri
               << dist.solves.mumps_lu_analyses
               << " analyses); serial: " << serial.solves.cholmod_factorizations << " CHOLMOD, "
               << serial.solves.umfpack_factorizations << " UMFPACK\n";
-  EXPECT_TRUE(serial.report.converged) << serial.report.status;
-  EXPECT_TRUE(dist.report.converged) << dist.report.status;
-  EXPECT_LE(rel, 1e-8) << name << ": relative difference in u on rank " << mpi::rank();
-  EXPECT_EQ(dist.report.iterations, serial.report.iterations) << name;
-  EXPECT_EQ(dist.report.newton_iterations, serial.report.newton_iterations) << name;
-  EXPECT_GT(dist.report.newton_iterations, 0) << name;
-  EXPECT_TRUE(same_on_every_rank(dist.state)) << name << ": the ranks' states differ";
+  expect_serial_newton_path(name, serial, dist, rel);
   // The distributed factorizations were used, the serial ones not.
   EXPECT_EQ(dist.solves.cholmod_factorizations, 0) << name;
   EXPECT_EQ(dist.solves.umfpack_factorizations, 0) << name;
@@ -251,6 +263,78 @@ TEST(Mpi, Eq2_2_Eq2_7_CoarseGutterNewtonPhaseDistributed) {
 }
 TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepNewtonPhaseDistributedLU) {
   expect_distributed_newton("glued Fig 3 step with Newton", kFig3, {"time.steps=1"}, true);
+}
+/// [(2.2), (2.7), (1.1)] With the global step on CG + GAMG (algorithm.global_solver = "cg-amg")
+/// the Newton phase of a distributed Solver solves its linear systems by GMRES with the
+/// augmented-Lagrangian block preconditioner and GAMG over the ranks (newton_krylov.hpp), not by
+/// MUMPS: the serial Krylov Newton's answer (and the serial factorized one's) to 1e-8 in u, the
+/// same ALG2 and Newton iteration counts, the same state on every rank; no factorization at all
+/// (neither MUMPS's nor CHOLMOD's nor UMFPACK's); and the system split over the ranks: each
+/// rank holds its block of A's rows and its cells' constraint rows, which add up to the serial
+/// solve's rows (every dof, one row per cell). Fails on several ranks when every rank solves the
+/// whole system (each would hold every row), when the Krylov solves fall back to MUMPS, or when a
+/// rank's part of the system is wrong (the answer).
+void expect_distributed_krylov_newton(const std::string& name, const std::string& config,
+                                      std::vector<std::string> overrides) {
+  const NewtonOutcome factored = newton_step(config, overrides, Ranks::One);
+  overrides.push_back("algorithm.global_solver=\"cg-amg\"");
+  const NewtonOutcome serial = newton_step(config, overrides, Ranks::One);
+  const NewtonOutcome dist = newton_step(config, overrides, Ranks::All);
+  const double rel = relative(dist.state.u, serial.state.u);
+  const double rel_factored = relative(dist.state.u, factored.state.u);
+  double rows[2] = {static_cast<double>(dist.solves.krylov_rows),
+                    static_cast<double>(dist.solves.krylov_constraint_rows)};
+  const double own_rows = rows[0];
+  mpi::sum(rows, 2);
+  if (mpi::rank() == 0)
+    std::cout << name << " (distributed Newton-Krylov), " << mpi::size()
+              << " rank(s): |u - u_serial| / |u_serial| = " << rel << " (Krylov), " << rel_factored
+              << " (factorized); iterations " << dist.report.iterations << " (serial "
+              << serial.report.iterations << "), Newton " << dist.report.newton_iterations
+              << " (serial " << serial.report.newton_iterations << "); "
+              << dist.solves.krylov_solves << " GMRES solves, " << dist.solves.krylov_iterations
+              << " iterations (serial " << serial.solves.krylov_iterations << "); rows of A "
+              << own_rows << " on rank 0 of " << rows[0] << " (serial " << serial.solves.krylov_rows
+              << "), rows of G " << rows[1] << " (serial " << serial.solves.krylov_constraint_rows
+              << ")\n";
+  expect_serial_newton_path(name, serial, dist, rel);
+  EXPECT_LE(rel_factored, 1e-8) << name << ": against the factorized Newton, rank " << mpi::rank();
+  EXPECT_GT(dist.solves.krylov_solves, 0) << name;
+  EXPECT_EQ(dist.solves.krylov_failures, 0) << name;
+  EXPECT_EQ(dist.solves.mumps_factorizations + dist.solves.mumps_lu_factorizations +
+                dist.solves.cholmod_factorizations + dist.solves.umfpack_factorizations,
+            0)
+      << name << ": a factorization";
+  EXPECT_EQ(rows[0], serial.solves.krylov_rows) << name;
+  EXPECT_EQ(rows[1], serial.solves.krylov_constraint_rows) << name;
+  if (mpi::size() > 1) {  // the blocks add up to the serial count: each is a part of it
+    EXPECT_LT(own_rows, serial.solves.krylov_rows) << name << ": rank " << mpi::rank();
+  }
+}
+TEST(Mpi, Eq2_2_Eq2_7_Fig5NewtonKrylovOverTheRanks) {
+  expect_distributed_krylov_newton("Fig 5 with Newton", kFig5, {});
+}
+TEST(Mpi, Eq2_2_Eq2_7_CoarseGutterNewtonKrylovOverTheRanks) {
+  expect_distributed_krylov_newton("coarse gutter with Newton", kFig6, kCoarseGutter);
+}
+/// [(2.2), (6.1)] A glued step's KKT system is not the Krylov solves' (newton_krylov.hpp): with
+/// the global step on CG + GAMG it still goes to the LU, MUMPS's over the ranks where the serial
+/// solver takes UMFPACK's, with the serial answer and iteration counts. Fails if the distributed
+/// Krylov Newton leaves a glued step without its LU.
+TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepWithKrylovNewtonKeepsTheLU) {
+  const std::vector<std::string> o = {"time.steps=1", "algorithm.global_solver=\"cg-amg\""};
+  const NewtonOutcome serial = newton_step(kFig3, o, Ranks::One);
+  const NewtonOutcome dist = newton_step(kFig3, o, Ranks::All);
+  const double rel = relative(dist.state.u, serial.state.u);
+  if (mpi::rank() == 0)
+    std::cout << "glued Fig 3 step, Newton with cg-amg, " << mpi::size()
+              << " rank(s): |u - u_serial| / |u_serial| = " << rel << "; "
+              << dist.solves.mumps_lu_factorizations << " MUMPS LU (serial "
+              << serial.solves.umfpack_factorizations << " UMFPACK)\n";
+  expect_serial_newton_path("glued Fig 3 step with cg-amg", serial, dist, rel);
+  EXPECT_GT(serial.solves.umfpack_factorizations, 0);
+  EXPECT_EQ(dist.solves.mumps_lu_factorizations, serial.solves.umfpack_factorizations);
+  EXPECT_EQ(dist.solves.krylov_solves + dist.solves.umfpack_factorizations, 0);
 }
 /// [(2.2), (2.7), (1.1)] MUMPS's workspace starts at its own estimate plus 20 %. A factorization
 /// that finds it short (forced here: -ltl_mumps_workspace -50, half the estimate) is analyzed and

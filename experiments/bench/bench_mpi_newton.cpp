@@ -5,8 +5,10 @@
 //           Newton phase), the numeric factorization (once per Newton step) and the solves (5-7
 //           multiplier sweeps per step) of the augmented tangent, and the full KKT system's LU
 //           when it is used; serial (CHOLMOD, UMFPACK) with --serial, else distributed over the
-//           ranks of mpirun (MUMPS). Times are the largest over the ranks, with the load average;
-//           then every rank's peak resident memory.
+//           ranks of mpirun (MUMPS; with algorithm.global_solver="cg-amg" no factorization but
+//           GMRES + GAMG over the ranks, lib/newton_krylov.hpp, and its solves are reported). Times
+//           are the largest over the ranks, with the load average; then every rank's peak resident
+//           memory.
 //
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi_newton CONFIG [--serial] [key=value]...
 //           e.g. the gutter at level 2 (`refinement fig6`'s mesh, 2 160 H8):
@@ -119,6 +121,11 @@ int bench(int argc, char** argv) {
         sent_max, sent_sum);
     std::printf("  MUMPS workspace short of its estimate + 20 %%: %ld refactorization(s)\n",
                 st.mumps_workspace_retries);
+    std::printf(
+        "  Krylov (GMRES + GAMG): %ld solves, %ld iterations (at most %ld), %ld failed, set-up "
+        "%.2f s, iterations %.2f s; rank 0's rows: %ld of A, %ld of G\n",
+        st.krylov_solves, st.krylov_iterations, st.krylov_max_iterations, st.krylov_failures,
+        st.krylov_setup_s, st.krylov_solve_s, st.krylov_rows, st.krylov_constraint_rows);
     std::printf("  peak resident memory per rank (VmHWM, 10^6 KiB):");
     for (double g : peak) std::printf(" %.2f", g);
     std::printf("\n");
