@@ -553,7 +553,10 @@ Schema build() {
                "with PETSc (`make test-petsc`), else a clear error. `\"auto\"`: CG + AMG only "
                "with PETSc, above 200 000 nodes and a predicted factor above 4 GB. With "
                "`solver = \"newton\"` and CG + AMG, the Newton phase's linear systems are solved "
-               "by GMRES with an AMG V-cycle too, not factorized (lib/newton_krylov.hpp)"),
+               "by GMRES with an AMG V-cycle too, not factorized (lib/newton_krylov.hpp); on MPI "
+               "ranks "
+               "the same, over the ranks, where `\"auto\"` and `\"cholesky\"` take MUMPS's "
+               "distributed factorizations"),
       number(
           "algorithm", "newton_switch",
           [A](Problem& p, int) -> double& { return A(p).newton_switch; }, Positive)
