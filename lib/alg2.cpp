@@ -449,8 +449,10 @@ class Solver::Alg2Map final : public FixedPointMap {
 // Distributed, the iterations run on the rank's rows of E and lambda (own_rows): s's E and
 // lambda are released at the start of each ALG2 phase and at its end the state between steps is
 // made (between_steps: E and lambda stay on the rank's rows, u is made whole), so that no
-// iteration moves or holds a whole cell field. The Newton phase takes the whole state (whole),
-// which is cut to the rank's rows again before the step's measure (hold_rows).
+// iteration moves or holds a whole cell field. The Newton phase takes that state too (its E and
+// lambda on the rank's rows, Newton::on_rows) and leaves it in the same form; a whole state (a
+// discretization of every cell) is cut to the rank's rows before the step's measure
+// (hold_rows).
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
@@ -467,7 +469,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     if (dist_) own = own_rows(s);
     drive(map, params, report, alg2_progress);
     if (dist_) {
-      s = newton_ ? whole(own) : between_steps(std::move(own));
+      s = between_steps(std::move(own));  // E and lambda on the rank's rows, u whole
       own = State();
     }
   };

@@ -183,12 +183,22 @@ void Newton::gather_triplets(Triplets& t) const {
     t.emplace_back(static_cast<int>(all[k]), static_cast<int>(all[k + 1]), all[k + 2]);
 }
 
+bool Newton::on_rows(const State& s) const {
+  return split_ && s.E.rows() == dim_ * static_cast<Eigen::Index>(cells_.size());
+}
+
 Newton::Unknowns Newton::unknowns(const State& s) const {
   const int nc = disc_.num_cells();
   Unknowns x;
   x.u = s.u;
   const Material& m = disc_.split();
-  if (incompressible_) {
+  if (incompressible_ && on_rows(s)) {  // the rank's cells' pressures, summed over the ranks
+    x.p = Eigen::VectorXd::Zero(nc);
+    for (std::size_t k = 0; k < cells_.size(); ++k)
+      x.p(cells_[k]) = m.pressure(cell_tensor(s.E, static_cast<int>(k)),
+                                  cell_tensor(s.lambda, static_cast<int>(k)));
+    mpi::sum(x.p.data(), nc);
+  } else if (incompressible_) {
     x.p.resize(nc);
     for (int e = 0; e < nc; ++e) x.p(e) = m.pressure(cell_tensor(s.E, e), cell_tensor(s.lambda, e));
   }
@@ -209,20 +219,22 @@ void Newton::to_state(const Unknowns& x, State& s) const {
   const int d = dim_;
   const Material& m = disc_.split();
   s.u = x.u;
-  // E = Fbar = I + Gbar_e u on this rank's cells (on several ranks the others' are theirs: zero
-  // here, then the sum over the ranks makes E and lambda whole on every rank).
-  if (split_) s.E.setZero(), s.lambda.setZero();
+  // E = Fbar = I + Gbar_e u on this rank's cells. Given on the rank's rows (on_rows), E and lambda
+  // stay there; whole on several ranks, the others' cells are theirs: zero here, then the sum
+  // over the ranks makes E and lambda whole on every rank.
+  const bool rows = on_rows(s);
+  if (split_ && !rows) s.E.setZero(), s.lambda.setZero();
   Eigen::MatrixXd ue(npc_, d);
   for (std::size_t k = 0; k < cells_.size(); ++k) {
-    const int e = cells_[k];
+    const int e = cells_[k], at = rows ? static_cast<int>(k) : e;
     for (int a = 0; a < npc_; ++a) ue.row(a) = x.u.row(nodes_[e * npc_ + a]);
     Eigen::MatrixXd F = ue.transpose() * gbar_[k];
     F.diagonal().array() += 1.0;
     const Eigen::MatrixXd L = m.multiplier(F, incompressible_ ? x.p(e) : 0.0);
-    s.E.block(d * e, 0, d, d) = F.transpose();
-    s.lambda.block(d * e, 0, d, d) = L.transpose();
+    s.E.block(d * at, 0, d, d) = F.transpose();
+    s.lambda.block(d * at, 0, d, d) = L.transpose();
   }
-  if (split_) {
+  if (split_ && !rows) {
     mpi::sum(s.E.data(), s.E.size());
     mpi::sum(s.lambda.data(), s.lambda.size());
   }

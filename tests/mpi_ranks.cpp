@@ -336,6 +336,50 @@ TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepWithKrylovNewtonKeepsTheLU) {
   EXPECT_EQ(dist.solves.mumps_lu_factorizations, serial.solves.umfpack_factorizations);
   EXPECT_EQ(dist.solves.krylov_solves + dist.solves.umfpack_factorizations, 0);
 }
+/// [(2.2), (2.7)] The Newton phase of a distributed Solver takes the state between steps as it
+/// is, E and lambda on the rank's cells' rows (Newton::on_rows), and leaves it so: no whole cell
+/// field is gathered when ALG2 hands over, nor summed over the ranks when Newton ends. Seen from
+/// the step's progress callback, which reads the caller's state: during the Newton phase its E
+/// has the rank's rows, never the whole mesh's. The step's E and lambda, gathered, are the
+/// serial ones to 1e-8 and its u to 1e-8. Fails on several ranks when the handover gathers the
+/// whole state (as until this change), or when to_state writes the rows in the mesh's places.
+TEST(Mpi, Eq2_2_Eq2_7_TheNewtonPhaseKeepsEAndLambdaOnTheRanksRows) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig6),
+                                 {"mesh.parameters.nl=5", "mesh.parameters.na=5",
+                                  "algorithm.solver=newton", "algorithm.newton_switch=1e9"});
+  Solver serial(p, Ranks::One), dist(p, Ranks::All);
+  State ss = serial.initial_state(), s = dist.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  const int dim = p.mesh.dim, nc = p.mesh.num_cells(), own = dist.rank_share().cells;
+  int whole_calls = 0, rows_calls = 0;
+  const StepReport rs = serial.solve_step(ss, beta_prev);
+  const StepReport r = dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
+    if (own == nc) return;  // one rank: its rows are the whole mesh's
+    if (s.E.rows() == dim * nc) ++whole_calls;
+    if (s.E.rows() == dim * own) ++rows_calls;
+  });
+  const State w = dist.whole_state(s);
+  const double rel_E = relative(w.E, ss.E), rel_lambda = relative(w.lambda, ss.lambda);
+  if (mpi::rank() == 0)
+    std::cout << "coarse gutter, Newton from the start, " << mpi::size()
+              << " rank(s): " << r.newton_iterations
+              << " Newton iterations; progress calls with E whole " << whole_calls
+              << ", on the rank's rows " << rows_calls << "; E, lambda within " << rel_E << ", "
+              << rel_lambda << " of the serial ones\n";
+  EXPECT_TRUE(rs.converged) << rs.status;
+  EXPECT_TRUE(r.converged) << r.status;
+  EXPECT_GT(r.newton_iterations, 0);
+  EXPECT_EQ(r.newton_iterations, rs.newton_iterations);
+  EXPECT_EQ(whole_calls, 0) << "rank " << mpi::rank();
+  if (mpi::size() > 1) {
+    EXPECT_GE(rows_calls, r.newton_iterations) << "rank " << mpi::rank();
+  }
+  EXPECT_EQ(s.E.rows(), dim * own);
+  EXPECT_LE(relative(w.u, ss.u), 1e-8);
+  EXPECT_LE(rel_E, 1e-8);
+  EXPECT_LE(rel_lambda, 1e-8);
+  EXPECT_TRUE(same_on_every_rank(w));
+}
 /// [(2.2), (2.7), (1.1)] MUMPS's workspace starts at its own estimate plus 20 %. A factorization
 /// that finds it short (forced here: -ltl_mumps_workspace -50, half the estimate) is analyzed and
 /// factorized again with twice the estimate, not taken for a tangent that is not positive
