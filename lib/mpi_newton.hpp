@@ -55,9 +55,11 @@ struct NewtonSolveStats {
   /// the AMG set-ups' and the iterations' seconds, failures (not converged).
   long krylov_solves = 0, krylov_iterations = 0, krylov_max_iterations = 0, krylov_failures = 0;
   double krylov_setup_s = 0, krylov_solve_s = 0;
-  /// This rank's rows of the Krylov solves' matrix A and of their constraint rows G, in the last
-  /// solve (every dof and every row on one process; over the ranks, its block of each).
+  /// This rank's rows of the Krylov solves' matrix A and of their constraint rows G, and the
+  /// entries A stores in its rows, in the last solve (every dof and every row on one process;
+  /// over the ranks, its block of each).
   long krylov_rows = 0, krylov_constraint_rows = 0;
+  double krylov_nonzeros = 0;
 };
 NewtonSolveStats& newton_solve_stats();
 

@@ -192,15 +192,14 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
   Unknowns x;
   x.u = s.u;
   const Material& m = disc_.split();
-  if (incompressible_ && on_rows(s)) {  // the rank's cells' pressures, summed over the ranks
+  if (incompressible_) {  // the rank's cells' pressures (every cell on one rank), then summed
+    const bool rows = on_rows(s);
     x.p = Eigen::VectorXd::Zero(nc);
-    for (std::size_t k = 0; k < cells_.size(); ++k)
-      x.p(cells_[k]) = m.pressure(cell_tensor(s.E, static_cast<int>(k)),
-                                  cell_tensor(s.lambda, static_cast<int>(k)));
-    mpi::sum(x.p.data(), nc);
-  } else if (incompressible_) {
-    x.p.resize(nc);
-    for (int e = 0; e < nc; ++e) x.p(e) = m.pressure(cell_tensor(s.E, e), cell_tensor(s.lambda, e));
+    for (std::size_t k = 0; k < cells_.size(); ++k) {
+      const int e = cells_[k], at = rows ? static_cast<int>(k) : e;
+      x.p(e) = m.pressure(cell_tensor(s.E, at), cell_tensor(s.lambda, at));
+    }
+    if (split_) mpi::sum(x.p.data(), nc);
   }
   if (const ContactPoints* pts = disc_.points()) {
     Eigen::MatrixXd lc = s.lambda_c;  // #points x dim; with glue, less the glue's force

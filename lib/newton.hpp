@@ -105,7 +105,7 @@ class Newton {
   /// From an ALG2 state: u; p_e from lambda_e = 2 C1 E_e - dW(E_e) + p_e cof E_e (least
   /// squares); mu_s = |G_s| max(0, -(lambda_c_s + kappa beta_s^2 e_s) . N); beta. On several
   /// ranks s's E and lambda may be whole or the rank's cells' rows (on_rows; the state between
-  /// steps of a distributed Solver): p is then made on the rank's cells and summed. Collective
+  /// steps of a distributed Solver): p is made on the rank's cells and summed. Collective
   /// then.
   Unknowns unknowns(const State& s) const;
   /// The ALG2 state of the unknowns: E_e = Fbar_e, lambda_e = 2 C1 Fbar_e - dW(Fbar_e) +
@@ -113,8 +113,6 @@ class Newton {
   /// (unchanged without glue). At a solution it is a fixed point of ALG2 (r_B = 0) for every R.
   /// E and lambda keep s's form: the rank's rows (on_rows), or whole (summed over the ranks).
   void to_state(const Unknowns& x, State& s) const;
-  /// Are s's E and lambda the rank's cells' rows (several ranks; cells() in order), not whole?
-  bool on_rows(const State& s) const;
 
   /// [(2.2), (2.7), (1.1)] R_u (dim * #nodes, interleaved, fixed dofs included) at x under the
   /// load F (#nodes x dim), and G_e (#cells; empty for the compressible law). With glue, R_u
@@ -238,6 +236,8 @@ class Newton {
   /// This rank's cells, ascending (all of them on one rank), and per cell its index in cells_
   /// (-1: another rank's).
   std::vector<int> cells_, slot_;
+  /// Are s's E and lambda the rank's cells' rows (split_; cells_ in order), not whole?
+  bool on_rows(const State& s) const;
   bool krylov_ = false;           ///< the constructor's krylov
   std::vector<int> dof_of_free_;  ///< per free index its dof (krylov_ only)
   Glue glue_;

@@ -365,6 +365,7 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
   ++st.krylov_solves;
   st.krylov_rows = kr.rows();
   st.krylov_constraint_rows = m;
+  st.krylov_nonzeros = kr.matrix_nonzeros();
   st.krylov_iterations += r.iterations;
   st.krylov_max_iterations = std::max<long>(st.krylov_max_iterations, r.iterations);
   st.krylov_setup_s += r.setup_seconds;
@@ -409,7 +410,7 @@ Newton::ScatterPtr Newton::new_scatter() const {
     std::vector<char> fixed(free_.size());
     for (std::size_t k = 0; k < free_.size(); ++k) fixed[k] = free_[k] < 0;
     w->krylov = std::make_unique<NewtonKrylov>(dim_, disc_.problem().mesh.X, nodes_, npc_, fixed,
-                                               over_ranks ? &node_rank_ : nullptr, &cells_);
+                                               over_ranks ? &node_rank_ : nullptr);
   }
   return w;
 }

@@ -41,8 +41,7 @@ double NewtonKrylov::option(const char* name, double fallback) {
 
 struct NewtonKrylov::Impl {};
 NewtonKrylov::NewtonKrylov(int, const Eigen::MatrixXd&, const std::vector<int>&, int,
-                           const std::vector<char>&, const std::vector<int>*,
-                           const std::vector<int>*) {
+                           const std::vector<char>&, const std::vector<int>*) {
   throw Error(
       "Newton's Krylov solves (algorithm.solver = \"newton\" with global_solver = \"cg-amg\") "
       "need PETSc, and this build has none: install it (Debian: apt-get install petsc-dev) and "
@@ -171,7 +170,7 @@ PetscErrorCode block_apply(PC pc, Vec rv, Vec yv) {
 
 NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<int>& cell_nodes,
                            int npc, const std::vector<char>& fixed,
-                           const std::vector<int>* node_rank, const std::vector<int>* cells)
+                           const std::vector<int>* node_rank)
     : impl_(std::make_unique<Impl>()) {
   initialize_petsc();
   Impl& m = *impl_;
@@ -184,7 +183,6 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
   if (split) {  // a node's dofs on the rows of its rank, nodes in their order within a block
     if (static_cast<int>(node_rank->size()) != nn)
       throw Error(cat("NewtonKrylov: ranks of ", node_rank->size(), " nodes for ", nn, " nodes"));
-    if (!cells) throw Error("NewtonKrylov: over the ranks without this rank's cells");
     m.comm = PETSC_COMM_WORLD;
     m.offset.assign(P + 1, 0);
     for (int a = 0; a < nn; ++a) {
@@ -209,28 +207,8 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
   check(MatSetSizes(m.A, m.n_own, m.n_own, m.n, m.n), "MatSetSizes");
   check(MatSetType(m.A, split ? MATMPIAIJ : MATSEQAIJ), "MatSetType");
   check(MatSetBlockSize(m.A, dim), "MatSetBlockSize");
-  if (split) {  // the exact pattern of this rank's cells' blocks and its rows' diagonal
-    Mat pattern = nullptr;
-    check(MatCreate(m.comm, &pattern), "MatCreate");
-    check(MatSetSizes(pattern, m.n_own, m.n_own, m.n, m.n), "MatSetSizes");
-    check(MatSetType(pattern, MATPREALLOCATOR), "MatSetType");
-    check(MatSetBlockSize(pattern, dim), "MatSetBlockSize");
-    check(MatSetUp(pattern), "MatSetUp");
-    const int dn = dim * npc;
-    std::vector<PetscScalar> zero(static_cast<std::size_t>(dn) * dn, 0.0);
-    std::vector<PetscInt> rows(dn);
-    for (int e : *cells) {
-      for (int r = 0; r < dn; ++r) rows[r] = m.at(dim * cell_nodes[e * npc + r / dim] + r % dim);
-      check(MatSetValues(pattern, dn, rows.data(), dn, rows.data(), zero.data(), INSERT_VALUES),
-            "MatSetValues");
-    }
-    for (PetscInt r = m.r0; r < m.r0 + m.n_own; ++r)
-      check(MatSetValue(pattern, r, r, 0.0, INSERT_VALUES), "MatSetValue");
-    check(MatAssemblyBegin(pattern, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-    check(MatAssemblyEnd(pattern, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-    check(MatPreallocatorPreallocate(pattern, PETSC_TRUE, m.A), "MatPreallocatorPreallocate");
-    MatDestroy(&pattern);
-  } else {  // node a couples with every node of its cells, dim x dim blocks
+  {  // node a couples with every node of its cells, dim x dim blocks: counted per owned row, in
+     // this rank's columns (the diagonal block) and in other ranks' (the off-diagonal block)
     std::vector<int> start(nn + 1, 0), cells_of(static_cast<std::size_t>(nc) * npc);
     for (int v : cell_nodes) ++start[v + 1];
     for (int a = 0; a < nn; ++a) start[a + 1] += start[a];
@@ -239,18 +217,24 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
       for (int e = 0; e < nc; ++e)
         for (int j = 0; j < npc; ++j) cells_of[fill[cell_nodes[e * npc + j]]++] = e;
     }
-    std::vector<PetscInt> nnz(m.n);
+    std::vector<PetscInt> dnz(m.n_own, 0), onz(m.n_own, 0);
     std::vector<int> stamp(nn, -1);
     for (int a = 0; a < nn; ++a) {
-      int count = 0;
+      if (!owns(dim * a)) continue;
+      int here = 0, there = 0;
       for (int k = start[a]; k < start[a + 1]; ++k)
         for (int j = 0; j < npc; ++j) {
           const int b = cell_nodes[cells_of[k] * npc + j];
-          if (stamp[b] != a) stamp[b] = a, ++count;
+          if (stamp[b] != a) stamp[b] = a, ++(owns(dim * b) ? here : there);
         }
-      for (int i = 0; i < dim; ++i) nnz[dim * a + i] = dim * std::max(count, 1);
+      for (int i = 0; i < dim; ++i) {
+        dnz[m.at(dim * a + i) - m.r0] = dim * std::max(here, 1);
+        onz[m.at(dim * a + i) - m.r0] = dim * there;
+      }
     }
-    check(MatSeqAIJSetPreallocation(m.A, 0, nnz.data()), "MatSeqAIJSetPreallocation");
+    check(MatSeqAIJSetPreallocation(m.A, 0, dnz.data()), "MatSeqAIJSetPreallocation");
+    check(MatMPIAIJSetPreallocation(m.A, 0, dnz.data(), 0, onz.data()),
+          "MatMPIAIJSetPreallocation");
   }
   {  // the rigid-body modes of the coordinates (translations, rotations), this rank's nodes
     Vec coords;
@@ -393,8 +377,13 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
     check(VecSet(m.b, 0.0), "VecSet");
     Vec bu = nullptr;
     check(VecDuplicate(m.t, &bu), "VecDuplicate");
+    std::vector<PetscInt> rows;
+    std::vector<PetscScalar> values;
     for (int j = 0; j < m.n; ++j)
-      if (f(j) != 0) check(VecSetValue(bu, m.at(j), f(j), ADD_VALUES), "VecSetValue");
+      if (f(j) != 0) rows.push_back(m.at(j)), values.push_back(f(j));
+    check(VecSetValues(bu, static_cast<PetscInt>(rows.size()), rows.data(), values.data(),
+                       ADD_VALUES),
+          "VecSetValues");
     check(VecAssemblyBegin(bu), "VecAssemblyBegin");
     check(VecAssemblyEnd(bu), "VecAssemblyEnd");
     const PetscScalar* cu = nullptr;

@@ -56,11 +56,11 @@ class NewtonKrylov {
   /// The matrix A's pattern: dim dofs per node (#nodes = X.rows(), interleaved: dim a + i), the
   /// cells' nodes (#cells x npc, cell after cell), prescribed dofs: fixed[dim a + i] true. X: the
   /// coordinates, for the rigid-body modes. Over the ranks (collective; node_rank non-null on
-  /// more than one process): node_rank (#nodes) the rank whose rows hold each node's dofs, and
-  /// cells this rank's cells, the only ones whose blocks it adds (the pattern it preallocates).
+  /// more than one process): node_rank (#nodes) the rank whose rows hold each node's dofs. A is
+  /// preallocated for its rows from every cell (cell_nodes: the whole mesh's), whichever rank
+  /// adds the cell's block.
   NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<int>& cell_nodes, int npc,
-               const std::vector<char>& fixed, const std::vector<int>* node_rank = nullptr,
-               const std::vector<int>* cells = nullptr);
+               const std::vector<char>& fixed, const std::vector<int>* node_rank = nullptr);
   ~NewtonKrylov();
   NewtonKrylov(const NewtonKrylov&) = delete;
   NewtonKrylov& operator=(const NewtonKrylov&) = delete;

@@ -199,6 +199,7 @@ NewtonOutcome newton_step(const std::string& config, std::vector<std::string> ov
   out.solves.krylov_iterations = after.krylov_iterations - before.krylov_iterations;
   out.solves.krylov_rows = after.krylov_rows;
   out.solves.krylov_constraint_rows = after.krylov_constraint_rows;
+  out.solves.krylov_nonzeros = after.krylov_nonzeros;
   return out;
 }
 
@@ -271,7 +272,9 @@ TEST(Mpi, Eq2_2_Eq6_1_GluedFig3StepNewtonPhaseDistributedLU) {
 /// same ALG2 and Newton iteration counts, the same state on every rank; no factorization at all
 /// (neither MUMPS's nor CHOLMOD's nor UMFPACK's); and the system split over the ranks: each
 /// rank holds its block of A's rows and its cells' constraint rows, which add up to the serial
-/// solve's rows (every dof, one row per cell). Fails on several ranks when every rank solves the
+/// solve's rows (every dof, one row per cell), and A's stored entries to the serial A's (no
+/// stored zero: until the review of 2026-12-02 the prescribed dofs' rows kept their cells'
+/// couplings as zeros, which GAMG's graph saw). Fails on several ranks when every rank solves the
 /// whole system (each would hold every row), when the Krylov solves fall back to MUMPS, or when a
 /// rank's part of the system is wrong (the answer).
 void expect_distributed_krylov_newton(const std::string& name, const std::string& config,
@@ -282,10 +285,11 @@ void expect_distributed_krylov_newton(const std::string& name, const std::string
   const NewtonOutcome dist = newton_step(config, overrides, Ranks::All);
   const double rel = relative(dist.state.u, serial.state.u);
   const double rel_factored = relative(dist.state.u, factored.state.u);
-  double rows[2] = {static_cast<double>(dist.solves.krylov_rows),
-                    static_cast<double>(dist.solves.krylov_constraint_rows)};
+  double rows[3] = {static_cast<double>(dist.solves.krylov_rows),
+                    static_cast<double>(dist.solves.krylov_constraint_rows),
+                    dist.solves.krylov_nonzeros};
   const double own_rows = rows[0];
-  mpi::sum(rows, 2);
+  mpi::sum(rows, 3);
   if (mpi::rank() == 0)
     std::cout << name << " (distributed Newton-Krylov), " << mpi::size()
               << " rank(s): |u - u_serial| / |u_serial| = " << rel << " (Krylov), " << rel_factored
@@ -296,6 +300,7 @@ void expect_distributed_krylov_newton(const std::string& name, const std::string
               << " iterations (serial " << serial.solves.krylov_iterations << "); rows of A "
               << own_rows << " on rank 0 of " << rows[0] << " (serial " << serial.solves.krylov_rows
               << "), rows of G " << rows[1] << " (serial " << serial.solves.krylov_constraint_rows
+              << "), entries of A " << rows[2] << " (serial " << serial.solves.krylov_nonzeros
               << ")\n";
   expect_serial_newton_path(name, serial, dist, rel);
   EXPECT_LE(rel_factored, 1e-8) << name << ": against the factorized Newton, rank " << mpi::rank();
@@ -307,6 +312,8 @@ void expect_distributed_krylov_newton(const std::string& name, const std::string
       << name << ": a factorization";
   EXPECT_EQ(rows[0], serial.solves.krylov_rows) << name;
   EXPECT_EQ(rows[1], serial.solves.krylov_constraint_rows) << name;
+  EXPECT_EQ(rows[2], serial.solves.krylov_nonzeros)
+      << name << ": A's pattern is not the serial one";
   if (mpi::size() > 1) {  // the blocks add up to the serial count: each is a part of it
     EXPECT_LT(own_rows, serial.solves.krylov_rows) << name << ": rank " << mpi::rank();
   }
