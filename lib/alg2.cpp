@@ -497,7 +497,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       if (contact_) newton_->set_glue(*contact_, beta_prev);
       const bool glued = contact_ && contact_->glued();
       const State before = glued ? s : State();
-      Newton::Result r = newton_->solve(s, external_load(), a, report, progress);
+      Newton::Result r = newton_->solve(s, disc_.dead_load(), load_factor_, a, report, progress);
       if (r.converged && glued && !local_contact_step_holds(s, beta_prev)) {
         s = before;
         r.converged = false;

@@ -56,7 +56,7 @@ bool distributed_newton_solves() {
 }
 
 struct DistributedCholesky::Impl {};
-DistributedCholesky::DistributedCholesky(NewtonRows, int, const std::vector<int>&, int,
+DistributedCholesky::DistributedCholesky(NewtonRows, int, const Eigen::MatrixXi&,
                                          const std::vector<int>&) {
   throw Error("the distributed Newton solve needs MPI and PETSc: build with -DLTL_WITH_MPI=ON");
 }
@@ -256,8 +256,8 @@ struct DistributedCholesky::Impl {
 
 // The owned rows' pattern: row k (a free dof of node a) holds the free dofs of every node that
 // shares a cell with a, both triangles; built from the mesh, without the whole pattern.
-DistributedCholesky::DistributedCholesky(NewtonRows rows, int d, const std::vector<int>& cell_nodes,
-                                         int npc, const std::vector<int>& free_of_dof)
+DistributedCholesky::DistributedCholesky(NewtonRows rows, int d, const Eigen::MatrixXi& cells,
+                                         const std::vector<int>& free_of_dof)
     : impl_(new Impl{std::move(rows), {}, false, {}}) {
   Factored& f = impl_->f;
   f.what = "Newton's augmented tangent (MUMPS, distributed)";
@@ -278,11 +278,11 @@ DistributedCholesky::DistributedCholesky(NewtonRows rows, int d, const std::vect
   for (int a = 0; a < nn; ++a)
     if (owned(a)) local[a] = nl++;
   std::vector<std::vector<int> > near(nl);  // per owned node, the nodes that share a cell with it
-  const int nc = static_cast<int>(cell_nodes.size()) / npc;
+  const int nc = static_cast<int>(cells.rows()), npc = static_cast<int>(cells.cols());
   for (int e = 0; e < nc; ++e)
     for (int p = 0; p < npc; ++p)
-      if (const int a = local[cell_nodes[e * npc + p]]; a >= 0)
-        near[a].insert(near[a].end(), &cell_nodes[e * npc], &cell_nodes[e * npc] + npc);
+      if (const int a = local[cells(e, p)]; a >= 0)
+        for (int q = 0; q < npc; ++q) near[a].push_back(cells(e, q));
   std::vector<std::vector<PetscInt> > cols(f.own);
   for (int a = 0; a < nn; ++a) {
     if (local[a] < 0) continue;

@@ -86,10 +86,10 @@ struct NewtonRows {
 /// for the owned rows only from the mesh. Collective (except add).
 class DistributedCholesky {
  public:
-  /// rows: the PETSc rows of the free dofs; dim dofs per node; cell_nodes: #cells x npc, cell after
-  /// cell; free_of_dof[dim a + i]: the free index of dof i of node a, or -1. Analyzes at the first
-  /// factorize.
-  DistributedCholesky(NewtonRows rows, int dim, const std::vector<int>& cell_nodes, int npc,
+  /// rows: the PETSc rows of the free dofs; dim dofs per node; cells: the mesh's cells' nodes
+  /// (#cells x nodes per cell); free_of_dof[dim a + i]: the free index of dof i of node a, or -1.
+  /// Analyzes at the first factorize.
+  DistributedCholesky(NewtonRows rows, int dim, const Eigen::MatrixXi& cells,
                       const std::vector<int>& free_of_dof);
   ~DistributedCholesky();
   DistributedCholesky(const DistributedCholesky&) = delete;

@@ -32,9 +32,6 @@ Newton::Newton(const Discretization& disc, bool krylov, const mpi::Partition* ce
   npc_ = static_cast<int>(mesh.cells.cols());
   split_ = distributed_ && mpi::size() > 1;
   incompressible_ = disc.split().incompressible();
-  nodes_.resize(static_cast<std::size_t>(nc) * npc_);
-  for (int e = 0; e < nc; ++e)
-    for (int a = 0; a < npc_; ++a) nodes_[e * npc_ + a] = mesh.cells(e, a);
   free_.assign(static_cast<std::size_t>(d) * nn, 0);
   for (int i = 0; i < d; ++i)
     for (int a : disc.dirichlet().fixed[i]) free_[d * a + i] = -1;
@@ -59,6 +56,9 @@ Newton::Newton(const Discretization& disc, bool krylov, const mpi::Partition* ce
   if (distributed_ && distributed_newton_solves()) node_rank_ = node_ranks(mesh, *cells);
   slot_.assign(nc, -1);
   for (std::size_t k = 0; k < cells_.size(); ++k) slot_[cells_[k]] = static_cast<int>(k);
+  nodes_.resize(cells_.size() * npc_);
+  for (std::size_t k = 0; k < cells_.size(); ++k)
+    for (int a = 0; a < npc_; ++a) nodes_[k * npc_ + a] = mesh.cells(cells_[k], a);
   // Per cell of this rank, from the sums of cell_integrals (fe.cpp), from which the
   // discretization's cell operators are built too: the mean
   // gradient gbar_e = (1 / |O_e|) sum_q w_q grad_q, the constraint points (mean-det: the
@@ -119,7 +119,8 @@ Newton::Newton(const Discretization& disc, bool krylov, const mpi::Partition* ce
   const int dn = d * npc_;
   Triplets tp;
   for (int k = 0; k < nfree_; ++k) tp.emplace_back(k, k, 0.0);
-  auto fdof = [&](int e, int r) { return free_[d * nodes_[e * npc_ + r / d] + r % d]; };
+  // Every cell (the replicated solves on several ranks hold the whole pattern): the mesh's.
+  auto fdof = [&](int e, int r) { return free_[d * mesh.cells(e, r / d) + r % d]; };
   for (int e = 0; e < nc; ++e)
     for (int r = 0; r < dn; ++r)
       for (int c = 0; c < dn; ++c)
@@ -154,11 +155,10 @@ Newton::Holdings Newton::holdings() const {
   h.cells = static_cast<int>(cells_.size());
   for (const Eigen::MatrixXd& g : gbar_) h.cell_data += 8.0 * g.size();
   for (const Eigen::MatrixXd& g : gq_) h.cell_data += 8.0 * g.size();
-  h.cell_data += 8.0 * (wq_.size() + lf_.size());
+  h.cell_data += 8.0 * (wq_.size() + lf_.size()) + 4.0 * nodes_.size();
   h.positions = 4.0 * cell_pos_.size();
   auto sparse = [](const SpMat& A) { return 12.0 * A.nonZeros() + 4.0 * (A.outerSize() + 1); };
-  h.whole = 4.0 * (nodes_.size() + free_.size() + node_rank_.size() + diag_pos_.size() +
-                   dof_of_free_.size()) +
+  h.whole = 4.0 * (free_.size() + node_rank_.size() + diag_pos_.size() + dof_of_free_.size()) +
             sparse(pattern_);
   return h;
 }
@@ -226,7 +226,7 @@ void Newton::to_state(const Unknowns& x, State& s) const {
   Eigen::MatrixXd ue(npc_, d);
   for (std::size_t k = 0; k < cells_.size(); ++k) {
     const int e = cells_[k], at = rows ? static_cast<int>(k) : e;
-    for (int a = 0; a < npc_; ++a) ue.row(a) = x.u.row(nodes_[e * npc_ + a]);
+    for (int a = 0; a < npc_; ++a) ue.row(a) = x.u.row(nodes_[k * npc_ + a]);
     Eigen::MatrixXd F = ue.transpose() * gbar_[k];
     F.diagonal().array() += 1.0;
     const Eigen::MatrixXd L = m.multiplier(F, incompressible_ ? x.p(e) : 0.0);
@@ -289,7 +289,7 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
   };
   for (int k = 0; k < nce; ++k) {
     const int e = cells_[k];  // the slot of cell e is k
-    const int* nodes = &nodes_[static_cast<std::size_t>(e) * n];
+    const int* nodes = &nodes_[static_cast<std::size_t>(k) * n];
     for (int a = 0; a < n; ++a) ue.row(a) = x.u.row(nodes[a]);
     const Eigen::MatrixXd& gb = gbar_[k];
     const Eigen::Map<const Eigen::MatrixXd> lf(&lf_[static_cast<std::size_t>(k) * n * n], n, n);
@@ -356,8 +356,8 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
   }
 }
 
-void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::VectorXd& Ru,
-                      Eigen::VectorXd& G) const {
+void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& f, Eigen::VectorXd& Ru,
+                      Eigen::VectorXd& G, double load_factor) const {
   const int d = dim_, nn = disc_.num_nodes();
   Ru.setZero(d * nn);
   G.setZero(incompressible_ ? disc_.num_cells() : 0);
@@ -371,7 +371,7 @@ void Newton::residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::Vector
     mpi::sum(G.data(), G.size());
   }
   for (int a = 0; a < nn; ++a)
-    for (int i = 0; i < d; ++i) Ru(d * a + i) -= F(a, i);
+    for (int i = 0; i < d; ++i) Ru(d * a + i) -= load_factor * f(a, i);
   // The contact forces: mu_s N (x) mean_s, the reaction of the plane (1.1).
   if (const ContactPoints* pts = disc_.points()) {
     const Eigen::MatrixXd& N = pts->normals;  // row s: N_k of the obstacle of point s
@@ -423,7 +423,7 @@ double Newton::min_det(const Eigen::MatrixXd& u) const {
     return F.determinant();
   };
   for (std::size_t k = 0; k < cells_.size(); ++k) {  // the rank's cells (all on one rank)
-    const int* nodes = &nodes_[static_cast<std::size_t>(cells_[k]) * n];
+    const int* nodes = &nodes_[k * n];
     m = std::min(m, det_F(nodes, gbar_[k]));
     for (int q = nq_ * static_cast<int>(k); q < nq_ * static_cast<int>(k + 1); ++q)
       m = std::min(m, det_F(nodes, gq_[q]));
@@ -436,8 +436,8 @@ double Newton::min_det(const Eigen::MatrixXd& u) const {
   return m;
 }
 
-Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const AlgorithmParams& alg,
-                             StepReport& report,
+Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& f, double load_factor,
+                             const AlgorithmParams& alg, StepReport& report,
                              const std::function<void(const IterationRecord&)>& progress) const {
   using clock_type = std::chrono::steady_clock;
   const auto t_start = clock_type::now();
@@ -452,8 +452,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
 
   // The load scale of the force residual: the largest nodal load, or without loads the largest
   // nodal force of the start (reactions included).
-  residual(x, F, Ru, G);
-  double Fs = F.cwiseAbs().maxCoeff();
+  residual(x, f, Ru, G, load_factor);
+  double Fs = std::abs(load_factor) * f.cwiseAbs().maxCoeff();  // max |fl(factor f)|, exactly
   if (!(Fs > 0)) {
     const double h = std::pow(disc_.volume() / nc, 1.0 / d);
     Fs = std::max(Ru.cwiseAbs().maxCoeff(), 1e-8 * disc_.split().C1 * std::pow(h, d - 1));
@@ -503,7 +503,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     return mm;
   };
   auto measure = [&](const Unknowns& y, Eigen::VectorXd& ru, Eigen::VectorXd& g) {
-    residual(y, F, ru, g);
+    residual(y, f, ru, g, load_factor);
     return score(y, ru, g);
   };
   auto admissible = [&](const Unknowns& y) {
@@ -512,7 +512,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
 
   Measures cur = score(x, Ru, G);  // Ru, G at x: evaluated above for the load scale
   Unknowns trial;
-  Eigen::VectorXd Ru_t, G_t;
+  Eigen::VectorXd Ru_t, G_t, mu_x, beta_x;
   bool residual_at_x = true;  // Ru, G hold x's residual (not a base's with forces released)
   std::vector<int> active(np), prev_active, bstate(glued_ ? np : 0), prev_bstate;
   const ScatterPtr scatter = new_scatter();
@@ -557,8 +557,12 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       bstate[k] = t <= 0 ? -1 : (t >= 1 ? 1 : 0);
     }
     // The inactive forces vanish and the betas at a bound take it: set them, and the residual
-    // follows.
-    Unknowns base = x;
+    // follows. The step starts from base, which is x with those forces and betas set: set in
+    // place (u and p, whole on every rank, are not copied), x's own kept to restore if the step
+    // is not taken.
+    Unknowns& base = x;
+    mu_x = x.mu;
+    beta_x = x.beta;
     bool released = false;
     for (int k = 0; k < np; ++k)
       if (!active[k] && base.mu(k) != 0) base.mu(k) = 0, released = true;
@@ -566,7 +570,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       const double bound = bstate[k] < 0 ? 0.0 : 1.0;
       if (bstate[k] != 0 && base.beta(k) != bound) base.beta(k) = bound, released = true;
     }
-    if (released || !residual_at_x) residual(base, F, Ru, G);  // else Ru, G are x's already
+    if (released || !residual_at_x)
+      residual(base, f, Ru, G, load_factor);  // else Ru, G are x's already
     residual_at_x = !released;
     // [K, -B^T, C_A^T; -B, 0, 0; C_A, 0, 0] (du, dp, dmu_A) = (-R_u, G, g_A - N . ubar_A), gapv
     // (x's) being base's too: base differs from x in mu and beta only.
@@ -579,6 +584,11 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
     // Krylov solves: inexact Newton, the relative residual asked tightening with the merit. Their
     // failure is answered by damping, not by the LU (a factorization that would not fit).
     const double rtol = std::clamp(1e-2 * cur.merit, 1e-10, 1e-4);
+    // The last line search's point and residual (whole-size) are not held through the solve, the
+    // phase's peak: the line search below makes them again.
+    trial = Unknowns();
+    Eigen::VectorXd().swap(Ru_t);
+    Eigen::VectorXd().swap(G_t);
     bool solved = !glued_ && augmented_step(base, Ru, G, gapv, active, damping, rtol, *scatter, dx);
     if (!solved && (!krylov_ || glued_))
       solved = lu_step(base, Ru, G, gapv, active, bstate, damping, *scatter, dx);
@@ -597,6 +607,8 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       report.history.push_back(rec);
       if (progress) progress(report.history.back());
       damping = damping > 0 ? 10 * damping : 1e-4;
+      x.mu = mu_x;
+      x.beta = beta_x;
       active = prev_active;
       bstate = prev_bstate;
       return damping <= 1e6;
@@ -646,7 +658,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& F, const Algorithm
       damping = damping / 4 < 1e-8 ? 0.0 : damping / 4;
     else if (alpha <= 0.125)
       damping = damping > 0 ? 4 * damping : 1e-4;
-    x = trial;
+    std::swap(x, trial);  // trial's arrays are reused by the next line search
     cur = next;
     std::swap(Ru, Ru_t);
     std::swap(G, G_t);

@@ -84,10 +84,10 @@ class Newton {
   /// several under solver = "newton").
   void set_glue(const ContactSteps& contact, const Eigen::VectorXd& beta_prev);
   /// What this Newton holds (bytes): the per-cell data of its cells (the rank's cells of the
-  /// partition on several ranks: mean gradients, fluctuation blocks, constraint points and
-  /// weights), the cells' positions in the values of the tangent's pattern (none with the
-  /// distributed solves: PETSc's matrix holds the pattern, each rank its rows), and the whole-mesh
-  /// data every rank keeps (the cells' nodes, the free-dof numbering; the tangent's pattern and the
+  /// partition on several ranks: their nodes, mean gradients, fluctuation blocks, constraint
+  /// points and weights), the cells' positions in the values of the tangent's pattern (none with
+  /// the distributed solves: PETSc's matrix holds the pattern, each rank its rows), and the
+  /// whole-mesh data every rank keeps (the free-dof numbering; the tangent's pattern and the
   /// positions of the diagonal unless the solves are distributed).
   struct Holdings {
     int cells = 0;
@@ -115,10 +115,11 @@ class Newton {
   void to_state(const Unknowns& x, State& s) const;
 
   /// [(2.2), (2.7), (1.1)] R_u (dim * #nodes, interleaved, fixed dofs included) at x under the
-  /// load F (#nodes x dim), and G_e (#cells; empty for the compressible law). With glue, R_u
-  /// holds the glue's force sum_s |G_s| kappa beta_s^2 ubar_s (x) mean_s.
-  void residual(const Unknowns& x, const Eigen::MatrixXd& F, Eigen::VectorXd& Ru,
-                Eigen::VectorXd& G) const;
+  /// load F = load_factor x f (f: #nodes x dim; its entries scaled one by one, no F made), and
+  /// G_e (#cells; empty for the compressible law). With glue, R_u holds the glue's force
+  /// sum_s |G_s| kappa beta_s^2 ubar_s (x) mean_s.
+  void residual(const Unknowns& x, const Eigen::MatrixXd& f, Eigen::VectorXd& Ru,
+                Eigen::VectorXd& G, double load_factor = 1) const;
   /// The tangent dR_u/du at x (dim * #nodes square, all dofs): the Hessian of Pi minus
   /// sum_e p_e times the Hessian of G_e (plus the glue's |G_s| kappa beta_s^2 mean_s (x) mean_s).
   /// Its columns are the directional derivatives of residual() (tests: central differences).
@@ -133,12 +134,15 @@ class Newton {
     double force_residual = 0;   ///< max |R_u| over free dofs / load scale, at the end
     std::vector<double> forces;  ///< the force residual after each iteration (the rate)
   };
-  /// Semismooth Newton from s under load F, to force residual <= alg.force_tol (relative to the
-  /// largest nodal load, or without loads to the largest nodal force at the start), constraints
-  /// |G_e| / |O_e| <= 1e-10 and complementarity. Appends each iteration to report.history
-  /// (n continuing; r_G = force residual, r_B = constraint residual) and calls progress. On
-  /// success s is the converged state (to_state); otherwise s is unchanged.
-  Result solve(State& s, const Eigen::MatrixXd& F, const AlgorithmParams& alg, StepReport& report,
+  /// Semismooth Newton from s under the load F = load_factor x f (f: #nodes x dim, the assembled
+  /// dead loads; the Solver passes its discretization's and the step's factor, so that no whole
+  /// F is made), to force residual <= alg.force_tol (relative to the largest nodal load, or
+  /// without loads to the largest nodal force at the start), constraints |G_e| / |O_e| <= 1e-10
+  /// and complementarity. Appends each iteration to report.history (n continuing; r_G = force
+  /// residual, r_B = constraint residual) and calls progress. On success s is the converged
+  /// state (to_state); otherwise s is unchanged.
+  Result solve(State& s, const Eigen::MatrixXd& f, double load_factor, const AlgorithmParams& alg,
+               StepReport& report,
                const std::function<void(const IterationRecord&)>& progress) const;
 
  private:
@@ -196,7 +200,11 @@ class Newton {
   const Discretization& disc_;
   int dim_ = 0, npc_ = 0;
   bool incompressible_ = false;
-  std::vector<int> nodes_;  ///< #cells x npc, the cells' nodes
+  /// The nodes of this rank's cells (cells_, npc each, in that order): a rank holds its cells'
+  /// rows, not the mesh's whole table.
+  std::vector<int> nodes_;
+  /// The nodes of cell e, one of this rank's cells.
+  const int* cell_nodes(int e) const { return &nodes_[static_cast<std::size_t>(slot_[e]) * npc_]; }
   /// Mean gradients per cell (npc x dim, cell after cell) and the constraint points: per cell
   /// nq_ gradients (npc x dim) and weights (mean-det: the quadrature points; det-mean: the mean
   /// gradient with weight |O_e|). This rank's cells (cells_) only: cell e at slot_[e].

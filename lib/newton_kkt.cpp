@@ -77,7 +77,7 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
   else
     std::fill(A, A + w.A.nonZeros(), 0.0);
   w.be.resize(np ? cells_.size() : 0);  // the rank's cells: cell e at slot_[e]
-  auto fdof = [&](int e, int r) { return free_[d * nodes_[e * npc_ + r / d] + r % d]; };
+  auto fdof = [&](int e, int r) { return free_[d * cell_nodes(e)[r / d] + r % d]; };
   std::vector<int> dofs(dn);
   Eigen::VectorXd diag = Eigen::VectorXd::Zero(nfree_);
   // A cell's block M (dn x dn) into the matrix.
@@ -265,7 +265,7 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
   std::vector<int> dofs(dn);
   auto cell_dofs = [&](int e) {
     for (int r = 0; r < dn; ++r) {
-      const int k = d * nodes_[static_cast<std::size_t>(e) * npc_ + r / d] + r % d;
+      const int k = d * cell_nodes(e)[r / d] + r % d;
       dofs[r] = free_[k] >= 0 ? k : -1;
     }
   };
@@ -355,13 +355,14 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
         kr.add_row(k, 1, &k, &v);
       }
   kr.finish(a);
+  Eigen::VectorXd().swap(diag);  // whole-size: not held through the solve
   SpMatR Gs(m, ndof);
   Gs.setFromTriplets(tg.begin(), tg.end());
   std::vector<Eigen::Triplet<double>>().swap(tg);
   NewtonSolveStats& st = newton_solve_stats();
   st.krylov_setup_s += seconds_since(t0);  // the assembly, and below the AMG set-up
   Eigen::VectorXd du, dq;
-  const NewtonKrylov::Result r = kr.solve(Gs, sinv, f, g, rtol, du, dq);
+  const NewtonKrylov::Result r = kr.solve(Gs, sinv, std::move(f), g, rtol, du, dq);
   ++st.krylov_solves;
   st.krylov_rows = kr.rows();
   st.krylov_constraint_rows = m;
@@ -404,13 +405,14 @@ Newton::ScatterPtr Newton::new_scatter() const {
   const bool over_ranks = distributed_ && distributed_newton_solves();  // mpi_newton.hpp
   if (over_ranks && !krylov_)
     w->mumps = std::make_unique<DistributedCholesky>(NewtonRows(free_, dim_, node_rank_, 0), dim_,
-                                                     nodes_, npc_, free_);
+                                                     disc_.problem().mesh.cells, free_);
   if (over_ranks) w->mumps_lu = std::make_unique<DistributedLU>();  // glued or indefinite steps
   if (krylov_) {  // over the ranks: the rows of node_rank_, this rank's cells (newton_krylov.hpp)
     std::vector<char> fixed(free_.size());
     for (std::size_t k = 0; k < free_.size(); ++k) fixed[k] = free_[k] < 0;
-    w->krylov = std::make_unique<NewtonKrylov>(dim_, disc_.problem().mesh.X, nodes_, npc_, fixed,
-                                               over_ranks ? &node_rank_ : nullptr);
+    w->krylov =
+        std::make_unique<NewtonKrylov>(dim_, disc_.problem().mesh.X, disc_.problem().mesh.cells,
+                                       fixed, over_ranks ? &node_rank_ : nullptr);
   }
   return w;
 }

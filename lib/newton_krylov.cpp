@@ -40,7 +40,7 @@ double NewtonKrylov::option(const char* name, double fallback) {
 #ifndef LTL_HAVE_PETSC
 
 struct NewtonKrylov::Impl {};
-NewtonKrylov::NewtonKrylov(int, const Eigen::MatrixXd&, const std::vector<int>&, int,
+NewtonKrylov::NewtonKrylov(int, const Eigen::MatrixXd&, const Eigen::MatrixXi&,
                            const std::vector<char>&, const std::vector<int>*) {
   throw Error(
       "Newton's Krylov solves (algorithm.solver = \"newton\" with global_solver = \"cg-amg\") "
@@ -52,9 +52,9 @@ void NewtonKrylov::zero() {}
 void NewtonKrylov::add(int, const int*, const double*) {}
 void NewtonKrylov::add_row(int, int, const int*, const double*) {}
 void NewtonKrylov::finish(double) {}
-NewtonKrylov::Result NewtonKrylov::solve(const SpMatR&, const Eigen::VectorXd&,
-                                         const Eigen::VectorXd&, const Eigen::VectorXd&, double,
-                                         Eigen::VectorXd&, Eigen::VectorXd&) {
+NewtonKrylov::Result NewtonKrylov::solve(const SpMatR&, const Eigen::VectorXd&, Eigen::VectorXd,
+                                         const Eigen::VectorXd&, double, Eigen::VectorXd&,
+                                         Eigen::VectorXd&) {
   return {};
 }
 double NewtonKrylov::matrix_nonzeros() const {
@@ -116,6 +116,13 @@ struct NewtonKrylov::Impl {
 namespace {
 using CVec = Eigen::Map<const Eigen::VectorXd>;
 
+/// Destroys a PETSc object at the end of a scope, unless it was destroyed before (null then).
+template <class T, PetscErrorCode (*destroy)(T*)>
+struct Destroyed {
+  T& object;
+  ~Destroyed() { destroy(&object); }
+};
+
 /// A vector of `local` entries (this rank's) of PETSc's layout over comm, viewing an array later
 /// (VecPlaceArray).
 Vec view(MPI_Comm comm, int local) {
@@ -168,13 +175,13 @@ PetscErrorCode block_apply(PC pc, Vec rv, Vec yv) {
 }
 }  // namespace
 
-NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<int>& cell_nodes,
-                           int npc, const std::vector<char>& fixed,
-                           const std::vector<int>* node_rank)
+NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const Eigen::MatrixXi& cells,
+                           const std::vector<char>& fixed, const std::vector<int>* node_rank)
     : impl_(std::make_unique<Impl>()) {
   initialize_petsc();
   Impl& m = *impl_;
-  const int nn = static_cast<int>(X.rows()), nc = static_cast<int>(cell_nodes.size()) / npc;
+  const int nn = static_cast<int>(X.rows()), nc = static_cast<int>(cells.rows());
+  const int npc = static_cast<int>(cells.cols());
   m.n = dim * nn;
   if (static_cast<int>(fixed.size()) != m.n)
     throw Error(cat("NewtonKrylov: ", fixed.size(), " dof flags for ", m.n, " dofs"));
@@ -210,12 +217,13 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
   {  // node a couples with every node of its cells, dim x dim blocks: counted per owned row, in
      // this rank's columns (the diagonal block) and in other ranks' (the off-diagonal block)
     std::vector<int> start(nn + 1, 0), cells_of(static_cast<std::size_t>(nc) * npc);
-    for (int v : cell_nodes) ++start[v + 1];
+    for (int e = 0; e < nc; ++e)
+      for (int j = 0; j < npc; ++j) ++start[cells(e, j) + 1];
     for (int a = 0; a < nn; ++a) start[a + 1] += start[a];
     {
       std::vector<int> fill(start.begin(), start.end() - 1);
       for (int e = 0; e < nc; ++e)
-        for (int j = 0; j < npc; ++j) cells_of[fill[cell_nodes[e * npc + j]]++] = e;
+        for (int j = 0; j < npc; ++j) cells_of[fill[cells(e, j)]++] = e;
     }
     std::vector<PetscInt> dnz(m.n_own, 0), onz(m.n_own, 0);
     std::vector<int> stamp(nn, -1);
@@ -224,7 +232,7 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<
       int here = 0, there = 0;
       for (int k = start[a]; k < start[a + 1]; ++k)
         for (int j = 0; j < npc; ++j) {
-          const int b = cell_nodes[cells_of[k] * npc + j];
+          const int b = cells(cells_of[k], j);
           if (stamp[b] != a) stamp[b] = a, ++(owns(dim * b) ? here : there);
         }
       for (int i = 0; i < dim; ++i) {
@@ -316,14 +324,31 @@ int NewtonKrylov::rows() const {
 }
 
 NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd& schur_inv,
-                                         const Eigen::VectorXd& f, const Eigen::VectorXd& g,
-                                         double rtol, Eigen::VectorXd& du, Eigen::VectorXd& dq) {
+                                         Eigen::VectorXd f, const Eigen::VectorXd& g, double rtol,
+                                         Eigen::VectorXd& du, Eigen::VectorXd& dq) {
   Impl& m = *impl_;
   Result res;
   const int k = static_cast<int>(G.rows());
   if (G.cols() != m.n || schur_inv.size() != k || f.size() != m.n || g.size() != k)
     throw Error("NewtonKrylov::solve: the sizes of G, schur_inv, f and g do not match");
   auto t0 = std::chrono::steady_clock::now();
+  // f's parts added into this rank's rows of the u block (theirs travel at the assembly); then f,
+  // whole-size, is released before the AMG set-up and GMRES's basis are made.
+  Vec bu = nullptr;
+  check(VecDuplicate(m.t, &bu), "VecDuplicate");
+  const Destroyed<Vec, VecDestroy> bu_guard{bu};
+  {
+    std::vector<PetscInt> rows;
+    std::vector<PetscScalar> values;
+    for (int j = 0; j < m.n; ++j)
+      if (f(j) != 0) rows.push_back(m.at(j)), values.push_back(f(j));
+    Eigen::VectorXd().swap(f);
+    check(VecSetValues(bu, static_cast<PetscInt>(rows.size()), rows.data(), values.data(),
+                       ADD_VALUES),
+          "VecSetValues");
+  }
+  check(VecAssemblyBegin(bu), "VecAssemblyBegin");
+  check(VecAssemblyEnd(bu), "VecAssemblyEnd");
   // The V-cycle of this A: GAMG's hierarchy set up again (the values changed).
   check(PCSetOperators(m.amg, m.A, m.A), "PCSetOperators");
   check(PCSetUp(m.amg), "PCSetUp (the AMG hierarchy of the augmented tangent)");
@@ -373,19 +398,7 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
     check(MatAssemblyBegin(m.G, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
     check(MatAssemblyEnd(m.G, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   }
-  {  // b: f's parts added into this rank's rows (theirs travel at the assembly), then g
-    check(VecSet(m.b, 0.0), "VecSet");
-    Vec bu = nullptr;
-    check(VecDuplicate(m.t, &bu), "VecDuplicate");
-    std::vector<PetscInt> rows;
-    std::vector<PetscScalar> values;
-    for (int j = 0; j < m.n; ++j)
-      if (f(j) != 0) rows.push_back(m.at(j)), values.push_back(f(j));
-    check(VecSetValues(bu, static_cast<PetscInt>(rows.size()), rows.data(), values.data(),
-                       ADD_VALUES),
-          "VecSetValues");
-    check(VecAssemblyBegin(bu), "VecAssemblyBegin");
-    check(VecAssemblyEnd(bu), "VecAssemblyEnd");
+  {  // b: f's rows of this rank (bu), then g
     const PetscScalar* cu = nullptr;
     PetscScalar* a = nullptr;
     check(VecGetArrayRead(bu, &cu), "VecGetArrayRead");
@@ -394,15 +407,12 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
     std::copy(g.data(), g.data() + k, a + m.n_own);
     check(VecRestoreArray(m.b, &a), "VecRestoreArray");
     check(VecRestoreArrayRead(bu, &cu), "VecRestoreArrayRead");
-    VecDestroy(&bu);
+    VecDestroy(&bu);  // (null for the guard)
   }
   check(VecSet(m.x, 0.0), "VecSet");
   KSP ksp = nullptr;
   check(KSPCreate(m.comm, &ksp), "KSPCreate");
-  struct KspGuard {
-    KSP& k;
-    ~KspGuard() { KSPDestroy(&k); }
-  } guard{ksp};
+  const Destroyed<KSP, KSPDestroy> guard{ksp};
   check(KSPSetOperators(ksp, m.M, m.M), "KSPSetOperators");
   check(KSPSetType(ksp, KSPGMRES), "KSPSetType");
   check(KSPGMRESSetRestart(ksp, kRestart), "KSPGMRESSetRestart");
@@ -428,6 +438,7 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
   res.residual = bn > 0 ? rn / bn : 0.0;
   res.converged = reason > 0;
   if (!res.converged) res.reason = KSPConvergedReasons[reason];
+  KSPDestroy(&ksp);  // GMRES's basis released before du is gathered whole (null for the guard)
   // du whole on every rank: the ranks' blocks of rows gathered, in the dofs' order; dq this
   // rank's rows.
   const PetscScalar* c = nullptr;

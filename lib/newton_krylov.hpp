@@ -54,12 +54,12 @@ class NewtonKrylov {
   static double option(const char* name, double fallback);
 
   /// The matrix A's pattern: dim dofs per node (#nodes = X.rows(), interleaved: dim a + i), the
-  /// cells' nodes (#cells x npc, cell after cell), prescribed dofs: fixed[dim a + i] true. X: the
-  /// coordinates, for the rigid-body modes. Over the ranks (collective; node_rank non-null on
-  /// more than one process): node_rank (#nodes) the rank whose rows hold each node's dofs. A is
-  /// preallocated for its rows from every cell (cell_nodes: the whole mesh's), whichever rank
-  /// adds the cell's block.
-  NewtonKrylov(int dim, const Eigen::MatrixXd& X, const std::vector<int>& cell_nodes, int npc,
+  /// cells' nodes (#cells x nodes per cell: the mesh's cells), prescribed dofs: fixed[dim a + i]
+  /// true. X: the coordinates, for the rigid-body modes. Over the ranks (collective; node_rank
+  /// non-null on more than one process): node_rank (#nodes) the rank whose rows hold each node's
+  /// dofs. A is preallocated for its rows from every cell of the mesh, whichever rank adds the
+  /// cell's block.
+  NewtonKrylov(int dim, const Eigen::MatrixXd& X, const Eigen::MatrixXi& cells,
                const std::vector<char>& fixed, const std::vector<int>* node_rank = nullptr);
   ~NewtonKrylov();
   NewtonKrylov(const NewtonKrylov&) = delete;
@@ -89,8 +89,10 @@ class NewtonKrylov {
   /// (negative); f: dim * #nodes (zero at prescribed dofs). du, dq: the solution. Over the ranks
   /// (collective): G, schur_inv, g and dq are this rank's rows of the constraints (the rows of
   /// all ranks in turn are the system's), f is this rank's part (the parts of the ranks add up to
-  /// the right-hand side), and du is whole on every rank.
-  Result solve(const SpMatR& G, const Eigen::VectorXd& schur_inv, const Eigen::VectorXd& f,
+  /// the right-hand side), and du is whole on every rank. f is taken by value (pass it with
+  /// std::move) and released once its entries are in PETSc's vector, before the AMG set-up; GMRES's
+  /// basis is released before du is gathered: whole-size arrays do not add to the solve's peak.
+  Result solve(const SpMatR& G, const Eigen::VectorXd& schur_inv, Eigen::VectorXd f,
                const Eigen::VectorXd& g, double rtol, Eigen::VectorXd& du, Eigen::VectorXd& dq);
 
   /// Nonzeros of A (this rank's rows).

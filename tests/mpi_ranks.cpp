@@ -441,8 +441,8 @@ TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
   Eigen::VectorXd b(n);
   for (int i = 0; i < n; ++i) b(i) = std::sin(0.3 * i) + 1;
   const double lowest = 2 - 2 * std::cos(M_PI / (n + 1));
-  std::vector<int> segments;  // cell k: the nodes k, k + 1
-  for (int k = 0; k + 1 < n; ++k) segments.insert(segments.end(), {k, k + 1});
+  Eigen::MatrixXi segments(n - 1, 2);  // cell k: the nodes k, k + 1
+  for (int k = 0; k + 1 < n; ++k) segments(k, 0) = k, segments(k, 1) = k + 1;
   const NewtonRows rows(free_of_dof, 1, node_rank, 3);  // 3 extra rows: in blocks of 3
   ASSERT_EQ(rows.offset.size(), static_cast<std::size_t>(mpi::size()) + 1);
   ASSERT_EQ(rows.offset.back(), n + 3);
@@ -461,13 +461,15 @@ TEST(Mpi, Eq2_2_DistributedFactorizationsOfNewtonsSystems) {
     }
   }
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n + 3);
-  DistributedCholesky chol(NewtonRows(free_of_dof, 1, node_rank, 0), 1, segments, 2, free_of_dof);
+  DistributedCholesky chol(NewtonRows(free_of_dof, 1, node_rank, 0), 1, segments, free_of_dof);
   const std::vector<int> mine = mpi::blocks(n - 1, mpi::size());
   for (double shift : {1e-3, -0.5 * lowest, -1.0, 0.5 * lowest}) {
     chol.zero();
     const double block[4] = {1, -1, -1, 1};
-    for (int k = mine[mpi::rank()]; k < mine[mpi::rank() + 1]; ++k)
-      chol.add(2, &segments[2 * k], block);
+    for (int k = mine[mpi::rank()]; k < mine[mpi::rank() + 1]; ++k) {
+      const int nodes[2] = {segments(k, 0), segments(k, 1)};
+      chol.add(2, nodes, block);
+    }
     if (mpi::rank() == 0)  // the end nodes lack one segment's 1; every node gets the shift
       for (int i = 0; i < n; ++i) chol.add_entry(i, i, shift + (i == 0 || i == n - 1 ? 1.0 : 0.0));
     const bool ok = chol.factorize();

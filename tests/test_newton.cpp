@@ -214,7 +214,7 @@ TEST(Newton, Eq4_1to4_3_LastStepsAreSuperlinear) {
   q.algorithm = one;
   Solver first(q);
   first.solve_step(state, state.beta);
-  const Newton::Result r = newton.solve(state, disc.dead_load(), p.algorithm, report, {});
+  const Newton::Result r = newton.solve(state, disc.dead_load(), 1.0, p.algorithm, report, {});
   ASSERT_TRUE(r.converged) << r.status;
   int checked = 0;
   for (std::size_t k = 0; k + 1 < r.forces.size(); ++k)

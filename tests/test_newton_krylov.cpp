@@ -32,10 +32,7 @@ TEST(NewtonKrylov, Eq2_7_KktSolveEqualsTheDenseSolution) {
   std::vector<char> fixed(n, 0);
   for (int a : mesh.boundary_nodes("z0"))
     for (int i = 0; i < 3; ++i) fixed[3 * a + i] = 1;
-  std::vector<int> cell_nodes(static_cast<std::size_t>(nc) * npc);
-  for (int e = 0; e < nc; ++e)
-    for (int a = 0; a < npc; ++a) cell_nodes[e * npc + a] = mesh.cells(e, a);
-  NewtonKrylov kr(3, mesh.X, cell_nodes, npc, fixed);
+  NewtonKrylov kr(3, mesh.X, mesh.cells, fixed);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> U(-1, 1);
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n, n);
