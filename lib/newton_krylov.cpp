@@ -84,9 +84,11 @@ struct NewtonKrylov::Impl {
   int n = 0;        ///< dofs (the u block), every rank's
   int n_own = 0;    ///< this rank's rows of A (n on one process)
   PetscInt r0 = 0;  ///< this rank's first row of A
-  /// The row of A of each dof (empty: the dof itself, one process), and the first row of each
-  /// rank's block (P + 1).
-  std::vector<PetscInt> row;
+  /// The row of A of each node's first dof, its dof i at that row + i (empty: a dof's row is the
+  /// dof itself, one process; per node, not per dof: #nodes entries, not dim #nodes), and the
+  /// first row of each rank's block (P + 1).
+  int dim = 1;
+  std::vector<PetscInt> node_row;
   std::vector<int> offset;
   std::vector<PetscInt> fixed_rows, idx;  ///< this rank's prescribed rows; a block's rows
   Mat A = nullptr;                        ///< the augmented tangent, every dof
@@ -97,7 +99,9 @@ struct NewtonKrylov::Impl {
   Vec t = nullptr;  ///< r_u - G^T y_q
   int m = -1;       ///< this rank's rows of G of the operator M
   const Eigen::VectorXd* schur_inv = nullptr;
-  PetscInt at(int k) const { return k < 0 ? -1 : (row.empty() ? k : row[k]); }
+  PetscInt at(int k) const {
+    return k < 0 ? -1 : (node_row.empty() ? k : node_row[k / dim] + k % dim);
+  }
   void release_system() {
     for (Vec* v : {&x, &b, &vq, &wq})
       if (*v) VecDestroy(v);
@@ -183,6 +187,7 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const Eigen::Matri
   const int nn = static_cast<int>(X.rows()), nc = static_cast<int>(cells.rows());
   const int npc = static_cast<int>(cells.cols());
   m.n = dim * nn;
+  m.dim = dim;
   if (static_cast<int>(fixed.size()) != m.n)
     throw Error(cat("NewtonKrylov: ", fixed.size(), " dof flags for ", m.n, " dofs"));
   const int P = mpi::size(), me = mpi::rank();
@@ -199,9 +204,11 @@ NewtonKrylov::NewtonKrylov(int dim, const Eigen::MatrixXd& X, const Eigen::Matri
     }
     for (int r = 0; r < P; ++r) m.offset[r + 1] += m.offset[r];
     std::vector<int> next(m.offset.begin(), m.offset.end() - 1);
-    m.row.resize(m.n);
-    for (int a = 0; a < nn; ++a)
-      for (int i = 0; i < dim; ++i) m.row[dim * a + i] = next[(*node_rank)[a]]++;
+    m.node_row.resize(nn);
+    for (int a = 0; a < nn; ++a) {
+      m.node_row[a] = next[(*node_rank)[a]];
+      next[(*node_rank)[a]] += dim;
+    }
     m.r0 = m.offset[me];
     m.n_own = m.offset[me + 1] - m.offset[me];
   } else {
@@ -358,7 +365,7 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
   // The system's layout: this rank's rows of A, then its k rows of G; made again when a rank's k
   // changed (the active contact rows), on every rank (PETSc's layouts are collective).
   double changed = m.m != k;
-  if (!m.row.empty()) mpi::max(&changed, 1);
+  if (!m.node_row.empty()) mpi::max(&changed, 1);
   if (changed > 0) {
     m.release_system();
     const int local = m.n_own + k;
@@ -444,14 +451,14 @@ NewtonKrylov::Result NewtonKrylov::solve(const SpMatR& G, const Eigen::VectorXd&
   const PetscScalar* c = nullptr;
   check(VecGetArrayRead(m.x, &c), "VecGetArrayRead");
   dq = CVec(c + m.n_own, k);
-  if (m.row.empty()) {
+  if (m.node_row.empty()) {
     du = CVec(c, m.n);
   } else {
     std::vector<double> rows(m.n);
     std::copy(c, c + m.n_own, rows.begin() + m.r0);
     mpi::gather(rows.data(), m.offset);
     du.resize(m.n);
-    for (int j = 0; j < m.n; ++j) du(j) = rows[m.row[j]];
+    for (int j = 0; j < m.n; ++j) du(j) = rows[m.at(j)];
   }
   check(VecRestoreArrayRead(m.x, &c), "VecRestoreArrayRead");
   res.solve_seconds = seconds_since(t0);
