@@ -68,14 +68,7 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
     w_u_ = std::sqrt(a.q * disc_.volume() / nn) / (h * norm_I_);
   }
 
-  rhs_.resize(nn, dim);
-  T_.resize(dim * static_cast<Eigen::Index>(n_own), dim);
-  global_out_.GU.resize(T_.rows(), dim);
-  prev_.E.resize(T_.rows(), dim);
-  global_out_.J = Eigen::VectorXd::Ones(n_own);
-  if (points) {
-    global_out_.ubar.resize(n_points, dim);
-  }
+  make_work();
   if (a.solver == NonlinearSolver::Newton) {
     // Its linear systems by GMRES + AMG when the global step is CG + AMG (a factorization would
     // not fit; newton_krylov.hpp), else by CHOLMOD's (or over the ranks MUMPS's) factor.
@@ -441,6 +434,23 @@ class Solver::Alg2Map final : public FixedPointMap {
   State plain_;
 };
 
+void Solver::make_work() {
+  const int dim = disc_.dim(), n_own = static_cast<int>(own_cells().size());
+  rhs_.resize(disc_.num_nodes(), dim);
+  T_.resize(dim * static_cast<Eigen::Index>(n_own), dim);
+  global_out_.GU.resize(T_.rows(), dim);
+  prev_.E.resize(T_.rows(), dim);
+  global_out_.J = Eigen::VectorXd::Ones(n_own);
+  if (const ContactPoints* points = disc_.points()) global_out_.ubar.resize(points->size(), dim);
+}
+
+void Solver::release_work() {
+  for (Eigen::MatrixXd* A :
+       {&rhs_, &T_, &global_out_.GU, &global_out_.ubar, &prev_.E, &half_.lambda, &half_.lambda_c})
+    Eigen::MatrixXd().swap(*A);
+  Eigen::VectorXd().swap(global_out_.J);
+}
+
 // [LTL87 (2.1)] One time step: ALG2 (the driver, fixed_point.hpp) to its tolerance, or with
 // algorithm.solver = "newton" ALG2 into Newton's basin and then Newton on the same discrete
 // problem (newton.hpp). A Newton phase that fails goes back to ALG2's iterate, which goes on to
@@ -466,6 +476,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       progress(rec);
     };
   const auto drive_alg2 = [&](const AlgorithmParams& params) {
+    make_work();  // after a Newton phase (release_work); else the same sizes: nothing allocated
     if (dist_) own = own_rows(s);
     drive(map, params, report, alg2_progress);
     if (dist_) {
@@ -497,6 +508,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       if (contact_) newton_->set_glue(*contact_, beta_prev);
       const bool glued = contact_ && contact_->glued();
       const State before = glued ? s : State();
+      release_work();
       Newton::Result r = newton_->solve(s, disc_.dead_load(), load_factor_, a, report, progress);
       if (r.converged && glued && !local_contact_step_holds(s, beta_prev)) {
         s = before;

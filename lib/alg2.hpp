@@ -332,8 +332,13 @@ class Solver {
   bool whole_in_progress_ = false;  ///< set_whole_state_in_progress
   bool iterate_finite_ = true;      ///< u of the last iteration finite on every rank
   double norm_I_ = 1;               ///< ||I||_q = sqrt(q |Omega| dim)
-  // Work buffers (allocated once): the global step's right-hand side and output, the multipliers
-  // of the local steps (Bermudez-Moreno), the previous iterate of the residual r_G.
+  // Work buffers of the ALG2 iterations (allocated once per ALG2 phase, not per iteration): the
+  // global step's right-hand side and output, the multipliers of the local steps
+  // (Bermudez-Moreno), the previous iterate of the residual r_G. Sized by make_work (the
+  // constructor, and each ALG2 phase of solve_step after a Newton phase); release_work frees them
+  // for a Newton phase, which does not use them (rhs_ is whole-size on every rank).
+  void make_work();
+  void release_work();
   Eigen::MatrixXd rhs_, T_;
   GlobalOutput global_out_;
   Multipliers half_;
