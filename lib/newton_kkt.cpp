@@ -151,6 +151,7 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
       else if (!mumps && lead)
         A[diag_pos_[k]] += v;
     }
+  Eigen::VectorXd().swap(diag);  // whole-size: not held through the factorization (as Krylov)
   if (split_ && !mumps) mpi::sum(A, w.A.nonZeros());
   NewtonSolveStats& st = newton_solve_stats();
   auto t0 = std::chrono::steady_clock::now();
