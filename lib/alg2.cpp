@@ -75,9 +75,8 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
     // Distributed: its linear systems over the ranks (mpi_newton, or newton_krylov's distributed
     // GMRES + GAMG when the global step is the distributed CG + GAMG), its cells the rank's
     // cells of the partition (ALG2's), its rows those of the global step.
-    const bool krylov = distributed()
-                            ? a.global_solver == GlobalSolver::CgAmg && distributed_newton_solves()
-                            : global_ && global_->solver() == GlobalSolver::CgAmg;
+    const bool krylov = distributed() ? distributed_cg_gamg() && distributed_newton_solves()
+                                      : global_ && global_->solver() == GlobalSolver::CgAmg;
     newton_ = std::make_unique<Newton>(disc_, krylov, cell_partition());
   }
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);

@@ -64,6 +64,9 @@ struct RankShare {
   bool contact_replicated = false;   ///< the coupled Gauss-Seidel (d0 > 0) on every rank
   bool replicated_cholesky = false;  ///< -ltl_mpi_replicated: the serial factor on every rank
   bool mumps = false;                ///< the distributed solve is MUMPS's Cholesky
+  /// The automatic choice's prediction (DistributedGlobalStep::predicted_factor_bytes; -1: no
+  /// analysis), and MUMPS's factorizations' allocation (factor_bytes; 0 with CG + GAMG)
+  double predicted_factor_bytes = -1, factor_bytes = 0;
   long ksp_iterations = 0, ksp_solves = 0, ghosts = 0;
   long rows = 0;          ///< the rank's rows of the distributed matrices, summed over the sets
   long layer_ghosts = 0;  ///< the ghost layer's rows of other ranks, summed over the sets
@@ -164,8 +167,14 @@ class Solver {
 
   /// The serial global step (an Error in a distributed solver with the distributed KSP).
   const GlobalStep& global_step() const;
-  /// Factors of the global step (0 with the distributed KSP).
-  int global_factors() const { return global_ ? global_->num_factors() : 0; }
+  /// The global step's solver, in the words of the run's first line: "2 factor(s)" (CHOLMOD's,
+  /// one per Dirichlet set), "CG + AMG on 2 Dirichlet set(s)", or over the ranks "MUMPS's
+  /// Cholesky over 2 ranks, ..." or "CG + GAMG over 2 ranks, ...", with the prediction that
+  /// made the automatic choice when MUMPS's analysis made it (mpi_global.hpp).
+  std::string global_step_summary() const;
+  /// Over the ranks: the distributed step is CG + GAMG (chosen, or the automatic choice); the
+  /// Newton phase then solves by GMRES + GAMG (newton_krylov.hpp).
+  bool distributed_cg_gamg() const;
   bool distributed() const { return dist_ != nullptr; }
   RankShare rank_share() const;
   /// The ranks' cells (cell_partition) of a distributed solver (Ranks::All); else null. Its rows of

@@ -34,6 +34,7 @@
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
+#include <cmath>
 
 #include "alg2.hpp"
 #include "error.hpp"
@@ -91,12 +92,22 @@ void Solver::distribute() {
   if (points)
     for (const ContactCondition& c : problem().contacts)
       d.contact_replicated = d.contact_replicated || c.adhesion.d0 > 0;
-  // The global solver: algorithm.global_solver = "cg-amg" the distributed CG + GAMG, else (left
-  // out, or "cholesky") MUMPS's distributed Cholesky factorization; the PETSc option
-  // -ltl_mpi_replicated: the serial factor on every rank.
+  // The global solver: algorithm.global_solver = "cg-amg" the distributed CG + GAMG, "cholesky"
+  // MUMPS's distributed Cholesky factorization, left out ("auto") the serial rule with MUMPS's
+  // analysis (DistributedGlobalStep::Solver::Auto), decided once, at the first set-up; the PETSc
+  // option -ltl_mpi_replicated: the serial factor on every rank.
   d.use_ksp = !mpi::option("-ltl_mpi_replicated");
-  d.ksp_solver = alg().global_solver == GlobalSolver::CgAmg ? DistributedGlobalStep::Solver::CgGamg
-                                                            : DistributedGlobalStep::Solver::Mumps;
+  switch (alg().global_solver) {
+    case GlobalSolver::CgAmg:
+      d.ksp_solver = DistributedGlobalStep::Solver::CgGamg;
+      break;
+    case GlobalSolver::Cholesky:
+      d.ksp_solver = DistributedGlobalStep::Solver::Mumps;
+      break;
+    case GlobalSolver::Auto:
+      d.ksp_solver = DistributedGlobalStep::Solver::Auto;
+      break;
+  }
   if (disc_.partial() && !d.use_ksp)
     throw Error("the replicated factor needs the whole discretization (Solver(Discretization))");
   if (points) {  // meanT_area times the selection of the owned points' columns
@@ -156,6 +167,7 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
                                                   node_rank, d.ksp_solver, disc_.partial());
   d.ksp->set_value_scale(scale);
+  d.ksp_solver = d.ksp->solver();  // Auto decided: the same solver at the next set-up (a new R)
   // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'
   // nodes and its contact points' (all points' when the contact step is replicated). Not on one
   // rank (nothing to exchange: the layer would be a copy of every row), not with mean-det under
@@ -178,6 +190,29 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     d.ksp->set_ghost_layer(nodes);
   }
   return true;
+}
+
+bool Solver::distributed_cg_gamg() const {
+  if (dist_ && dist_->ksp) return dist_->ksp->solver() == DistributedGlobalStep::Solver::CgGamg;
+  return alg().global_solver == GlobalSolver::CgAmg;
+}
+
+std::string Solver::global_step_summary() const {
+  if (global_) {
+    const int n = global_->num_factors();
+    return global_->solver() == GlobalSolver::CgAmg ? cat("CG + AMG on ", n, " Dirichlet set(s)")
+                                                    : cat(n, " factor(s)");
+  }
+  if (!dist_ || !dist_->ksp) return "no global step";
+  const DistributedGlobalStep& k = *dist_->ksp;
+  std::string s =
+      cat(k.solver() == DistributedGlobalStep::Solver::Mumps ? "MUMPS's Cholesky" : "CG + GAMG",
+          " over ", mpi::size(), " ranks on ", k.num_sets(), " Dirichlet set(s)");
+  if (k.predicted_factor_bytes() >= 0)
+    s += cat(" (automatic: MUMPS's analysis predicts ",
+             static_cast<long>(std::lround(k.predicted_factor_bytes() / 1e6)),
+             " MB on its most loaded rank)");
+  return s;
 }
 
 double Solver::distributed_value_scale() const {
@@ -212,6 +247,8 @@ RankShare Solver::rank_share() const {
     r.coarse_operators = d.ksp->coarse_operators(&r.coarse_products);
     r.ksp_seconds = d.ksp->ksp_seconds();
     r.ksp_setup_seconds = d.ksp->setup_seconds();
+    r.predicted_factor_bytes = d.ksp->predicted_factor_bytes();
+    r.factor_bytes = d.ksp->factor_bytes();
   }
   return r;
 }

@@ -554,9 +554,11 @@ Schema build() {
                "with PETSc, above 200 000 nodes and a predicted factor above 4 GB. With "
                "`solver = \"newton\"` and CG + AMG, the Newton phase's linear systems are solved "
                "by GMRES with an AMG V-cycle too, not factorized (lib/newton_krylov.hpp); on MPI "
-               "ranks "
-               "the same, over the ranks, where `\"auto\"` and `\"cholesky\"` take MUMPS's "
-               "distributed factorizations"),
+               "ranks the same, over the ranks, where `\"cholesky\"` takes MUMPS's "
+               "distributed factorizations and `\"auto\"` the same rule with MUMPS's analysis: "
+               "CG + GAMG above 200 000 nodes when it predicts more than 4 GB on its most "
+               "loaded rank (the Dirichlet sets' factors together), else MUMPS's; the run's "
+               "first line says which, and what the analysis predicted"),
       number(
           "algorithm", "newton_switch",
           [A](Problem& p, int) -> double& { return A(p).newton_switch; }, Positive)

@@ -20,7 +20,8 @@
 // PETSc is built in, the matrix has more than kAutoMinRows rows, and the factor predicted by
 // CHOLMOD's AMD analysis (one symbolic pass, before any factorization) needs more than
 // kAutoFactorBytes: far beyond every test, figure and benchmark of the package, which all
-// factorize as before.
+// factorize as before. Over MPI ranks the same rule with MUMPS's analysis for CHOLMOD's
+// (DistributedGlobalStep::Solver::Auto, mpi_global.hpp).
 #pragma once
 
 #include <Eigen/Sparse>

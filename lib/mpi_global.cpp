@@ -139,6 +139,9 @@ int DistributedGlobalStep::coarse_operators(int* with_products) const {
   if (with_products) *with_products = 0;
   return 0;
 }
+double DistributedGlobalStep::factor_bytes() const {
+  return 0;
+}
 
 #else
 
@@ -319,6 +322,41 @@ struct DistributedGlobalStep::Group {
   }
 };
 
+namespace {
+/// Solver::Auto (mpi_global.hpp): MUMPS's Cholesky unless A has more than kAutoMinRows rows
+/// and MUMPS's analysis (its symbolic factorization alone, on a factor destroyed afterwards)
+/// predicts more than kAutoFactorBytes on its most loaded rank: `sets` (the Dirichlet sets,
+/// whose factors are held together) x INFOG(16), the estimated MB of all of MUMPS's data for
+/// A's in-core factorization on that rank, the same on every rank; the serial rule likewise
+/// multiplies one set's count by the sets (global_step.hpp). `predicted`: those bytes, or -1
+/// below the rows' limit (no analysis). Collective.
+DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int sets, const std::string& what,
+                                          double& predicted) {
+  PetscInt min_rows = GlobalStep::kAutoMinRows;
+  PetscReal limit = GlobalStep::kAutoFactorBytes;
+  PetscOptionsGetInt(nullptr, nullptr, "-ltl_mpi_auto_rows", &min_rows, nullptr);
+  PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_auto_bytes", &limit, nullptr);
+  predicted = -1;
+  if (rows <= min_rows) return DistributedGlobalStep::Solver::Mumps;
+  Mat F = nullptr;
+  check(MatGetFactor(A, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &F), what, "MatGetFactor");
+  MatFactorInfo info;
+  MatFactorInfoInitialize(&info);
+  PetscErrorCode ierr = MatCholeskyFactorSymbolic(F, A, nullptr, &info);
+  PetscInt status = 0, mb = 0;
+  if (!ierr) ierr = MatMumpsGetInfog(F, 1, &status);
+  if (!ierr) ierr = MatMumpsGetInfog(F, 16, &mb);
+  MatDestroy(&F);
+  check(ierr, what, "MatCholeskyFactorSymbolic (MUMPS's analysis for the automatic choice)");
+  if (status < 0)
+    throw Error(
+        cat(what, ": MUMPS's analysis for the automatic choice failed (INFOG(1) = ", status, ")"));
+  predicted = 1e6 * static_cast<double>(mb) * sets;
+  return predicted > limit ? DistributedGlobalStep::Solver::CgGamg
+                           : DistributedGlobalStep::Solver::Mumps;
+}
+}  // namespace
+
 DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
                                              const Eigen::MatrixXd& X,
                                              const std::vector<int>& node_rank, Solver solver,
@@ -356,8 +394,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     std::vector<int>().swap(free_node);
     g.offset = rows.offset;
     for (int k = 0; k < nf; ++k) local[node[k]] = k;
-    g.what = cat("distributed global matrix (4.5), ", nf, " free nodes, ",
-                 solver == Solver::Mumps ? "MUMPS Cholesky" : "CG + GAMG");
+    g.what = cat("distributed global matrix (4.5), ", nf, " free nodes");
     const int f0 = g.offset[me], f1 = g.offset[me + 1], own = f1 - f0;
     g.own_node.assign(node.begin() + f0, node.begin() + f1);
     // K_ff into PETSc's matrix, K_fd u_d into the shift (K is symmetric: row i is column i, the
@@ -423,6 +460,9 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
       VecDestroy(&shift[k]);
     }
     check(MatSetOption(g.A, MAT_SPD, PETSC_TRUE), g.what, "MatSetOption");
+    if (solver_ == Solver::Auto)
+      solver_ = auto_choice(g.A, nf, static_cast<int>(groups_.size()), g.what, predicted_bytes_);
+    g.what += solver_ == Solver::Mumps ? ", MUMPS Cholesky" : ", CG + GAMG";
     {  // the near-null space (cg_amg.hpp): constants and centred coordinates, orthonormalized
       std::vector<Eigen::VectorXd> basis;
       Eigen::MatrixXd Xf(nf, X.cols());
@@ -467,7 +507,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
       check(KSPSetOperators(g.ksp, g.A, g.A), g.what, "KSPSetOperators");
       PC pc;
       check(KSPGetPC(g.ksp, &pc), g.what, "KSPGetPC");
-      if (solver == Solver::Mumps) {  // factored once (KSPSetUp), then a triangular pair a solve
+      if (solver_ == Solver::Mumps) {  // factored once (KSPSetUp), then a triangular pair a solve
         check(KSPSetType(g.ksp, KSPPREONLY), g.what, "KSPSetType");
         check(PCSetType(pc, PCCHOLESKY), g.what, "PCSetType");
         check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), g.what, "PCFactorSetMatSolverType");
@@ -669,6 +709,21 @@ int DistributedGlobalStep::coarse_operators(int* with_products) const {
     });
   if (with_products) *with_products = held;
   return n;
+}
+
+double DistributedGlobalStep::factor_bytes() const {
+  if (solver_ != Solver::Mumps) return 0;
+  double bytes = 0;
+  for (const auto& gp : groups_) {
+    PC pc = nullptr;
+    Mat F = nullptr;
+    PetscInt mb = 0;
+    check(KSPGetPC(gp->ksp, &pc), gp->what, "KSPGetPC");
+    check(PCFactorGetMatrix(pc, &F), gp->what, "PCFactorGetMatrix");
+    check(MatMumpsGetInfog(F, 18, &mb), gp->what, "MatMumpsGetInfog");
+    bytes += 1e6 * static_cast<double>(mb);
+  }
+  return bytes;
 }
 
 #endif

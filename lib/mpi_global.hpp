@@ -74,8 +74,13 @@ class DistributedGlobalStep {
   static constexpr double kRtol = 1e-12;
   /// CG + GAMG, or MUMPS's distributed Cholesky factorization (computed once, in the
   /// constructor; each solve is its forward and backward substitution: exact like the serial
-  /// factor).
-  enum class Solver { CgGamg, Mumps };
+  /// factor), or Auto: the serial rule of GlobalSolver::Auto (global_step.hpp) with MUMPS's
+  /// analysis in place of CHOLMOD's. MUMPS's factor unless the matrix has more than
+  /// GlobalStep::kAutoMinRows rows and MUMPS's analysis of the first Dirichlet set predicts
+  /// more than GlobalStep::kAutoFactorBytes for its factorization on its most loaded rank
+  /// (INFOG(16)); then CG + GAMG, for every set. The PETSc options -ltl_mpi_auto_rows and
+  /// -ltl_mpi_auto_bytes replace the two limits (for the tests). solver() tells the choice.
+  enum class Solver { CgGamg, Mumps, Auto };
 
   /// K: the whole (replicated) matrix of (4.5), or with `parts` this rank's part of it (the
   /// sum over its cells, Discretization of some cells): the parts of the ranks add up to K,
@@ -115,6 +120,13 @@ class DistributedGlobalStep {
   double value_scale() const { return scale_; }
   int num_sets() const { return static_cast<int>(groups_.size()); }
   Solver solver() const { return solver_; }
+  /// With Solver::Auto above the rows' limit: the bytes MUMPS's analysis predicted for its
+  /// factorization on its most loaded rank (INFOG(16)), the same on every rank; else -1 (no
+  /// analysis was made for the choice).
+  double predicted_factor_bytes() const { return predicted_bytes_; }
+  /// With MUMPS: the bytes its factorizations of every Dirichlet set allocated on their most
+  /// loaded rank (the sum of each factor's INFOG(18)), the same on every rank; 0 with CG + GAMG.
+  double factor_bytes() const;
 
   /// Since construction: KSP iterations and solves, AMG setup seconds; seconds in KSPSolve and
   /// in the gather of u.
@@ -152,6 +164,7 @@ class DistributedGlobalStep {
   std::vector<std::unique_ptr<Group>> groups_;
   const DirichletData& bc_;  ///< the caller's (the Solver's discretization): not copied
   Solver solver_;
+  double predicted_bytes_ = -1;
   double scale_ = 1;
   bool ghost_layer_ = false;
   int num_nodes_ = 0;  ///< the mesh's nodes (the rows of u)

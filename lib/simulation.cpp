@@ -520,10 +520,10 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
   summary_.first_step = p0;
   summary_.last_step = p0 - 1;
   if (options.verbosity > 0)
-    std::printf("%s: %d cells, %d nodes, %d contact points, %d factor(s), setup %.3f s\n",
+    std::printf("%s: %d cells, %d nodes, %d contact points, %s, setup %.3f s\n",
                 problem.name.c_str(), problem.mesh.num_cells(), problem.mesh.num_nodes(),
                 solver.discretization().points() ? solver.discretization().points()->size() : 0,
-                solver.global_factors(), solver.setup_seconds());
+                solver.global_step_summary().c_str(), solver.setup_seconds());
   if (options.verbosity > 0)
     std::printf("%s: algorithm %s\n", problem.name.c_str(),
                 describe_algorithm(problem.algorithm).c_str());

@@ -548,6 +548,59 @@ TEST(Mpi, Eq4_1to4_4_CoarseGutterSameIteratesCgGamg) {
   expect_same_iterates("cg-amg");
 }
 
+/// [(4.5), (2.2)] global_solver left out ("auto") over the ranks: the serial rule
+/// (global_step.hpp) with MUMPS's analysis in place of CHOLMOD's (mpi_global.hpp). Below the
+/// rows' limit MUMPS's Cholesky, with no analysis. Above it (-ltl_mpi_auto_rows 0) the analysis
+/// predicts the bytes of the factorizations on their most loaded rank, within 25 % of what they
+/// then allocated (INFOG(18), the sets summed; measured on the 3 200-cell gutter: 21 against 21
+/// MB on 2 ranks, 27 against 28 on 3), and the choice is MUMPS's Cholesky below the byte
+/// limit and CG + GAMG above it: for ALG2's global step and for the Newton phase, which then
+/// solves by GMRES + GAMG (no factorization) with the serial answer. Fails if the limits are
+/// compared the wrong way, if the prediction is one set's for several, or if the Newton phase
+/// does not follow the choice.
+TEST(Mpi, Eq4_5_AutomaticGlobalSolverFollowsMumpsAnalysis) {
+  const std::vector<std::string> gutter = {"mesh.parameters.nl=40", "mesh.parameters.na=20",
+                                           "mesh.parameters.nt=4"};
+  auto share = [&]() {
+    const Problem p = load_problem(ltl::testing::source_path(kFig6), gutter);
+    EXPECT_EQ(p.algorithm.global_solver, GlobalSolver::Auto);
+    return Solver(p, Ranks::All).rank_share();
+  };
+  const RankShare below = share();
+  EXPECT_TRUE(below.mumps) << "below the rows' limit";
+  EXPECT_EQ(below.predicted_factor_bytes, -1) << "an analysis below the rows' limit";
+  mpi::set_option("-ltl_mpi_auto_rows", true, "0");
+  const RankShare fits = share();
+  const double predicted = fits.predicted_factor_bytes;
+  if (mpi::rank() == 0)
+    std::cout << "automatic choice, " << mpi::size() << " rank(s): MUMPS's analysis predicts "
+              << predicted / 1e6 << " MB, its factorizations allocated " << fits.factor_bytes / 1e6
+              << " MB (most loaded rank)\n";
+  EXPECT_TRUE(fits.mumps) << "the prediction " << predicted << " B is below 4 GB";
+  EXPECT_GE(predicted, 1e6);
+  EXPECT_GE(predicted, 0.8 * fits.factor_bytes);
+  EXPECT_LE(predicted, 1.25 * fits.factor_bytes);
+  mpi::set_option("-ltl_mpi_auto_bytes", true, std::to_string(2 * predicted).c_str());
+  EXPECT_TRUE(share().mumps) << "twice the prediction is the limit";
+  mpi::set_option("-ltl_mpi_auto_bytes", true, std::to_string(predicted / 2).c_str());
+  const RankShare above = share();
+  EXPECT_FALSE(above.mumps) << "half the prediction is the limit";
+  EXPECT_EQ(above.predicted_factor_bytes, predicted);
+  EXPECT_EQ(above.factor_bytes, 0);
+  // The Newton phase follows the choice: GMRES + GAMG, no factorization, the serial answer
+  // (CHOLMOD's factor). The coarse gutter: a prediction below 1 MB, any limit below 0.
+  mpi::set_option("-ltl_mpi_auto_bytes", true, "-1");
+  const NewtonOutcome serial = newton_step(kFig6, kCoarseGutter, Ranks::One);
+  const NewtonOutcome dist = newton_step(kFig6, kCoarseGutter, Ranks::All);
+  mpi::set_option("-ltl_mpi_auto_rows", false);
+  mpi::set_option("-ltl_mpi_auto_bytes", false);
+  expect_serial_newton_path("coarse gutter, automatic choice", serial, dist,
+                            relative(dist.state.u, serial.state.u));
+  EXPECT_GT(dist.solves.krylov_solves, 0);
+  EXPECT_EQ(dist.solves.mumps_factorizations + dist.solves.mumps_lu_factorizations, 0);
+  EXPECT_GT(serial.solves.cholmod_factorizations, 0);
+}
+
 // GAMG's Galerkin products all at once (-matptap_via allatonce, lib/mpi_global.cpp) only while
 // the distributed step is set up: afterwards the option is unset, so that a serial CG + AMG
 // (SeqAIJ matrices, which refuse that algorithm) sets up in the same process; a value the user
