@@ -99,7 +99,7 @@ void Solver::precompute(double R) {
   if (!dist_ || !distributed_global_step(K, scale)) {  // the distributed KSP (alg2_mpi.cpp)
     // K is consumed by the global step (freed before the factorization / AMG setup's peak).
     global_ = std::make_unique<GlobalStep>(std::move(K), disc_.dirichlet(), a.global_solver,
-                                           &problem().mesh.X);
+                                           &problem().mesh.X, newton_dim());
     global_->set_value_scale(scale);
   }
   ++factorizations_;

@@ -138,6 +138,9 @@ class Solver {
   const Newton* newton() const { return newton_.get(); }
   const Problem& problem() const { return disc_.problem(); }
   int dim() const { return disc_.dim(); }
+  /// With a Newton phase (algorithm.solver = "newton") the dimension, else 0: the automatic
+  /// choice of the global solver counts the Newton tangent's factor too (global_step.hpp).
+  int newton_dim() const { return alg().solver == NonlinearSolver::Newton ? dim() : 0; }
   /// Discretization::energy_gradient at the current load.
   Eigen::MatrixXd energy_gradient(const Eigen::MatrixXd& u) const {
     return disc_.energy_gradient(u, external_load());

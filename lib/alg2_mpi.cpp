@@ -165,7 +165,8 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   d.ksp.reset();
   const std::vector<int> node_rank = node_ranks(problem().mesh, d.cells);
   d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
-                                                  node_rank, d.ksp_solver, disc_.partial());
+                                                  node_rank, d.ksp_solver, disc_.partial(),
+                                                  newton_dim());
   d.ksp->set_value_scale(scale);
   d.ksp_solver = d.ksp->solver();  // Auto decided: the same solver at the next set-up (a new R)
   // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'

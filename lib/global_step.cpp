@@ -156,7 +156,8 @@ std::string describe(const std::vector<int>& components, int free_nodes) {
 
 }  // namespace
 
-double GlobalStep::predicted_factor_nonzeros(const SpMat& K, const DirichletData& bc) {
+double GlobalStep::predicted_factor_nonzeros(const SpMat& K, const DirichletData& bc,
+                                             int newton_dim) {
   // The Dirichlet set with the fewest fixed nodes is the largest matrix; the others are no larger.
   std::set<std::vector<int>> sets(bc.fixed.begin(), bc.fixed.end());
   std::size_t fewest = 0;
@@ -164,12 +165,13 @@ double GlobalStep::predicted_factor_nonzeros(const SpMat& K, const DirichletData
     if (bc.fixed[i].size() < bc.fixed[fewest].size()) fewest = i;
   Restricted r;
   restrict_to_free(K, bc, {static_cast<int>(fewest)}, true, r);
-  return static_cast<double>(sets.size()) * Cholesky::predicted_nonzeros(r.Kff);
+  return static_cast<double>(sets.size() + newton_dim * newton_dim) *
+         Cholesky::predicted_nonzeros(r.Kff);
 }
 
 GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver,
-                       const Eigen::MatrixXd* X)
-    : GlobalStep(SpMat(K), bc, solver, X) {}
+                       const Eigen::MatrixXd* X, int newton_dim)
+    : GlobalStep(SpMat(K), bc, solver, X, newton_dim) {}
 
 double DirichletData::value_at(int a, int i) const {
   const std::vector<int>& f = fixed[i];
@@ -217,7 +219,7 @@ std::vector<std::vector<int>> components_by_dirichlet_set(const DirichletData& b
 }
 
 GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
-                       const Eigen::MatrixXd* X)
+                       const Eigen::MatrixXd* X, int newton_dim)
     : bc_(bc) {
   const int n = static_cast<int>(K.rows());
   bc.check(n);
@@ -235,11 +237,12 @@ GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
   std::stable_sort(process.begin(), process.end(), [&](int a, int b) {
     return bc.fixed[groups_[a]->components[0]].size() < bc.fixed[groups_[b]->components[0]].size();
   });
-  // Auto: CG + AMG when the factors would not fit (global_step.hpp).
+  // Auto: CG + AMG when the factors would not fit (global_step.hpp), the Newton phase's with
+  // them.
   if (solver == GlobalSolver::Auto) {
     solver = GlobalSolver::Cholesky;
     if (CgAmg::available() && n > kAutoMinRows &&
-        8.0 * predicted_factor_nonzeros(K, bc) > kAutoFactorBytes)
+        8.0 * predicted_factor_nonzeros(K, bc, newton_dim) > kAutoFactorBytes)
       solver = GlobalSolver::CgAmg;
   }
   solver_ = solver;

@@ -67,13 +67,15 @@ class GlobalStep {
   /// set's free nodes once. Throws a clear Error if a restricted matrix is not positive
   /// definite (a rigid motion not removed by fixed parts, symmetry planes or contact).
   /// `solver`: Cholesky, CG + AMG (then X, the #nodes x dim reference coordinates, gives the
-  /// AMG's near-null space and is required), or Auto (the rule above).
+  /// AMG's near-null space and is required), or Auto (the rule above). newton_dim: with a
+  /// Newton phase (solver = "newton") the dimension, whose tangent's factor Auto counts too
+  /// (predicted_factor_nonzeros); 0 without.
   GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
-             const Eigen::MatrixXd* X = nullptr);
+             const Eigen::MatrixXd* X = nullptr, int newton_dim = 0);
   /// The same, K consumed: freed as soon as the restricted matrices are made (before the last
   /// factorization, before any AMG setup), so that it is not resident at the setup's peak.
   GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
-             const Eigen::MatrixXd* X = nullptr);
+             const Eigen::MatrixXd* X = nullptr, int newton_dim = 0);
   ~GlobalStep();
   GlobalStep(const GlobalStep&) = delete;
   GlobalStep& operator=(const GlobalStep&) = delete;
@@ -103,8 +105,13 @@ class GlobalStep {
   static constexpr double kAutoFactorBytes = 4e9;
   /// The factors' nnz(L) predicted from CHOLMOD's symbolic analysis alone (AMD ordering, no
   /// factorization): #distinct Dirichlet sets x the count of the largest set's matrix; the
-  /// constructor's best-of-three ordering gives about as much or less.
-  static double predicted_factor_nonzeros(const SpMat& K, const DirichletData& bc);
+  /// constructor's best-of-three ordering gives about as much or less. With newton_dim = d > 0
+  /// (a Newton phase, whose factor is held with these) plus d^2 x that count: the augmented
+  /// tangent couples the same nodes as K with d x d blocks, so its factor is K's with each
+  /// entry a d x d block (measured: 9.0 and 8.7 times the largest set's nnz(L) on 800- and
+  /// 4 800-cell gutters; paper_notes/mpi.md, "The automatic choice over the ranks").
+  static double predicted_factor_nonzeros(const SpMat& K, const DirichletData& bc,
+                                          int newton_dim = 0);
   double analyze_seconds() const { return analyze_seconds_; }
   double factorize_seconds() const { return factorize_seconds_; }
   double factor_nonzeros() const { return factor_nnz_; }  ///< sum over the factors of nnz(L)

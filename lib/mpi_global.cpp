@@ -121,7 +121,7 @@ struct DistributedGlobalStep::Group {};
 
 DistributedGlobalStep::DistributedGlobalStep(SpMat&&, const DirichletData& bc,
                                              const Eigen::MatrixXd&, const std::vector<int>&,
-                                             Solver solver, bool)
+                                             Solver solver, bool, int)
     : bc_(bc), solver_(solver) {
   throw Error(
       "the distributed global step needs MPI and PETSc: build with -DLTL_WITH_MPI=ON "
@@ -325,12 +325,13 @@ struct DistributedGlobalStep::Group {
 namespace {
 /// Solver::Auto (mpi_global.hpp): MUMPS's Cholesky unless A has more than kAutoMinRows rows
 /// and MUMPS's analysis (its symbolic factorization alone, on a factor destroyed afterwards)
-/// predicts more than kAutoFactorBytes on its most loaded rank: `sets` (the Dirichlet sets,
-/// whose factors are held together) x INFOG(16), the estimated MB of all of MUMPS's data for
-/// A's in-core factorization on that rank, the same on every rank; the serial rule likewise
-/// multiplies one set's count by the sets (global_step.hpp). `predicted`: those bytes, or -1
-/// below the rows' limit (no analysis). Collective.
-DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int sets, const std::string& what,
+/// predicts more than kAutoFactorBytes on its most loaded rank: `copies` x INFOG(16), the
+/// estimated MB of all of MUMPS's data for A's in-core factorization on that rank, the same on
+/// every rank; `copies`: the Dirichlet sets, whose factors are held together, plus dim^2 with a
+/// Newton phase (its tangent's factor, A's with d x d blocks); the serial rule counts the same
+/// way (global_step.hpp). `predicted`: those bytes, or -1 below the rows' limit (no analysis).
+/// Collective.
+DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int copies, const std::string& what,
                                           double& predicted) {
   PetscInt min_rows = GlobalStep::kAutoMinRows;
   PetscReal limit = GlobalStep::kAutoFactorBytes;
@@ -351,7 +352,7 @@ DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int sets, const std::
   if (status < 0)
     throw Error(
         cat(what, ": MUMPS's analysis for the automatic choice failed (INFOG(1) = ", status, ")"));
-  predicted = 1e6 * static_cast<double>(mb) * sets;
+  predicted = 1e6 * static_cast<double>(mb) * copies;
   return predicted > limit ? DistributedGlobalStep::Solver::CgGamg
                            : DistributedGlobalStep::Solver::Mumps;
 }
@@ -360,7 +361,7 @@ DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int sets, const std::
 DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
                                              const Eigen::MatrixXd& X,
                                              const std::vector<int>& node_rank, Solver solver,
-                                             bool parts)
+                                             bool parts, int newton_dim)
     : bc_(bc), solver_(solver), num_nodes_(static_cast<int>(K.rows())) {
   bc.check(num_nodes_);
   const auto t0 = std::chrono::steady_clock::now();
@@ -461,7 +462,8 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     }
     check(MatSetOption(g.A, MAT_SPD, PETSC_TRUE), g.what, "MatSetOption");
     if (solver_ == Solver::Auto)
-      solver_ = auto_choice(g.A, nf, static_cast<int>(groups_.size()), g.what, predicted_bytes_);
+      solver_ = auto_choice(g.A, nf, static_cast<int>(groups_.size()) + newton_dim * newton_dim,
+                            g.what, predicted_bytes_);
     g.what += solver_ == Solver::Mumps ? ", MUMPS Cholesky" : ", CG + GAMG";
     {  // the near-null space (cg_amg.hpp): constants and centred coordinates, orthonormalized
       std::vector<Eigen::VectorXd> basis;

@@ -78,8 +78,9 @@ class DistributedGlobalStep {
   /// analysis in place of CHOLMOD's. MUMPS's factor unless the matrix has more than
   /// GlobalStep::kAutoMinRows rows and MUMPS's analysis of the first Dirichlet set predicts
   /// more than GlobalStep::kAutoFactorBytes for its factorization on its most loaded rank
-  /// (INFOG(16)); then CG + GAMG, for every set. The PETSc options -ltl_mpi_auto_rows and
-  /// -ltl_mpi_auto_bytes replace the two limits (for the tests). solver() tells the choice.
+  /// (INFOG(16)) x the Dirichlet sets, plus newton_dim^2 x it with a Newton phase (its tangent's
+  /// factor, global_step.hpp); then CG + GAMG, for every set. The PETSc options -ltl_mpi_auto_rows
+  /// and -ltl_mpi_auto_bytes replace the two limits (for the tests). solver() tells the choice.
   enum class Solver { CgGamg, Mumps, Auto };
 
   /// K: the whole (replicated) matrix of (4.5), or with `parts` this rank's part of it (the
@@ -95,7 +96,7 @@ class DistributedGlobalStep {
   /// node, the nodes in their index order within a rank's block.
   DistributedGlobalStep(SpMat&& K, const DirichletData& bc, const Eigen::MatrixXd& X,
                         const std::vector<int>& node_rank, Solver solver = Solver::CgGamg,
-                        bool parts = false);
+                        bool parts = false, int newton_dim = 0);
   ~DistributedGlobalStep();
   DistributedGlobalStep(const DistributedGlobalStep&) = delete;
   DistributedGlobalStep& operator=(const DistributedGlobalStep&) = delete;

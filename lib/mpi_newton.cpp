@@ -369,6 +369,9 @@ bool DistributedCholesky::factorize() {
     PetscInt neg = 0;  // INFOG(12); a zero pivot is MUMPS's failure (INFOG(1) = -10) above
     check(MatGetInertia(f.F, &neg, nullptr, nullptr), f.what, "MatGetInertia");
     ok = neg == 0;
+    PetscInt mb = 0;
+    check(MatMumpsGetInfog(f.F, 18, &mb), f.what, "MatMumpsGetInfog");
+    st.mumps_factor_bytes = 1e6 * static_cast<double>(mb);
   } else {  // a failed MUMPS instance is not factorized again: analyze afresh next time
     MatDestroy(&f.F);
     m.analyzed = false;

@@ -49,6 +49,9 @@ struct NewtonSolveStats {
   /// The augmented tangent's entries this rank added into other ranks' rows (PETSc's stash, sent
   /// at the assembly), summed over the assemblies.
   long mumps_offrank_entries = 0;
+  /// The augmented tangent's last factor: CHOLMOD's nnz(L) at its analysis (serially), MUMPS's
+  /// bytes allocated by its factorization on its most loaded rank (INFOG(18), over the ranks).
+  double cholmod_factor_nonzeros = 0, mumps_factor_bytes = 0;
   double cholmod_analysis_s = 0, cholmod_factor_s = 0, cholmod_solve_s = 0, umfpack_s = 0;
   double mumps_analysis_s = 0, mumps_factor_s = 0, mumps_solve_s = 0, mumps_lu_s = 0;
   /// The Krylov solves (newton_krylov.hpp): solves, GMRES iterations, the most in one solve,

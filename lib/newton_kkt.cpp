@@ -162,6 +162,7 @@ bool Newton::augmented_step(const Unknowns& base, const Eigen::VectorXd& Ru,
       w.llt.cholmod().print = 0;  // "not positive definite" is an answer here, not a warning
       w.llt.analyzePattern(w.A);
       w.analyzed = true;
+      st.cholmod_factor_nonzeros = w.llt.cholmod().lnz;
       ++st.cholmod_analyses;
       st.cholmod_analysis_s += seconds_since(t0);
       t0 = std::chrono::steady_clock::now();

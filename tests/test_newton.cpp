@@ -4,12 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iostream>
 #include <random>
 
 #include "config.hpp"
 #include "error.hpp"
+#include "global_step.hpp"
 #include "iteration.hpp"
 #include "measures.hpp"
+#include "mpi_newton.hpp"
 #include "newton.hpp"
 #include "simulation.hpp"
 #include "testing.hpp"
@@ -469,6 +472,42 @@ TEST(Stagnation, Eq4_4_AStalledStepStopsAsStagnated) {
       EXPECT_EQ(r.report.status.rfind("stagnated", 0), 0u) << r.report.status;
     }
   }
+}
+
+/// [(2.2), (4.5)] The automatic global solver counts the Newton phase's factor
+/// (GlobalStep::predicted_factor_nonzeros with newton_dim, global_step.hpp): the augmented
+/// tangent couples the nodes of K with d x d blocks, so its factor is about d^2 times the
+/// largest Dirichlet set's. On an 800-cell gutter (3-D, three Dirichlet sets, mean-det and
+/// contact) after one Newton step: CHOLMOD's factor of the tangent against 9 x the count of
+/// K's largest set, and the whole prediction against the factors the run holds together (K's
+/// three and the tangent's; the prediction is AMD's count, the factors the better of AMD and
+/// METIS). Fails if the Newton phase's factor is left out of the rule (about a fourth of what
+/// the run holds) or counted once.
+TEST(Newton, Eq2_2_Eq4_5_AutoCountsTheTangentsFactor) {
+  const Problem p = figure("fig6", {"mesh.parameters.nt=4", "mesh.parameters.na=10",
+                                    "mesh.parameters.nl=20", "algorithm.solver=\"newton\""});
+  Solver solver(p);
+  ASSERT_EQ(solver.newton_dim(), 3);
+  State s = solver.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  newton_solve_stats().cholmod_factor_nonzeros = 0;
+  const StepReport r = solver.solve_step(s, beta_prev);
+  ASSERT_TRUE(r.converged) << r.status;
+  ASSERT_GT(r.newton_iterations, 0);
+  const double tangent = newton_solve_stats().cholmod_factor_nonzeros;
+  const double held = solver.global_step().factor_nonzeros() + tangent;
+  const Discretization& d = solver.discretization();
+  const SpMat K = global_matrix(d.cells(), d.points(), 1.0, 3.0, 1.0);  // K's pattern
+  const double alone = GlobalStep::predicted_factor_nonzeros(K, d.dirichlet());
+  const double with = GlobalStep::predicted_factor_nonzeros(K, d.dirichlet(), 3);
+  std::cout << "nnz(L): the tangent's " << tangent << ", predicted " << with - alone
+            << "; K's factors " << solver.global_step().factor_nonzeros() << ", predicted " << alone
+            << "; held together " << held << ", predicted " << with << "\n";
+  ASSERT_GT(tangent, 0);
+  EXPECT_GE(with - alone, 0.8 * tangent);
+  EXPECT_LE(with - alone, 1.5 * tangent);
+  EXPECT_GE(with, 0.8 * held);
+  EXPECT_LE(with, 1.5 * held);
 }
 
 }  // namespace
