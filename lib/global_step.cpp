@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <utility>
 
 #include "cg_amg.hpp"
 #include "cholesky.hpp"
@@ -171,7 +172,15 @@ double GlobalStep::predicted_factor_nonzeros(const SpMat& K, const DirichletData
 
 GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver,
                        const Eigen::MatrixXd* X, int newton_dim)
-    : GlobalStep(SpMat(K), bc, solver, X, newton_dim) {}
+    : GlobalStep(SpMat(K), bc, solver, X, newton_dim, AutoLimits()) {}
+
+GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver,
+                       const Eigen::MatrixXd* X, int newton_dim, const AutoLimits& limits)
+    : GlobalStep(SpMat(K), bc, solver, X, newton_dim, limits) {}
+
+GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
+                       const Eigen::MatrixXd* X, int newton_dim)
+    : GlobalStep(std::move(K), bc, solver, X, newton_dim, AutoLimits()) {}
 
 double DirichletData::value_at(int a, int i) const {
   const std::vector<int>& f = fixed[i];
@@ -219,7 +228,7 @@ std::vector<std::vector<int>> components_by_dirichlet_set(const DirichletData& b
 }
 
 GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
-                       const Eigen::MatrixXd* X, int newton_dim)
+                       const Eigen::MatrixXd* X, int newton_dim, const AutoLimits& limits)
     : bc_(bc) {
   const int n = static_cast<int>(K.rows());
   bc.check(n);
@@ -241,8 +250,8 @@ GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
   // them.
   if (solver == GlobalSolver::Auto) {
     solver = GlobalSolver::Cholesky;
-    if (CgAmg::available() && n > kAutoMinRows &&
-        8.0 * predicted_factor_nonzeros(K, bc, newton_dim) > kAutoFactorBytes)
+    if (CgAmg::available() && n > limits.min_rows &&
+        8.0 * predicted_factor_nonzeros(K, bc, newton_dim) > limits.factor_bytes)
       solver = GlobalSolver::CgAmg;
   }
   solver_ = solver;

@@ -69,13 +69,19 @@ class GlobalStep {
   /// `solver`: Cholesky, CG + AMG (then X, the #nodes x dim reference coordinates, gives the
   /// AMG's near-null space and is required), or Auto (the rule above). newton_dim: with a
   /// Newton phase (solver = "newton") the dimension, whose tangent's factor Auto counts too
-  /// (predicted_factor_nonzeros); 0 without.
+  /// (predicted_factor_nonzeros); 0 without. `limits`: Auto's two thresholds (AutoLimits; the
+  /// defaults kAutoMinRows and kAutoFactorBytes, lowered by the tests that reach the choice).
+  struct AutoLimits;
   GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
              const Eigen::MatrixXd* X = nullptr, int newton_dim = 0);
+  GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver, const Eigen::MatrixXd* X,
+             int newton_dim, const AutoLimits& limits);
   /// The same, K consumed: freed as soon as the restricted matrices are made (before the last
   /// factorization, before any AMG setup), so that it is not resident at the setup's peak.
   GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
              const Eigen::MatrixXd* X = nullptr, int newton_dim = 0);
+  GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver, const Eigen::MatrixXd* X,
+             int newton_dim, const AutoLimits& limits);
   ~GlobalStep();
   GlobalStep(const GlobalStep&) = delete;
   GlobalStep& operator=(const GlobalStep&) = delete;
@@ -103,6 +109,12 @@ class GlobalStep {
   /// Auto: CG + AMG above both (and only when CgAmg::available()).
   static constexpr int kAutoMinRows = 200000;
   static constexpr double kAutoFactorBytes = 4e9;
+  /// Auto's thresholds: CG + AMG when K has more than min_rows rows and the predicted factors
+  /// (8 B per nonzero) exceed factor_bytes.
+  struct AutoLimits {
+    int min_rows = kAutoMinRows;
+    double factor_bytes = kAutoFactorBytes;
+  };
   /// The factors' nnz(L) predicted from CHOLMOD's symbolic analysis alone (AMD ordering, no
   /// factorization): #distinct Dirichlet sets x the count of the largest set's matrix; the
   /// constructor's best-of-three ordering gives about as much or less. With newton_dim = d > 0

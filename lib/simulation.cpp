@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -763,17 +764,29 @@ RunSummary run(Solver& solver, const RunOptions& options,
     results.append(step);
     if (on_step) on_step(solver, p, state);
   }
-  const RunSummary summary = results.finish(state);
+  RunSummary summary = results.finish(state);
   const Problem& problem = solver.problem();
+  // The peak resident memory (VmHWM) of the process; of a distributed solver the smallest and
+  // the largest over the ranks (collective: every rank of it gets here).
+  const bool ranks = solver.cell_partition() != nullptr;
+  std::uint64_t lo = static_cast<std::uint64_t>(mpi::peak_resident_bytes()), hi = lo;
+  if (ranks) mpi::min_max(lo, lo, hi);
+  summary.peak_memory_min = static_cast<double>(lo);
+  summary.peak_memory_max = static_cast<double>(hi);
+  const std::string memory = hi == 0 ? std::string()
+                             : ranks
+                                 ? cat(", peak memory per rank ", std::lround(lo / 1e6), "-",
+                                       std::lround(hi / 1e6), " MB over ", mpi::size(), " ranks")
+                                 : cat(", peak memory ", std::lround(hi / 1e6), " MB");
   if (options.verbosity > 0 && summary.last_step < summary.first_step)  // a finished run resumed
     std::printf(
         "%s: nothing to do: %s already holds steps 1..%d (time.steps = %d; raise it to "
         "extend the run)\n",
         problem.name.c_str(), options.output.c_str(), summary.last_step, problem.time.steps);
   else if (options.verbosity > 0)
-    std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s, wrote %s\n", problem.name.c_str(),
+    std::printf("%s: steps %d..%d, setup %.3f s, solver %.3f s%s, wrote %s\n", problem.name.c_str(),
                 summary.first_step, summary.last_step, summary.setup_seconds,
-                summary.solver_seconds, options.output.c_str());
+                summary.solver_seconds, memory.c_str(), options.output.c_str());
   if (const NewtonSolveStats& st = newton_solve_stats(); options.verbosity > 0 && st.krylov_solves)
     std::printf(
         "%s: Newton's Krylov solves (newton_krylov.hpp): %ld, GMRES iterations %.1f per solve "

@@ -43,6 +43,10 @@ struct RunSummary {
   std::vector<int> iterations;        ///< per computed step
   double solver_seconds = 0;          ///< time in the iterations (not setup or output)
   double setup_seconds = 0;           ///< discretization, assembly and factorization
+  /// The peak resident memory (VmHWM, bytes; 0 where /proc is missing) of the process; of a
+  /// distributed solver (Ranks::All) the smallest and the largest over its ranks, which the
+  /// run's last line prints (equal on one process).
+  double peak_memory_min = 0, peak_memory_max = 0;
   /// The last converged state; under mpirun the state between steps (Solver::initial_state),
   /// E and lambda on the rank's rows: Solver::whole_state gathers it.
   State state;

@@ -1,7 +1,8 @@
 #!/bin/sh
 # ltl_run under mpirun -n 2 (an MPI build): the glued Fig 3 problem, two steps, gives the serial
 # run's iteration counts, rank 0 alone prints them and writes the results file, and a failing
-# run (an unreadable configuration) ends every rank with a non-zero status. Resume across rank
+# run (an unreadable configuration) ends every rank with a non-zero status; the last line gives
+# the peak memory of the ranks (serially, of the process). Resume across rank
 # counts: one step on 2 ranks (--stop-after 1), resumed on 3 ranks (oversubscribed) and, from the
 # same first step, on 1 rank: step 2 takes the serial iteration count and ends within 1e-8 of the
 # serial u (relative), in both files. --init (the nested start) under mpirun -n 2, with plain
@@ -27,6 +28,12 @@ ranks=$(grep '^step' "$tmp/ranks.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1
 echo "iterations per step: serial $serial, 2 ranks $ranks"
 [ -n "$serial" ] && [ "$serial" = "$ranks" ] || fail "iteration counts differ"
 [ "$(grep -c '^step' "$tmp/ranks.txt")" = 2 ] || fail "the step lines are not printed once each"
+# The last line gives the ranks' smallest and largest peak memory (VmHWM), 0 < smallest <= largest.
+mem=$(sed -n 's/.*peak memory per rank \([0-9]\+\)-\([0-9]\+\) MB over 2 ranks.*/\1 \2/p' "$tmp/ranks.txt")
+echo "peak memory per rank (MB): $mem"
+[ -n "$mem" ] && [ "${mem% *}" -gt 0 ] && [ "${mem% *}" -le "${mem#* }" ] ||
+  fail "no peak memory per rank in the run's last line"
+grep -q 'peak memory [0-9]\+ MB, wrote' "$tmp/serial.txt" || fail "no peak memory in the serial run's line"
 [ -f "$tmp/ranks.h5" ] || fail "no results file"
 [ "$(ls "$tmp" | grep -c '\.h5$')" = 2 ] || fail "more than one results file per run"
 cfg="$src/experiments/fig3/fig3.toml"

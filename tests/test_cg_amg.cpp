@@ -74,6 +74,34 @@ TEST(CgAmg, AutoKeepsCholeskyBelowItsThresholds) {
   EXPECT_LE(lnz, n * (n + 1.0));
 }
 
+/// [(4.5), (2.2)] The serial automatic choice with its thresholds lowered (GlobalStep::AutoLimits):
+/// the box's two Dirichlet sets, and with a Newton phase (newton_dim = 3) the tangent's factor
+/// counted as 9 more sets' (predicted_factor_nonzeros). A byte limit between the two predictions
+/// keeps the factors for plain ALG2 and takes CG + AMG with the Newton phase; a rows' limit at
+/// the matrix's size keeps the factors whatever the bytes. Without PETSc (`make test`) Auto
+/// always factorizes. Fails if the rule leaves the Newton phase's factor out, or compares either
+/// limit the wrong way.
+TEST(CgAmg, Eq4_5_AutoCountsTheNewtonPhasesFactor) {
+  BoxSystem s = box_system(3);
+  const int n = static_cast<int>(s.K.rows());
+  const double alone = GlobalStep::predicted_factor_nonzeros(s.K, s.bc);
+  const double with = GlobalStep::predicted_factor_nonzeros(s.K, s.bc, 3);
+  ASSERT_GT(alone, 0);
+  EXPECT_DOUBLE_EQ(with, alone * (2 + 9) / 2);  // 2 sets, plus 3^2 sets' worth
+  const GlobalSolver cg = CgAmg::available() ? GlobalSolver::CgAmg : GlobalSolver::Cholesky;
+  auto choice = [&](int newton_dim, int min_rows, double bytes) {
+    GlobalStep::AutoLimits limits;
+    limits.min_rows = min_rows;
+    limits.factor_bytes = bytes;
+    return GlobalStep(s.K, s.bc, GlobalSolver::Auto, &s.mesh.X, newton_dim, limits).solver();
+  };
+  const double between = 8.0 * 0.5 * (alone + with);
+  EXPECT_EQ(choice(0, n - 1, between), GlobalSolver::Cholesky) << "ALG2 alone: its factors fit";
+  EXPECT_EQ(choice(3, n - 1, between), cg) << "with the Newton phase's factor they do not";
+  EXPECT_EQ(choice(0, n - 1, 0.5 * 8.0 * alone), cg);
+  EXPECT_EQ(choice(3, n, 0.0), GlobalSolver::Cholesky) << "not above the rows' limit";
+}
+
 TEST(CgAmg, WithoutPetscTheKeyIsAClearError) {
   if (CgAmg::available()) GTEST_SKIP() << "built with PETSc";
   BoxSystem s = box_system(2);

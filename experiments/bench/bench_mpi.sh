@@ -12,7 +12,11 @@
 #                   then ALG2 with CG + GAMG on the cube, 2 and 4 ranks, graph and slabs
 #                   (-ltl_mpi_slabs) (not with --quick);
 #   Newton, cube:   bench_mpi_newton on a cube of 30^3 H8, 2 and 4 ranks, graph and slabs: the
-#                   tangent's entries sent to other ranks' rows per assembly (not with --quick).
+#                   tangent's entries sent to other ranks' rows per assembly (not with --quick);
+#   Newton, whole:  bench_mpi_newton's step from rest to convergence on the 800- and 3 200-cell
+#                   gutters, 2 ranks, GMRES + GAMG: the messages per Newton iteration of the
+#                   model of paper_notes/mpi_model.md (its third gutter, 14 400 cells, takes 9
+#                   minutes: mesh.parameters.nt=8 na=30 nl=60 by hand) (not with --quick).
 # 20 timed iterations after 3 (1 080 and 9 900 cells), 8 after 2 (the larger gutters).
 # Usage: bench_mpi.sh BUILD_DIR [--quick]   (--quick: the gutters of 1 080 and 9 900 cells only)
 set -u
@@ -74,4 +78,13 @@ for p in 2 4; do
       "$(dirname "$0")/cube.toml" mesh.parameters.n=30 algorithm.newton_switch=1e9 \
       algorithm.newton_max_iter=2 algorithm.max_iter=3 < /dev/null
   done
+done
+# The Newton phase's messages and GMRES iterations per Newton iteration, a whole step each
+# (paper_notes/mpi_model.md, "The Newton phase at 64-1024 ranks").
+for size in "4 10 20" "4 20 40"; do
+  set -- $size
+  echo "newton: whole step, gutter $1 x $2 x $3, 2 ranks, cg-amg"
+  mpirun -n 2 --oversubscribe "$newton" "$(dirname "$0")/../fig6/fig6.toml" \
+    mesh.parameters.nt="$1" mesh.parameters.na="$2" mesh.parameters.nl="$3" \
+    'algorithm.global_solver="cg-amg"' < /dev/null
 done

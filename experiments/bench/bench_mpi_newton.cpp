@@ -71,10 +71,20 @@ int bench(int argc, char** argv) {
   const ltl::Problem& problem = solver.problem();
   ltl::State s = solver.initial_state();
   const Eigen::VectorXd beta_prev = s.beta;
+  const ltl::mpi::Traffic c0 = ltl::mpi::traffic();
+  const double petsc0 = ltl::mpi::petsc_bytes_received(),
+               msgs0 = ltl::mpi::petsc_messages_received(), red0 = ltl::mpi::petsc_reductions();
   const auto t0 = std::chrono::steady_clock::now();
   const ltl::StepReport r = solver.solve_step(s, beta_prev);
   const double wall =
       max_of(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  // The step's messages, this rank's receipts: our collectives (lib/mpi_comm.hpp: bytes, calls)
+  // and PETSc's (the Krylov solves, the assemblies), then their largest over the ranks.
+  const ltl::mpi::Traffic c1 = ltl::mpi::traffic();
+  const double ours_bytes = max_of(c1.bytes - c0.bytes), ours_calls = max_of(c1.calls - c0.calls);
+  const double petsc_bytes = max_of(ltl::mpi::petsc_bytes_received() - petsc0);
+  const double petsc_msgs = max_of(ltl::mpi::petsc_messages_received() - msgs0);
+  const double petsc_red = max_of(ltl::mpi::petsc_reductions() - red0);
   const ltl::NewtonSolveStats st = ltl::newton_solve_stats();
   auto per = [](double s, long n) { return n > 0 ? max_of(s) / n : 0.0; };
   // Every rank's VmHWM in 10^6 KiB (/usr/bin/time's %M / 10^6, the unit of mpi.md's tables).
@@ -87,6 +97,10 @@ int bench(int argc, char** argv) {
                 ltl::mpi::size(), serial ? "serial" : "distributed", r.status.c_str());
     std::printf("  iterations %d (Newton %d, %d phase(s)), step wall %.3f s, load %s\n",
                 r.iterations, r.newton_iterations, r.newton_attempts, wall, loadavg().c_str());
+    std::printf(
+        "  the step's messages (largest rank): ours %.0f B in %.0f collectives; PETSc's %.0f B in "
+        "%.0f messages, %.0f reductions\n",
+        ours_bytes, ours_calls, petsc_bytes, petsc_msgs, petsc_red);
   }
   // Collective: every rank computes the maxima.
   const double ca = per(st.cholmod_analysis_s, st.cholmod_analyses);

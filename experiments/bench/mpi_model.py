@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Time per distributed ALG2 iteration at 64-1024 ranks: a model (paper_notes/mpi.md, "A model
-at 64-1024 ranks").
+"""Time per distributed ALG2 iteration at 64-1024 ranks, and per Newton iteration (GMRES +
+GAMG): a model (paper_notes/mpi_model.md).
 
     /usr/bin/python3 experiments/bench/mpi_model.py            # the tables of the note
     /usr/bin/python3 experiments/bench/mpi_model.py --check    # the model against the measured rows
@@ -186,11 +186,122 @@ def check():
     return fails
 
 
+# ---- the Newton phase (measured 2026-12-03, bench_mpi_newton, the gutter, 2 ranks, the Newton
+# phase's linear systems by GMRES + GAMG over the ranks: algorithm.global_solver = "cg-amg") ----
+# Three gutters nt x na x nl, one step each, from rest to convergence: cells, nodes, Newton
+# iterations (of the step's iterations, one was ALG2's), GMRES iterations, GMRES seconds, set-up
+# seconds (the tangent's assembly and GAMG's set-up, once per Newton iteration), step wall
+# seconds, our collectives' bytes received by the largest rank, PETSc's messages, reductions and
+# bytes received by the largest rank.
+NEWTON_RUNS = [
+    dict(cells=800, nodes=1155, newton=31, iterations=32, gmres=11148, gmres_s=6.62, setup_s=0.72,
+         wall=7.392, ours=4411264, msgs=257606, reductions=23824, petsc_bytes=223480588,
+         face=5 * 11),
+    dict(cells=3200, nodes=4305, newton=31, iterations=32, gmres=4284, gmres_s=12.39, setup_s=3.04,
+         wall=15.612, ours=16091600, msgs=143792, reductions=10156, petsc_bytes=172577260,
+         face=5 * 21),
+    dict(cells=14400, nodes=17019, newton=54, iterations=55, gmres=18728, gmres_s=524.05,
+         setup_s=23.30, wall=548.584, ours=102839824, msgs=611772, reductions=39911,
+         petsc_bytes=1874291272, face=9 * 31),
+]
+_N = NEWTON_RUNS[2]  # the largest calibrates the model; the others bracket it
+# One GMRES iteration (GAMG's V-cycle, the products, GMRES(60)'s orthogonalization), per cell:
+# 3.9 us on the 14 400-cell gutter (1.5 and 1.8 us on the smaller two).
+C_GMRES = _N["gmres_s"] / _N["gmres"] * 2 / _N["cells"]
+# The tangent's assembly and GAMG's set-up, per Newton iteration and cell.
+C_NSETUP = _N["setup_s"] / _N["newton"] * 2 / _N["cells"]
+# The rest of a Newton iteration (residuals, line search, active set), per cell.
+C_NREST = (_N["wall"] - _N["gmres_s"] - _N["setup_s"]) / _N["iterations"] * 2 / _N["cells"]
+# GMRES iterations per Newton iteration: 360, 138 and 347 on the three gutters (no trend with
+# the mesh; the forcing term takes them to 1e-10 near the solution). The model's least certain
+# input: the tables take 350 and, for the sensitivity, 4 x 350.
+K_NEWTON = 350
+# PETSc's messages per GMRES iteration and neighbour, and reductions per GMRES iteration (2
+# ranks: one neighbour): 33 and 2.2 (23-34 and 2.1-2.4 on the three gutters).
+N_MSG_PER_ITER = 33
+N_RED_PER_ITER = 2.2
+# PETSc's bytes per GMRES iteration and node of the cut's face (the face of (nt+1)(na+1) nodes
+# between the 2 ranks): 358 and 384 B on the two larger gutters.
+N_B_PER_FACE_NODE = 370
+# Our collectives per Newton iteration: whole-size sums (the residual R_u and G, the multiplier
+# sweeps' right-hand sides, the tangent's diagonal, to_state; lib/newton*.cpp) of about 4.6
+# vectors of 8 d N bytes (4.97, 4.87 and 4.58 on the three gutters), in about 12 calls.
+N_WHOLE_VECTORS = 4.6
+N_CALLS = 12
+
+
+def newton_iteration(g, P, net, design, k=K_NEWTON):
+    """Seconds per Newton iteration on P ranks (compute / PETSc / ours). design "as built": our
+    sums are whole-size allreduces; "ghost layer": the same vectors exchanged on the ghosts (not
+    built), and the other calls small allreduces."""
+    alpha, bw = net
+    beta = RANKS_PER_NODE / bw if P > 1 else 0.0
+    cells, nodes = g["cells"], g["nodes"]
+    compute = (C_GMRES * k + C_NSETUP + C_NREST) * cells / P
+    ghost_nodes, nb = ghosts(g, P)
+    ghost_nodes /= SOLVES  # ghosts() counts the global step's 3 component solves
+    petsc = k * (N_MSG_PER_ITER * nb * alpha + N_RED_PER_ITER * allreduce(8, P, alpha, beta))
+    petsc += k * N_B_PER_FACE_NODE * ghost_nodes * beta
+    if design == "as built":
+        ours = N_WHOLE_VECTORS * allreduce(8 * D * nodes, P, alpha, beta)
+        ours += (N_CALLS - N_WHOLE_VECTORS) * allreduce(8, P, alpha, beta)
+    else:
+        ours = N_WHOLE_VECTORS * (nb * alpha + 8 * D * ghost_nodes * beta)
+        ours += (N_CALLS - N_WHOLE_VECTORS) * allreduce(8, P, alpha, beta)
+    return compute, petsc, ours
+
+
+def newton_table(cells_total, file=sys.stdout):
+    net_name = "HDR 200 Gb/s, alpha 1.5 us"
+    net = NETWORKS[net_name]
+    for k in (K_NEWTON, 4 * K_NEWTON):
+        for design in ("as built", "ghost layer"):
+            print("\nNewton, strong, %.3g cells; %d GMRES iterations per Newton iteration; %s; %s"
+                  % (cells_total, k, design, net_name), file=file)
+            print("| P | s/Newton it | compute | PETSc | ours | ours, share | efficiency |",
+                  file=file)
+            print("|---|---|---|---|---|---|---|", file=file)
+            t1 = None
+            for P in (1, 64, 128, 256, 512, 1024):
+                r = newton_iteration(gutter(cells_total), P, net, design, k)
+                t = sum(r)
+                t1 = t if P == 1 else t1
+                print("| %d | %.3f | %.3f | %.3f | %.3f | %.2f | %.2f |" %
+                      (P, t, r[0], r[1], r[2], r[2] / t, t1 / (P * t)), file=file)
+
+
+def check_newton():
+    """The Newton phase's constants against the three measured runs: our whole-size vectors per
+    Newton iteration, PETSc's messages and reductions per GMRES iteration and its bytes per face
+    node, each within the band the runs span. Returns the failures."""
+    fails = []
+    for r in NEWTON_RUNS:
+        whole = r["ours"] / r["iterations"] / (8 * D * r["nodes"])
+        msgs = r["msgs"] / r["gmres"]
+        red = r["reductions"] / r["gmres"]
+        per_face = r["petsc_bytes"] / r["gmres"] / r["face"]
+        print("Newton, %d cells: %.2f whole vectors per iteration (model %.1f), %.1f messages and"
+              " %.2f reductions per GMRES iteration (model %d, %.1f), %.0f B per face node (model"
+              " %d), %.0f GMRES iterations per Newton iteration" %
+              (r["cells"], whole, N_WHOLE_VECTORS, msgs, red, N_MSG_PER_ITER, N_RED_PER_ITER,
+               per_face, N_B_PER_FACE_NODE, r["gmres"] / r["newton"]))
+        if abs(whole / N_WHOLE_VECTORS - 1) > 0.1:
+            fails.append("Newton, %d cells: %.2f whole vectors per iteration" % (r["cells"], whole))
+        if abs(red / N_RED_PER_ITER - 1) > 0.15:
+            fails.append("Newton, %d cells: %.2f reductions per GMRES iteration" % (r["cells"], red))
+        if r["cells"] >= 3200 and abs(msgs / N_MSG_PER_ITER - 1) > 0.1:
+            fails.append("Newton, %d cells: %.1f messages per GMRES iteration" % (r["cells"], msgs))
+        if r["cells"] >= 3200 and abs(per_face / N_B_PER_FACE_NODE - 1) > 0.1:
+            fails.append("Newton, %d cells: %.0f B per face node" % (r["cells"], per_face))
+    return fails
+
+
 if __name__ == "__main__":
     if "--check" in sys.argv:
-        failures = check()
+        failures = check() + check_newton()
         for f in failures:
             print("FAIL:", f)
         sys.exit(1 if failures else 0)
     table(cells_total=998400)
     table(cells_per_rank=100000)
+    newton_table(cells_total=998400)
