@@ -38,11 +38,13 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2. Under mpirun a failing rank ends
-// every rank (MPI_Abort), which would otherwise wait for it.
+// every rank (MPI_Abort), which would otherwise wait for it. A signal (Ctrl-C, SIGTERM: status
+// 128 + the signal) stops every rank at the same iteration (lib/simulation.cpp, run_signal):
+// they end together, MPI finalized, rank 0 alone saying what was kept.
 int main(int argc, char** argv) {
   ltl::mpi::Session session(&argc, &argv);
   if (ltl::mpi::size() > 1 && ltl::mpi::rank() != 0) std::freopen("/dev/null", "w", stdout);
   const int status = ltl::guarded_main(argc, argv, "ltl_run", "", solve_and_report);
-  if (status != 0 && ltl::mpi::size() > 1) ltl::mpi::abort(status);
+  if (status != 0 && status <= 128 && ltl::mpi::size() > 1) ltl::mpi::abort(status);
   return status;
 }

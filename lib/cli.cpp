@@ -171,7 +171,7 @@ int guarded_main(int argc, char** argv, const std::string& program,
     body(cmd);
   } catch (const Interrupted& e) {  // Ctrl-C, SIGTERM: what was kept, and 128 + the signal
     std::fflush(stdout);
-    std::fprintf(stderr, "%s: %s\n", prog, e.what());
+    if (*e.what()) std::fprintf(stderr, "%s: %s\n", prog, e.what());  // (empty: another rank's)
     return 128 + e.signal();
   } catch (const Error& e) {
     std::fprintf(stderr, "%s: error: %s\n", prog, e.what());

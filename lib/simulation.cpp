@@ -181,6 +181,18 @@ void check_load_scale(const Solver& solver, double load_scale, int p) {
 /// beta_{p-1} when `state` is not the step's start (a checkpoint continued), else state.beta.
 /// checkpoints: the iterate saved every `every` seconds and at a signal, its iteration count
 /// after `prior` iterations of an earlier run.
+/// The signal (Ctrl-C, SIGTERM) the run stops for, or 0: this process's (interrupt_signal); of a
+/// distributed solver the largest over its ranks, the same on every rank (collective: one
+/// reduction of one value). A scheduler's SIGTERM reaches the ranks at different moments, and a
+/// rank's own record could stop it one iteration before the others, which would then wait for
+/// it in the next iteration's sums; decided together, every rank stops at the same iteration
+/// (paper_notes/mpi.md, "A signal stops every rank at the same iteration").
+int run_signal(const Solver& solver) {
+  double signal = interrupt_signal();
+  if (solver.cell_partition()) mpi::max(&signal, 1);
+  return static_cast<int>(signal);
+}
+
 TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int verbosity,
                          const Eigen::VectorXd* beta_prev_given = nullptr,
                          const StepCheckpoints* checkpoints = nullptr, int prior = 0) {
@@ -198,14 +210,16 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   auto progress = [&](const IterationRecord& r) {
     // --checkpoint: the iterate (the caller's state, updated in place by ALG2; during a Newton
     // phase still ALG2's last iterate) every `every` seconds, and before a signal stops the step.
+    const int signal = run_signal(solver);
     if (saving &&
-        (interrupt_signal() != 0 ||
+        (signal != 0 ||
          std::chrono::duration<double>(std::chrono::steady_clock::now() - saved).count() >=
              checkpoints->every)) {
       checkpoints->save(p, factor, state, prior + r.n);
       saved = std::chrono::steady_clock::now();
     }
-    check_interrupt();  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
+    if (signal)  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
+      throw Interrupted(signal, cat("interrupted by ", signal_name(signal)));
     // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
     // time step of an evolution, with the time left at the step's mean rate since its first line.
     if (verbosity >= 2 || (verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0)) {
@@ -726,6 +740,9 @@ void ResultsWriter::interrupted(int p, int signal) {
                  "); continue with --resume");
     }
   }
+  // Under mpirun every rank stops here at the same iteration (run_signal): rank 0, the writer,
+  // says what was kept; the others' Interrupted is silent (an empty message).
+  if (solver_.cell_partition() && mpi::rank() != 0) throw Interrupted(signal, "");
   throw Interrupted(signal, cat(problem_.name, ": interrupted by ", signal_name(signal),
                                 " during step ", p, " (t = ", p * problem_.time.dt, " s); ", kept));
 }
@@ -756,7 +773,8 @@ RunSummary run(Solver& solver, const RunOptions& options,
     checkpoints.resume = p == results.next_step() ? results.resume_iterate() : nullptr;
     checkpoints.resume_iterations = results.resume_iterations();
     try {
-      check_interrupt();
+      if (const int signal = run_signal(solver))
+        throw Interrupted(signal, cat("interrupted by ", signal_name(signal)));
       step = solve_time_step(solver, p, state, options.verbosity, &clock, &checkpoints);
     } catch (const Interrupted& i) {
       results.interrupted(p, i.signal());

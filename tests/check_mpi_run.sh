@@ -11,7 +11,8 @@
 # run stopped in its step resumes on 2 ranks from its checkpoint, the counts adding up. A step
 # that diverges under mpirun leaves its last iterate in the file (rank 0 writes it, with the
 # fields every rank made on its cells: E, sigma, det F, the nodal stress). A geometry script that
-# calls `Exit;` ends the job at once with rank 0's message.
+# calls `Exit;` ends the job at once with rank 0's message. SIGTERM to rank 1 alone stops every
+# rank at the same iteration: status 143, one message, the file marked interrupted.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -160,6 +161,32 @@ echo "Exit; in the geometry script under mpirun -n 2: exit status $status"
 grep -q "exit.geo: the geometry script ended the program" "$tmp/x.txt" ||
   fail "Exit; under mpirun: $(head -3 "$tmp/x.txt")"
 [ ! -e "$tmp/x.h5" ] || fail "Exit; under mpirun left a results file"
+# SIGTERM to rank 1 alone, once step 1 is written (a scheduler's signal reaches the ranks at
+# different moments): every rank stops at the same iteration (run_signal, lib/simulation.cpp),
+# the job ends with status 143 (no hang, no abort), rank 0 alone says what was kept, and the file
+# keeps the steps done with status 'interrupted by SIGTERM during step ...'. With each rank's own
+# record deciding, rank 0 waits for rank 1 in the next iteration's sums (a hang).
+rm -f "$tmp/t.h5"
+timeout 120 "$mpiexec" -n 2 --oversubscribe "$run" "$f5" --set time.steps=10 \
+  --set 'load.ramp="linear"' --set 'load.ramp_time="20 s"' --set mesh.parameters.n=20 \
+  --set mesh.parameters.nd=20 --set "$alg2" -o "$tmp/t.h5" > /dev/null 2> "$tmp/t.err" &
+job=$!
+i=0
+while [ ! -f "$tmp/t.h5" ] && [ $i -lt 6000 ]; do sleep 0.005; i=$((i + 1)); done
+victim=
+for pid in $(pgrep -x ltl_run); do
+  r=$( (tr '\0' '\n' < "/proc/$pid/environ") 2> /dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p')
+  [ "$r" = 1 ] && grep -q "$tmp/t.h5" "/proc/$pid/cmdline" 2> /dev/null && victim=$pid
+done
+[ -n "$victim" ] || fail "SIGTERM to rank 1: no rank 1 found (the run ended before step 1?)"
+kill -TERM "$victim"
+wait $job
+status=$?
+[ $status = 143 ] || fail "SIGTERM to rank 1: exit status $status, not 143 (124: a hang)"
+[ "$(grep -c 'interrupted by SIGTERM during step' "$tmp/t.err")" = 1 ] ||
+  fail "SIGTERM to rank 1: not one message: $(cat "$tmp/t.err")"
+/usr/bin/python3 -c 'import sys, h5py; f = h5py.File(sys.argv[1]); s = f.attrs["status"]; s = s.decode() if isinstance(s, bytes) else s; print("SIGTERM to rank 1: exit 143,", len(f["steps"]), "step(s) kept, status:", s); sys.exit(0 if s.startswith("interrupted by SIGTERM during step") and len(f["steps"]) >= 1 else 1)' \
+  "$tmp/t.h5" || fail "SIGTERM to rank 1: the file is not marked interrupted with its steps"
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"

@@ -116,6 +116,9 @@ def iteration(g, P, net, design):
         # ALG2 phase, not per iteration: not in the time of an iteration)
         ours = 2 * SOLVES * nb * alpha + 2 * 8 * ghost * beta
         ours += 2 * allreduce(8 * 4, P, alpha, beta)  # residual parts with finiteness, failures
+        # under ltl_run, since 2026-12-03 (second session), the signal the run stops for, decided
+        # over the ranks once an iteration (lib/simulation.cpp, run_signal)
+        ours += allreduce(8, P, alpha, beta)
     else:  # a ghost layer: right-hand side and u exchanged on the ghosts only
         ours = 2 * (nb * alpha + 8 * D * ghost / SOLVES * beta)
         ours += 2 * allreduce(8 * 4, P, alpha, beta)
