@@ -14,10 +14,14 @@
 // (rank 0 reads it and sends the state to the others).
 //
 // Every configuration key is described in experiments/README.md.
+#include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <thread>
 
 #include "cli.hpp"
 #include "error.hpp"
+#include "interrupt.hpp"
 #include "mpi_comm.hpp"
 
 // The recipe (lib/cli.hpp, lib/simulation.hpp): load -> discretize and precompute -> solve the
@@ -34,13 +38,36 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   // factorized once (4.5), or the distributed KSP set up once over the ranks.
   // The problem moves into the solver (one copy of the mesh).
   ltl::Solver solver{std::move(problem), ranks ? ltl::Ranks::All : ltl::Ranks::One};
-  ltl::run(solver, options);  // (2.1): ALG2 per step, written at once
+  // LTL_TEST_FAIL_RANK=r (tests/check_mpi_run.sh): rank r alone throws after step 1, as a rank
+  // that runs out of memory would.
+  const char* fail = std::getenv("LTL_TEST_FAIL_RANK");
+  const int fail_rank = ranks && fail ? std::atoi(fail) : -1;
+  try {
+    ltl::run(solver, options, [&](const ltl::Solver&, int p, const ltl::State&) {
+      if (p == 1 && ltl::mpi::rank() == fail_rank)
+        throw ltl::Error(
+            ltl::cat("rank ", fail_rank, " fails alone after step 1 (LTL_TEST_FAIL_RANK)"));
+    });  // (2.1): ALG2 per step, written at once
+  } catch (const ltl::Interrupted&) {
+    throw;  // every rank stops at the same iteration (run_signal): they unwind together
+  } catch (...) {
+    // Under mpirun an error may be this rank's alone (memory exhausted on one rank): the others
+    // wait for it in their collectives, and so would this rank in the Solver's destruction
+    // (MUMPS's is collective), so the job ends here, before it. An error of every rank (a
+    // divergence, a failed write: collective, rank 0's message) is said by rank 0 first: the
+    // other ranks end the job one second later.
+    if (!ranks) throw;
+    const int status = ltl::report_exception("ltl_run");
+    if (ltl::mpi::rank() != 0) std::this_thread::sleep_for(std::chrono::seconds(1));
+    ltl::mpi::abort(status);
+  }
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2. Under mpirun a failing rank ends
-// every rank (MPI_Abort), which would otherwise wait for it. A signal (Ctrl-C, SIGTERM: status
-// 128 + the signal) stops every rank at the same iteration (lib/simulation.cpp, run_signal):
-// they end together, MPI finalized, rank 0 alone saying what was kept.
+// every rank (MPI_Abort), which would otherwise wait for it: during the time steps before the
+// Solver is destroyed (solve_and_report above), otherwise after its message. A signal (Ctrl-C,
+// SIGTERM: status 128 + the signal) stops every rank at the same iteration (lib/simulation.cpp,
+// run_signal): they end together, MPI finalized, rank 0 alone saying what was kept.
 int main(int argc, char** argv) {
   ltl::mpi::Session session(&argc, &argv);
   if (ltl::mpi::size() > 1 && ltl::mpi::rank() != 0) std::freopen("/dev/null", "w", stdout);

@@ -155,6 +155,36 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
 
 }  // namespace
 
+int report_exception(const std::string& program) {
+  const char* prog = program.c_str();
+  try {
+    throw;
+  } catch (const Interrupted& e) {  // Ctrl-C, SIGTERM: what was kept, and 128 + the signal
+    std::fflush(stdout);
+    if (*e.what()) std::fprintf(stderr, "%s: %s\n", prog, e.what());  // (empty: another rank's)
+    return 128 + e.signal();
+  } catch (const Error& e) {
+    std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::fprintf(stderr, "%s: error: file system: %s\n", prog, e.what());
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr,
+                 "%s: error: out of memory (the mesh or the problem is too large for this "
+                 "machine; use a coarser mesh)\n",
+                 prog);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
+  } catch (const std::string& e) {  // gmsh 4.8 throws strings
+    std::fprintf(stderr, "%s: error: gmsh: %s\n", prog, e.c_str());
+  } catch (const char* e) {
+    std::fprintf(stderr, "%s: error: %s\n", prog, e);
+  } catch (...) {
+    std::fprintf(stderr, "%s: error: unknown exception (a library threw something unexpected)\n",
+                 prog);
+  }
+  return 1;
+}
+
 int guarded_main(int argc, char** argv, const std::string& program,
                  const std::string& default_config,
                  const std::function<void(const CommandLine&)>& body) {
@@ -166,38 +196,10 @@ int guarded_main(int argc, char** argv, const std::string& program,
   // The one error boundary: whatever is thrown (our errors, the standard library's, gmsh's
   // strings, memory exhaustion) is one line on stderr and exit status 1. The results file is
   // written atomically (results.hpp), so an error leaves the previous file or none.
-  const char* prog = program.c_str();
   try {
     body(cmd);
-  } catch (const Interrupted& e) {  // Ctrl-C, SIGTERM: what was kept, and 128 + the signal
-    std::fflush(stdout);
-    if (*e.what()) std::fprintf(stderr, "%s: %s\n", prog, e.what());  // (empty: another rank's)
-    return 128 + e.signal();
-  } catch (const Error& e) {
-    std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
-    return 1;
-  } catch (const std::filesystem::filesystem_error& e) {
-    std::fprintf(stderr, "%s: error: file system: %s\n", prog, e.what());
-    return 1;
-  } catch (const std::bad_alloc&) {
-    std::fprintf(stderr,
-                 "%s: error: out of memory (the mesh or the problem is too large for this "
-                 "machine; use a coarser mesh)\n",
-                 prog);
-    return 1;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
-    return 1;
-  } catch (const std::string& e) {  // gmsh 4.8 throws strings
-    std::fprintf(stderr, "%s: error: gmsh: %s\n", prog, e.c_str());
-    return 1;
-  } catch (const char* e) {
-    std::fprintf(stderr, "%s: error: %s\n", prog, e);
-    return 1;
   } catch (...) {
-    std::fprintf(stderr, "%s: error: unknown exception (a library threw something unexpected)\n",
-                 prog);
-    return 1;
+    return report_exception(program);
   }
   return 0;
 }

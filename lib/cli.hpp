@@ -31,6 +31,11 @@ struct CommandLine {
   RunOptions options;
 };
 
+/// Inside a catch block: the exception being handled as one line "PROGRAM: error: ..." on
+/// stderr (an Interrupted: its message, none if empty), and the exit status: 1, or 128 + the
+/// signal for an Interrupted. guarded_main's error boundary; ltl_run's under mpirun too.
+int report_exception(const std::string& program);
+
 /// Parses the command line (usage errors: a message and exit status 2; -h: usage, 0), then
 /// calls `body` inside the one error boundary: whatever it throws (our errors, the standard
 /// library's, gmsh's strings, memory exhaustion, even through std::terminate) is one line

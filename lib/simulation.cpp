@@ -186,7 +186,8 @@ void check_load_scale(const Solver& solver, double load_scale, int p) {
 /// reduction of one value). A scheduler's SIGTERM reaches the ranks at different moments, and a
 /// rank's own record could stop it one iteration before the others, which would then wait for
 /// it in the next iteration's sums; decided together, every rank stops at the same iteration
-/// (paper_notes/mpi.md, "A signal stops every rank at the same iteration").
+/// (paper_notes/mpi.md, "A signal stops every rank at the same iteration; an error of one rank
+/// ends the job").
 int run_signal(const Solver& solver) {
   double signal = interrupt_signal();
   if (solver.cell_partition()) mpi::max(&signal, 1);

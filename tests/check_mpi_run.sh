@@ -12,7 +12,8 @@
 # that diverges under mpirun leaves its last iterate in the file (rank 0 writes it, with the
 # fields every rank made on its cells: E, sigma, det F, the nodal stress). A geometry script that
 # calls `Exit;` ends the job at once with rank 0's message. SIGTERM to rank 1 alone stops every
-# rank at the same iteration: status 143, one message, the file marked interrupted.
+# rank at the same iteration: status 143, one message, the file marked interrupted. An error of
+# rank 1 alone ends the job at once (status 1, its message), not a hang.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -187,6 +188,21 @@ status=$?
   fail "SIGTERM to rank 1: not one message: $(cat "$tmp/t.err")"
 /usr/bin/python3 -c 'import sys, h5py; f = h5py.File(sys.argv[1]); s = f.attrs["status"]; s = s.decode() if isinstance(s, bytes) else s; print("SIGTERM to rank 1: exit 143,", len(f["steps"]), "step(s) kept, status:", s); sys.exit(0 if s.startswith("interrupted by SIGTERM during step") and len(f["steps"]) >= 1 else 1)' \
   "$tmp/t.h5" || fail "SIGTERM to rank 1: the file is not marked interrupted with its steps"
+# An error of one rank alone (LTL_TEST_FAIL_RANK=1: rank 1 throws after step 1, as a rank out of
+# memory would): the job ends at once with status 1 and rank 1's message, the file keeping step
+# 1. Before, rank 1 waited in the Solver's destruction (MUMPS's is collective) and rank 0 in
+# step 2's sums: a silent hang.
+rm -f "$tmp/f.h5"
+LTL_TEST_FAIL_RANK=1 timeout 60 "$mpiexec" -n 2 --oversubscribe -x LTL_TEST_FAIL_RANK "$run" \
+  "$f5" --set time.steps=3 --set 'load.ramp="linear"' --set 'load.ramp_time="20 s"' \
+  --set "$alg2" -o "$tmp/f.h5" > /dev/null 2> "$tmp/f.err"
+status=$?
+[ $status = 1 ] || fail "an error of rank 1 alone: exit status $status, not 1 (124: a hang)"
+grep -q "ltl_run: error: rank 1 fails alone after step 1" "$tmp/f.err" ||
+  fail "an error of rank 1 alone: no message: $(cat "$tmp/f.err")"
+/usr/bin/python3 -c 'import sys, h5py; sys.exit(0 if len(h5py.File(sys.argv[1])["steps"]) == 1 else 1)' \
+  "$tmp/f.h5" || fail "an error of rank 1 alone: the file does not keep step 1"
+echo "an error of rank 1 alone: exit status 1 with its message, step 1 kept"
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"
