@@ -6,7 +6,6 @@
 #include <cmath>
 #include <map>
 #include <set>
-#include <utility>
 
 #include "cg_amg.hpp"
 #include "cholesky.hpp"
@@ -171,16 +170,8 @@ double GlobalStep::predicted_factor_nonzeros(const SpMat& K, const DirichletData
 }
 
 GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver,
-                       const Eigen::MatrixXd* X, int newton_dim)
-    : GlobalStep(SpMat(K), bc, solver, X, newton_dim, AutoLimits()) {}
-
-GlobalStep::GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver,
-                       const Eigen::MatrixXd* X, int newton_dim, const AutoLimits& limits)
+                       const Eigen::MatrixXd* X, int newton_dim, const AutoLimits* limits)
     : GlobalStep(SpMat(K), bc, solver, X, newton_dim, limits) {}
-
-GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
-                       const Eigen::MatrixXd* X, int newton_dim)
-    : GlobalStep(std::move(K), bc, solver, X, newton_dim, AutoLimits()) {}
 
 double DirichletData::value_at(int a, int i) const {
   const std::vector<int>& f = fixed[i];
@@ -228,7 +219,7 @@ std::vector<std::vector<int>> components_by_dirichlet_set(const DirichletData& b
 }
 
 GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
-                       const Eigen::MatrixXd* X, int newton_dim, const AutoLimits& limits)
+                       const Eigen::MatrixXd* X, int newton_dim, const AutoLimits* limits)
     : bc_(bc) {
   const int n = static_cast<int>(K.rows());
   bc.check(n);
@@ -250,8 +241,9 @@ GlobalStep::GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver,
   // them.
   if (solver == GlobalSolver::Auto) {
     solver = GlobalSolver::Cholesky;
-    if (CgAmg::available() && n > limits.min_rows &&
-        8.0 * predicted_factor_nonzeros(K, bc, newton_dim) > limits.factor_bytes)
+    const AutoLimits rule = limits ? *limits : AutoLimits();
+    if (CgAmg::available() &&
+        rule.cg_amg(n, [&] { return 8.0 * predicted_factor_nonzeros(K, bc, newton_dim); }))
       solver = GlobalSolver::CgAmg;
   }
   solver_ = solver;

@@ -63,25 +63,37 @@ SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, dou
 
 class GlobalStep {
  public:
+  /// Auto: CG + AMG above both (and only when CgAmg::available()).
+  static constexpr int kAutoMinRows = 200000;
+  static constexpr double kAutoFactorBytes = 4e9;
+  /// Auto's thresholds (the defaults above; the tests that reach the choice lower them), and
+  /// the rule, the serial one and the one over the ranks (mpi_global.hpp, with MUMPS's
+  /// analysis): CG + AMG when the matrix has more than min_rows rows and the factors' predicted
+  /// bytes exceed factor_bytes. `bytes()` is called above min_rows only (an analysis).
+  struct AutoLimits {
+    int min_rows = kAutoMinRows;
+    double factor_bytes = kAutoFactorBytes;
+    template <class Bytes>
+    bool cg_amg(long rows, Bytes bytes) const {
+      return rows > min_rows && bytes() > factor_bytes;
+    }
+  };
   /// Groups the components by Dirichlet set, and analyzes and factorizes K restricted to each
   /// set's free nodes once. Throws a clear Error if a restricted matrix is not positive
   /// definite (a rigid motion not removed by fixed parts, symmetry planes or contact).
   /// `solver`: Cholesky, CG + AMG (then X, the #nodes x dim reference coordinates, gives the
   /// AMG's near-null space and is required), or Auto (the rule above). newton_dim: with a
   /// Newton phase (solver = "newton") the dimension, whose tangent's factor Auto counts too
-  /// (predicted_factor_nonzeros); 0 without. `limits`: Auto's two thresholds (AutoLimits; the
-  /// defaults kAutoMinRows and kAutoFactorBytes, lowered by the tests that reach the choice).
-  struct AutoLimits;
+  /// (predicted_factor_nonzeros); 0 without. `limits`: Auto's thresholds (null: AutoLimits'
+  /// defaults).
   GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
-             const Eigen::MatrixXd* X = nullptr, int newton_dim = 0);
-  GlobalStep(const SpMat& K, const DirichletData& bc, GlobalSolver solver, const Eigen::MatrixXd* X,
-             int newton_dim, const AutoLimits& limits);
+             const Eigen::MatrixXd* X = nullptr, int newton_dim = 0,
+             const AutoLimits* limits = nullptr);
   /// The same, K consumed: freed as soon as the restricted matrices are made (before the last
   /// factorization, before any AMG setup), so that it is not resident at the setup's peak.
   GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver = GlobalSolver::Cholesky,
-             const Eigen::MatrixXd* X = nullptr, int newton_dim = 0);
-  GlobalStep(SpMat&& K, const DirichletData& bc, GlobalSolver solver, const Eigen::MatrixXd* X,
-             int newton_dim, const AutoLimits& limits);
+             const Eigen::MatrixXd* X = nullptr, int newton_dim = 0,
+             const AutoLimits* limits = nullptr);
   ~GlobalStep();
   GlobalStep(const GlobalStep&) = delete;
   GlobalStep& operator=(const GlobalStep&) = delete;
@@ -106,15 +118,6 @@ class GlobalStep {
   double amg_setup_seconds() const;
   double amg_nonzeros() const;
   double amg_bytes() const;
-  /// Auto: CG + AMG above both (and only when CgAmg::available()).
-  static constexpr int kAutoMinRows = 200000;
-  static constexpr double kAutoFactorBytes = 4e9;
-  /// Auto's thresholds: CG + AMG when K has more than min_rows rows and the predicted factors
-  /// (8 B per nonzero) exceed factor_bytes.
-  struct AutoLimits {
-    int min_rows = kAutoMinRows;
-    double factor_bytes = kAutoFactorBytes;
-  };
   /// The factors' nnz(L) predicted from CHOLMOD's symbolic analysis alone (AMD ordering, no
   /// factorization): #distinct Dirichlet sets x the count of the largest set's matrix; the
   /// constructor's best-of-three ordering gives about as much or less. With newton_dim = d > 0

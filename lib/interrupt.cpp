@@ -41,8 +41,8 @@ std::string signal_name(int signal) {
   return cat("signal ", signal);
 }
 
-void check_interrupt() {
-  if (const int s = g_signal) throw Interrupted(s, cat("interrupted by ", signal_name(s)));
+void check_interrupt(int signal) {
+  if (signal) throw Interrupted(signal, cat("interrupted by ", signal_name(signal)));
 }
 
 }  // namespace ltl

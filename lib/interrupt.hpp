@@ -46,8 +46,9 @@ class Interrupted : public Error {
   int signal_;
 };
 
-/// Throws Interrupted (with a provisional message; the time loop rewrites it) when a signal was
-/// received inside the current InterruptScope.
-void check_interrupt();
+/// Throws Interrupted (with a provisional message; the time loop rewrites it) for `signal`, the
+/// signal received inside the current InterruptScope (interrupt_signal(); the time loop's
+/// run_signal, lib/simulation.cpp, decides it over the MPI ranks), unless it is 0.
+void check_interrupt(int signal);
 
 }  // namespace ltl

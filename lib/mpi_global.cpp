@@ -323,22 +323,8 @@ struct DistributedGlobalStep::Group {
 };
 
 namespace {
-/// Solver::Auto (mpi_global.hpp): MUMPS's Cholesky unless A has more than kAutoMinRows rows
-/// and MUMPS's analysis (its symbolic factorization alone, on a factor destroyed afterwards)
-/// predicts more than kAutoFactorBytes on its most loaded rank: `copies` x INFOG(16), the
-/// estimated MB of all of MUMPS's data for A's in-core factorization on that rank, the same on
-/// every rank; `copies`: the Dirichlet sets, whose factors are held together, plus dim^2 with a
-/// Newton phase (its tangent's factor, A's with d x d blocks); the serial rule counts the same
-/// way (global_step.hpp). `predicted`: those bytes, or -1 below the rows' limit (no analysis).
-/// Collective.
-DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int copies, const std::string& what,
-                                          double& predicted) {
-  PetscInt min_rows = GlobalStep::kAutoMinRows;
-  PetscReal limit = GlobalStep::kAutoFactorBytes;
-  PetscOptionsGetInt(nullptr, nullptr, "-ltl_mpi_auto_rows", &min_rows, nullptr);
-  PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_auto_bytes", &limit, nullptr);
-  predicted = -1;
-  if (rows <= min_rows) return DistributedGlobalStep::Solver::Mumps;
+/// `copies` x INFOG(16) of MUMPS's analysis of A (auto_choice), in bytes. Collective.
+double analysed_bytes(Mat A, int copies, const std::string& what) {
   Mat F = nullptr;
   check(MatGetFactor(A, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &F), what, "MatGetFactor");
   MatFactorInfo info;
@@ -352,10 +338,33 @@ DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int copies, const std
   if (status < 0)
     throw Error(
         cat(what, ": MUMPS's analysis for the automatic choice failed (INFOG(1) = ", status, ")"));
-  predicted = 1e6 * static_cast<double>(mb) * copies;
-  return predicted > limit ? DistributedGlobalStep::Solver::CgGamg
-                           : DistributedGlobalStep::Solver::Mumps;
+  return 1e6 * static_cast<double>(mb) * copies;
 }
+
+/// Solver::Auto (mpi_global.hpp), the serial rule (GlobalStep::AutoLimits::cg_amg, its limits
+/// replaced by the PETSc options -ltl_mpi_auto_rows and -ltl_mpi_auto_bytes): MUMPS's Cholesky
+/// unless A has more than kAutoMinRows rows and MUMPS's analysis (its symbolic factorization alone,
+/// on a factor destroyed afterwards) predicts more than kAutoFactorBytes on its most loaded rank:
+/// `copies` x INFOG(16), the estimated MB of all of MUMPS's data for A's in-core factorization on
+/// that rank, the same on every rank; `copies`: the Dirichlet sets, whose factors are held
+/// together, plus dim^2 with a Newton phase (its tangent's factor, A's with d x d blocks); the
+/// serial rule counts the same way (global_step.hpp). `predicted`: those bytes, or -1 below the
+/// rows' limit (no analysis). Collective.
+DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int copies, const std::string& what,
+                                          double& predicted) {
+  PetscInt min_rows = GlobalStep::kAutoMinRows;
+  PetscReal limit = GlobalStep::kAutoFactorBytes;
+  PetscOptionsGetInt(nullptr, nullptr, "-ltl_mpi_auto_rows", &min_rows, nullptr);
+  PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_auto_bytes", &limit, nullptr);
+  GlobalStep::AutoLimits limits;
+  limits.min_rows = static_cast<int>(min_rows);
+  limits.factor_bytes = limit;
+  predicted = -1;
+  return limits.cg_amg(rows, [&] { return predicted = analysed_bytes(A, copies, what); })
+             ? DistributedGlobalStep::Solver::CgGamg
+             : DistributedGlobalStep::Solver::Mumps;
+}
+
 }  // namespace
 
 DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,

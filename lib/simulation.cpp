@@ -176,11 +176,6 @@ void check_load_scale(const Solver& solver, double load_scale, int p) {
                   "load.traction (a load of zero is allowed: leave it out)"));
 }
 
-/// One solve of step p at the load factor `factor` from `state`: ALG2 (then Newton), the
-/// equilibrium check and the admissibility check. Prints iteration progress only. beta_prev:
-/// beta_{p-1} when `state` is not the step's start (a checkpoint continued), else state.beta.
-/// checkpoints: the iterate saved every `every` seconds and at a signal, its iteration count
-/// after `prior` iterations of an earlier run.
 /// The signal (Ctrl-C, SIGTERM) the run stops for, or 0: this process's (interrupt_signal); of a
 /// distributed solver the largest over its ranks, the same on every rank (collective: one
 /// reduction of one value). A scheduler's SIGTERM reaches the ranks at different moments, and a
@@ -194,6 +189,11 @@ int run_signal(const Solver& solver) {
   return static_cast<int>(signal);
 }
 
+/// One solve of step p at the load factor `factor` from `state`: ALG2 (then Newton), the
+/// equilibrium check and the admissibility check. Prints iteration progress only. beta_prev:
+/// beta_{p-1} when `state` is not the step's start (a checkpoint continued), else state.beta.
+/// checkpoints: the iterate saved every `every` seconds and at a signal, its iteration count
+/// after `prior` iterations of an earlier run.
 TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int verbosity,
                          const Eigen::VectorXd* beta_prev_given = nullptr,
                          const StepCheckpoints* checkpoints = nullptr, int prior = 0) {
@@ -219,8 +219,7 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
       checkpoints->save(p, factor, state, prior + r.n);
       saved = std::chrono::steady_clock::now();
     }
-    if (signal)  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
-      throw Interrupted(signal, cat("interrupted by ", signal_name(signal)));
+    check_interrupt(signal);  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
     // Long steps show progress: every 50 iterations of a static problem, every 2000 of a
     // time step of an evolution, with the time left at the step's mean rate since its first line.
     if (verbosity >= 2 || (verbosity == 1 && r.n % (P == 1 ? 50 : 2000) == 0)) {
@@ -716,6 +715,9 @@ void ResultsWriter::checkpoint(int p, double load_factor, const State& iterate, 
 }
 
 void ResultsWriter::interrupted(int p, int signal) {
+  // Under mpirun every rank stops here at the same iteration (run_signal): rank 0, the writer,
+  // says what was kept; the others' Interrupted is silent (an empty message).
+  if (solver_.cell_partition() && mpi::rank() != 0) throw Interrupted(signal, "");
   std::optional<ResultsFile>& file = file_->results;
   const std::string& out = options_.output;
   std::string kept = out.empty()       ? "nothing was to be written"
@@ -741,9 +743,6 @@ void ResultsWriter::interrupted(int p, int signal) {
                  "); continue with --resume");
     }
   }
-  // Under mpirun every rank stops here at the same iteration (run_signal): rank 0, the writer,
-  // says what was kept; the others' Interrupted is silent (an empty message).
-  if (solver_.cell_partition() && mpi::rank() != 0) throw Interrupted(signal, "");
   throw Interrupted(signal, cat(problem_.name, ": interrupted by ", signal_name(signal),
                                 " during step ", p, " (t = ", p * problem_.time.dt, " s); ", kept));
 }
@@ -774,8 +773,7 @@ RunSummary run(Solver& solver, const RunOptions& options,
     checkpoints.resume = p == results.next_step() ? results.resume_iterate() : nullptr;
     checkpoints.resume_iterations = results.resume_iterations();
     try {
-      if (const int signal = run_signal(solver))
-        throw Interrupted(signal, cat("interrupted by ", signal_name(signal)));
+      check_interrupt(run_signal(solver));
       step = solve_time_step(solver, p, state, options.verbosity, &clock, &checkpoints);
     } catch (const Interrupted& i) {
       results.interrupted(p, i.signal());

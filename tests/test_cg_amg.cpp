@@ -93,7 +93,7 @@ TEST(CgAmg, Eq4_5_AutoCountsTheNewtonPhasesFactor) {
     GlobalStep::AutoLimits limits;
     limits.min_rows = min_rows;
     limits.factor_bytes = bytes;
-    return GlobalStep(s.K, s.bc, GlobalSolver::Auto, &s.mesh.X, newton_dim, limits).solver();
+    return GlobalStep(s.K, s.bc, GlobalSolver::Auto, &s.mesh.X, newton_dim, &limits).solver();
   };
   const double between = 8.0 * 0.5 * (alone + with);
   EXPECT_EQ(choice(0, n - 1, between), GlobalSolver::Cholesky) << "ALG2 alone: its factors fit";
