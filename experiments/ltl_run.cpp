@@ -17,6 +17,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <exception>
 #include <thread>
 
 #include "cli.hpp"
@@ -37,30 +39,38 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
   // Discretize (on several ranks each rank discretizes its own cells only, a slab); K
   // factorized once (4.5), or the distributed KSP set up once over the ranks.
   // The problem moves into the solver (one copy of the mesh).
-  ltl::Solver solver{std::move(problem), ranks ? ltl::Ranks::All : ltl::Ranks::One};
-  // LTL_TEST_FAIL_RANK=r (tests/check_mpi_run.sh): rank r alone throws after step 1, as a rank
-  // that runs out of memory would.
-  const char* fail = std::getenv("LTL_TEST_FAIL_RANK");
-  const int fail_rank = ranks && fail ? std::atoi(fail) : -1;
-  try {
-    ltl::run(solver, options, [&](const ltl::Solver&, int p, const ltl::State&) {
-      if (p == 1 && ltl::mpi::rank() == fail_rank)
-        throw ltl::Error(
-            ltl::cat("rank ", fail_rank, " fails alone after step 1 (LTL_TEST_FAIL_RANK)"));
-    });  // (2.1): ALG2 per step, written at once
-  } catch (const ltl::Interrupted&) {
-    throw;  // every rank stops at the same iteration (run_signal): they unwind together
-  } catch (...) {
-    // Under mpirun an error may be this rank's alone (memory exhausted on one rank): the others
-    // wait for it in their collectives, and so would this rank in the Solver's destruction
-    // (MUMPS's is collective), so the job ends here, before it. An error of every rank (a
-    // divergence, a failed write: collective, rank 0's message) is said by rank 0 first: the
-    // other ranks end the job one second later.
-    if (!ranks) throw;
-    const int status = ltl::report_exception("ltl_run");
-    if (ltl::mpi::rank() != 0) std::this_thread::sleep_for(std::chrono::seconds(1));
-    ltl::mpi::abort(status);
+  std::exception_ptr stop;  // a signal, the same iteration on every rank (run_signal)
+  {
+    ltl::Solver solver{std::move(problem), ranks ? ltl::Ranks::All : ltl::Ranks::One};
+    // LTL_TEST_FAIL_RANK=r (tests/check_mpi_run.sh): rank r alone throws after step 1, as a rank
+    // that runs out of memory would; r:setup, once its solver is set up (its PETSc objects are
+    // then left to MPI_Abort, mpi::collective_teardown: their destruction is collective).
+    const char* fail = std::getenv("LTL_TEST_FAIL_RANK");
+    const int fail_rank = ranks && fail ? std::atoi(fail) : -1;
+    if (fail_rank == ltl::mpi::rank() && std::strstr(fail, ":setup"))
+      throw ltl::Error(
+          ltl::cat("rank ", fail_rank, " fails alone once set up (LTL_TEST_FAIL_RANK)"));
+    try {
+      ltl::run(solver, options, [&](const ltl::Solver&, int p, const ltl::State&) {
+        if (p == 1 && ltl::mpi::rank() == fail_rank && !std::strstr(fail, ":setup"))
+          throw ltl::Error(
+              ltl::cat("rank ", fail_rank, " fails alone after step 1 (LTL_TEST_FAIL_RANK)"));
+      });  // (2.1): ALG2 per step, written at once
+    } catch (const ltl::Interrupted&) {
+      stop = std::current_exception();  // the ranks destroy the solver together, then say it
+    } catch (...) {
+      // Under mpirun an error may be this rank's alone (memory exhausted on one rank): the
+      // others wait for it in their collectives, and so would this rank in the Solver's
+      // destruction (MUMPS's is collective), so the job ends here, before it. An error of every
+      // rank (a divergence, a failed write: collective, rank 0's message) is said by rank 0
+      // first: the other ranks end the job one second later.
+      if (!ranks) throw;
+      const int status = ltl::report_exception("ltl_run");
+      if (ltl::mpi::rank() != 0) std::this_thread::sleep_for(std::chrono::seconds(1));
+      ltl::mpi::abort(status);
+    }
   }
+  if (stop) std::rethrow_exception(stop);
 }
 
 // Errors: one line on stderr, exit status 1; bad usage: 2. Under mpirun a failing rank ends

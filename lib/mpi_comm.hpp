@@ -13,6 +13,7 @@
 
 #include <Eigen/Dense>
 #include <cstdint>
+#include <exception>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,14 @@ class Session {
 
 /// Ends every rank at once (a rank that failed alone would leave the others waiting).
 [[noreturn]] void abort(int code);
+/// May this rank destroy its PETSc objects now? Not while an exception unwinds them on several
+/// ranks: the error may be this rank's alone (memory exhausted in a set-up), and their
+/// destruction is collective (MUMPS's), so the rank would wait for the others, which wait for it
+/// in their next collective. They are left to the job's end (ltl_run's MPI_Abort). A collective
+/// stop (a signal) destroys them after its handler, not while unwinding.
+inline bool collective_teardown() {
+  return size() == 1 || std::uncaught_exceptions() == 0;
+}
 void barrier();
 
 /// Contiguous blocks of n items over the ranks: rank r owns [offset[r], offset[r + 1]).

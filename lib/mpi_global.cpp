@@ -313,6 +313,7 @@ struct DistributedGlobalStep::Group {
     for (std::size_t i = 0; i < node.size(); ++i) u(node[i], c) = x[i];
   }
   ~Group() {
+    if (!mpi::collective_teardown()) return;  // left to the job's end
     if (scatter) VecScatterDestroy(&scatter);
     if (read) VecDestroy(&read);
     if (ksp) KSPDestroy(&ksp);

@@ -113,7 +113,9 @@ struct Factored {
   int n = 0, first = 0, own = 0;
   Mat A = nullptr, F = nullptr;
   Vec b = nullptr, xv = nullptr;
-  ~Factored() { reset(); }
+  ~Factored() {
+    if (mpi::collective_teardown()) reset();  // else left to the job's end
+  }
   void reset() {
     if (F) MatDestroy(&F);
     if (A) MatDestroy(&A);

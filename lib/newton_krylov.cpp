@@ -108,6 +108,7 @@ struct NewtonKrylov::Impl {
     if (M) MatDestroy(&M);
   }
   ~Impl() {
+    if (!mpi::collective_teardown()) return;  // left to the job's end
     release_system();
     for (Vec* v : {&vu, &wu, &t})
       if (*v) VecDestroy(v);

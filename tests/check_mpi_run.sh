@@ -13,7 +13,7 @@
 # fields every rank made on its cells: E, sigma, det F, the nodal stress). A geometry script that
 # calls `Exit;` ends the job at once with rank 0's message. SIGTERM to rank 1 alone stops every
 # rank at the same iteration: status 143, one message, the file marked interrupted. An error of
-# rank 1 alone ends the job at once (status 1, its message), not a hang.
+# rank 1 alone, in a step or once set up, ends the job at once (status 1, its message), not a hang.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -203,6 +203,20 @@ grep -q "ltl_run: error: rank 1 fails alone after step 1" "$tmp/f.err" ||
 /usr/bin/python3 -c 'import sys, h5py; sys.exit(0 if len(h5py.File(sys.argv[1])["steps"]) == 1 else 1)' \
   "$tmp/f.h5" || fail "an error of rank 1 alone: the file does not keep step 1"
 echo "an error of rank 1 alone: exit status 1 with its message, step 1 kept"
+# The same once its solver is set up (LTL_TEST_FAIL_RANK=1:setup), with MUMPS and with the Newton
+# phase on CG + GAMG: rank 1 unwinds its PETSc objects without destroying them
+# (mpi::collective_teardown), and the job ends with its message. Destroyed, MUMPS's teardown
+# waited for rank 0, which waited in step 1's first sums: a hang (CG + GAMG's did not wait).
+for gs in cholesky cg-amg; do
+  LTL_TEST_FAIL_RANK=1:setup timeout 60 "$mpiexec" -n 2 --oversubscribe -x LTL_TEST_FAIL_RANK \
+    "$run" "$f5" --set time.steps=2 --set "$newton" --set "algorithm.global_solver=\"$gs\"" \
+    -o "$tmp/g.h5" > /dev/null 2> "$tmp/g.err"
+  status=$?
+  [ $status = 1 ] || fail "rank 1 failing once set up ($gs): exit status $status, not 1 (124: a hang)"
+  grep -q "ltl_run: error: rank 1 fails alone once set up" "$tmp/g.err" ||
+    fail "rank 1 failing once set up ($gs): no message: $(cat "$tmp/g.err")"
+done
+echo "an error of rank 1 alone once set up: exit status 1 with its message (MUMPS, CG + GAMG)"
 echo 'name = "broken"' > "$tmp/broken.toml"
 if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
   fail "a broken configuration under mpirun exited 0"
