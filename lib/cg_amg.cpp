@@ -40,6 +40,9 @@ CgAmg::~CgAmg() = default;
 int CgAmg::solve(const double*, double*) {
   return 0;
 }
+double CgAmg::eta_option() {
+  return kEta;
+}
 
 #else
 
@@ -101,13 +104,7 @@ CgAmg::CgAmg(SpMatR&& K, const Eigen::MatrixXd& X, const std::string& what)
   initialize_petsc();
   Impl& m = *impl_;
   m.what = what;
-  {
-    PetscReal eta = kEta;
-    PetscBool set = PETSC_FALSE;
-    if (!PetscOptionsGetReal(nullptr, nullptr, "-ltl_cg_eta", &eta, &set) && set && eta > 0 &&
-        eta < 1)
-      eta_ = eta;
-  }
+  eta_ = eta_option();
   if (X.rows() != n_) throw Error(cat(what, ": ", X.rows(), " coordinates for ", n_, " rows"));
   {  // the matrix: PETSc's AIJ on K's own compressed rows (kept in m.csr), no copy of the values
     static_assert(std::is_same<PetscScalar, double>::value, "a real PETSc build is needed");
@@ -198,6 +195,15 @@ CgAmg::CgAmg(SpMatR&& K, const Eigen::MatrixXd& X, const std::string& what)
 
 CgAmg::~CgAmg() = default;
 
+double CgAmg::eta_option() {
+  PetscReal eta = kEta;
+  PetscBool set = PETSC_FALSE;
+  if (!PetscOptionsGetReal(nullptr, nullptr, "-ltl_cg_eta", &eta, &set) && set && eta > 0 &&
+      eta < 1)
+    return eta;
+  return kEta;
+}
+
 int CgAmg::solve(const double* b, double* x) {
   Impl& m = *impl_;
   PetscScalar* a = nullptr;
@@ -214,7 +220,7 @@ int CgAmg::solve(const double* b, double* x) {
   check(VecNorm(m.r, NORM_2, &r0), m.what, "VecNorm");
   check(VecNorm(m.b, NORM_2, &bn), m.what, "VecNorm");
   ++solves_;
-  const double target = std::max(eta_ * r0, kFloor * bn);
+  const double target = CgAmg::target(eta_, r0, bn);
   if (r0 <= target) return 0;
   check(KSPSetTolerances(m.ksp, 0.0, target, PETSC_DEFAULT, kMaxIterations), m.what,
         "KSPSetTolerances");

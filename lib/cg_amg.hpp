@@ -48,6 +48,13 @@ class CgAmg {
 
   /// Built with PETSc?
   static bool available();
+  /// kEta, or the PETSc option -ltl_cg_eta when it is in (0, 1). PETSc must be initialized.
+  static double eta_option();
+  /// A solve's residual target from its warm start's residual r0 = ||b - A x0|| and ||b||:
+  /// max(eta r0, kFloor ||b||) (the rule above; the distributed CG + GAMG's too, mpi_global.hpp).
+  static double target(double eta, double r0, double b_norm) {
+    return eta * r0 > kFloor * b_norm ? eta * r0 : kFloor * b_norm;
+  }
 
   /// Sets up the AMG hierarchy of the symmetric positive definite A (both triangles stored) with
   /// the near-null space of the coordinates X (#rows x dim; the rows' nodes). `what` names the

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <map>
 
+#include "cg_amg.hpp"
 #include "error.hpp"
 #include "mpi_comm.hpp"
 
@@ -275,6 +276,7 @@ struct DistributedGlobalStep::Group {
   Mat A = nullptr;
   KSP ksp = nullptr;
   Vec b = nullptr, xv = nullptr;
+  Vec r = nullptr;  ///< b - A x0, the warm start's residual (CG + GAMG, inexact)
   // The ghost layer (set_ghost_layer): the free rows of b this rank adds, and the nodes of the
   // free rows of u it reads (the added ones and its owned block) with their scatter from xv into
   // `read`.
@@ -316,6 +318,7 @@ struct DistributedGlobalStep::Group {
     if (!mpi::collective_teardown()) return;  // left to the job's end
     if (scatter) VecScatterDestroy(&scatter);
     if (read) VecDestroy(&read);
+    if (r) VecDestroy(&r);
     if (ksp) KSPDestroy(&ksp);
     if (A) MatDestroy(&A);
     if (b) VecDestroy(&b);
@@ -381,8 +384,15 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
     groups_.push_back(std::make_unique<Group>());
     groups_.back()->components = std::move(components);
   }
+  // CG + GAMG's tolerance: the serial CG + AMG's, inexact (CgAmg::target), unless the PETSc
+  // option -ltl_mpi_rtol asks every solve for that relative reduction.
   PetscReal rtol = kRtol;
-  PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_rtol", &rtol, nullptr);
+  PetscBool tight = PETSC_FALSE;
+  PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_rtol", &rtol, &tight);
+  if (tight)
+    rtol_ = rtol;
+  else
+    eta_ = CgAmg::eta_option();
   for (auto& gp : groups_) {
     Group& g = *gp;
     // The free nodes, each rank's block of rows those of its nodes (node_rank: the rows of its
@@ -529,7 +539,8 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
         check(KSPSetInitialGuessNonzero(g.ksp, PETSC_TRUE), g.what, "KSPSetInitialGuessNonzero");
         check(PCSetType(pc, PCGAMG), g.what, "PCSetType");
         check(PCGAMGSetType(pc, PCGAMGAGG), g.what, "PCGAMGSetType");
-        check(KSPSetTolerances(g.ksp, rtol, 0.0, PETSC_DEFAULT, 5000), g.what, "KSPSetTolerances");
+        check(KSPSetTolerances(g.ksp, rtol_, 0.0, PETSC_DEFAULT, kMaxIterations), g.what,
+              "KSPSetTolerances");
       }
       check(KSPSetFromOptions(g.ksp), g.what, "KSPSetFromOptions");
       PCType type = nullptr;
@@ -550,6 +561,8 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
       if (error == MAT_FACTOR_NOERROR) break;
     }
     check(MatCreateVecs(g.A, &g.xv, &g.b), g.what, "MatCreateVecs");
+    if (solver_ == Solver::CgGamg && eta_ > 0)
+      check(VecDuplicate(g.b, &g.r), g.what, "VecDuplicate");
     Mat Ad = nullptr, Ao = nullptr;
     const PetscInt* colmap = nullptr;
     if (!MatMPIAIJGetSeqAIJ(g.A, &Ad, &Ao, &colmap) && Ao) {
@@ -646,6 +659,18 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       check(VecRestoreArray(g.b, &pb), g.what, "VecRestoreArray");
       check(VecRestoreArray(g.xv, &px), g.what, "VecRestoreArray");
       const auto t0 = std::chrono::steady_clock::now();
+      if (g.r) {  // inexact: the residual target from the warm start's (cg_amg.hpp), one reduction
+        check(MatMult(g.A, g.xv, g.r), g.what, "MatMult");
+        check(VecAYPX(g.r, -1.0, g.b), g.what, "VecAYPX");
+        PetscReal r0 = 0, bn = 0;
+        check(VecNormBegin(g.r, NORM_2, &r0), g.what, "VecNormBegin");
+        check(VecNormBegin(g.b, NORM_2, &bn), g.what, "VecNormBegin");
+        check(VecNormEnd(g.r, NORM_2, &r0), g.what, "VecNormEnd");
+        check(VecNormEnd(g.b, NORM_2, &bn), g.what, "VecNormEnd");
+        check(KSPSetTolerances(g.ksp, 0.0, CgAmg::target(eta_, r0, bn), PETSC_DEFAULT,
+                               kMaxIterations),
+              g.what, "KSPSetTolerances");
+      }
       check(KSPSolve(g.ksp, g.b, g.xv), g.what, "KSPSolve");
       ksp_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       KSPConvergedReason reason;

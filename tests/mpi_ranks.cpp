@@ -83,11 +83,22 @@ double relative(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / b.norm();
 }
 
-/// The distributed run against the serial one. Collective: no early return.
+/// Every distributed CG + GAMG solve converged to kRtol (-ltl_mpi_rtol) while it lives, instead
+/// of the inexact default (mpi_global.hpp): the iterates of the serial factor's ALG2.
+struct TightCg {
+  TightCg() { mpi::set_option("-ltl_mpi_rtol", true, "1e-12"); }
+  ~TightCg() { mpi::set_option("-ltl_mpi_rtol", false); }
+  TightCg(const TightCg&) = delete;
+  TightCg& operator=(const TightCg&) = delete;
+};
+
+/// The distributed run against the serial one (CG + GAMG's solves tight: TightCg). Collective:
+/// no early return.
 void expect_serial_answer(const std::string& name, const std::string& config,
                           std::vector<std::string> overrides, const std::string& global_solver) {
   const Outcome serial = solve(config, overrides, Ranks::One);
   overrides.push_back("algorithm.global_solver=\"" + global_solver + "\"");
+  const TightCg tight;
   const Outcome dist = solve(config, overrides, Ranks::All);
   const double rel = relative(dist.state.u, serial.state.u);
   if (mpi::rank() == 0) {
@@ -154,6 +165,53 @@ TEST(Mpi, Eq4_1to4_4_GluedFig3StepSerialAnswerMumps) {
 }
 TEST(Mpi, Eq4_1to4_4_GluedFig3StepSerialAnswerCgGamg) {
   expect_serial_answer("glued Fig 3 step", kFig3, {"time.steps=1"}, "cg-amg");
+}
+/// [(4.5), (4.4)] The distributed CG + GAMG's default, inexact solves (the serial CG + AMG's rule,
+/// mpi_global.hpp): the serial (Cholesky) run's iteration counts within kIterationSlack and its
+/// answer within the stopping test's reach, on Fig 5 (equilibrium test, 902 iterations) and a
+/// glued Fig 3 step (the paper's test r_G + r_B < 1e-6, 52 iterations; measured 1.5e-6 to
+/// 2.5e-6 relative in u on 1 to 3 ranks, 4e-11 to 5e-12 on Fig 5), with at most half the CG
+/// iterations per solve of the tight solves (TightCg). Fails if the solves stay tight, or
+/// if the target is taken from ||b|| instead of the warm start's residual.
+TEST(Mpi, Eq4_5_CgGamgInexactSolvesReachTheSerialAnswer) {
+  const std::vector<std::string> cg = {"algorithm.global_solver=\"cg-amg\""};
+  for (const auto& [name, config, ov, tol] :
+       {std::make_tuple("Fig 5", kFig5, std::vector<std::string>{}, 1e-8),
+        std::make_tuple("glued Fig 3 step", kFig3, std::vector<std::string>{"time.steps=1"},
+                        1e-5)}) {
+    const Outcome serial = solve(config, ov, Ranks::One);
+    std::vector<std::string> o = ov;
+    o.insert(o.end(), cg.begin(), cg.end());
+    auto distributed = [&](double& per_solve) {
+      const Problem p = load_problem(ltl::testing::source_path(config), o);
+      Solver solver(p, Ranks::All);
+      RunOptions options;
+      options.verbosity = 0;
+      const RunSummary summary = run(solver, options);
+      const RankShare share = solver.rank_share();
+      per_solve = static_cast<double>(share.ksp_iterations) / std::max(1L, share.ksp_solves);
+      return Outcome{solver.whole_state(summary.state), summary.iterations};
+    };
+    double inexact_its = 0, tight_its = 0;
+    const Outcome dist = distributed(inexact_its);
+    {
+      const TightCg tight;
+      distributed(tight_its);
+    }
+    const double rel = relative(dist.state.u, serial.state.u);
+    if (mpi::rank() == 0)
+      std::cout << name << ", inexact CG + GAMG, " << mpi::size()
+                << " rank(s): |u - u_serial| / |u_serial| = " << rel << ", iterations "
+                << dist.iterations.front() << " (serial " << serial.iterations.front()
+                << "), CG iterations per solve " << inexact_its << " (tight " << tight_its << ")\n";
+    EXPECT_LE(rel, tol) << name;
+    EXPECT_EQ(dist.iterations.size(), serial.iterations.size());
+    for (std::size_t k = 0; k < std::min(serial.iterations.size(), dist.iterations.size()); ++k)
+      EXPECT_LE(std::abs(dist.iterations[k] - serial.iterations[k]), kIterationSlack)
+          << name << ": step " << k + 1;
+    EXPECT_LE(inexact_its, 0.5 * tight_its) << name;
+    EXPECT_TRUE(same_on_every_rank(dist.state)) << name;
+  }
 }
 /// The Bermudez-Moreno update (7.7)-(7.10) and Anderson acceleration over the distributed map.
 TEST(Mpi, Eq7_7to7_10_Fig5BermudezMorenoSerialAnswer) {
@@ -530,6 +588,7 @@ void expect_same_iterates(const std::string& global_solver) {
   };
   const State serial = capped(Ranks::One);
   ov.push_back("algorithm.global_solver=\"" + global_solver + "\"");
+  const TightCg tight;
   const State dist = capped(Ranks::All);
   const double rel = relative(dist.u, serial.u);
   if (mpi::rank() == 0)
