@@ -14,12 +14,10 @@
 // (rank 0 reads it and sends the state to the others).
 //
 // Every configuration key is described in experiments/README.md.
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
-#include <thread>
 
 #include "cli.hpp"
 #include "error.hpp"
@@ -63,11 +61,10 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
       // others wait for it in their collectives, and so would this rank in the Solver's
       // destruction (MUMPS's is collective), so the job ends here, before it. An error of every
       // rank (a divergence, a failed write: collective, rank 0's message) is said by rank 0
-      // first: the other ranks end the job one second later.
+      // alone: the other ranks wait one second before they say theirs (report_exception), and
+      // are ended meanwhile.
       if (!ranks) throw;
-      const int status = ltl::report_exception("ltl_run");
-      if (ltl::mpi::rank() != 0) std::this_thread::sleep_for(std::chrono::seconds(1));
-      ltl::mpi::abort(status);
+      ltl::mpi::abort(ltl::report_exception("ltl_run"));
     }
   }
   if (stop) std::rethrow_exception(stop);
@@ -75,13 +72,16 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
 
 // Errors: one line on stderr, exit status 1; bad usage: 2. Under mpirun a failing rank ends
 // every rank (MPI_Abort), which would otherwise wait for it: during the time steps before the
-// Solver is destroyed (solve_and_report above), otherwise after its message. A signal (Ctrl-C,
-// SIGTERM: status 128 + the signal) stops every rank at the same iteration (lib/simulation.cpp,
-// run_signal): they end together, MPI finalized, rank 0 alone saying what was kept.
+// Solver is destroyed (solve_and_report above), otherwise after its message. An error that every
+// rank meets is said once, by rank 0 (the others wait a second first: report_exception). A signal
+// (Ctrl-C, SIGTERM: status 128 + the signal) stops every rank at the same iteration
+// (lib/simulation.cpp, run_signal): they end together, MPI finalized, rank 0 alone saying what was
+// kept.
 int main(int argc, char** argv) {
   ltl::mpi::Session session(&argc, &argv);
   if (ltl::mpi::size() > 1 && ltl::mpi::rank() != 0) std::freopen("/dev/null", "w", stdout);
   const int status = ltl::guarded_main(argc, argv, "ltl_run", "", solve_and_report);
-  if (status != 0 && status <= 128 && ltl::mpi::size() > 1) ltl::mpi::abort(status);
+  // Bad usage (2) is every rank's, said by rank 0 (lib/cli.cpp): the ranks end together.
+  if (status == 1 && ltl::mpi::size() > 1) ltl::mpi::abort(status);
   return status;
 }

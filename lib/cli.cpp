@@ -2,25 +2,39 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <climits>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <new>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 #include "config.hpp"
 #include "error.hpp"
 #include "interrupt.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
 namespace {
 
 char g_program[256] = "ltl";
+
+/// parse's messages on stderr. Under mpirun every rank parses the same command line: rank 0
+/// alone says what is wrong with it (the others exit with the same status, silent).
+__attribute__((format(printf, 1, 2))) void say(const char* format, ...) {
+  if (mpi::size() > 1 && mpi::rank() != 0) return;
+  std::va_list args;
+  va_start(args, format);
+  std::vfprintf(stderr, format, args);
+  va_end(args);
+}
 
 // The last resort of the error boundary: an exception that cannot propagate (thrown inside an
 // OpenMP region of ours or of gmsh, e.g. std::bad_alloc while meshing or assembling) ends the
@@ -51,6 +65,7 @@ char g_program[256] = "ltl";
 }
 
 void usage(const std::string& program, const std::string& default_config, FILE* to = stderr) {
+  if (to == stderr && mpi::size() > 1 && mpi::rank() != 0) return;  // rank 0's (say)
   std::fprintf(to,
                "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume | --init FILE]"
                " [--stop-after N] [--checkpoint SECONDS] [-v | -q]\n"
@@ -76,14 +91,14 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
     if ((a == "-o" || a == "--set" || a == "--stop-after" || a == "--init" ||
          a == "--checkpoint") &&
         !has_value) {
-      std::fprintf(stderr, "%s: %s needs a value\n", program, a.c_str());
+      say("%s: %s needs a value\n", program, a.c_str());
       return 2;
     }
     if (a == "-o") {
       cmd.output = argv[++i];
       // An empty value (-o "$UNSET" in a script) is an error, not the default path.
       if (cmd.output.empty()) {
-        std::fprintf(stderr, "%s: -o '': the results file name is empty\n", program);
+        say("%s: -o '': the results file name is empty\n", program);
         return 2;
       }
     } else if (a == "--set") {
@@ -93,7 +108,7 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
     } else if (a == "--init") {
       options.init = argv[++i];
       if (options.init.empty()) {
-        std::fprintf(stderr, "%s: --init '': the results file name is empty\n", program);
+        say("%s: --init '': the results file name is empty\n", program);
         return 2;
       }
     } else if (a == "--stop-after") {
@@ -103,7 +118,7 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
       errno = 0;
       const long n = std::strtol(text, &end, 10);
       if (end == text || *end != '\0' || errno == ERANGE || n < 1 || n > INT_MAX) {
-        std::fprintf(stderr, "%s: --stop-after '%s': needs a whole number >= 1\n", program, text);
+        say("%s: --stop-after '%s': needs a whole number >= 1\n", program, text);
         return 2;
       }
       options.stop_after = static_cast<int>(n);
@@ -115,8 +130,7 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
       errno = 0;
       const double t = std::strtod(text, &end);
       if (end == text || *end != '\0' || errno == ERANGE || !(t > 0) || !std::isfinite(t)) {
-        std::fprintf(stderr, "%s: --checkpoint '%s': needs a number of seconds > 0\n", program,
-                     text);
+        say("%s: --checkpoint '%s': needs a number of seconds > 0\n", program, text);
         return 2;
       }
       options.checkpoint_seconds = t;
@@ -128,7 +142,7 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
       usage(cmd.program, default_config, stdout);
       return 0;
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "%s: unknown option '%s'\n", program, a.c_str());
+      say("%s: unknown option '%s'\n", program, a.c_str());
       usage(cmd.program, default_config);
       return 2;
     } else if (cmd.config.empty()) {
@@ -139,10 +153,9 @@ int parse(int argc, char** argv, const std::string& default_config, CommandLine&
     }
   }
   if (options.resume && !options.init.empty()) {
-    std::fprintf(stderr,
-                 "%s: --resume and --init exclude each other (--resume continues the results "
-                 "file's own steps; --init starts a new run from another file)\n",
-                 program);
+    say("%s: --resume and --init exclude each other (--resume continues the results "
+        "file's own steps; --init starts a new run from another file)\n",
+        program);
     return 2;
   }
   if (cmd.config.empty()) cmd.config = default_config;
@@ -163,6 +176,13 @@ int report_exception(const std::string& program) {
     std::fflush(stdout);
     if (*e.what()) std::fprintf(stderr, "%s: %s\n", prog, e.what());  // (empty: another rank's)
     return 128 + e.signal();
+  } catch (...) {
+  }
+  // Rank 0 first (cli.hpp): 1024 ranks that diverge together print one message, not 1024, and
+  // the writer's (where the last iterate is saved) rather than another rank's.
+  if (mpi::size() > 1 && mpi::rank() != 0) std::this_thread::sleep_for(std::chrono::seconds(1));
+  try {
+    throw;
   } catch (const Error& e) {
     std::fprintf(stderr, "%s: error: %s\n", prog, e.what());
   } catch (const std::filesystem::filesystem_error& e) {

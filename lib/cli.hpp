@@ -33,7 +33,10 @@ struct CommandLine {
 
 /// Inside a catch block: the exception being handled as one line "PROGRAM: error: ..." on
 /// stderr (an Interrupted: its message, none if empty), and the exit status: 1, or 128 + the
-/// signal for an Interrupted. guarded_main's error boundary; ltl_run's under mpirun too.
+/// signal for an Interrupted. guarded_main's error boundary; ltl_run's under mpirun too. Under
+/// mpirun a rank other than 0 waits one second before it says an error: one that every rank
+/// meets (a bad configuration, a divergence) is then said once, by rank 0, whose MPI_Abort ends
+/// the others meanwhile (ltl_run); one rank's own error, after that second.
 int report_exception(const std::string& program);
 
 /// Parses the command line (usage errors: a message and exit status 2; -h: usage, 0), then

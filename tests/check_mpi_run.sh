@@ -14,6 +14,7 @@
 # calls `Exit;` ends the job at once with rank 0's message. SIGTERM to rank 1 alone stops every
 # rank at the same iteration: status 143, one message, the file marked interrupted. An error of
 # rank 1 alone, in a step or once set up, ends the job at once (status 1, its message), not a hang.
+# An error of every rank (a divergence, a broken configuration, bad usage) is said once, by rank 0.
 # Usage: check_mpi_run.sh BUILD_DIR SOURCE_DIR MPIEXEC
 set -u
 build=$1 src=$2 mpiexec=$3
@@ -147,6 +148,10 @@ if "$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --set time.steps=1 --set algori
   fail "a diverging run under mpirun exited 0"
 fi
 grep -q "last iterate are saved in" "$tmp/d.err" || fail "a diverging run under mpirun: $(cat "$tmp/d.err")"
+# ... said once, by rank 0 (the other ranks wait a second before they would say theirs:
+# report_exception, lib/cli.hpp); each rank said it until 2026-12-03 (P lines).
+[ "$(grep -c 'ltl_run: error' "$tmp/d.err")" = 1 ] ||
+  fail "a diverging run under mpirun: not one message: $(cat "$tmp/d.err")"
 /usr/bin/python3 -c 'import sys, h5py; u = h5py.File(sys.argv[1])["unconverged"]; sys.exit(0 if "000001" in u and all(k in u["000001"] for k in ("E", "sigma", "detF", "sigma_node")) else 1)' \
   "$tmp/d.h5" || fail "no /unconverged/000001 with E, sigma, detF and sigma_node in the file of a diverging run under mpirun"
 # A geometry script that ends the program (`Exit;`) on rank 0, which alone runs gmsh: the job ends
@@ -218,7 +223,16 @@ for gs in cholesky cg-amg; do
 done
 echo "an error of rank 1 alone once set up: exit status 1 with its message (MUMPS, CG + GAMG)"
 echo 'name = "broken"' > "$tmp/broken.toml"
-if "$mpiexec" -n 2 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2>&1; then
+if "$mpiexec" -n 3 --oversubscribe "$run" "$tmp/broken.toml" -o "$tmp/b.h5" > /dev/null 2> "$tmp/b.err"; then
   fail "a broken configuration under mpirun exited 0"
 fi
+[ "$(grep -c 'ltl_run: error' "$tmp/b.err")" = 1 ] ||
+  fail "a broken configuration on 3 ranks: not one message: $(cat "$tmp/b.err")"
+# Bad usage: status 2 and one message, rank 0's (every rank parses the same command line).
+"$mpiexec" -n 3 --oversubscribe "$run" "$cfg" --bogus > /dev/null 2> "$tmp/u.err"
+status=$?
+[ $status = 2 ] || fail "an unknown option on 3 ranks: exit status $status, not 2"
+[ "$(grep -c "ltl_run: unknown option '--bogus'" "$tmp/u.err")" = 1 ] ||
+  fail "an unknown option on 3 ranks: not one message: $(cat "$tmp/u.err")"
+echo "a divergence, a broken configuration and bad usage under mpirun: one message each"
 echo "ok"
