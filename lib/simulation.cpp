@@ -211,12 +211,19 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   auto progress = [&](const IterationRecord& r) {
     // --checkpoint: the iterate (the caller's state, updated in place by ALG2; during a Newton
     // phase still ALG2's last iterate) every `every` seconds, and before a signal stops the step.
+    // Over the ranks ALG2 hands the state whole (set_whole_state_in_progress); a Newton phase
+    // holds ALG2's last iterate as the state between steps, E and lambda on the rank's rows:
+    // made whole here, by every rank (collective) at each of its iterations. Until 2026-12-03
+    // the save refused it ("E is 122 x 2, expected 244 x 2") and the run kept no checkpoint.
+    std::optional<State> whole;
+    if (saving && solver.rows_between_steps() && !solver.discretization().whole_field(state.E))
+      whole = solver.whole_state(state);
     const int signal = run_signal(solver);
     if (saving &&
         (signal != 0 ||
          std::chrono::duration<double>(std::chrono::steady_clock::now() - saved).count() >=
              checkpoints->every)) {
-      checkpoints->save(p, factor, state, prior + r.n);
+      checkpoints->save(p, factor, whole ? *whole : state, prior + r.n);
       saved = std::chrono::steady_clock::now();
     }
     check_interrupt(signal);  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration
