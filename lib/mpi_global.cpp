@@ -173,30 +173,14 @@ struct AllAtOnceGalerkinProducts {
 }  // namespace
 
 namespace {
-/// PT-Scotch's parts of the cells' dual graph, on this process alone (PETSC_COMM_SELF): the
-/// part of each cell. Scotch's threads run one at a time (SCOTCH_PTHREAD_NUMBER, unless the
-/// user's environment sets it; put back afterwards) and its pseudo-random state is reset: the
-/// same mesh, the same parts.
-std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
-  const int nc = mesh.num_cells();
-  const char* what = "the graph partition of the cells (PT-Scotch)";
-  std::vector<std::vector<int>> adj = facet_neighbours(mesh);
-  std::size_t edges = 0;
-  for (const std::vector<int>& a : adj) edges += a.size();
-  PetscInt *ia = nullptr, *ja = nullptr;  // PETSc's: the MPIAdj matrix takes and frees them
-  check(PetscMalloc1(nc + 1, &ia), what, "PetscMalloc1");
-  if (PetscMalloc1(edges + 1, &ja)) {
-    PetscFree(ia);
-    throw Error(cat(what, ": PETSc's PetscMalloc1 failed"));
-  }
-  ia[0] = 0;
-  for (int i = 0; i < nc; ++i) {
-    ia[i + 1] = ia[i] + static_cast<PetscInt>(adj[i].size());
-    std::copy(adj[i].begin(), adj[i].end(), ja + ia[i]);
-    std::vector<int>().swap(adj[i]);
-  }
+/// PT-Scotch's `parts` parts of the graph of n vertices in compressed rows ia, ja (PETSc's
+/// allocations: the MPIAdj matrix takes and frees them), on this process alone
+/// (PETSC_COMM_SELF): the part of each vertex. Scotch's threads run one at a time
+/// (SCOTCH_PTHREAD_NUMBER, unless the user's environment sets it; put back afterwards) and its
+/// pseudo-random state is reset: the same graph, the same parts.
+std::vector<int> scotch_split(PetscInt* ia, PetscInt* ja, int n, int parts, const char* what) {
   Mat graph = nullptr;
-  if (MatCreateMPIAdj(PETSC_COMM_SELF, nc, nc, ia, ja, nullptr, &graph)) {
+  if (MatCreateMPIAdj(PETSC_COMM_SELF, n, n, ia, ja, nullptr, &graph)) {
     PetscFree(ia);
     PetscFree(ja);
     throw Error(cat(what, ": PETSc's MatCreateMPIAdj failed"));
@@ -212,12 +196,12 @@ std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   if (!ierr) ierr = MatPartitioningSetNParts(partitioner, parts);
   if (!ierr) ierr = MatPartitioningSetFromOptions(partitioner);
   if (!ierr) ierr = MatPartitioningApply(partitioner, &is);
-  std::vector<int> part(nc, 0);
+  std::vector<int> part(n, 0);
   if (!ierr) {
     const PetscInt* r = nullptr;
     ierr = ISGetIndices(is, &r);
     if (!ierr) {
-      for (int c = 0; c < nc; ++c) part[c] = static_cast<int>(r[c]);
+      for (int c = 0; c < n; ++c) part[c] = static_cast<int>(r[c]);
       ISRestoreIndices(is, &r);
     }
   }
@@ -226,9 +210,80 @@ std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   if (partitioner) MatPartitioningDestroy(&partitioner);
   MatDestroy(&graph);
   check(ierr, what, "MatPartitioningApply");
-  for (int c = 0; c < nc; ++c)
+  for (int c = 0; c < n; ++c)
     if (part[c] < 0 || part[c] >= parts)
       throw Error(cat(what, ": cell ", c, " in part ", part[c], " of ", parts));
+  return part;
+}
+
+/// The compressed rows of the cells `cells` (sorted) of the graph adj, their edges to one
+/// another only, renumbered by their positions in `cells`, in PETSc's allocations.
+void subgraph(const std::vector<std::vector<int>>& adj, const std::vector<int>& cells,
+              PetscInt*& ia, PetscInt*& ja, const char* what) {
+  const int n = static_cast<int>(cells.size());
+  const bool every = cells.size() == adj.size();  // the whole graph: positions are the cells
+  auto at = [&](int c) {
+    if (every) return c;
+    const auto it = std::lower_bound(cells.begin(), cells.end(), c);
+    return it != cells.end() && *it == c ? static_cast<int>(it - cells.begin()) : -1;
+  };
+  std::size_t edges = 0;
+  for (int c : cells)
+    for (int d : adj[c]) edges += at(d) >= 0;
+  ia = ja = nullptr;
+  if (PetscMalloc1(n + 1, &ia) || PetscMalloc1(edges + 1, &ja)) {
+    PetscFree(ia);
+    throw Error(cat(what, ": PETSc's PetscMalloc1 failed"));
+  }
+  ia[0] = 0;
+  for (int k = 0; k < n; ++k) {
+    ia[k + 1] = ia[k];
+    for (int d : adj[cells[k]])
+      if (const int j = at(d); j >= 0) ja[ia[k + 1]++] = j;
+  }
+}
+
+/// PT-Scotch's parts of the cells' dual graph (facet_neighbours), on this process alone. Above
+/// kTwoLevelParts parts (the PETSc option -ltl_mpi_two_level_parts sets another threshold), and
+/// when `parts` = g m with 2 <= g <= m, g the largest such divisor: in two levels, the cells first
+/// into g groups, then each group's cells into m parts (part g_k m + j). PT-Scotch's work grows
+/// with the parts, about 0.7 MB a part at 10^6 cells (721 MB for 1024 parts; paper_notes/mpi.md,
+/// "The partition in two levels"); 32 x 32 holds that of 32 parts at a time.
+std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
+  const int nc = mesh.num_cells();
+  const char* what = "the graph partition of the cells (PT-Scotch)";
+  std::vector<std::vector<int>> adj = facet_neighbours(mesh);
+  PetscInt threshold = kTwoLevelParts;
+  PetscOptionsGetInt(nullptr, nullptr, "-ltl_mpi_two_level_parts", &threshold, nullptr);
+  int groups = 1;
+  if (parts >= threshold)
+    for (int g = 2; g * g <= parts; ++g)
+      if (parts % g == 0) groups = g;
+  if (groups == 1) {  // one level: the whole graph into `parts` parts
+    std::vector<int> all(nc);
+    for (int c = 0; c < nc; ++c) all[c] = c;
+    PetscInt *ia = nullptr, *ja = nullptr;
+    subgraph(adj, all, ia, ja, what);
+    std::vector<int>().swap(all);
+    std::vector<std::vector<int>>().swap(adj);
+    return scotch_split(ia, ja, nc, parts, what);
+  }
+  const int m = parts / groups;
+  std::vector<int> all(nc);
+  for (int c = 0; c < nc; ++c) all[c] = c;
+  PetscInt *ia = nullptr, *ja = nullptr;
+  subgraph(adj, all, ia, ja, what);
+  std::vector<int> part = scotch_split(ia, ja, nc, groups, what);
+  std::vector<std::vector<int>> members(groups);
+  for (int c = 0; c < nc; ++c) members[part[c]].push_back(c);  // sorted
+  for (int k = 0; k < groups; ++k) {
+    if (static_cast<int>(members[k].size()) < m)
+      throw Error(cat(what, ": group ", k, " of ", groups, " has ", members[k].size(),
+                      " cells for ", m, " parts: fewer ranks, or a finer mesh"));
+    subgraph(adj, members[k], ia, ja, what);
+    const std::vector<int> sub = scotch_split(ia, ja, static_cast<int>(members[k].size()), m, what);
+    for (std::size_t j = 0; j < sub.size(); ++j) part[members[k][j]] = k * m + sub[j];
+  }
   return part;
 }
 

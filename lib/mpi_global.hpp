@@ -43,13 +43,20 @@ mpi::Partition slab_cells(const Mesh& mesh, int ranks);
 /// (Mesh::nodes_per_facet nodes), sorted.
 std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh);
 
+/// From this many ranks on, graph_cells partitions in two levels when it can (mpi_global.cpp,
+/// scotch_parts): PT-Scotch's work grows with the parts (721 MB on rank 0 for 1024 parts of
+/// 10^6 cells in one level).
+constexpr int kTwoLevelParts = 512;
+
 /// The cells dealt to `ranks` ranks by a graph partitioner: PT-Scotch, through PETSc's
 /// MatPartitioning, on the cells' dual graph (facet_neighbours), which cuts few facets between
 /// the ranks whatever the body's shape (slabs cut a compact body's every slab face), each rank's
-/// sorted. Collective over MPI_COMM_WORLD: rank 0 partitions the whole graph and sends the parts
-/// (or its error) to the others, so that the same mesh gives the same partition on any number
-/// of processes. One rank: every cell. Several ranks without MPI (a build without
-/// LTL_WITH_MPI), or a part with no cell: an Error.
+/// sorted. From kTwoLevelParts ranks on, when ranks = g m (2 <= g <= m), in two levels: g groups,
+/// then m parts of each (the PETSc option -ltl_mpi_two_level_parts sets the threshold). Collective
+/// over MPI_COMM_WORLD: rank 0 partitions the whole graph and sends the parts (or its error) to the
+/// others, so that the same mesh gives the same partition on any number of processes. One rank:
+/// every cell. Several ranks without MPI (a build without LTL_WITH_MPI), or a part with no cell: an
+/// Error.
 mpi::Partition graph_cells(const Mesh& mesh, int ranks);
 
 /// The partition's cut: the facets between cells of two ranks. The ghost layer's nodes and the
