@@ -825,6 +825,21 @@ TEST(Mpi, TheRanksCellsCutTheGutterAcross) {
               << " nodes in two ranks' cells\n";
 }
 
+/// g is a partition of nc cells into K parts: every cell once, each part sorted, the largest
+/// within `largest` times the mean.
+void expect_partition(const mpi::Partition& g, int K, int nc, double largest) {
+  ASSERT_EQ(g.offset.size(), static_cast<std::size_t>(K + 1));
+  ASSERT_EQ(g.offset[K], nc);
+  std::vector<int> held(nc, 0);
+  for (int r = 0; r < K; ++r) {
+    const std::vector<int> items = g.items(r);
+    EXPECT_TRUE(std::is_sorted(items.begin(), items.end())) << "part " << r;
+    EXPECT_LE(items.size(), largest * nc / K) << "part " << r;
+    for (int c : items) ++held[c];
+  }
+  EXPECT_EQ(std::count(held.begin(), held.end(), 1), nc) << K << " parts";
+}
+
 /// The partition of the cells (mpi_global.hpp) on a cube of 12^3 H8 (experiments/bench/cube.geo),
 /// a compact body, into K = 4 and 8 parts, on any number of ranks:
 /// - the dual graph (facet_neighbours) is symmetric, with 6 neighbours inside, 3 at a corner and
@@ -859,16 +874,7 @@ TEST(Mpi, TheRanksCellsAreAGraphPartitionThatCutsFewFacets) {
   EXPECT_EQ(cut_facets(m, slab_cells(m, 2)), n * n);
   for (const int K : {4, 8}) {
     const mpi::Partition g = graph_cells(m, K);
-    ASSERT_EQ(g.offset.size(), static_cast<std::size_t>(K + 1));
-    ASSERT_EQ(g.offset[K], nc);
-    std::vector<int> held(nc, 0);
-    for (int r = 0; r < K; ++r) {
-      const std::vector<int> items = g.items(r);
-      EXPECT_TRUE(std::is_sorted(items.begin(), items.end())) << "part " << r;
-      EXPECT_LE(items.size(), 1.02 * nc / K) << "part " << r;
-      for (int c : items) ++held[c];
-    }
-    EXPECT_EQ(std::count(held.begin(), held.end(), 1), nc) << K << " parts";
+    expect_partition(g, K, nc, 1.02);
     EXPECT_EQ(graph_cells(m, K).order, g.order) << "a second partition differs, " << K << " parts";
     EXPECT_EQ(mpi::partition_of_ranks(g.owners(), K).order, g.order) << K << " parts";
     const long cut = cut_facets(m, g), blocks = (K == 4 ? 2 : 3) * n * n;
@@ -950,16 +956,7 @@ TEST(Mpi, TheRanksCellsInTwoLevelsAreAGraphPartition) {
   const mpi::Partition two = graph_cells(mesh, K);
   const mpi::Partition again = graph_cells(mesh, K);
   mpi::set_option("-ltl_mpi_two_level_parts", false);
-  ASSERT_EQ(two.offset.size(), static_cast<std::size_t>(K + 1));
-  ASSERT_EQ(two.offset[K], nc);
-  std::vector<int> held(nc, 0);
-  for (int r = 0; r < K; ++r) {
-    const std::vector<int> items = two.items(r);
-    EXPECT_TRUE(std::is_sorted(items.begin(), items.end())) << "part " << r;
-    EXPECT_LE(items.size(), 1.10 * nc / K) << "part " << r;
-    for (int c : items) ++held[c];
-  }
-  EXPECT_EQ(std::count(held.begin(), held.end(), 1), nc);
+  expect_partition(two, K, nc, 1.10);
   EXPECT_EQ(again.order, two.order);
   EXPECT_NE(two.order, one.order);
   const long cut_one = cut_facets(mesh, one), cut_two = cut_facets(mesh, two);
