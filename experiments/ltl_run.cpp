@@ -45,12 +45,13 @@ static void solve_and_report(const ltl::CommandLine& cmd) {
     // then left to MPI_Abort, mpi::collective_teardown: their destruction is collective).
     const char* fail = std::getenv("LTL_TEST_FAIL_RANK");
     const int fail_rank = ranks && fail ? std::atoi(fail) : -1;
-    if (fail_rank == ltl::mpi::rank() && std::strstr(fail, ":setup"))
+    const bool at_setup = fail && std::strstr(fail, ":setup");
+    if (fail_rank == ltl::mpi::rank() && at_setup)
       throw ltl::Error(
           ltl::cat("rank ", fail_rank, " fails alone once set up (LTL_TEST_FAIL_RANK)"));
     try {
       ltl::run(solver, options, [&](const ltl::Solver&, int p, const ltl::State&) {
-        if (p == 1 && ltl::mpi::rank() == fail_rank && !std::strstr(fail, ":setup"))
+        if (p == 1 && ltl::mpi::rank() == fail_rank && !at_setup)
           throw ltl::Error(
               ltl::cat("rank ", fail_rank, " fails alone after step 1 (LTL_TEST_FAIL_RANK)"));
       });  // (2.1): ALG2 per step, written at once

@@ -40,9 +40,6 @@ CgAmg::~CgAmg() = default;
 int CgAmg::solve(const double*, double*) {
   return 0;
 }
-double CgAmg::eta_option() {
-  return kEta;
-}
 
 #else
 

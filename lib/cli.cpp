@@ -26,10 +26,16 @@ namespace {
 
 char g_program[256] = "ltl";
 
+/// Under mpirun, a rank other than 0: rank 0 says what every rank would (say, usage,
+/// report_exception).
+bool other_rank() {
+  return mpi::size() > 1 && mpi::rank() != 0;
+}
+
 /// parse's messages on stderr. Under mpirun every rank parses the same command line: rank 0
 /// alone says what is wrong with it (the others exit with the same status, silent).
 __attribute__((format(printf, 1, 2))) void say(const char* format, ...) {
-  if (mpi::size() > 1 && mpi::rank() != 0) return;
+  if (other_rank()) return;
   std::va_list args;
   va_start(args, format);
   std::vfprintf(stderr, format, args);
@@ -65,7 +71,7 @@ __attribute__((format(printf, 1, 2))) void say(const char* format, ...) {
 }
 
 void usage(const std::string& program, const std::string& default_config, FILE* to = stderr) {
-  if (to == stderr && mpi::size() > 1 && mpi::rank() != 0) return;  // rank 0's (say)
+  if (to == stderr && other_rank()) return;  // rank 0's (say)
   std::fprintf(to,
                "usage: %s %s [-o RESULTS.h5] [--set key=value]... [--resume | --init FILE]"
                " [--stop-after N] [--checkpoint SECONDS] [-v | -q]\n"
@@ -180,7 +186,7 @@ int report_exception(const std::string& program) {
   }
   // Rank 0 first (cli.hpp): 1024 ranks that diverge together print one message, not 1024, and
   // the writer's (where the last iterate is saved) rather than another rank's.
-  if (mpi::size() > 1 && mpi::rank() != 0) std::this_thread::sleep_for(std::chrono::seconds(1));
+  if (other_rank()) std::this_thread::sleep_for(std::chrono::seconds(1));
   try {
     throw;
   } catch (const Error& e) {

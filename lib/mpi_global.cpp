@@ -173,16 +173,35 @@ struct AllAtOnceGalerkinProducts {
 }  // namespace
 
 namespace {
-/// PT-Scotch's `parts` parts of the graph of n vertices in compressed rows ia, ja (PETSc's
-/// allocations: the MPIAdj matrix takes and frees them), on this process alone
-/// (PETSC_COMM_SELF): the part of each vertex. Scotch's threads run one at a time
-/// (SCOTCH_PTHREAD_NUMBER, unless the user's environment sets it; put back afterwards) and its
-/// pseudo-random state is reset: the same graph, the same parts.
-std::vector<int> scotch_split(PetscInt* ia, PetscInt* ja, int n, int parts, const char* what) {
+/// PT-Scotch's `parts` parts of the subgraph of the cells' dual graph (compressed rows ia, ja)
+/// on the cells `cells` (null: every cell; at[c]: c's position among them, -1 outside), its
+/// edges to one another only, on this process alone (PETSC_COMM_SELF): the part of each of
+/// those cells. Scotch's threads run one at a time (SCOTCH_PTHREAD_NUMBER, unless the user's
+/// environment sets it; put back afterwards) and its pseudo-random state is reset: the same
+/// graph, the same parts.
+std::vector<int> scotch_split(const std::vector<int>& ia, const std::vector<int>& ja,
+                              const std::vector<int>* cells, const std::vector<int>& at, int parts,
+                              const char* what) {
+  const int n = cells ? static_cast<int>(cells->size()) : static_cast<int>(ia.size()) - 1;
+  auto cell = [&](int k) { return cells ? (*cells)[k] : k; };
+  std::size_t edges = 0;
+  for (int k = 0; k < n; ++k)
+    for (int e = ia[cell(k)]; e < ia[cell(k) + 1]; ++e) edges += !cells || at[ja[e]] >= 0;
+  PetscInt *pi = nullptr, *pj = nullptr;  // PETSc's: the MPIAdj matrix takes and frees them
+  if (PetscMalloc1(n + 1, &pi) || PetscMalloc1(edges + 1, &pj)) {
+    PetscFree(pi);
+    throw Error(cat(what, ": PETSc's PetscMalloc1 failed"));
+  }
+  pi[0] = 0;
+  for (int k = 0; k < n; ++k) {
+    pi[k + 1] = pi[k];
+    for (int e = ia[cell(k)]; e < ia[cell(k) + 1]; ++e)
+      if (const int j = cells ? at[ja[e]] : ja[e]; j >= 0) pj[pi[k + 1]++] = j;
+  }
   Mat graph = nullptr;
-  if (MatCreateMPIAdj(PETSC_COMM_SELF, n, n, ia, ja, nullptr, &graph)) {
-    PetscFree(ia);
-    PetscFree(ja);
+  if (MatCreateMPIAdj(PETSC_COMM_SELF, n, n, pi, pj, nullptr, &graph)) {
+    PetscFree(pi);
+    PetscFree(pj);
     throw Error(cat(what, ": PETSc's MatCreateMPIAdj failed"));
   }
   const char* threads = std::getenv("SCOTCH_PTHREAD_NUMBER");
@@ -201,7 +220,7 @@ std::vector<int> scotch_split(PetscInt* ia, PetscInt* ja, int n, int parts, cons
     const PetscInt* r = nullptr;
     ierr = ISGetIndices(is, &r);
     if (!ierr) {
-      for (int c = 0; c < n; ++c) part[c] = static_cast<int>(r[c]);
+      for (int k = 0; k < n; ++k) part[k] = static_cast<int>(r[k]);
       ISRestoreIndices(is, &r);
     }
   }
@@ -210,37 +229,10 @@ std::vector<int> scotch_split(PetscInt* ia, PetscInt* ja, int n, int parts, cons
   if (partitioner) MatPartitioningDestroy(&partitioner);
   MatDestroy(&graph);
   check(ierr, what, "MatPartitioningApply");
-  for (int c = 0; c < n; ++c)
-    if (part[c] < 0 || part[c] >= parts)
-      throw Error(cat(what, ": cell ", c, " in part ", part[c], " of ", parts));
+  for (int k = 0; k < n; ++k)
+    if (part[k] < 0 || part[k] >= parts)
+      throw Error(cat(what, ": cell ", cell(k), " in part ", part[k], " of ", parts));
   return part;
-}
-
-/// The compressed rows of the cells `cells` (sorted) of the graph adj, their edges to one
-/// another only, renumbered by their positions in `cells`, in PETSc's allocations.
-void subgraph(const std::vector<std::vector<int>>& adj, const std::vector<int>& cells,
-              PetscInt*& ia, PetscInt*& ja, const char* what) {
-  const int n = static_cast<int>(cells.size());
-  const bool every = cells.size() == adj.size();  // the whole graph: positions are the cells
-  auto at = [&](int c) {
-    if (every) return c;
-    const auto it = std::lower_bound(cells.begin(), cells.end(), c);
-    return it != cells.end() && *it == c ? static_cast<int>(it - cells.begin()) : -1;
-  };
-  std::size_t edges = 0;
-  for (int c : cells)
-    for (int d : adj[c]) edges += at(d) >= 0;
-  ia = ja = nullptr;
-  if (PetscMalloc1(n + 1, &ia) || PetscMalloc1(edges + 1, &ja)) {
-    PetscFree(ia);
-    throw Error(cat(what, ": PETSc's PetscMalloc1 failed"));
-  }
-  ia[0] = 0;
-  for (int k = 0; k < n; ++k) {
-    ia[k + 1] = ia[k];
-    for (int d : adj[cells[k]])
-      if (const int j = at(d); j >= 0) ja[ia[k + 1]++] = j;
-  }
 }
 
 /// PT-Scotch's parts of the cells' dual graph (facet_neighbours), on this process alone. Above
@@ -252,37 +244,42 @@ void subgraph(const std::vector<std::vector<int>>& adj, const std::vector<int>& 
 std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   const int nc = mesh.num_cells();
   const char* what = "the graph partition of the cells (PT-Scotch)";
-  std::vector<std::vector<int>> adj = facet_neighbours(mesh);
+  std::vector<int> ia(nc + 1, 0), ja;  // the dual graph in compressed rows
+  {
+    std::vector<std::vector<int>> adj = facet_neighbours(mesh);
+    std::size_t edges = 0;
+    for (const std::vector<int>& a : adj) edges += a.size();
+    ja.reserve(edges);
+    for (int c = 0; c < nc; ++c) {  // each row freed once copied
+      ja.insert(ja.end(), adj[c].begin(), adj[c].end());
+      ia[c + 1] = static_cast<int>(ja.size());
+      std::vector<int>().swap(adj[c]);
+    }
+  }
   PetscInt threshold = kTwoLevelParts;
   PetscOptionsGetInt(nullptr, nullptr, "-ltl_mpi_two_level_parts", &threshold, nullptr);
   int groups = 1;
   if (parts >= threshold)
     for (int g = 2; g * g <= parts; ++g)
       if (parts % g == 0) groups = g;
-  if (groups == 1) {  // one level: the whole graph into `parts` parts
-    std::vector<int> all(nc);
-    for (int c = 0; c < nc; ++c) all[c] = c;
-    PetscInt *ia = nullptr, *ja = nullptr;
-    subgraph(adj, all, ia, ja, what);
-    std::vector<int>().swap(all);
-    std::vector<std::vector<int>>().swap(adj);
-    return scotch_split(ia, ja, nc, parts, what);
-  }
+  std::vector<int> at;  // a group's positions (two levels)
+  if (groups == 1) return scotch_split(ia, ja, nullptr, at, parts, what);
   const int m = parts / groups;
-  std::vector<int> all(nc);
-  for (int c = 0; c < nc; ++c) all[c] = c;
-  PetscInt *ia = nullptr, *ja = nullptr;
-  subgraph(adj, all, ia, ja, what);
-  std::vector<int> part = scotch_split(ia, ja, nc, groups, what);
+  std::vector<int> part = scotch_split(ia, ja, nullptr, at, groups, what);
   std::vector<std::vector<int>> members(groups);
   for (int c = 0; c < nc; ++c) members[part[c]].push_back(c);  // sorted
+  at.assign(nc, -1);
   for (int k = 0; k < groups; ++k) {
-    if (static_cast<int>(members[k].size()) < m)
-      throw Error(cat(what, ": group ", k, " of ", groups, " has ", members[k].size(),
-                      " cells for ", m, " parts: fewer ranks, or a finer mesh"));
-    subgraph(adj, members[k], ia, ja, what);
-    const std::vector<int> sub = scotch_split(ia, ja, static_cast<int>(members[k].size()), m, what);
-    for (std::size_t j = 0; j < sub.size(); ++j) part[members[k][j]] = k * m + sub[j];
+    const std::vector<int>& cells = members[k];
+    if (static_cast<int>(cells.size()) < m)
+      throw Error(cat(what, ": group ", k, " of ", groups, " has ", cells.size(), " cells for ", m,
+                      " parts: fewer ranks, or a finer mesh"));
+    for (std::size_t j = 0; j < cells.size(); ++j) at[cells[j]] = static_cast<int>(j);
+    const std::vector<int> sub = scotch_split(ia, ja, &cells, at, m, what);
+    for (std::size_t j = 0; j < cells.size(); ++j) {
+      part[cells[j]] = k * m + sub[j];
+      at[cells[j]] = -1;
+    }
   }
   return part;
 }

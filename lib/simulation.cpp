@@ -182,11 +182,13 @@ void check_load_scale(const Solver& solver, double load_scale, int p) {
 /// rank's own record could stop it one iteration before the others, which would then wait for
 /// it in the next iteration's sums; decided together, every rank stops at the same iteration
 /// (paper_notes/mpi.md, "A signal stops every rank at the same iteration; an error of one rank
-/// ends the job").
-int run_signal(const Solver& solver) {
-  double signal = interrupt_signal();
-  if (solver.cell_partition()) mpi::max(&signal, 1);
-  return static_cast<int>(signal);
+/// ends the job"). `due` (optional): is a checkpoint due by this rank's clock, in: and by any
+/// rank's, out (the same reduction), so that the ranks save together.
+int run_signal(const Solver& solver, bool* due = nullptr) {
+  double v[2] = {static_cast<double>(interrupt_signal()), due && *due ? 1.0 : 0.0};
+  if (solver.cell_partition()) mpi::max(v, 2);
+  if (due) *due = v[1] != 0;
+  return static_cast<int>(v[0]);
 }
 
 /// One solve of step p at the load factor `factor` from `state`: ALG2 (then Newton), the
@@ -211,18 +213,18 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   auto progress = [&](const IterationRecord& r) {
     // --checkpoint: the iterate (the caller's state, updated in place by ALG2; during a Newton
     // phase still ALG2's last iterate) every `every` seconds, and before a signal stops the step.
-    // Over the ranks ALG2 hands the state whole (set_whole_state_in_progress); a Newton phase
-    // holds ALG2's last iterate as the state between steps, E and lambda on the rank's rows:
-    // made whole here, by every rank (collective) at each of its iterations. Until 2026-12-03
-    // the save refused it ("E is 122 x 2, expected 244 x 2") and the run kept no checkpoint.
-    std::optional<State> whole;
-    if (saving && solver.rows_between_steps() && !solver.discretization().whole_field(state.E))
-      whole = solver.whole_state(state);
-    const int signal = run_signal(solver);
-    if (saving &&
-        (signal != 0 ||
-         std::chrono::duration<double>(std::chrono::steady_clock::now() - saved).count() >=
-             checkpoints->every)) {
+    bool due =
+        saving && std::chrono::duration<double>(std::chrono::steady_clock::now() - saved).count() >=
+                      checkpoints->every;
+    const int signal = run_signal(solver, &due);  // both decided over the ranks
+    if (saving && (signal != 0 || due)) {
+      // Over the ranks ALG2 hands the state whole (set_whole_state_in_progress); a Newton phase
+      // holds ALG2's last iterate as the state between steps, E and lambda on the rank's rows:
+      // made whole for the save, by every rank (collective). Until 2026-12-03 the save refused
+      // it ("E is 122 x 2, expected 244 x 2") and the run kept no checkpoint.
+      std::optional<State> whole;
+      if (solver.rows_between_steps() && !solver.discretization().whole_field(state.E))
+        whole = solver.whole_state(state);
       checkpoints->save(p, factor, whole ? *whole : state, prior + r.n);
       saved = std::chrono::steady_clock::now();
     }
