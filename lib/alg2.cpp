@@ -468,16 +468,19 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
   adaptive_R_.start_step();
   State own;
   Alg2Map map(*this, dist_ ? own : s, beta_prev);
-  std::function<void(const IterationRecord&)> alg2_progress = progress;
-  if (dist_ && whole_in_progress_ && progress)
-    alg2_progress = [&](const IterationRecord& rec) {
-      s = whole(own);  // the caller reads its state (set_whole_state_in_progress)
-      progress(rec);
-    };
   const auto drive_alg2 = [&](const AlgorithmParams& params) {
     make_work();  // after a Newton phase (release_work); else the same sizes: nothing allocated
     if (dist_) own = own_rows(s);
-    drive(map, params, report, alg2_progress);
+    {
+      // The iterate a callback asks for (iterate_to_writer) is on these rows until the phase
+      // ends, or an Interrupted from the callback leaves it.
+      alg2_rows_ = dist_ ? &own : nullptr;
+      struct Reset {
+        const State*& at;
+        ~Reset() { at = nullptr; }
+      } reset{alg2_rows_};
+      drive(map, params, report, progress);
+    }
     if (dist_) {
       s = between_steps(std::move(own));  // E and lambda on the rank's rows, u whole
       own = State();

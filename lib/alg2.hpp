@@ -19,6 +19,7 @@
 #include <Eigen/Dense>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -152,12 +153,16 @@ class Solver {
   /// (At a converged state E = I + Gbar u and e = ubar up to the tolerance.)
   double energy(const State& s, const Eigen::VectorXd& beta_prev) const;
 
-  /// A distributed solver iterates on the rank's rows of E and lambda and releases the caller's
-  /// whole E and lambda until the ALG2 phase ends (solve_step). With on = true the caller's
-  /// state is whole and current at every call of `progress` (for a callback that reads it, the
-  /// checkpoints of lib/simulation.cpp): E and lambda are gathered every iteration (collective).
-  /// Nothing changes on one process.
-  void set_whole_state_in_progress(bool on) { whole_in_progress_ = on; }
+  /// [(4.1)-(4.4)] The current iterate, for a checkpoint, from solve_step's `progress` callback
+  /// (`s` the state solve_step was given). A distributed solver iterates on the rank's rows of E
+  /// and lambda and releases the caller's E and lambda until the ALG2 phase ends; this gathers
+  /// the iterate whole on rank 0 alone, the results writer (collective: every rank calls it at the
+  /// same iteration): E and lambda from the ranks' rows (on the other ranks left empty), u from
+  /// the ghost layers and the contact fields from the ranks' points (whole on every rank). Only
+  /// then: an iteration without a save gathers nothing (until 2026-12-03 a run with --checkpoint
+  /// gathered E and lambda to every rank at every iteration). Null when `s` is the iterate: a
+  /// serial solver (Ranks::One), or a whole state (the replicated factor's Newton phase).
+  std::optional<State> iterate_to_writer(const State& s) const;
 
   /// A copy of the state s to go back to (load subdivision, lib/simulation.cpp): in a
   /// distributed solver its E and lambda are the rank's rows only (as own_rows) and u the rank's
@@ -341,9 +346,9 @@ class Solver {
   std::unique_ptr<Newton> newton_;         ///< algorithm.solver = "newton" (newton.hpp)
   double gamma_ = 0;  ///< mean-det's proximal stiffness on the fluctuations, 2 R q
   double load_factor_ = 1;
-  bool whole_in_progress_ = false;  ///< set_whole_state_in_progress
-  bool iterate_finite_ = true;      ///< u of the last iteration finite on every rank
-  double norm_I_ = 1;               ///< ||I||_q = sqrt(q |Omega| dim)
+  const State* alg2_rows_ = nullptr;  ///< the rank's rows during an ALG2 phase (solve_step)
+  bool iterate_finite_ = true;        ///< u of the last iteration finite on every rank
+  double norm_I_ = 1;                 ///< ||I||_q = sqrt(q |Omega| dim)
   // Work buffers of the ALG2 iterations (allocated once per ALG2 phase, not per iteration): the
   // global step's right-hand side and output, the multipliers of the local steps
   // (Bermudez-Moreno), the previous iterate of the residual r_G. Sized by make_work (the

@@ -360,13 +360,6 @@ State Solver::whole(const State& own) const {
   return s;
 }
 
-State Solver::between_steps(State own) const {
-  if (!rows_between_steps()) return whole(own);
-  if (dist_->ksp) dist_->ksp->whole_u(own.u);  // after solves with a ghost layer
-  gather_points(own);
-  return own;
-}
-
 namespace {
 void copy_contact_fields(const State& from, State& to) {  // e, beta, lambda_c: whole
   to.e = from.e;
@@ -374,6 +367,29 @@ void copy_contact_fields(const State& from, State& to) {  // e, beta, lambda_c: 
   to.lambda_c = from.lambda_c;
 }
 }  // namespace
+
+std::optional<State> Solver::iterate_to_writer(const State& s) const {
+  const bool rows = alg2_rows_ || (rows_between_steps() && !disc_.whole_field(s.E));
+  if (!dist_ || !rows) return std::nullopt;  // s is the iterate, whole
+  const State& own = alg2_rows_ ? *alg2_rows_ : s;
+  State w;
+  mpi::gather_rows_to_writer(own.E, w.E, dist_->cells, dim());
+  mpi::gather_rows_to_writer(own.lambda, w.lambda, dist_->cells, dim());
+  w.u = own.u;
+  copy_contact_fields(own, w);
+  if (alg2_rows_) {  // inside the ALG2 phase: u current on the ghost layer, the points' blocks
+    if (dist_->ksp) dist_->ksp->whole_u(w.u);
+    gather_points(w);
+  }
+  return w;
+}
+
+State Solver::between_steps(State own) const {
+  if (!rows_between_steps()) return whole(own);
+  if (dist_->ksp) dist_->ksp->whole_u(own.u);  // after solves with a ghost layer
+  gather_points(own);
+  return own;
+}
 
 bool Solver::rows_between_steps() const {
   return dist_ && disc_.partial();

@@ -208,7 +208,6 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   const Eigen::VectorXd beta_prev = beta_prev_given ? *beta_prev_given : state.beta;
   IterationRecord shown;  // the first record printed: the rate of the step since then
   const bool saving = checkpoints && checkpoints->save && checkpoints->every > 0;
-  solver.set_whole_state_in_progress(saving);  // the saves below read the state
   auto saved = std::chrono::steady_clock::now();
   auto progress = [&](const IterationRecord& r) {
     // --checkpoint: the iterate (the caller's state, updated in place by ALG2; during a Newton
@@ -218,14 +217,12 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
                       checkpoints->every;
     const int signal = run_signal(solver, &due);  // both decided over the ranks
     if (saving && (signal != 0 || due)) {
-      // Over the ranks ALG2 hands the state whole (set_whole_state_in_progress); a Newton phase
-      // holds ALG2's last iterate as the state between steps, E and lambda on the rank's rows:
-      // made whole for the save, by every rank (collective). Until 2026-12-03 the save refused
-      // it ("E is 122 x 2, expected 244 x 2") and the run kept no checkpoint.
-      std::optional<State> whole;
-      if (solver.rows_between_steps() && !solver.discretization().whole_field(state.E))
-        whole = solver.whole_state(state);
-      checkpoints->save(p, factor, whole ? *whole : state, prior + r.n);
+      // Over the ranks the iterate is on the ranks' rows (ALG2's, or during a Newton phase
+      // ALG2's last iterate as the state between steps): gathered for the writer now, by every
+      // rank (collective), and only for a save. Until 2026-12-03 the Newton phase's save refused
+      // it ("E is 122 x 2, expected 244 x 2") and ALG2 gathered it whole at every iteration.
+      const std::optional<State> iterate = solver.iterate_to_writer(state);
+      checkpoints->save(p, factor, iterate ? *iterate : state, prior + r.n);
       saved = std::chrono::steady_clock::now();
     }
     check_interrupt(signal);  // Ctrl-C, SIGTERM (lib/interrupt.hpp): stop at this iteration

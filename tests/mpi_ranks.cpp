@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -1276,6 +1277,72 @@ TEST(Mpi, Eq4_1to4_4_NoIterationMovesACellField) {
               << " B in " << calls << " calls per iteration into rank 0, cell arrays "
               << dist.holdings().cell_arrays << " B (serial " << serial.holdings().cell_arrays
               << " B, " << own << " of " << nc << " cells)\n";
+}
+
+/// [(4.1)-(4.4)] A checkpoint's iterate (Solver::iterate_to_writer, called from the progress
+/// callback as lib/simulation.cpp's --checkpoint does): on rank 0, the writer, the serial
+/// iterate of the same iteration, E and lambda of every cell; on the other ranks E and lambda
+/// empty; u and the contact fields the same on every rank. The iterations around the save
+/// gather nothing (the 40 B in 2 calls per iteration of the test above). Fails if the iterate
+/// is not gathered (the caller's E is released during the ALG2 phase), is gathered to every
+/// rank, or is gathered at every iteration.
+TEST(Mpi, Eq4_1to4_4_ACheckpointGathersTheIterateForTheWriterAlone) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig6),
+                                 {"mesh.parameters.nl=20", "mesh.parameters.na=5",
+                                  "algorithm.tol=1e-300", "algorithm.max_iter=12"});
+  const int dim = p.mesh.dim, nc = p.mesh.num_cells();
+  constexpr int kSaved = 7;
+  State at_serial;
+  {
+    Solver serial(p, Ranks::One);
+    State s = serial.initial_state();
+    const Eigen::VectorXd beta_prev = s.beta;
+    int n = 0;
+    serial.solve_step(s, beta_prev, [&](const IterationRecord&) {
+      if (++n == kSaved) {
+        EXPECT_FALSE(serial.iterate_to_writer(s))
+            << "one process: the caller's state is the iterate";
+        at_serial = s;
+      }
+    });
+  }
+  const TightCg tight;
+  Solver dist(p, Ranks::All);
+  State s = dist.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  std::optional<State> at;
+  mpi::Traffic t[4];  // before and after the iterations 3..6 and 8..11
+  int n = 0;
+  dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
+    ++n;
+    if (n == 3) t[0] = mpi::traffic();
+    if (n == 6) t[1] = mpi::traffic();
+    if (n == kSaved) at = dist.iterate_to_writer(s);
+    if (n == 8) t[2] = mpi::traffic();
+    if (n == 11) t[3] = mpi::traffic();
+  });
+  const bool many = mpi::size() > 1;
+  for (int k : {0, 2})
+    EXPECT_EQ(t[k + 1].bytes - t[k].bytes, many ? 3 * 40.0 : 0.0) << "rank " << mpi::rank();
+  ASSERT_TRUE(at) << "rank " << mpi::rank() << ": the iterate is on the rank's rows";
+  EXPECT_LE(relative(at->u, at_serial.u), 1e-10) << "rank " << mpi::rank();
+  EXPECT_LE(relative(at->e, at_serial.e), 1e-10) << "rank " << mpi::rank();
+  EXPECT_EQ(at->beta.size(), at_serial.beta.size());
+  if (mpi::rank() == 0) {
+    ASSERT_EQ(at->E.rows(), dim * nc);
+    EXPECT_LE(relative(at->E, at_serial.E), 1e-10);
+    EXPECT_LE(relative(at->lambda, at_serial.lambda), 1e-10);
+  } else {
+    EXPECT_EQ(at->E.size(), 0);
+    EXPECT_EQ(at->lambda.size(), 0);
+  }
+  State shared = *at;  // u and the contact fields: the same on every rank
+  shared.E = shared.lambda = Eigen::MatrixXd();
+  EXPECT_TRUE(same_on_every_rank(shared));
+  if (mpi::rank() == 0)
+    std::cout << "checkpoint at iteration " << kSaved << " on " << mpi::size()
+              << " ranks: |E - E_serial| / |E_serial| = " << relative(at->E, at_serial.E)
+              << ", |u - u_serial| / |u_serial| = " << relative(at->u, at_serial.u) << "\n";
 }
 
 /// With the Newton phase each rank builds the per-cell data of Newton (mean gradients,
