@@ -1345,6 +1345,50 @@ TEST(Mpi, Eq4_1to4_4_ACheckpointGathersTheIterateForTheWriterAlone) {
               << ", |u - u_serial| / |u_serial| = " << relative(at->u, at_serial.u) << "\n";
 }
 
+/// [(2.2), (4.1)-(4.4)] The same through ALG2's phases and the Newton phase of Fig 5
+/// (algorithm.solver = "newton"): at every progress call the iterate for the writer is, on rank
+/// 0, the serial run's caller's state at the same call (ALG2's iterate, and during the Newton
+/// phase ALG2's last one, as serially), and the calls are as many. (On one rank the Newton
+/// phase's state is whole: no gather, the caller's state.) Fails if the Newton phase's state
+/// between steps (E and lambda on the rank's rows) is handed over as it is.
+TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig5), {"algorithm.solver=\"newton\""});
+  const int dim = p.mesh.dim, nc = p.mesh.num_cells();
+  std::vector<State> serial_calls;
+  {
+    Solver serial(p, Ranks::One);
+    State s = serial.initial_state();
+    const Eigen::VectorXd beta_prev = s.beta;
+    serial.solve_step(s, beta_prev, [&](const IterationRecord&) { serial_calls.push_back(s); });
+  }
+  Solver dist(p, Ranks::All);
+  ASSERT_TRUE(dist.newton());
+  State s = dist.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  std::size_t calls = 0;
+  double worst = 0;
+  const StepReport r = dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
+    const std::optional<State> gathered = dist.iterate_to_writer(s);
+    const State& at = gathered ? *gathered : s;  // as lib/simulation.cpp reads it
+    if (mpi::rank() == 0 && calls < serial_calls.size()) {
+      const State& w = serial_calls[calls];
+      ASSERT_EQ(at.E.rows(), dim * nc) << "call " << calls;
+      for (double d : {relative(at.u, w.u), relative(at.E, w.E), relative(at.lambda, w.lambda),
+                       relative(at.lambda_c, w.lambda_c)})
+        worst = std::max(worst, d);
+    }
+    ++calls;
+  });
+  EXPECT_GT(r.newton_iterations, 0);
+  EXPECT_EQ(calls, serial_calls.size());
+  EXPECT_LE(worst, 1e-8) << "rank " << mpi::rank();
+  if (mpi::rank() == 0)
+    std::cout << "Fig 5 with Newton on " << mpi::size() << " ranks: " << calls
+              << " progress calls, " << r.newton_iterations
+              << " Newton iterations; the writer's iterate within " << worst
+              << " of the serial (relative)\n";
+}
+
 /// With the Newton phase each rank builds the per-cell data of Newton (mean gradients,
 /// fluctuation blocks, constraint points) for its own cells only, ALG2's cells (the Solver's
 /// partition): the ranks' cells add up to the mesh's, none holds more than 3/4 of them on several
