@@ -369,9 +369,18 @@ void copy_contact_fields(const State& from, State& to) {  // e, beta, lambda_c: 
 }  // namespace
 
 std::optional<State> Solver::iterate_to_writer(const State& s) const {
-  const bool rows = alg2_rows_ || (rows_between_steps() && !disc_.whole_field(s.E));
-  if (!dist_ || !rows) return std::nullopt;  // s is the iterate, whole
-  const State& own = alg2_rows_ ? *alg2_rows_ : s;
+  // In a Newton phase s is ALG2's last iterate: the iterate is Newton's, in s's form. Not with
+  // glue: a glued Newton state is kept only if the local contact step holds there (solve_step),
+  // so that its iterates are no point to continue from (another branch of the glue).
+  std::optional<State> newton_iterate;
+  if (newton_ && !alg2_rows_ && !(contact_ && contact_->glued())) {
+    newton_iterate = s;
+    if (!newton_->current_state(*newton_iterate)) newton_iterate.reset();
+  }
+  const State& it = newton_iterate ? *newton_iterate : s;
+  const bool rows = alg2_rows_ || (rows_between_steps() && !disc_.whole_field(it.E));
+  if (!dist_ || !rows) return newton_iterate;  // whole: s, or Newton's iterate
+  const State& own = alg2_rows_ ? *alg2_rows_ : it;
   State w;
   mpi::gather_rows_to_writer(own.E, w.E, dist_->cells, dim());
   mpi::gather_rows_to_writer(own.lambda, w.lambda, dist_->cells, dim());

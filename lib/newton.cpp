@@ -214,6 +214,12 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
   return x;
 }
 
+bool Newton::current_state(State& s) const {
+  if (!current_) return false;
+  to_state(*current_, s);
+  return true;
+}
+
 void Newton::to_state(const Unknowns& x, State& s) const {
   const int d = dim_;
   const Material& m = disc_.split();
@@ -449,6 +455,11 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& f, double load_fac
   const double wall0 = report.history.empty() ? 0.0 : report.history.back().wall;
   Unknowns x = unknowns(s);
   Eigen::VectorXd Ru, G;
+  current_ = &x;  // x's place stays (its swaps with trial exchange contents)
+  struct Reset {
+    const Unknowns*& at;
+    ~Reset() { at = nullptr; }
+  } reset{current_};
 
   // The load scale of the force residual: the largest nodal load, or without loads the largest
   // nodal force of the start (reactions included).
@@ -605,12 +616,12 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& f, double load_fac
       rec.r_B = cur.constraint;
       rec.accelerated = -1;
       report.history.push_back(rec);
-      if (progress) progress(report.history.back());
       damping = damping > 0 ? 10 * damping : 1e-4;
       x.mu = mu_x;
       x.beta = beta_x;
       active = prev_active;
       bstate = prev_bstate;
+      if (progress) progress(report.history.back());  // x the point it stays at (current_state)
       return damping <= 1e6;
     };
     if (!solved) {  // singular: damp more, same point

@@ -144,6 +144,12 @@ class Newton {
   Result solve(State& s, const Eigen::MatrixXd& f, double load_factor, const AlgorithmParams& alg,
                StepReport& report,
                const std::function<void(const IterationRecord&)>& progress) const;
+  /// [(2.2)] From solve's progress callback: s made the current Newton iterate (to_state), for
+  /// a checkpoint; s has the form of the state given to solve (E and lambda on the rank's rows,
+  /// or whole: then collective on several ranks). False, s unchanged, outside a solve. (Until
+  /// 2026-12-03 a checkpoint of the Newton phase saved ALG2's last iterate, and --resume did the
+  /// whole phase again.)
+  bool current_state(State& s) const;
 
  private:
   /// Per cell: the residual and constraint into Ru and G, the tangent Ke and the constraint
@@ -198,6 +204,7 @@ class Newton {
   void gather_triplets(std::vector<Eigen::Triplet<double>>& t) const;
 
   const Discretization& disc_;
+  mutable const Unknowns* current_ = nullptr;  ///< solve's iterate while it runs (current_state)
   int dim_ = 0, npc_ = 0;
   bool incompressible_ = false;
   /// The nodes of this rank's cells (cells_, npc each, in that order): a rank holds its cells'

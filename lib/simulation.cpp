@@ -210,17 +210,18 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   const bool saving = checkpoints && checkpoints->save && checkpoints->every > 0;
   auto saved = std::chrono::steady_clock::now();
   auto progress = [&](const IterationRecord& r) {
-    // --checkpoint: the iterate (the caller's state, updated in place by ALG2; during a Newton
-    // phase still ALG2's last iterate) every `every` seconds, and before a signal stops the step.
+    // --checkpoint: the iterate (ALG2's, or during a Newton phase Newton's) every `every`
+    // seconds, and before a signal stops the step.
     bool due =
         saving && std::chrono::duration<double>(std::chrono::steady_clock::now() - saved).count() >=
                       checkpoints->every;
     const int signal = run_signal(solver, &due);  // both decided over the ranks
     if (saving && (signal != 0 || due)) {
-      // Over the ranks the iterate is on the ranks' rows (ALG2's, or during a Newton phase
-      // ALG2's last iterate as the state between steps): gathered for the writer now, by every
+      // The caller's state is ALG2's iterate in ALG2's phases of one process; else the iterate is
+      // made (Newton's) and over the ranks gathered for the writer from the ranks' rows, by every
       // rank (collective), and only for a save. Until 2026-12-03 the Newton phase's save refused
-      // it ("E is 122 x 2, expected 244 x 2") and ALG2 gathered it whole at every iteration.
+      // it over the ranks ("E is 122 x 2, expected 244 x 2") and saved ALG2's last iterate on
+      // one process, and ALG2 gathered E and lambda whole at every iteration.
       const std::optional<State> iterate = solver.iterate_to_writer(state);
       checkpoints->save(p, factor, iterate ? *iterate : state, prior + r.n);
       saved = std::chrono::steady_clock::now();

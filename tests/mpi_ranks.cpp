@@ -1347,10 +1347,9 @@ TEST(Mpi, Eq4_1to4_4_ACheckpointGathersTheIterateForTheWriterAlone) {
 
 /// [(2.2), (4.1)-(4.4)] The same through ALG2's phases and the Newton phase of Fig 5
 /// (algorithm.solver = "newton"): at every progress call the iterate for the writer is, on rank
-/// 0, the serial run's caller's state at the same call (ALG2's iterate, and during the Newton
-/// phase ALG2's last one, as serially), and the calls are as many. (On one rank the Newton
-/// phase's state is whole: no gather, the caller's state.) Fails if the Newton phase's state
-/// between steps (E and lambda on the rank's rows) is handed over as it is.
+/// 0, the serial run's at the same call (ALG2's iterate, then Newton's), and the calls are as
+/// many. Fails if the Newton phase's state between steps (E and lambda on the rank's rows) is
+/// handed over as it is, or ALG2's last iterate instead of Newton's.
 TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
   const Problem p = load_problem(ltl::testing::source_path(kFig5), {"algorithm.solver=\"newton\""});
   const int dim = p.mesh.dim, nc = p.mesh.num_cells();
@@ -1359,7 +1358,10 @@ TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
     Solver serial(p, Ranks::One);
     State s = serial.initial_state();
     const Eigen::VectorXd beta_prev = s.beta;
-    serial.solve_step(s, beta_prev, [&](const IterationRecord&) { serial_calls.push_back(s); });
+    serial.solve_step(s, beta_prev, [&](const IterationRecord&) {
+      const std::optional<State> it = serial.iterate_to_writer(s);  // Newton's, in its phase
+      serial_calls.push_back(it ? *it : s);
+    });
   }
   Solver dist(p, Ranks::All);
   ASSERT_TRUE(dist.newton());
@@ -1367,9 +1369,14 @@ TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
   const Eigen::VectorXd beta_prev = s.beta;
   std::size_t calls = 0;
   double worst = 0;
+  State last;  // the last call's iterate (rank 0)
   const StepReport r = dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
     const std::optional<State> gathered = dist.iterate_to_writer(s);
     const State& at = gathered ? *gathered : s;  // as lib/simulation.cpp reads it
+    last = at;
+    if (calls >= 11) {
+      EXPECT_TRUE(gathered) << "rank " << mpi::rank() << ": Newton's iterate";
+    }
     if (mpi::rank() == 0 && calls < serial_calls.size()) {
       const State& w = serial_calls[calls];
       ASSERT_EQ(at.E.rows(), dim * nc) << "call " << calls;
@@ -1382,6 +1389,11 @@ TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
   EXPECT_GT(r.newton_iterations, 0);
   EXPECT_EQ(calls, serial_calls.size());
   EXPECT_LE(worst, 1e-8) << "rank " << mpi::rank();
+  const State converged = dist.whole_state(s);  // the last Newton iterate, to the digit
+  if (mpi::rank() == 0) {
+    EXPECT_EQ(last.u, converged.u);
+    EXPECT_EQ(last.E, converged.E);
+  }
   if (mpi::rank() == 0)
     std::cout << "Fig 5 with Newton on " << mpi::size() << " ranks: " << calls
               << " progress calls, " << r.newton_iterations

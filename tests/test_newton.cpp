@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <iostream>
+#include <optional>
 #include <random>
 
 #include "config.hpp"
@@ -240,6 +241,67 @@ TEST(Newton, Eq4_1to4_3_FallBackToAlg2IsCountedAndReachesTheSameState) {
   EXPECT_GE(capped.report.newton_attempts, 2);
   EXPECT_LT(relative_difference(capped.state.u, reference.state.u), 1e-8);
   EXPECT_GT(capped.report.iterations, reference.report.iterations);
+}
+
+// [LTL87 (2.2), (4.1)-(4.4)] A checkpoint of the Newton phase holds Newton's iterate
+// (Solver::iterate_to_writer, what --checkpoint saves): none during ALG2's phase (the caller's
+// state is the iterate), then one per Newton iteration, the last one the converged state to the
+// digit, each different from ALG2's last iterate (the caller's state during the phase). A step
+// continued from the third Newton iterate, as --resume continues one from its checkpoint, ends in
+// the same state in fewer iterations than the whole step: the Newton phase's progress is kept.
+// Fails if the checkpoint holds ALG2's last iterate (until 2026-12-03: --resume then did the whole
+// Newton phase again).
+TEST(Newton, Eq2_2_ACheckpointOfTheNewtonPhaseHoldsNewtonsIterate) {
+  const Problem p = figure("fig5", {"algorithm.solver=\"newton\""});
+  Solver solver(p);
+  State s = solver.initial_state();
+  const Eigen::VectorXd beta_prev = s.beta;
+  std::vector<State> iterates;  // Newton's, one per progress call of the Newton phase
+  int alg2_calls = 0;
+  double apart = 1e300;  // Newton's iterate against the caller's state, the smallest
+  const StepReport whole = solver.solve_step(s, beta_prev, [&](const IterationRecord&) {
+    const std::optional<State> it = solver.iterate_to_writer(s);
+    if (!it) {
+      EXPECT_TRUE(iterates.empty()) << "ALG2's phase after the Newton phase";
+      ++alg2_calls;
+      return;
+    }
+    apart = std::min(apart, relative_difference(it->u, s.u));
+    iterates.push_back(*it);
+  });
+  ASSERT_TRUE(whole.converged) << whole.status;
+  EXPECT_EQ(static_cast<int>(iterates.size()), whole.newton_iterations);
+  EXPECT_EQ(alg2_calls + whole.newton_iterations, whole.iterations);
+  ASSERT_GE(iterates.size(), 4u);
+  EXPECT_GT(apart, 1e-6) << "a Newton iterate is ALG2's last one";
+  EXPECT_EQ(iterates.back().u, s.u);
+  EXPECT_EQ(iterates.back().E, s.E);
+  EXPECT_EQ(iterates.back().lambda, s.lambda);
+  EXPECT_EQ(iterates.back().lambda_c, s.lambda_c);
+  // Continued from the third Newton iterate.
+  State continued = iterates[2];
+  const StepReport rest = solver.solve_step(continued, beta_prev);
+  ASSERT_TRUE(rest.converged) << rest.status;
+  EXPECT_LE(relative_difference(continued.u, s.u), 1e-8);
+  EXPECT_LT(rest.iterations, whole.iterations - alg2_calls);
+  std::cout << "Fig 5 with Newton: " << alg2_calls << " ALG2 + " << whole.newton_iterations
+            << " Newton iterations; continued from the 3rd Newton iterate: " << rest.iterations
+            << " (" << rest.newton_iterations << " Newton), u within "
+            << relative_difference(continued.u, s.u) << "\n";
+  // With glue the checkpoint stays ALG2's last iterate (a glued Newton state is kept only where
+  // the local contact step holds): a glued Fig 3 step's Newton phase hands none over.
+  Problem glued = load_problem(testing::source_path("experiments/fig3/fig3_literal.toml"));
+  glued.algorithm.solver = NonlinearSolver::Newton;
+  Solver sg(glued);
+  State g = sg.initial_state();
+  const Eigen::VectorXd bg = g.beta;
+  sg.set_load_factor(glued.ramp.factor(1, glued.time.dt));
+  int handed = 0;
+  const StepReport rg = sg.solve_step(
+      g, bg, [&](const IterationRecord&) { handed += sg.iterate_to_writer(g).has_value(); });
+  ASSERT_TRUE(rg.converged) << rg.status;
+  EXPECT_GE(rg.newton_iterations, 1);
+  EXPECT_EQ(handed, 0);
 }
 
 // [LTL87 (2.2), (6.1)-(6.8)] The glue's energy is not convex: the first problem's block glued
