@@ -373,10 +373,8 @@ std::optional<State> Solver::iterate_to_writer(const State& s) const {
   // glue: a glued Newton state is kept only if the local contact step holds there (solve_step),
   // so that its iterates are no point to continue from (another branch of the glue).
   std::optional<State> newton_iterate;
-  if (newton_ && !alg2_rows_ && !(contact_ && contact_->glued())) {
-    newton_iterate = s;
-    if (!newton_->current_state(*newton_iterate)) newton_iterate.reset();
-  }
+  if (newton_ && !alg2_rows_ && !(contact_ && contact_->glued()))
+    newton_iterate = newton_->current_state(s);
   const State& it = newton_iterate ? *newton_iterate : s;
   const bool rows = alg2_rows_ || (rows_between_steps() && !disc_.whole_field(it.E));
   if (!dist_ || !rows) return newton_iterate;  // whole: s, or Newton's iterate

@@ -438,7 +438,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
   }
   // CG + GAMG's tolerance: the serial CG + AMG's, inexact (CgAmg::target), unless the PETSc
   // option -ltl_mpi_rtol asks every solve for that relative reduction.
-  PetscReal rtol = kRtol;
+  PetscReal rtol = 0;
   PetscBool tight = PETSC_FALSE;
   PetscOptionsGetReal(nullptr, nullptr, "-ltl_mpi_rtol", &rtol, &tight);
   if (tight)

@@ -82,6 +82,8 @@ mpi::Partition point_partition(const Mesh& mesh, const ContactPoints& points,
 
 class DistributedGlobalStep {
  public:
+  /// The tight -ltl_mpi_rtol with which the distributed ALG2 follows the serial iterates (the
+  /// tests' TightCg).
   static constexpr double kRtol = 1e-12;
   /// CG iterations per solve before the solve is an Error (a preconditioner that fails).
   static constexpr int kMaxIterations = 5000;

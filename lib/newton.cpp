@@ -214,10 +214,11 @@ Newton::Unknowns Newton::unknowns(const State& s) const {
   return x;
 }
 
-bool Newton::current_state(State& s) const {
-  if (!current_) return false;
-  to_state(*current_, s);
-  return true;
+std::optional<State> Newton::current_state(const State& form) const {
+  if (!current_) return std::nullopt;
+  std::optional<State> s = form;  // the shapes; every field is overwritten but beta (no glue)
+  to_state(*current_, *s);
+  return s;
 }
 
 void Newton::to_state(const Unknowns& x, State& s) const {

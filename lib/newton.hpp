@@ -35,6 +35,7 @@
 #include <Eigen/Sparse>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -144,12 +145,12 @@ class Newton {
   Result solve(State& s, const Eigen::MatrixXd& f, double load_factor, const AlgorithmParams& alg,
                StepReport& report,
                const std::function<void(const IterationRecord&)>& progress) const;
-  /// [(2.2)] From solve's progress callback: s made the current Newton iterate (to_state), for
-  /// a checkpoint; s has the form of the state given to solve (E and lambda on the rank's rows,
-  /// or whole: then collective on several ranks). False, s unchanged, outside a solve. (Until
+  /// [(2.2)] From solve's progress callback: the current Newton iterate as a state (to_state),
+  /// for a checkpoint, in the form of `form` (the state given to solve: E and lambda on the
+  /// rank's rows, or whole, then collective on several ranks); null outside a solve. (Until
   /// 2026-12-03 a checkpoint of the Newton phase saved ALG2's last iterate, and --resume did the
   /// whole phase again.)
-  bool current_state(State& s) const;
+  std::optional<State> current_state(const State& form) const;
 
  private:
   /// Per cell: the residual and constraint into Ru and G, the tangent Ke and the constraint

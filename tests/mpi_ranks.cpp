@@ -55,12 +55,18 @@ struct Outcome {
 };
 
 /// A run of `config` (every step), serial or over every rank; verbosity 0, nothing written.
-Outcome solve(const std::string& config, const std::vector<std::string>& overrides, Ranks ranks) {
+/// ksp_per_solve (optional): the distributed KSP's iterations per solve on this rank.
+Outcome solve(const std::string& config, const std::vector<std::string>& overrides, Ranks ranks,
+              double* ksp_per_solve = nullptr) {
   const Problem p = load_problem(ltl::testing::source_path(config), overrides);
   Solver solver(p, ranks);
   RunOptions options;
   options.verbosity = 0;
   const RunSummary summary = run(solver, options);
+  if (ksp_per_solve) {
+    const RankShare share = solver.rank_share();
+    *ksp_per_solve = static_cast<double>(share.ksp_iterations) / std::max(1L, share.ksp_solves);
+  }
   return {solver.whole_state(summary.state), summary.iterations};
 }
 
@@ -87,7 +93,7 @@ double relative(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 /// Every distributed CG + GAMG solve converged to kRtol (-ltl_mpi_rtol) while it lives, instead
 /// of the inexact default (mpi_global.hpp): the iterates of the serial factor's ALG2.
 struct TightCg {
-  TightCg() { mpi::set_option("-ltl_mpi_rtol", true, "1e-12"); }
+  TightCg() { mpi::set_option("-ltl_mpi_rtol", true, cat(DistributedGlobalStep::kRtol).c_str()); }
   ~TightCg() { mpi::set_option("-ltl_mpi_rtol", false); }
   TightCg(const TightCg&) = delete;
   TightCg& operator=(const TightCg&) = delete;
@@ -183,21 +189,11 @@ TEST(Mpi, Eq4_5_CgGamgInexactSolvesReachTheSerialAnswer) {
     const Outcome serial = solve(config, ov, Ranks::One);
     std::vector<std::string> o = ov;
     o.insert(o.end(), cg.begin(), cg.end());
-    auto distributed = [&](double& per_solve) {
-      const Problem p = load_problem(ltl::testing::source_path(config), o);
-      Solver solver(p, Ranks::All);
-      RunOptions options;
-      options.verbosity = 0;
-      const RunSummary summary = run(solver, options);
-      const RankShare share = solver.rank_share();
-      per_solve = static_cast<double>(share.ksp_iterations) / std::max(1L, share.ksp_solves);
-      return Outcome{solver.whole_state(summary.state), summary.iterations};
-    };
     double inexact_its = 0, tight_its = 0;
-    const Outcome dist = distributed(inexact_its);
+    const Outcome dist = solve(config, o, Ranks::All, &inexact_its);
     {
       const TightCg tight;
-      distributed(tight_its);
+      solve(config, o, Ranks::All, &tight_its);
     }
     const double rel = relative(dist.state.u, serial.state.u);
     if (mpi::rank() == 0)
@@ -1369,14 +1365,13 @@ TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
   const Eigen::VectorXd beta_prev = s.beta;
   std::size_t calls = 0;
   double worst = 0;
-  State last;  // the last call's iterate (rank 0)
+  State last;                  // the last call's iterate (rank 0)
+  std::vector<bool> gathered;  // per call: an iterate was made (not the caller's state)
   const StepReport r = dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
-    const std::optional<State> gathered = dist.iterate_to_writer(s);
-    const State& at = gathered ? *gathered : s;  // as lib/simulation.cpp reads it
+    const std::optional<State> it = dist.iterate_to_writer(s);
+    const State& at = it ? *it : s;  // as lib/simulation.cpp reads it
     last = at;
-    if (calls >= 11) {
-      EXPECT_TRUE(gathered) << "rank " << mpi::rank() << ": Newton's iterate";
-    }
+    gathered.push_back(it.has_value());
     if (mpi::rank() == 0 && calls < serial_calls.size()) {
       const State& w = serial_calls[calls];
       ASSERT_EQ(at.E.rows(), dim * nc) << "call " << calls;
@@ -1388,6 +1383,8 @@ TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
   });
   EXPECT_GT(r.newton_iterations, 0);
   EXPECT_EQ(calls, serial_calls.size());
+  for (std::size_t k = calls - r.newton_iterations; k < calls; ++k)
+    EXPECT_TRUE(gathered[k]) << "rank " << mpi::rank() << ": call " << k << ", Newton's iterate";
   EXPECT_LE(worst, 1e-8) << "rank " << mpi::rank();
   const State converged = dist.whole_state(s);  // the last Newton iterate, to the digit
   if (mpi::rank() == 0) {
