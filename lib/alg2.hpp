@@ -154,17 +154,21 @@ class Solver {
   double energy(const State& s, const Eigen::VectorXd& beta_prev) const;
 
   /// [(4.1)-(4.4), (2.2)] The current iterate, for a checkpoint, from solve_step's `progress`
-  /// callback (`s` the state solve_step was given). In a Newton phase, Newton's iterate
+  /// callback (`s` the state solve_step was given), in the form of the state between steps, which
+  /// ResultsWriter::checkpoint writes. In a Newton phase, Newton's iterate
   /// (Newton::current_state; `s` holds ALG2's last one: until 2026-12-03 a checkpoint saved
   /// that, and --resume did the Newton phase again); with glue ALG2's last one still (a glued
   /// Newton state is kept only if the local contact step holds there). A distributed solver
   /// iterates on the rank's rows of E and lambda and releases the caller's E and lambda until the
-  /// ALG2 phase ends; this gathers the iterate whole on rank 0 alone, the results writer
-  /// (collective: every rank calls it at the same iteration): E and lambda from the ranks' rows (on
-  /// the other ranks left empty), u from the ghost layers and the contact fields from the ranks'
-  /// points (whole on every rank). Only then: an iteration without a save gathers nothing (until
-  /// 2026-12-03 a run with --checkpoint gathered E and lambda to every rank at every iteration).
-  /// Null when `s` is the iterate: ALG2's phase of a serial solver (Ranks::One), or a whole state.
+  /// ALG2 phase ends; inside that phase this makes the iterate (collective: every rank calls it
+  /// at the same iteration): E and lambda the rank's rows, which the writer gathers a block of
+  /// cells at a time (StepFields), or, when the state between steps is whole (the replicated
+  /// factor), gathered whole on rank 0 alone; u from the ghost layers and the contact fields from
+  /// the ranks' points (whole on every rank). Only then: an iteration without a save gathers
+  /// nothing (until 2026-12-03 a run with --checkpoint gathered E and lambda to every rank at every
+  /// iteration, and until the fifth session of that day a save gathered them whole on rank 0).
+  /// Null when `s` is the iterate: ALG2's phase of a serial solver (Ranks::One), or `s` between
+  /// ALG2's phases without a Newton iterate.
   std::optional<State> iterate_to_writer(const State& s) const;
 
   /// A copy of the state s to go back to (load subdivision, lib/simulation.cpp): in a

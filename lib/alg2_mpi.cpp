@@ -369,25 +369,30 @@ void copy_contact_fields(const State& from, State& to) {  // e, beta, lambda_c: 
 }  // namespace
 
 std::optional<State> Solver::iterate_to_writer(const State& s) const {
-  // In a Newton phase s is ALG2's last iterate: the iterate is Newton's, in s's form. Not with
-  // glue: a glued Newton state is kept only if the local contact step holds there (solve_step),
-  // so that its iterates are no point to continue from (another branch of the glue).
-  std::optional<State> newton_iterate;
-  if (newton_ && !alg2_rows_ && !(contact_ && contact_->glued()))
-    newton_iterate = newton_->current_state(s);
-  const State& it = newton_iterate ? *newton_iterate : s;
-  const bool rows = alg2_rows_ || (rows_between_steps() && !disc_.whole_field(it.E));
-  if (!dist_ || !rows) return newton_iterate;  // whole: s, or Newton's iterate
-  const State& own = alg2_rows_ ? *alg2_rows_ : it;
-  State w;
-  mpi::gather_rows_to_writer(own.E, w.E, dist_->cells, dim());
-  mpi::gather_rows_to_writer(own.lambda, w.lambda, dist_->cells, dim());
-  w.u = own.u;
-  copy_contact_fields(own, w);
-  if (alg2_rows_) {  // inside the ALG2 phase: u current on the ghost layer, the points' blocks
-    if (dist_->ksp) dist_->ksp->whole_u(w.u);
-    gather_points(w);
+  // Between ALG2's phases (a Newton phase) the iterate is in the form of the state between
+  // steps, which the writer reads: s, or Newton's iterate in s's form. Not with glue: a glued
+  // Newton state is kept only if the local contact step holds there (solve_step), so that its
+  // iterates are no point to continue from (another branch of the glue).
+  if (!alg2_rows_) {
+    if (newton_ && !(contact_ && contact_->glued())) return newton_->current_state(s);
+    return std::nullopt;
   }
+  // Inside an ALG2 phase on the ranks: the rank's rows of E and lambda, which the writer gathers
+  // a block at a time (StepFields), or gathered whole on the writer when the state between steps
+  // is whole (the replicated factor); u current on the ghost layer, the points' on their ranks.
+  const State& own = *alg2_rows_;
+  State w;
+  if (rows_between_steps()) {
+    w.E = own.E;
+    w.lambda = own.lambda;
+  } else {
+    mpi::gather_rows_to_writer(own.E, w.E, dist_->cells, dim());
+    mpi::gather_rows_to_writer(own.lambda, w.lambda, dist_->cells, dim());
+  }
+  w.u = own.u;
+  if (dist_->ksp) dist_->ksp->whole_u(w.u);
+  copy_contact_fields(own, w);
+  gather_points(w);
   return w;
 }
 

@@ -671,6 +671,16 @@ void ResultsWriter::create_file() {
 }
 
 void ResultsWriter::checkpoint(int p, double load_factor, const State& iterate, int iterations) {
+  // Under mpirun with the iterate on the ranks' rows (Solver::iterate_to_writer) every rank comes
+  // here: rank 0 writes, reading E and lambda a block of cells at a time, and the other ranks
+  // serve those blocks (StepFields::written), so that no rank holds a whole E or lambda. The
+  // state's fields alone: a checkpoint is no result.
+  StepFields fields(solver_, iterate, StepFields::Fields::State);
+  fields.written([&] { save_checkpoint(p, load_factor, iterate, iterations, fields); });
+}
+
+void ResultsWriter::save_checkpoint(int p, double load_factor, const State& iterate, int iterations,
+                                    FieldSource& fields) {
   const std::string& out = options_.output;
   std::optional<ResultsFile>& file = file_->results;
   if (out.empty() || checkpoint_refused_) return;
@@ -697,6 +707,7 @@ void ResultsWriter::checkpoint(int p, double load_factor, const State& iterate, 
   data.t = p * problem_.time.dt;
   data.state = &iterate;
   data.report = &report;
+  data.source = &fields;
   char group[32];
   std::snprintf(group, sizeof group, "/unconverged/%06d", p);
   try {

@@ -23,6 +23,8 @@
 
 namespace ltl {
 
+class FieldSource;  // lib/results.hpp
+
 struct RunOptions {
   std::string output;   ///< results file (.h5); empty: write nothing
   bool resume = false;  ///< continue from the last step stored in `output`
@@ -170,6 +172,9 @@ class ResultsWriter {
   /// iterations, in the results file (ResultsFile::save_checkpoint; created when this run has
   /// none yet, never over an earlier run's file), and says so on the console. A failed save is
   /// a warning, not the end of the run. Nothing without an output (the ranks other than 0).
+  /// `iterate` is in the form Solver::iterate_to_writer gives: under mpirun E and lambda on each
+  /// rank's rows, and then it is collective (every rank calls it: rank 0 reads the ranks' rows a
+  /// block at a time, StepFields::written).
   void checkpoint(int p, double load_factor, const State& iterate, int iterations);
   /// On --resume, the checkpoint of next_step() to continue from (null: none, or not usable), and
   /// the iterations it was saved after.
@@ -196,6 +201,9 @@ class ResultsWriter {
   bool checkpoint_refused_ = false;            ///< an earlier run's file is at the output
   /// The results file, created (mesh, configuration, contact surface) when this run has none.
   void create_file();
+  /// checkpoint() on the writer (rank 0), its fields read from `fields`.
+  void save_checkpoint(int p, double load_factor, const State& iterate, int iterations,
+                       FieldSource& fields);
 };
 
 /// [LTL87 (2.1)-(2.2)] Backward Euler in beta: for p = 1..P, start from step p-1's

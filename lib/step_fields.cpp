@@ -7,6 +7,7 @@
 #include "derived_fields.hpp"
 #include "error.hpp"
 #include "mpi_comm.hpp"
+#include "results_fields.hpp"
 #include "results_layout.hpp"
 
 namespace ltl {
@@ -35,12 +36,17 @@ bool cell_field(const std::string& name, int dim) {
 
 }  // namespace
 
-StepFields::StepFields(const Solver& solver, const State& state)
+StepFields::StepFields(const Solver& solver, const State& state, Fields fields)
     : solver_(solver),
       state_(state),
-      rows_(solver.rows_between_steps() && !solver.discretization().whole_field(state.E)) {}
+      rows_(solver.rows_between_steps() && !solver.discretization().whole_field(state.E)),
+      state_only_(fields == Fields::State) {}
 
 std::pair<Eigen::Index, Eigen::Index> StepFields::open(const std::string& name) {
+  if (state_only_) {  // decided on rank 0 alone: the other ranks are asked for nothing
+    const Field* f = find_field(name);
+    if (!f || f->source != Source::State) return {0, 0};
+  }
   Eigen::MatrixXd none;
   return ask("open " + name, none);
 }

@@ -27,8 +27,12 @@ namespace ltl {
 
 class StepFields final : public FieldSource {
  public:
-  /// The fields of `state` (the solver's state between steps), which must outlive this.
-  StepFields(const Solver& solver, const State& state);
+  /// Which fields it makes: every one of the table, or the state's alone (u, E, lambda, e,
+  /// lambda_c, beta: a checkpoint's iterate; the others then open empty).
+  enum class Fields { All, State };
+  /// The fields of `state` (the solver's state between steps, or an iterate in that form:
+  /// Solver::iterate_to_writer), which must outlive this.
+  StepFields(const Solver& solver, const State& state, Fields fields = Fields::All);
 
   /// Makes the field `name` on this rank (its cells' part): its whole size, {0, 0} when the step
   /// has none (e.g. sigma33 in 3-D, the contact fields without contact, every field of the cells
@@ -78,6 +82,7 @@ class StepFields final : public FieldSource {
   const Solver& solver_;
   const State& state_;
   bool rows_;             ///< E and lambda on each rank's rows: asking is collective
+  bool state_only_;       ///< Fields::State
   bool writing_ = false;  ///< rank 0 inside written()
   int made_ = 0, reads_ = 0;
   std::map<std::string, Part> open_;

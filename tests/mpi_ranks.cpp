@@ -1275,18 +1275,19 @@ TEST(Mpi, Eq4_1to4_4_NoIterationMovesACellField) {
               << " B, " << own << " of " << nc << " cells)\n";
 }
 
-/// [(4.1)-(4.4)] A checkpoint's iterate (Solver::iterate_to_writer, called from the progress
-/// callback as lib/simulation.cpp's --checkpoint does): on rank 0, the writer, the serial
-/// iterate of the same iteration, E and lambda of every cell; on the other ranks E and lambda
-/// empty; u and the contact fields the same on every rank. The iterations around the save
-/// gather nothing (the 40 B in 2 calls per iteration of the test above). Fails if the iterate
-/// is not gathered (the caller's E is released during the ALG2 phase), is gathered to every
-/// rank, or is gathered at every iteration.
-TEST(Mpi, Eq4_1to4_4_ACheckpointGathersTheIterateForTheWriterAlone) {
+/// [(4.1)-(4.4)] A checkpoint (Solver::iterate_to_writer then ResultsWriter::checkpoint, called
+/// from the progress callback as lib/simulation.cpp's --checkpoint does): the iterate stays on
+/// each rank's rows of E and lambda, and rank 0, the writer, reads them a block of cells at a
+/// time (StepFields). The checkpoint in the file is the serial iterate of the same iteration;
+/// u and the contact fields are the same on every rank. The iterations around the save gather
+/// nothing (the 40 B in 2 calls per iteration of the test above). Fails if the iterate is not
+/// made (the caller's E is released during the ALG2 phase), is gathered whole on rank 0 or on
+/// every rank, or is gathered at every iteration.
+TEST(Mpi, Eq4_1to4_4_ACheckpointStaysOnTheRanksRowsUntilTheWriterReadsIt) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6),
                                  {"mesh.parameters.nl=20", "mesh.parameters.na=5",
                                   "algorithm.tol=1e-300", "algorithm.max_iter=12"});
-  const int dim = p.mesh.dim, nc = p.mesh.num_cells();
+  const int dim = p.mesh.dim;
   constexpr int kSaved = 7;
   State at_serial;
   {
@@ -1302,43 +1303,72 @@ TEST(Mpi, Eq4_1to4_4_ACheckpointGathersTheIterateForTheWriterAlone) {
       }
     });
   }
+  const std::string dir = ltl::testing::binary_path("mpi_ranks_out");
+  const std::string path = dir + "/checkpoint-" + std::to_string(mpi::size()) + ".h5";
+  if (mpi::rank() == 0) {
+    std::filesystem::create_directories(dir);
+    std::filesystem::remove(path);
+  }
+  mpi::barrier();
   const TightCg tight;
   Solver dist(p, Ranks::All);
-  State s = dist.initial_state();
-  const Eigen::VectorXd beta_prev = s.beta;
+  RunOptions options;
+  options.verbosity = 0;
+  if (mpi::rank() == 0) options.output = path;
   std::optional<State> at;
-  mpi::Traffic t[4];  // before and after the iterations 3..6 and 8..11
-  int n = 0;
-  dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
-    ++n;
-    if (n == 3) t[0] = mpi::traffic();
-    if (n == 6) t[1] = mpi::traffic();
-    if (n == kSaved) at = dist.iterate_to_writer(s);
-    if (n == 8) t[2] = mpi::traffic();
-    if (n == 11) t[3] = mpi::traffic();
-  });
-  const bool many = mpi::size() > 1;
-  for (int k : {0, 2})
-    EXPECT_EQ(t[k + 1].bytes - t[k].bytes, many ? 3 * 40.0 : 0.0) << "rank " << mpi::rank();
+  const int own = dist.rank_share().cells;
+  {
+    ResultsWriter results(dist, options);
+    State s = dist.initial_state();
+    const Eigen::VectorXd beta_prev = s.beta;
+    mpi::Traffic t[4];  // before and after the iterations 3..6 and 8..11
+    int n = 0;
+    dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
+      ++n;
+      if (n == 3) t[0] = mpi::traffic();
+      if (n == 6) t[1] = mpi::traffic();
+      if (n == kSaved) {
+        at = dist.iterate_to_writer(s);
+        // Written only if every rank holds its rows (else the ranks would not agree to be asked).
+        if (at && at->E.rows() == dim * own) results.checkpoint(1, 1.0, *at, kSaved);
+      }
+      if (n == 8) t[2] = mpi::traffic();
+      if (n == 11) t[3] = mpi::traffic();
+    });
+    const bool many = mpi::size() > 1;
+    for (int k : {0, 2})
+      EXPECT_EQ(t[k + 1].bytes - t[k].bytes, many ? 3 * 40.0 : 0.0) << "rank " << mpi::rank();
+  }
   ASSERT_TRUE(at) << "rank " << mpi::rank() << ": the iterate is on the rank's rows";
+  EXPECT_EQ(at->E.rows(), dim * own) << "rank " << mpi::rank() << ": E on the rank's rows";
+  EXPECT_EQ(at->lambda.rows(), dim * own) << "rank " << mpi::rank();
   EXPECT_LE(relative(at->u, at_serial.u), 1e-10) << "rank " << mpi::rank();
   EXPECT_LE(relative(at->e, at_serial.e), 1e-10) << "rank " << mpi::rank();
+  // lambda_c is rounding here (1e-12 Pa: no contact force yet): against the stresses' scale.
+  const double stress = at_serial.lambda.cwiseAbs().maxCoeff();
+  const auto same_lambda_c = [&](const Eigen::MatrixXd& lambda_c) {
+    return lambda_c.rows() == at_serial.lambda_c.rows() &&
+           (lambda_c - at_serial.lambda_c).cwiseAbs().maxCoeff() <= 1e-10 * stress;
+  };
+  EXPECT_TRUE(same_lambda_c(at->lambda_c)) << "rank " << mpi::rank();
   EXPECT_EQ(at->beta.size(), at_serial.beta.size());
-  if (mpi::rank() == 0) {
-    ASSERT_EQ(at->E.rows(), dim * nc);
-    EXPECT_LE(relative(at->E, at_serial.E), 1e-10);
-    EXPECT_LE(relative(at->lambda, at_serial.lambda), 1e-10);
-  } else {
-    EXPECT_EQ(at->E.size(), 0);
-    EXPECT_EQ(at->lambda.size(), 0);
-  }
   State shared = *at;  // u and the contact fields: the same on every rank
   shared.E = shared.lambda = Eigen::MatrixXd();
   EXPECT_TRUE(same_on_every_rank(shared));
-  if (mpi::rank() == 0)
+  if (mpi::rank() == 0) {
+    const std::optional<StoredStep> c = ResultsFile::read_checkpoint(path, 1);
+    ASSERT_TRUE(c) << path << ": no checkpoint of step 1";
+    EXPECT_EQ(c->iterations, kSaved);
+    EXPECT_LE(relative(c->state.E, at_serial.E), 1e-10);
+    EXPECT_LE(relative(c->state.lambda, at_serial.lambda), 1e-10);
+    EXPECT_LE(relative(c->state.u, at_serial.u), 1e-10);
+    EXPECT_TRUE(same_lambda_c(c->state.lambda_c));
+    EXPECT_LE(relative(c->state.e, at_serial.e), 1e-10);
     std::cout << "checkpoint at iteration " << kSaved << " on " << mpi::size()
-              << " ranks: |E - E_serial| / |E_serial| = " << relative(at->E, at_serial.E)
-              << ", |u - u_serial| / |u_serial| = " << relative(at->u, at_serial.u) << "\n";
+              << " ranks: in the file |E - E_serial| / |E_serial| = "
+              << relative(c->state.E, at_serial.E)
+              << ", |u - u_serial| / |u_serial| = " << relative(c->state.u, at_serial.u) << "\n";
+  }
 }
 
 /// [(2.2), (4.1)-(4.4)] The same through ALG2's phases and the Newton phase of Fig 5
@@ -1369,7 +1399,8 @@ TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
   std::vector<bool> gathered;  // per call: an iterate was made (not the caller's state)
   const StepReport r = dist.solve_step(s, beta_prev, [&](const IterationRecord&) {
     const std::optional<State> it = dist.iterate_to_writer(s);
-    const State& at = it ? *it : s;  // as lib/simulation.cpp reads it
+    // As the writer reads it (lib/simulation.cpp): E and lambda on the ranks' rows, whole here.
+    const State at = dist.whole_state(it ? *it : s);
     last = at;
     gathered.push_back(it.has_value());
     if (mpi::rank() == 0 && calls < serial_calls.size()) {
