@@ -8,7 +8,8 @@
 # serial u (relative), in both files. --init (the nested start) under mpirun -n 2, with plain
 # ALG2 and with the Newton phase, ends within 1e-8 of one process, and resumed on 2 ranks from
 # inside its step 1, within 1e-8 of the same resumed on one process. --checkpoint: a serial
-# run stopped in its step resumes on 2 ranks from its checkpoint, the counts adding up. A step
+# run stopped in its step resumes on 2 ranks from its checkpoint, and a run of 2 ranks on one
+# process, the counts adding up. A step
 # that diverges under mpirun leaves its last iterate in the file (rank 0 writes it, with the
 # fields every rank made on its cells: E, sigma, det F, the nodal stress). A geometry script that
 # calls `Exit;` ends the job at once with rank 0's message. SIGTERM to rank 1 alone stops every
@@ -151,6 +152,31 @@ before=$(sed -n 's/.*continues from its checkpoint, saved after \([0-9]\+\) iter
 after=$(grep '^step' "$tmp/k.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1/')
 echo "Fig 5 stopped after the checkpoint of iteration $before, resumed on 2 ranks for $after; uninterrupted $full"
 [ -n "$before" ] && [ $((before + after)) = "$full" ] || fail "checkpoint resumed on 2 ranks: $before + $after, not $full"
+# ... and the other way: a run on 2 ranks saving checkpoints (E and lambda stay on the ranks'
+# rows; rank 0 reads them a block at a time) stopped in its step by SIGTERM to rank 1, then
+# resumed on one process from its checkpoint: the counts add up to the uninterrupted one.
+for attempt in 1 2 3; do
+  rm -f "$tmp/k2.h5"
+  timeout 120 "$mpiexec" -n 2 --oversubscribe "$run" "$f5" --set "$alg2" --checkpoint 0.001 -q \
+    -o "$tmp/k2.h5" 2> "$tmp/k2.err" &
+  job=$!
+  i=0
+  while [ ! -f "$tmp/k2.h5" ] && [ $i -lt 4000 ]; do sleep 0.005; i=$((i + 1)); done
+  for pid in $(pgrep -x ltl_run); do
+    r=$( (tr '\0' '\n' < "/proc/$pid/environ") 2> /dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p')
+    [ "$r" = 1 ] && grep -q "$tmp/k2.h5" "/proc/$pid/cmdline" 2> /dev/null && kill -TERM "$pid"
+  done
+  wait $job
+  grep -q "is saved (a checkpoint)" "$tmp/k2.err" && break
+  [ $attempt = 3 ] && fail "2 ranks: the step always finished before SIGTERM"
+done
+"$run" "$f5" --set "$alg2" --resume -o "$tmp/k2.h5" > "$tmp/k2.txt" ||
+  fail "ltl_run --resume (one process) from a checkpoint saved on 2 ranks"
+before=$(sed -n 's/.*continues from its checkpoint, saved after \([0-9]\+\) iterations.*/\1/p' "$tmp/k2.txt")
+after=$(grep '^step' "$tmp/k2.txt" | sed 's/.*s \+\([0-9]\+\) iterations.*/\1/')
+echo "Fig 5 on 2 ranks stopped after the checkpoint of iteration $before, resumed on one process for $after; uninterrupted $full"
+[ -n "$before" ] && [ $((before + after)) = "$full" ] ||
+  fail "a checkpoint of 2 ranks resumed on one process: $before + $after, not $full"
 # A step that diverges under mpirun (the iteration cap): rank 0 saves its last iterate as
 # /unconverged/000001 before every rank ends (the ranks wait for it: a failing rank ends them all).
 if "$mpiexec" -n 2 --oversubscribe "$run" "$cfg" --set time.steps=1 --set algorithm.max_iter=5 \
