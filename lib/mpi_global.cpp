@@ -36,29 +36,40 @@ mpi::Partition slab_cells(const Mesh& mesh, int ranks) {
   return part;
 }
 
-std::vector<std::vector<int>> facet_neighbours(const Mesh& mesh) {
+DualGraph facet_neighbours(const Mesh& mesh) {
   const int nc = mesh.num_cells(), shared = mesh.nodes_per_facet();
   const NodeCells of = node_cells(mesh);
-  std::vector<std::vector<int>> adj(nc);
+  DualGraph g;
+  g.start.assign(nc + 1, 0);
   std::vector<int> near;
-  for (int c = 0; c < nc; ++c) {
+  // f(c, d) for each facet neighbour d of c, in order: `near` holds each cell that shares a node
+  // with c once per node shared.
+  const auto for_each_neighbour = [&](int c, auto&& f) {
     of.around(mesh, c, near);
     for (std::size_t j = 0; j < near.size();) {
       std::size_t k = j;
       while (k < near.size() && near[k] == near[j]) ++k;
-      if (static_cast<int>(k - j) >= shared) adj[c].push_back(near[j]);
+      if (static_cast<int>(k - j) >= shared) f(near[j]);
       j = k;
     }
+  };
+  for (int c = 0; c < nc; ++c) for_each_neighbour(c, [&](int) { ++g.start[c + 1]; });
+  for (int c = 0; c < nc; ++c) g.start[c + 1] += g.start[c];
+  g.next.resize(g.start[nc]);
+  for (int c = 0; c < nc; ++c) {
+    int at = g.start[c];
+    for_each_neighbour(c, [&](int d) { g.next[at++] = d; });
   }
-  return adj;
+  return g;
 }
 
 long cut_facets(const Mesh& mesh, const mpi::Partition& cells) {
   const std::vector<int> rank = cells.owners();
-  const std::vector<std::vector<int>> adj = facet_neighbours(mesh);
+  const DualGraph g = facet_neighbours(mesh);
   long cut = 0;
   for (int c = 0; c < mesh.num_cells(); ++c)
-    for (int d : adj[c]) cut += d > c && rank[d] != rank[c];
+    for (int k = g.start[c]; k < g.start[c + 1]; ++k)
+      cut += g.next[k] > c && rank[g.next[k]] != rank[c];
   return cut;
 }
 
@@ -244,18 +255,9 @@ std::vector<int> scotch_split(const std::vector<int>& ia, const std::vector<int>
 std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   const int nc = mesh.num_cells();
   const char* what = "the graph partition of the cells (PT-Scotch)";
-  std::vector<int> ia(nc + 1, 0), ja;  // the dual graph in compressed rows
-  {
-    std::vector<std::vector<int>> adj = facet_neighbours(mesh);
-    std::size_t edges = 0;
-    for (const std::vector<int>& a : adj) edges += a.size();
-    ja.reserve(edges);
-    for (int c = 0; c < nc; ++c) {  // each row freed once copied
-      ja.insert(ja.end(), adj[c].begin(), adj[c].end());
-      ia[c + 1] = static_cast<int>(ja.size());
-      std::vector<int>().swap(adj[c]);
-    }
-  }
+  const DualGraph graph = facet_neighbours(mesh);
+  const std::vector<int>& ia = graph.start;
+  const std::vector<int>& ja = graph.next;
   PetscInt threshold = kTwoLevelParts;
   PetscOptionsGetInt(nullptr, nullptr, "-ltl_mpi_two_level_parts", &threshold, nullptr);
   int groups = 1;
@@ -266,7 +268,7 @@ std::vector<int> scotch_parts(const Mesh& mesh, int parts) {
   if (groups == 1) return scotch_split(ia, ja, nullptr, at, parts, what);
   const int m = parts / groups;
   std::vector<int> part = scotch_split(ia, ja, nullptr, at, groups, what);
-  std::vector<std::vector<int>> members(groups);
+  std::vector<std::vector<int> > members(groups);
   for (int c = 0; c < nc; ++c) members[part[c]].push_back(c);  // sorted
   at.assign(nc, -1);
   for (int k = 0; k < groups; ++k) {
@@ -649,7 +651,7 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
       }
     g.add_value.resize(g.add_row.size());
     // Read: the added rows and the owned block (the warm start of the next solve), each once.
-    std::vector<std::pair<PetscInt, int>> row_node;  // (free row, its mesh node)
+    std::vector<std::pair<PetscInt, int> > row_node;  // (free row, its mesh node)
     for (std::size_t i = 0; i < g.add_row.size(); ++i)
       row_node.emplace_back(g.add_row[i], g.add_node[i]);
     for (int r = f0; r < f1; ++r) row_node.emplace_back(r, g.own_node[r - f0]);

@@ -855,19 +855,31 @@ TEST(Mpi, TheRanksCellsAreAGraphPartitionThatCutsFewFacets) {
   const int n = 12, nc = n * n * n;
   const Mesh m = load_mesh(ltl::testing::source_path("experiments/bench/cube.geo"), {{"n", n}});
   ASSERT_EQ(m.num_cells(), nc);
-  const std::vector<std::vector<int>> adj = facet_neighbours(m);
+  const DualGraph adj = facet_neighbours(m);
+  ASSERT_EQ(adj.start.size(), static_cast<std::size_t>(nc) + 1);
+  EXPECT_EQ(adj.start.front(), 0);
+  EXPECT_EQ(adj.start.back(), static_cast<int>(adj.next.size()));
+  const auto row = [&](int c) {
+    return std::make_pair(adj.next.begin() + adj.start[c], adj.next.begin() + adj.start[c + 1]);
+  };
   long pairs = 0;
-  std::size_t fewest = 99, most = 0;
+  int fewest = 99, most = 0;
   for (int c = 0; c < nc; ++c) {
-    pairs += static_cast<long>(adj[c].size());
-    fewest = std::min(fewest, adj[c].size());
-    most = std::max(most, adj[c].size());
-    for (int d : adj[c])
-      EXPECT_TRUE(std::binary_search(adj[d].begin(), adj[d].end(), c)) << c << " " << d;
+    const auto [first, last] = row(c);
+    const int count = static_cast<int>(last - first);
+    pairs += count;
+    fewest = std::min(fewest, count);
+    most = std::max(most, count);
+    EXPECT_TRUE(std::is_sorted(first, last)) << c;
+    for (auto d = first; d != last; ++d) {
+      const auto [dfirst, dlast] = row(*d);
+      EXPECT_NE(*d, c);
+      EXPECT_TRUE(std::binary_search(dfirst, dlast, c)) << c << " " << *d;
+    }
   }
   EXPECT_EQ(pairs, 2L * 3 * n * n * (n - 1));
-  EXPECT_EQ(fewest, 3u);
-  EXPECT_EQ(most, 6u);
+  EXPECT_EQ(fewest, 3);
+  EXPECT_EQ(most, 6);
   EXPECT_EQ(cut_facets(m, slab_cells(m, 2)), n * n);
   for (const int K : {4, 8}) {
     const mpi::Partition g = graph_cells(m, K);
