@@ -7,6 +7,7 @@
     r.steps[-1].measures["front"]  # the step's measures (lib/measures.hpp), e.g. the front
     r.steps[-1].in_contact         # the contact set per contact point (bool), or None
     ltl_results.resolved_config(r)  # the configuration in SI with every default (dict)
+    ltl_results.status_line(r)      # the status; for "running", whether a process still writes
 
 Arrays keep the file's layout: u (#nodes, dim); E, lambda, P, sigma (#cells, dim, dim) with
 [c, i, j] the (i, j) entry of cell c's tensor; sigma33 (#cells, plane strain), pressure
@@ -388,13 +389,59 @@ def resolved_config(results):
     return tomllib.loads(text) if text else None
 
 
+def writer_of(path):
+    """The process that writes the results file `path` now: the pid holding the flock of its
+    lock file (<the file's real directory>/<its name>.lock, lib/output_guard.hpp), read from
+    /proc/locks (so that asking takes no lock); 0 when none holds it; None when that cannot be
+    told (no /proc/locks: not Linux)."""
+    lock = os.path.join(os.path.realpath(os.path.dirname(os.path.abspath(path))),
+                        os.path.basename(path) + ".lock")
+    try:
+        st = os.stat(lock)
+    except FileNotFoundError:
+        return 0
+    try:
+        with open("/proc/locks") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return None
+    # "1: FLOCK  ADVISORY  WRITE 1234 08:01:5678 0 EOF": pid, then major:minor:inode (hex, hex,
+    # decimal); a lock that waits for another is marked "->". Matched on the inode alone: on an
+    # overlay file system (a container) the device that stat() gives may not be the one listed,
+    # and a process wrongly said to write is the safer error.
+    inode = ":%d" % st.st_ino
+    for line in lines:
+        words = line.split()
+        if "->" not in words and "FLOCK" in words and len(words) >= 6 and words[5].endswith(inode):
+            return int(words[4])
+    return 0
+
+
+def status_line(results):
+    """The file's status, and for a file that says "running" whether a process still writes it:
+    a run killed (SIGKILL, out of memory) or ended by an error of another MPI rank (MPI_Abort
+    ends rank 0, the writer, inside a collective) leaves "running" behind, with every step it
+    wrote complete."""
+    status = results.attrs.get("status", "")
+    if not status.startswith("running"):
+        return status
+    pid = writer_of(results.path)
+    if pid is None:
+        return status
+    if pid:
+        return "%s (written now by process %d)" % (status, pid)
+    return ("%s -- but no process writes it: the run ended without updating its status (killed, "
+            "or ended by an error of another MPI rank); the steps it holds are complete, "
+            "--resume continues it" % status)
+
+
 def summary(results, file=None):
-    """Prints a file's status and one row per step: t, iterations, final residuals and the
-    equilibrium measure; then the unconverged steps, marked as such."""
+    """Prints a file's status (status_line) and one row per step: t, iterations, final
+    residuals and the equilibrium measure; then the unconverged steps, marked as such."""
     out = file if file is not None else sys.stdout
     print("%s: %s, format version %d, status: %s" % (
         results.path, results.attrs.get("name", ""), results.format_version,
-        results.attrs.get("status", "")), file=out)
+        status_line(results)), file=out)
     for title, steps in (("steps (results)", results.steps),
                          ("UNCONVERGED steps (not results: last iterate, for diagnosis)",
                           [s for s in results.unconverged if not s.checkpoint]),
