@@ -44,9 +44,9 @@ mpi::Partition slab_cells(const Mesh& mesh, int ranks);
 struct DualGraph {
   std::vector<int> start, next;
 };
-/// Built in two passes (counts, then rows), with no list per cell: at 10^6 cells a list per cell
-/// (a vector of vectors, until 2026-12-03) cost about 60 MB more on rank 0, where the partition
-/// runs.
+/// Built in two passes (counts, then rows), with no list per cell (a vector of vectors until
+/// 2026-12-03, copied into these rows for the partition: the same peak, 1.2 million more
+/// allocations at 10^5 cells; paper_notes/mpi.md, "The dual graph in compressed rows").
 DualGraph facet_neighbours(const Mesh& mesh);
 
 /// From this many ranks on, graph_cells partitions in two levels when it can (mpi_global.cpp,

@@ -675,8 +675,12 @@ void ResultsWriter::checkpoint(int p, double load_factor, const State& iterate, 
   // here: rank 0 writes, reading E and lambda a block of cells at a time, and the other ranks
   // serve those blocks (StepFields::written), so that no rank holds a whole E or lambda. The
   // state's fields alone: a checkpoint is no result.
+  // A failed save (a full disk) is a warning (save_checkpoint); anything else thrown while saving
+  // ends the run on every rank with rank 0's message.
   StepFields fields(solver_, iterate, StepFields::Fields::State);
-  fields.written([&] { save_checkpoint(p, load_factor, iterate, iterations, fields); });
+  const std::string failure =
+      fields.written([&] { save_checkpoint(p, load_factor, iterate, iterations, fields); });
+  if (!failure.empty()) throw Error(failure);
 }
 
 void ResultsWriter::save_checkpoint(int p, double load_factor, const State& iterate, int iterations,
