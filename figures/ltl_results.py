@@ -7,7 +7,7 @@
     r.steps[-1].measures["front"]  # the step's measures (lib/measures.hpp), e.g. the front
     r.steps[-1].in_contact         # the contact set per contact point (bool), or None
     ltl_results.resolved_config(r)  # the configuration in SI with every default (dict)
-    ltl_results.status_line(r)      # the status; for "running", whether a process still writes
+    ltl_results.status_line(r)      # the status; for "running", whether a process writes it
 
 Arrays keep the file's layout: u (#nodes, dim); E, lambda, P, sigma (#cells, dim, dim) with
 [c, i, j] the (i, j) entry of cell c's tensor; sigma33 (#cells, plane strain), pressure
@@ -390,10 +390,11 @@ def resolved_config(results):
 
 
 def writer_of(path):
-    """The process that writes the results file `path` now: the pid holding the flock of its
-    lock file (<the file's real directory>/<its name>.lock, lib/output_guard.hpp), read from
-    /proc/locks (so that asking takes no lock); 0 when none holds it; None when that cannot be
-    told (no /proc/locks: not Linux)."""
+    """The process of this machine that writes the results file `path` now: the pid holding a
+    lock on its lock file (<the file's real directory>/<its name>.lock, lib/output_guard.hpp),
+    read from /proc/locks, so that asking takes no lock; 0 when no process of this machine holds
+    it (a job on another machine of a cluster does not show here); None when that cannot be told
+    (no /proc/locks: not Linux)."""
     lock = os.path.join(os.path.realpath(os.path.dirname(os.path.abspath(path))),
                         os.path.basename(path) + ".lock")
     try:
@@ -406,22 +407,23 @@ def writer_of(path):
     except OSError:
         return None
     # "1: FLOCK  ADVISORY  WRITE 1234 08:01:5678 0 EOF": pid, then major:minor:inode (hex, hex,
-    # decimal); a lock that waits for another is marked "->". Matched on the inode alone: on an
-    # overlay file system (a container) the device that stat() gives may not be the one listed,
-    # and a process wrongly said to write is the safer error.
+    # decimal); a lock that waits for another is marked "->". Any kind of lock (a network file
+    # system may list a flock as POSIX), matched on the inode alone: on an overlay file system
+    # (a container) the device that stat() gives need not be the one listed, and a process wrongly
+    # said to write is the safer error.
     inode = ":%d" % st.st_ino
     for line in lines:
         words = line.split()
-        if "->" not in words and "FLOCK" in words and len(words) >= 6 and words[5].endswith(inode):
+        if "->" not in words and len(words) >= 6 and words[5].endswith(inode):
             return int(words[4])
     return 0
 
 
 def status_line(results):
-    """The file's status, and for a file that says "running" whether a process still writes it:
-    a run killed (SIGKILL, out of memory) or ended by an error of another MPI rank (MPI_Abort
-    ends rank 0, the writer, inside a collective) leaves "running" behind, with every step it
-    wrote complete."""
+    """The file's status, and for a file that says "running" whether a process of this machine
+    still writes it: a run killed (SIGKILL, out of memory) or ended by an error of another MPI
+    rank (MPI_Abort ends rank 0, the writer, inside a collective) leaves "running" behind, with
+    every step it wrote complete."""
     status = results.attrs.get("status", "")
     if not status.startswith("running"):
         return status
@@ -429,10 +431,10 @@ def status_line(results):
     if pid is None:
         return status
     if pid:
-        return "%s (written now by process %d)" % (status, pid)
-    return ("%s -- but no process writes it: the run ended without updating its status (killed, "
-            "or ended by an error of another MPI rank); the steps it holds are complete, "
-            "--resume continues it" % status)
+        return "%s (written now by process %d of this machine)" % (status, pid)
+    return ("%s -- but no process of this machine writes it: unless a job on another machine "
+            "does, the run ended without updating its status (killed, or ended by an error of "
+            "another MPI rank); the steps it holds are complete, and --resume continues it" % status)
 
 
 def summary(results, file=None):

@@ -244,12 +244,12 @@ grep -q "ltl_run: error: rank 1 fails alone after step 1" "$tmp/f.err" ||
 /usr/bin/python3 -c 'import sys, h5py; sys.exit(0 if len(h5py.File(sys.argv[1])["steps"]) == 1 else 1)' \
   "$tmp/f.h5" || fail "an error of rank 1 alone: the file does not keep step 1"
 # Rank 0 was ended inside a collective: the file still says "running", and `ltl-results` says
-# that no process writes it (figures/ltl_results.py, status_line).
+# that no process of this machine writes it (figures/ltl_results.py, status_line).
 /usr/bin/python3 "$src/figures/ltl_results.py" "$tmp/f.h5" > "$tmp/f.txt" ||
   fail "ltl_results.py on the file of a job that one rank's error ended"
-grep -q "status: running -- but no process writes it" "$tmp/f.txt" ||
+grep -q "status: running -- but no process of this machine writes it" "$tmp/f.txt" ||
   fail "an error of rank 1 alone: the summary says $(head -1 "$tmp/f.txt")"
-echo "an error of rank 1 alone: exit status 1 with its message, step 1 kept, the summary says no process writes it"
+echo "an error of rank 1 alone: exit status 1 with its message, step 1 kept, the summary says no process of this machine writes it"
 # The same once its solver is set up (LTL_TEST_FAIL_RANK=1:setup), with MUMPS and with the Newton
 # phase on CG + GAMG: rank 1 unwinds its PETSc objects without destroying them
 # (mpi::collective_teardown), and the job ends with its message. Destroyed, MUMPS's teardown
