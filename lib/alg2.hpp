@@ -160,11 +160,12 @@ class Solver {
   /// that, and --resume did the Newton phase again); with glue ALG2's last one still (a glued
   /// Newton state is kept only if the local contact step holds there). A distributed solver
   /// iterates on the rank's rows of E and lambda and releases the caller's E and lambda until the
-  /// ALG2 phase ends; inside that phase this makes the iterate (collective: every rank calls it
-  /// at the same iteration): E and lambda the rank's rows, which the writer gathers a block of
-  /// cells at a time (StepFields), or, when the state between steps is whole (the replicated
-  /// factor), gathered whole on rank 0 alone; u from the ghost layers and the contact fields from
-  /// the ranks' points (whole on every rank). Only then: an iteration without a save gathers
+  /// ALG2 phase ends; inside that phase this makes the iterate into the state between steps, as
+  /// the phase's end does (between_steps; collective: every rank calls it at the same
+  /// iteration): E and lambda the rank's rows, which the writer gathers a block of cells at a
+  /// time (StepFields; whole on every rank with the replicated factor), u from the ghost layers
+  /// and the contact fields from the ranks' points (whole on every rank). Only then: an iteration
+  /// without a save gathers
   /// nothing (until 2026-12-03 a run with --checkpoint gathered E and lambda to every rank at every
   /// iteration, and until the fifth session of that day a save gathered them whole on rank 0).
   /// Null when `s` is the iterate: ALG2's phase of a serial solver (Ranks::One), or `s` between

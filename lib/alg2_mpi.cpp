@@ -377,23 +377,10 @@ std::optional<State> Solver::iterate_to_writer(const State& s) const {
     if (newton_ && !(contact_ && contact_->glued())) return newton_->current_state(s);
     return std::nullopt;
   }
-  // Inside an ALG2 phase on the ranks: the rank's rows of E and lambda, which the writer gathers
-  // a block at a time (StepFields), or gathered whole on the writer when the state between steps
-  // is whole (the replicated factor); u current on the ghost layer, the points' on their ranks.
-  const State& own = *alg2_rows_;
-  State w;
-  if (rows_between_steps()) {
-    w.E = own.E;
-    w.lambda = own.lambda;
-  } else {
-    mpi::gather_rows_to_writer(own.E, w.E, dist_->cells, dim());
-    mpi::gather_rows_to_writer(own.lambda, w.lambda, dist_->cells, dim());
-  }
-  w.u = own.u;
-  if (dist_->ksp) dist_->ksp->whole_u(w.u);
-  copy_contact_fields(own, w);
-  gather_points(w);
-  return w;
+  // Inside an ALG2 phase on the ranks: the phase's rows made into the state between steps, as at
+  // the phase's end (a copy: the phase goes on): E and lambda the rank's rows, which the writer
+  // gathers a block at a time (StepFields), u from the ghost layers, the points' fields gathered.
+  return between_steps(*alg2_rows_);
 }
 
 State Solver::between_steps(State own) const {

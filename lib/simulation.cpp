@@ -218,10 +218,11 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
     const int signal = run_signal(solver, &due);  // both decided over the ranks
     if (saving && (signal != 0 || due)) {
       // The caller's state is ALG2's iterate in ALG2's phases of one process; else the iterate is
-      // made (Newton's) and over the ranks gathered for the writer from the ranks' rows, by every
-      // rank (collective), and only for a save. Until 2026-12-03 the Newton phase's save refused
-      // it over the ranks ("E is 122 x 2, expected 244 x 2") and saved ALG2's last iterate on
-      // one process, and ALG2 gathered E and lambda whole at every iteration.
+      // made (Newton's; over the ranks the state between steps of ALG2's rows) by every rank
+      // (collective), and only for a save; the writer reads E and lambda from the ranks' rows a
+      // block at a time (ResultsWriter::checkpoint). Until 2026-12-03 the Newton phase's save
+      // refused it over the ranks ("E is 122 x 2, expected 244 x 2") and saved ALG2's last
+      // iterate on one process, and ALG2 gathered E and lambda whole at every iteration.
       const std::optional<State> iterate = solver.iterate_to_writer(state);
       checkpoints->save(p, factor, iterate ? *iterate : state, prior + r.n);
       saved = std::chrono::steady_clock::now();
@@ -674,9 +675,9 @@ void ResultsWriter::checkpoint(int p, double load_factor, const State& iterate, 
   // Under mpirun with the iterate on the ranks' rows (Solver::iterate_to_writer) every rank comes
   // here: rank 0 writes, reading E and lambda a block of cells at a time, and the other ranks
   // serve those blocks (StepFields::written), so that no rank holds a whole E or lambda. The
-  // state's fields alone: a checkpoint is no result.
-  // A failed save (a full disk) is a warning (save_checkpoint); anything else thrown while saving
-  // ends the run on every rank with rank 0's message.
+  // state's fields alone: a checkpoint is no result. A failed save (a full disk) is a warning
+  // (save_checkpoint); anything else thrown while saving ends the run on every rank with rank
+  // 0's message.
   StepFields fields(solver_, iterate, StepFields::Fields::State);
   const std::string failure =
       fields.written([&] { save_checkpoint(p, load_factor, iterate, iterations, fields); });

@@ -23,6 +23,13 @@ run=$build/experiments/ltl_run
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
+# The pid of rank 1 of the job writing the results file $1 (none: empty).
+rank1_of() {
+  for pid in $(pgrep -x ltl_run); do
+    r=$( (tr '\0' '\n' < "/proc/$pid/environ") 2> /dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p')
+    [ "$r" = 1 ] && grep -q "$1" "/proc/$pid/cmdline" 2> /dev/null && echo "$pid"
+  done
+}
 "$run" "$src/experiments/fig3/fig3.toml" --set time.steps=2 -o "$tmp/serial.h5" > "$tmp/serial.txt" ||
   fail "serial run"
 "$mpiexec" -n 2 --oversubscribe "$run" "$src/experiments/fig3/fig3.toml" --set time.steps=2 \
@@ -162,10 +169,8 @@ for attempt in 1 2 3; do
   job=$!
   i=0
   while [ ! -f "$tmp/k2.h5" ] && [ $i -lt 4000 ]; do sleep 0.005; i=$((i + 1)); done
-  for pid in $(pgrep -x ltl_run); do
-    r=$( (tr '\0' '\n' < "/proc/$pid/environ") 2> /dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p')
-    [ "$r" = 1 ] && grep -q "$tmp/k2.h5" "/proc/$pid/cmdline" 2> /dev/null && kill -TERM "$pid"
-  done
+  victim=$(rank1_of "$tmp/k2.h5")
+  [ -n "$victim" ] && kill -TERM "$victim"
   wait $job
   grep -q "is saved (a checkpoint)" "$tmp/k2.err" && break
   [ $attempt = 3 ] && fail "2 ranks: the step always finished before SIGTERM"
@@ -215,11 +220,7 @@ timeout 120 "$mpiexec" -n 2 --oversubscribe "$run" "$f5" --set time.steps=10 \
 job=$!
 i=0
 while [ ! -f "$tmp/t.h5" ] && [ $i -lt 6000 ]; do sleep 0.005; i=$((i + 1)); done
-victim=
-for pid in $(pgrep -x ltl_run); do
-  r=$( (tr '\0' '\n' < "/proc/$pid/environ") 2> /dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p')
-  [ "$r" = 1 ] && grep -q "$tmp/t.h5" "/proc/$pid/cmdline" 2> /dev/null && victim=$pid
-done
+victim=$(rank1_of "$tmp/t.h5")
 [ -n "$victim" ] || fail "SIGTERM to rank 1: no rank 1 found (the run ended before step 1?)"
 kill -TERM "$victim"
 wait $job

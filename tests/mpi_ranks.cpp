@@ -1386,8 +1386,7 @@ TEST(Mpi, Eq4_1to4_4_ACheckpointStaysOnTheRanksRowsUntilTheWriterReadsIt) {
 /// [(2.2), (4.1)-(4.4)] The same through ALG2's phases and the Newton phase of Fig 5
 /// (algorithm.solver = "newton"): at every progress call the iterate for the writer is, on rank
 /// 0, the serial run's at the same call (ALG2's iterate, then Newton's), and the calls are as
-/// many. Fails if the Newton phase's state between steps (E and lambda on the rank's rows) is
-/// handed over as it is, or ALG2's last iterate instead of Newton's.
+/// many. Fails if ALG2's last iterate is handed over instead of Newton's.
 TEST(Mpi, Eq2_2_ACheckpointThroughTheNewtonPhaseIsTheSerialIterate) {
   const Problem p = load_problem(ltl::testing::source_path(kFig5), {"algorithm.solver=\"newton\""});
   const int dim = p.mesh.dim, nc = p.mesh.num_cells();
