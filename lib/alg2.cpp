@@ -435,7 +435,7 @@ class Solver::Alg2Map final : public FixedPointMap {
 
 void Solver::make_work() {
   const int dim = disc_.dim(), n_own = static_cast<int>(own_cells().size());
-  rhs_.resize(disc_.num_nodes(), dim);
+  rhs_.resize(rhs_rows(), dim);
   T_.resize(dim * static_cast<Eigen::Index>(n_own), dim);
   global_out_.GU.resize(T_.rows(), dim);
   prev_.E.resize(T_.rows(), dim);

@@ -50,8 +50,12 @@ struct Holdings {
   double mesh = 0;         ///< the mesh in the discretization's problem: X, cells, boundary facets
   double operators = 0;    ///< Gbar, GbarT_vol, the Laplacian, vol (the solver's copies too)
   double cell_arrays = 0;  ///< dense per-cell arrays: the work arrays, the cell lists
-  /// Dense per-node arrays (dead loads, rhs) and the Dirichlet values (12 B per fixed dof).
+  /// Dense per-node arrays (dead loads, rhs), the ghost layer's node lists and the Dirichlet
+  /// values (12 B per fixed dof).
   double node_arrays = 0;
+  /// The rows of the global step's right-hand side: #nodes, or on several ranks with a ghost
+  /// layer the rank's cells' and points' nodes (alg2_mpi.cpp)
+  int rhs_rows = 0;
   double contact = 0;  ///< the contact points' operators and arrays
   /// With the Newton phase (newton.hpp): its cells (the rank's on several ranks), their
   /// data, their positions in the tangent's pattern, and the whole-mesh data it keeps.
@@ -361,9 +365,11 @@ class Solver {
   // global step's right-hand side and output, the multipliers of the local steps
   // (Bermudez-Moreno), the previous iterate of the residual r_G. Sized by make_work (the
   // constructor, and each ALG2 phase of solve_step after a Newton phase); release_work frees them
-  // for a Newton phase, which does not use them (rhs_ is whole-size on every rank).
+  // for a Newton phase, which does not use them. rhs_ is #nodes x dim, on the rank's ghost layer
+  // (alg2_mpi.cpp) #layer x dim: rhs_rows().
   void make_work();
   void release_work();
+  int rhs_rows() const;
   Eigen::MatrixXd rhs_, T_;
   GlobalOutput global_out_;
   Multipliers half_;

@@ -53,7 +53,11 @@ struct Solver::Distribution {
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  SpMatR meanT_own;           ///< #nodes x #owned points: the owned columns of meanT_area
+  /// With a ghost layer: the nodes of the right-hand side's rows (sorted: the rank's cells' and
+  /// points' nodes), and each node's row there (#nodes, -1: none). Empty without.
+  std::vector<int> layer, layer_row;
+  /// #nodes (with a ghost layer #layer) x #owned points: the owned columns of meanT_area
+  SpMatR meanT_own;
   Eigen::MatrixXd point_rhs;  ///< #owned points x dim: R q_c e + lambda_c of the owned points
   std::unique_ptr<DistributedGlobalStep> ksp;
   double scale = 1;
@@ -163,6 +167,7 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   d.scale = scale;
   if (!d.use_ksp) return false;
   d.ksp.reset();
+  Eigen::MatrixXd().swap(rhs_);  // sized below: whole, or on the ghost layer's rows
   const std::vector<int> node_rank = node_ranks(problem().mesh, d.cells);
   d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
                                                   node_rank, d.ksp_solver, disc_.partial(),
@@ -188,9 +193,30 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     std::vector<int> nodes;
     for (int n = 0; n < disc_.num_nodes(); ++n)
       if (touched[n]) nodes.push_back(n);
+    std::vector<char>().swap(touched);
     d.ksp->set_ghost_layer(nodes);
+    // The right-hand side on the layer's rows alone (global_phase_distributed): meanT_own's rows
+    // renumbered once.
+    d.layer_row.assign(disc_.num_nodes(), -1);
+    for (std::size_t k = 0; k < nodes.size(); ++k) d.layer_row[nodes[k]] = static_cast<int>(k);
+    d.layer = std::move(nodes);
+    if (d.meanT_own.rows() == disc_.num_nodes()) {
+      std::vector<Eigen::Triplet<double> > t;
+      t.reserve(d.meanT_own.nonZeros());
+      for (int i = 0; i < d.meanT_own.outerSize(); ++i)
+        for (SpMatR::InnerIterator it(d.meanT_own, i); it; ++it)
+          t.emplace_back(d.layer_row[i], static_cast<int>(it.col()), it.value());
+      SpMatR local(static_cast<Eigen::Index>(d.layer.size()), d.meanT_own.cols());
+      local.setFromTriplets(t.begin(), t.end());
+      d.meanT_own.swap(local);
+    }
   }
+  rhs_.resize(rhs_rows(), dim());
   return true;
+}
+
+int Solver::rhs_rows() const {
+  return dist_ && !dist_->layer.empty() ? static_cast<int>(dist_->layer.size()) : disc_.num_nodes();
 }
 
 bool Solver::distributed_cg_gamg() const {
@@ -269,16 +295,22 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const ContactPoints* points = disc_.points();
   const auto I = identity_rows(dim, static_cast<int>(d.own.size()));
   T_ = Rq * (s.E - I) + s.lambda - 2 * disc_.split().C1 * I;
+  // Gbar's block of own[at]: at on a discretization of the rank's cells, else the cell itself.
+  // With a ghost layer the right-hand side is on the layer's rows (layer_row), else whole.
+  const bool held_rows = disc_.partial();
+  const bool ghosts = d.ksp && d.ksp->ghost_layer();
+  const int* row_of = ghosts ? d.layer_row.data() : nullptr;
+  if (rhs_.rows() != rhs_rows()) rhs_.resize(rhs_rows(), dim);  // sized at the set-up: a guard
   rhs_.setZero();
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
-    add_cell_forces(disc_.cells(), c0, n, T_.middleRows(dim * at, dim * n), rhs_);
+    add_cell_forces(disc_.cells(), c0, n, held_rows ? at : c0, T_.middleRows(dim * at, dim * n),
+                    rhs_, row_of);
   });
-  const SpMatR& G = disc_.cells().Gbar;  // rows dim c .. dim c + dim - 1 of cell c
-  const bool ghosts = d.ksp && d.ksp->ghost_layer();
+  const SpMatR& G = disc_.cells().Gbar;
   if (mpi::rank() == 0 && !ghosts)  // with ghosts, on the owned rows (solve)
     rhs_ += load_factor_ * disc_.dead_load();
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
-    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own);
+    disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own, row_of);
   if (points) {
     mpi::for_each_run(d.own_points, [&](int f0, int n, int at) {
       d.point_rhs.middleRows(at, n) =
@@ -286,7 +318,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     });
     rhs_.noalias() += d.meanT_own * d.point_rhs;
   }
-  if (ghosts) {  // the ranks' parts added into PETSc's vector; u on this rank's nodes
+  if (ghosts) {  // the ranks' parts (layer rows) added into PETSc's vector; u on its nodes
     d.ksp->solve(rhs_, s.u, &disc_.dead_load(), load_factor_);
   } else {
     mpi::sum(rhs_.data(), rhs_.size());
@@ -297,7 +329,8 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   }
 
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
-    g.GU.middleRows(dim * at, dim * n).noalias() = G.middleRows(dim * c0, dim * n) * s.u;
+    g.GU.middleRows(dim * at, dim * n).noalias() =
+        G.middleRows(dim * (held_rows ? at : c0), dim * n) * s.u;
   });
   if (disc_.mean_det()) {
     disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, &d.own);
@@ -476,14 +509,17 @@ Holdings Solver::holdings() const {
   h.operators = bytes_of_sparse(c.Gbar) + bytes_of_sparse(c.GbarT_vol) +
                 bytes_of_sparse(c.laplacian) + bytes_of(c.vol);
   const int dim = this->dim();
-  for (int e = 0; e < disc_.num_cells(); ++e)
-    if (c.Gbar.outerIndexPtr()[dim * e + 1] > c.Gbar.outerIndexPtr()[dim * e])
+  for (Eigen::Index k = 0; k < c.Gbar.rows() / dim; ++k)
+    if (c.Gbar.outerIndexPtr()[dim * k + 1] > c.Gbar.outerIndexPtr()[dim * k])
       ++h.cells_with_operators;
   h.cell_arrays = bytes_of(T_) + bytes_of(global_out_.GU) + bytes_of(global_out_.J) +
                   bytes_of(prev_.E) + bytes_of(half_.lambda) + bytes_of(w_cell_) +
                   4.0 * static_cast<double>(disc_.held_cells().size());
   if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
+  h.rhs_rows = static_cast<int>(rhs_.rows());
   h.node_arrays = bytes_of(disc_.dead_load()) + bytes_of(rhs_);
+  if (dist_)
+    h.node_arrays += 4.0 * static_cast<double>(dist_->layer.size() + dist_->layer_row.size());
   const DirichletData& bc = disc_.dirichlet();
   for (std::size_t i = 0; i < bc.fixed.size(); ++i)
     h.node_arrays +=

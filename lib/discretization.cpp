@@ -64,13 +64,7 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
   problem_.validate();
   const Mesh& mesh = problem_.mesh;
   const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
-  if (held) {
-    held_ = *held;
-  } else {
-    held_.resize(nc);
-    for (int c = 0; c < nc; ++c) held_[c] = c;
-  }
-  partial_ = static_cast<int>(held_.size()) != nc;
+  partial_ = held && static_cast<int>(held->size()) != nc;
 
   // The split (2.5)-(2.6) of W: C1 |F|^2 in the global quadratic, the rest local. In plane strain
   // the incompressible Mooney-Rivlin C2 term is C2 (|F|^2 + 1) on det F = 1, so by default it
@@ -81,7 +75,7 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
     split_.C2 = 0;
   }
 
-  cells_ = cell_operators(mesh, &held_);
+  cells_ = cell_operators(mesh, held);
   volume_ = cells_.vol.sum();
 
   // Mean-det incompressibility (DiscretizationChoice::mean_det): the point gradients at the
@@ -294,7 +288,7 @@ template <int d, int npc>
 void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::MatrixXd& u,
                       const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
                       Eigen::VectorXd* c, Eigen::MatrixXd* force, std::vector<double>& buffer,
-                      const std::vector<int>* cells, int n) {
+                      const std::vector<int>* cells, int n, const int* row_of) {
   constexpr int kBlock = 2048, kNodal = npc * d;
   if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
   if (cells) n = static_cast<int>(cells->size());
@@ -312,7 +306,10 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
       const Eigen::Map<const Eigen::Matrix<double, npc, d>> fe(
           buffer.data() + static_cast<std::size_t>(k - b0) * kNodal);
       const int e = cells ? (*cells)[k] : k;
-      for (int a = 0; a < npc; ++a) force->row(kernel.cells(e, a)) += fe.row(a);
+      for (int a = 0; a < npc; ++a) {
+        const int node = kernel.cells(e, a);
+        force->row(row_of ? row_of[node] : node) += fe.row(a);
+      }
     }
   }
 }
@@ -321,19 +318,19 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
 void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                                  const Eigen::MatrixXd* E, Eigen::VectorXd* c,
                                  Eigen::MatrixXd* force, double gamma,
-                                 const std::vector<int>* cells) const {
+                                 const std::vector<int>* cells, const int* row_of) const {
   // The point gradients are recomputed per cell from the nodes' positions (no per-cell or
   // per-point table: memory per cell, not speed, limits the 3-D problems).
   const Mesh& mesh = problem_.mesh;
   if (dim() == 2)
     fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, cells, num_cells());
+                           force, buffer_, cells, num_cells(), row_of);
   else if (mesh.nodes_per_cell() == 10)
     fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
-                            c, force, buffer_, cells, num_cells());
+                            c, force, buffer_, cells, num_cells(), row_of);
   else
     fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, cells, num_cells());
+                           force, buffer_, cells, num_cells(), row_of);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
@@ -348,7 +345,7 @@ Eigen::MatrixXd Discretization::fluctuation_force(const State& s) const {
   // E and lambda on the held cells' rows (a rank's state between steps, cell_row): those cells'
   // part, summed over the ranks (collective); whole: every cell here.
   const bool rows = partial_ && !whole_field(s.E);
-  fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0, rows ? &held_ : nullptr);
+  fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0, rows ? &held_cells() : nullptr);
   if (rows) mpi::sum(force.data(), force.size());
   return force;
 }
@@ -430,16 +427,19 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   const int d = dim();
   const Material& m = split_;
   double J = 0;  // over the held cells (E whole or on their rows, cell_row)
-  for (int at = 0; at < static_cast<int>(held_.size()); ++at) {
-    const Eigen::Index r = cell_row(s.E, held_[at], at);
+  const std::vector<int>& held = held_cells();
+  const Eigen::MatrixXd GU = cells_.Gbar * s.u;  // the held cells' rows
+  double mean2 = 0;
+  for (int at = 0; at < static_cast<int>(held.size()); ++at) {
+    const Eigen::Index r = cell_row(s.E, held[at], at);
+    const double vol = cells_.vol(held[at]);
     if (d == 2)
-      J += cells_.vol(held_[at]) * m.W(Eigen::Matrix2d(s.E.block<2, 2>(r, 0).transpose()));
+      J += vol * m.W(Eigen::Matrix2d(s.E.block<2, 2>(r, 0).transpose()));
     else
-      J += cells_.vol(held_[at]) * m.W(Eigen::Matrix3d(s.E.block<3, 3>(r, 0).transpose()));
+      J += vol * m.W(Eigen::Matrix3d(s.E.block<3, 3>(r, 0).transpose()));
+    mean2 += vol * GU.middleRows(static_cast<Eigen::Index>(d) * at, d).squaredNorm();
   }
-  const Eigen::MatrixXd GU = cells_.Gbar * s.u;
   const double grad2 = (s.u.transpose() * (cells_.laplacian * s.u)).trace();
-  const double mean2 = (GU.array().square().colwise() * volume_rows().array()).sum();
   if (partial_) {  // the held cells' parts summed over the ranks
     double parts[3] = {J, grad2, mean2};
     mpi::sum(parts, 3);
@@ -455,17 +455,17 @@ Eigen::MatrixXd Discretization::held_cell_forces(
   const int d = dim();
   Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * u);
   Eigen::MatrixXd T;
-  mpi::for_each_run(held_, [&](int c0, int n, int at) {
-    T.noalias() = cells_.Gbar.middleRows(d * c0, d * n) * u;
+  mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {
+    T.noalias() = cells_.Gbar.middleRows(d * at, d * n) * u;
     stress(c0, n, at, T);
-    add_cell_forces(cells_, c0, n, T, f);
+    add_cell_forces(cells_, c0, n, at, T, f);
   });
   if (less_fluctuation && mean_det_) {  // f - force as -(-f + force): negation is exact
     const State& s = *less_fluctuation;
     if (whole_field(s.E) && partial_)
       throw Error("held_cell_forces: the fluctuation needs E and lambda on the held cells' rows");
     f = -f;
-    fluctuation(s.u, &s.lambda, &s.E, nullptr, &f, 0.0, partial_ ? &held_ : nullptr);
+    fluctuation(s.u, &s.lambda, &s.E, nullptr, &f, 0.0, partial_ ? &held_cells() : nullptr);
     f = -f;
   }
   if (partial_) mpi::sum(f.data(), f.size());

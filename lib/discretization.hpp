@@ -43,7 +43,7 @@ class Discretization {
   int num_nodes() const { return problem_.mesh.num_nodes(); }
   /// The cells whose operators this discretization holds (sorted); all of them unless
   /// partial().
-  const std::vector<int>& held_cells() const { return held_; }
+  const std::vector<int>& held_cells() const { return cells_.cell; }
   bool partial() const { return partial_; }
   /// The first row of held cell `cell`'s block (dim rows) in a per-cell field like State::E:
   /// the field is whole (dim #cells rows, the cell's block at dim cell) or the held cells' rows
@@ -116,10 +116,12 @@ class Discretization {
   /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
   /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell. On the
   /// cells `cells` (sorted; null: all; a rank's cells when distributed, alg2_mpi.cpp): then the
-  /// k-th cell's rows of lambda and E are the k-th block and its c is c(k).
+  /// k-th cell's rows of lambda and E are the k-th block and its c is c(k). With row_of, node
+  /// i's force goes to row row_of[i] of force (a rank's ghost layer's rows, alg2_mpi.cpp).
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
-                   double gamma = 0, const std::vector<int>* cells = nullptr) const;
+                   double gamma = 0, const std::vector<int>* cells = nullptr,
+                   const int* row_of = nullptr) const;
 
   // Outputs at a state, per cell (transposed-block layout like E) or per contact point. The cell
   // outputs are per block of s.E: every cell's (E whole), or the held cells' in their order (E
@@ -171,7 +173,6 @@ class Discretization {
 
  private:
   Problem problem_;
-  std::vector<int> held_;  ///< the cells with operators (all unless partial_)
   bool partial_ = false;
   Material split_;
   CellOperators cells_;

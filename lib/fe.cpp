@@ -256,9 +256,9 @@ double cell_integrals(const Mesh& mesh, int c, Eigen::MatrixXd& gint, Eigen::Mat
 // Assembled in place, without triplet lists: the Laplacian's pattern (nodes sharing a cell) from
 // the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
 // which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.
-// On a set of cells (a rank's cells, paper_notes/mpi.md): the other cells' rows of Gbar are
-// empty, L sums the set's cells only, vol is whole, and GbarT_vol is not built (the forces of a
-// rank's cells go run by run through add_cell_forces).
+// On a set of cells (a rank's cells, paper_notes/mpi.md): Gbar has the set's rows only, L sums
+// the set's cells only, vol is whole, and GbarT_vol is not built (the forces of a rank's cells go
+// run by run through add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
   const int nn = mesh.num_nodes();
@@ -268,13 +268,14 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
     for (int c = 0; c < nc; ++c) all[c] = c;
     held = &all;
   }
-  std::vector<char> own(nc, 0);
-  for (int c : *held) {
-    if (c < 0 || c >= nc || own[c])
-      throw Error(cat("cell_operators: cell ", c, " out of the ", nc, " cells, or twice"));
-    own[c] = 1;
+  for (std::size_t k = 0; k < held->size(); ++k) {
+    const int c = (*held)[k];
+    if (c < 0 || c >= nc || (k > 0 && c <= (*held)[k - 1]))
+      throw Error(
+          cat("cell_operators: cell ", c, " out of the ", nc, " cells, twice or out of order"));
   }
   CellOperators ops;
+  ops.cell = *held;
   ops.vol.resize(nc);
   // The cells around each node, then the pattern of L column by column (count, then fill).
   std::vector<int> first(static_cast<std::size_t>(nn) + 1, 0), around;
@@ -310,21 +311,16 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   std::fill(L.valuePtr(), L.valuePtr() + L.nonZeros(), 0.0);
   std::vector<int>().swap(around);
   std::vector<int>().swap(first);
-  // The integrals of the gradients, rows dim c + j, with the cell's nodes in increasing order.
-  SpMatR Gint(dim * nc, nn);
-  Gint.resizeNonZeros(static_cast<Eigen::Index>(dim) * held->size() * npc);
-  {
-    int at = 0;
-    for (int r = 0; r < dim * nc; ++r) {
-      Gint.outerIndexPtr()[r] = at;
-      if (own[r / dim]) at += npc;
-    }
-    Gint.outerIndexPtr()[dim * nc] = at;
-  }
+  // The integrals of the gradients, rows dim k + j of held cell k, with the cell's nodes in
+  // increasing order.
+  const int nh = static_cast<int>(held->size());
+  SpMatR Gint(dim * nh, nn);
+  Gint.resizeNonZeros(static_cast<Eigen::Index>(dim) * nh * npc);
+  for (int r = 0; r <= dim * nh; ++r) Gint.outerIndexPtr()[r] = r * npc;
   Eigen::MatrixXd gint(npc, dim), Ke(npc, npc);
   std::vector<int> order(npc);
-  for (int c = 0; c < nc; ++c) {
-    if (!own[c]) {  // the volume alone
+  for (int c = 0, at = 0; c < nc; ++c) {
+    if (at == nh || (*held)[at] != c) {  // the volume alone
       double vol = 0;
       for_each_point(mesh, c, [&](const auto&, const auto&, double w) { vol += w; });
       ops.vol(c) = vol;
@@ -336,27 +332,47 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
               [&](int a, int b) { return mesh.cells(c, a) < mesh.cells(c, b); });
     for (int j = 0; j < dim; ++j)
       for (int k = 0; k < npc; ++k) {
-        const Eigen::Index at = Gint.outerIndexPtr()[dim * c + j] + k;
-        Gint.innerIndexPtr()[at] = mesh.cells(c, order[k]);
-        Gint.valuePtr()[at] = gint(order[k], j);
+        const Eigen::Index i = Gint.outerIndexPtr()[dim * at + j] + k;
+        Gint.innerIndexPtr()[i] = mesh.cells(c, order[k]);
+        Gint.valuePtr()[i] = gint(order[k], j);
       }
     for (int a = 0; a < npc; ++a)
       for (int b = 0; b < npc; ++b) L.coeffRef(mesh.cells(c, a), mesh.cells(c, b)) += Ke(a, b);
+    ++at;
   }
-  if (static_cast<int>(held->size()) == nc) ops.GbarT_vol = Gint.transpose();
+  if (nh == nc) ops.GbarT_vol = Gint.transpose();
   // Gbar = diag(1 / |O_e|) Gint, scaled in place.
-  for (int r = 0; r < dim * nc; ++r)
+  for (int r = 0; r < dim * nh; ++r)
     for (SpMatR::InnerIterator it(Gint, r); it; ++it)
-      it.valueRef() = (1.0 / ops.vol(r / dim)) * it.value();
+      it.valueRef() = (1.0 / ops.vol(ops.cell[r / dim])) * it.value();
   ops.Gbar.swap(Gint);
   return ops;
 }
 
-void add_cell_forces(const CellOperators& ops, int c0, int n, Eigen::Ref<Eigen::MatrixXd> T,
-                     Eigen::MatrixXd& f) {
+void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref<Eigen::MatrixXd> T,
+                     Eigen::MatrixXd& f, const int* row_of) {
   const int dim = static_cast<int>(T.cols());
   for (int k = 0; k < n; ++k) T.middleRows(dim * k, dim) *= ops.vol(c0 + k);
-  f.noalias() += ops.Gbar.middleRows(dim * c0, dim * n).transpose() * T;
+  if (!row_of) {
+    f.noalias() += ops.Gbar.middleRows(dim * at, dim * n).transpose() * T;
+    return;
+  }
+  // The same sum node by node: a cell's dim rows of Gbar hold its nodes in the same order
+  // (cell_operators), so node a of cell k gets sum_j Gbar(dim k + j, a) T_k(j, :).
+  const int* outer = ops.Gbar.outerIndexPtr();
+  const int* node = ops.Gbar.innerIndexPtr();
+  const double* g = ops.Gbar.valuePtr();
+  for (int k = 0; k < n; ++k) {
+    const int r0 = dim * (at + k), npc = outer[r0 + 1] - outer[r0];
+    for (int a = 0; a < npc; ++a) {
+      const int row = row_of[node[outer[r0] + a]];
+      for (int i = 0; i < dim; ++i) {
+        double sum = 0;
+        for (int j = 0; j < dim; ++j) sum += g[outer[r0 + j] + a] * T(dim * k + j, i);
+        f(row, i) += sum;
+      }
+    }
+  }
 }
 
 ContactPoints facet_mean_points(const Mesh& mesh, const Mesh::Boundary& boundary) {

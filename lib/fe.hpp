@@ -32,14 +32,20 @@ struct CellOperators {
   }
   void swap(CellOperators& o) noexcept {
     vol.swap(o.vol);
+    cell.swap(o.cell);
     Gbar.swap(o.Gbar);
     GbarT_vol.swap(o.GbarT_vol);
     laplacian.swap(o.laplacian);
   }
 
   Eigen::VectorXd vol;  ///< #cells, |O_e|
-  /// (dim * #cells) x #nodes: row dim*e + j of Gbar * U is the j-th column of the mean
-  /// gradient, i.e. (Gbar * U)(dim*e + j, i) = mean of d u_i / d x_j over cell e (U: #nodes x dim).
+  /// The cells whose operators are held (sorted; every cell unless some were asked for): Gbar's
+  /// row blocks, in this order.
+  std::vector<int> cell;
+  /// (dim * #held) x #nodes: row dim*k + j of Gbar * U is the j-th column of the mean gradient
+  /// of cell e = cell[k], i.e. (Gbar * U)(dim*k + j, i) = mean of d u_i / d x_j over cell e
+  /// (U: #nodes x dim; k = e when every cell is held). On a rank's cells, its rows alone: no
+  /// row index of the other ranks' cells (paper_notes/mpi.md).
   SpMatR Gbar;
   /// #nodes x (dim * #cells): transpose of Gbar with rows weighted by |O_e|, so that
   /// GbarT_vol * T assembles sum_e |O_e| T_e : Gbar_e(v) for T: (dim*#cells) x dim, with
@@ -50,18 +56,21 @@ struct CellOperators {
   SpMat laplacian;
 };
 
-/// [(2.7), (3.3)] The operators of the cells `held` (null: every cell): the other cells' rows of
-/// Gbar are empty and the Laplacian sums the held cells only (a rank's cells in a distributed
-/// run, paper_notes/mpi.md); vol is every cell's. GbarT_vol is built only when every cell is
-/// held: on some cells it stays empty, and their forces go run by run (add_cell_forces).
+/// [(2.7), (3.3)] The operators of the cells `held` (sorted; null: every cell): Gbar has their
+/// rows only, in their order (CellOperators::cell), and the Laplacian sums them only (a rank's
+/// cells in a distributed run, paper_notes/mpi.md); vol is every cell's. GbarT_vol is built only
+/// when every cell is held: on some cells it stays empty, and their forces go run by run
+/// (add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held = nullptr);
 
 /// [(2.7), (4.1)] f += sum_e |O_e| T_e : Gbar_e(v) over the cells c0 .. c0 + n - 1 (a run of a
-/// rank's cells), T their (dim n) x dim blocks, scaled by |O_e| in place: GbarT_vol T on those
-/// cells, from Gbar's rows (on a rank's cells T holds their rows only, and GbarT_vol is not
-/// built; paper_notes/mpi.md).
-void add_cell_forces(const CellOperators& ops, int c0, int n, Eigen::Ref<Eigen::MatrixXd> T,
-                     Eigen::MatrixXd& f);
+/// rank's cells, at position `at` in CellOperators::cell), T their (dim n) x dim blocks, scaled
+/// by |O_e| in place: GbarT_vol T on those cells, from Gbar's rows dim at .. dim (at + n) - 1 (on
+/// a rank's cells T holds their rows only, and GbarT_vol is not built; paper_notes/mpi.md). With
+/// row_of, node i's force goes to row row_of[i] of f (a rank's right-hand side on its ghost
+/// layer's rows, alg2_mpi.cpp).
+void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref<Eigen::MatrixXd> T,
+                     Eigen::MatrixXd& f, const int* row_of = nullptr);
 
 /// [(2.7), (3.3)] The integrals over cell c of its shape functions' gradients grad_q (at the
 /// quadrature points of for_each_quadrature_point, weights w_q): returns |O_c| = sum_q w_q, with

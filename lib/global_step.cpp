@@ -29,18 +29,20 @@ SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, dou
     const int* at = std::lower_bound(begin, end, i);
     return at != end && *at == i ? K.valuePtr() + (at - K.innerIndexPtr()) : nullptr;
   };
-  // R q sum_e |O_e| Gbar_e^T Gbar_e: cell e's rows of Gbar hold its nodes, in the same order.
-  const int nc = static_cast<int>(cells.vol.size());
-  const int dim = nc > 0 ? static_cast<int>(cells.Gbar.rows() / nc) : 1;
-  for (int c = 0; c < nc; ++c) {
-    const Eigen::Index r0 = cells.Gbar.outerIndexPtr()[dim * c];
-    const int npc = static_cast<int>(cells.Gbar.outerIndexPtr()[dim * c + 1] - r0);
+  // R q sum_e |O_e| Gbar_e^T Gbar_e over the held cells: held cell k's rows of Gbar hold its
+  // nodes, in the same order.
+  const int nh = static_cast<int>(cells.cell.size());
+  const int dim = nh > 0 ? static_cast<int>(cells.Gbar.rows() / nh) : 1;
+  for (int k = 0; k < nh; ++k) {
+    const int c = cells.cell[k];
+    const Eigen::Index r0 = cells.Gbar.outerIndexPtr()[dim * k];
+    const int npc = static_cast<int>(cells.Gbar.outerIndexPtr()[dim * k + 1] - r0);
     const int* node = cells.Gbar.innerIndexPtr() + r0;
     for (int a = 0; a < npc; ++a)
       for (int b = 0; b < npc; ++b) {
         double m = 0;
         for (int j = 0; j < dim; ++j) {
-          const double* g = cells.Gbar.valuePtr() + cells.Gbar.outerIndexPtr()[dim * c + j];
+          const double* g = cells.Gbar.valuePtr() + cells.Gbar.outerIndexPtr()[dim * k + j];
           m += g[a] * g[b];
         }
         double* at = entry(node[a], node[b]);

@@ -335,7 +335,7 @@ struct DistributedGlobalStep::Group {
   // free rows of u it reads (the added ones and its owned block) with their scatter from xv into
   // `read`.
   std::vector<PetscInt> add_row;
-  std::vector<int> add_node;  ///< the mesh node of each added row
+  std::vector<int> add_at;  ///< the row in the ghost layer's b of each added row
   std::vector<PetscScalar> add_value;
   std::vector<int> read_node;
   Vec read = nullptr;
@@ -643,17 +643,19 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
     std::vector<int>().swap(g.whole_node);  // u is no longer gathered whole by a solve
     std::vector<double>().swap(g.whole_x);
     g.add_row.clear();
-    g.add_node.clear();
-    for (int n : nodes)
-      if (free_row[n] >= 0) {
+    g.add_at.clear();
+    std::vector<int> add_node;  // the mesh node of each added row
+    for (std::size_t k = 0; k < nodes.size(); ++k)
+      if (const int n = nodes[k]; free_row[n] >= 0) {
         g.add_row.push_back(free_row[n]);
-        g.add_node.push_back(n);
+        add_node.push_back(n);
+        g.add_at.push_back(static_cast<int>(k));
       }
     g.add_value.resize(g.add_row.size());
     // Read: the added rows and the owned block (the warm start of the next solve), each once.
     std::vector<std::pair<PetscInt, int> > row_node;  // (free row, its mesh node)
     for (std::size_t i = 0; i < g.add_row.size(); ++i)
-      row_node.emplace_back(g.add_row[i], g.add_node[i]);
+      row_node.emplace_back(g.add_row[i], add_node[i]);
     for (int r = f0; r < f1; ++r) row_node.emplace_back(r, g.own_node[r - f0]);
     std::sort(row_node.begin(), row_node.end());
     row_node.erase(std::unique(row_node.begin(), row_node.end()), row_node.end());
@@ -675,6 +677,7 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
     ISDestroy(&is);
   }
   ghost_layer_ = true;
+  layer_rows_ = static_cast<int>(nodes.size());
 }
 
 // [LTL87 (4.5)] One KSP solve per component of each Dirichlet set, from the warm start u. Without
@@ -683,7 +686,11 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
 // rank reads.
 void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
                                   const Eigen::MatrixXd* loads, double load_scale) {
-  if (u.rows() != b.rows() || u.cols() != b.cols()) u = Eigen::MatrixXd::Zero(b.rows(), b.cols());
+  if (b.rows() != (ghost_layer_ ? layer_rows_ : num_nodes_))
+    throw Error(cat("the distributed global step (4.5): a right-hand side of ", b.rows(),
+                    " rows for ", ghost_layer_ ? layer_rows_ : num_nodes_));
+  if (u.rows() != num_nodes_ || u.cols() != b.cols())
+    u = Eigen::MatrixXd::Zero(num_nodes_, b.cols());
   const int me = mpi::rank();
   for (auto& gp : groups_) {
     Group& g = *gp;
@@ -692,7 +699,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       const int c = g.components[k];
       if (ghost_layer_) {  // this rank's part of b, its other ranks' rows by the assembly
         check(VecSet(g.b, 0.0), g.what, "VecSet");
-        for (std::size_t i = 0; i < g.add_row.size(); ++i) g.add_value[i] = b(g.add_node[i], c);
+        for (std::size_t i = 0; i < g.add_row.size(); ++i) g.add_value[i] = b(g.add_at[i], c);
         check(VecSetValues(g.b, static_cast<PetscInt>(g.add_row.size()), g.add_row.data(),
                            g.add_value.data(), ADD_VALUES),
               g.what, "VecSetValues");
@@ -781,7 +788,7 @@ std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares()
     s.owned = g.offset[me + 1] - g.offset[me];
     for (const PetscInt r : g.add_row) s.ghosts += r < g.offset[me] || r >= g.offset[me + 1];
     s.bytes = sizeof(int) * (g.components.size() + g.offset.size() + g.own_node.size() +
-                             g.add_node.size() + g.read_node.size() + g.whole_node.size()) +
+                             g.add_at.size() + g.read_node.size() + g.whole_node.size()) +
               sizeof(double) * (g.shift.size() + g.whole_x.size()) +
               sizeof(PetscInt) * g.add_row.size() + sizeof(PetscScalar) * g.add_value.size();
     shares.push_back(s);

@@ -124,14 +124,15 @@ class DistributedGlobalStep {
 
   /// [LTL87 (4.1), (4.5)] K u = b with u = value_scale x value on the fixed nodes; b whole on
   /// every rank, u in: the warm start, out: the solution, whole on every rank. Collective.
-  /// With a ghost layer: b is this rank's part (its rows `nodes` are read; the parts of the ranks
-  /// add up to the right-hand side), `load_scale` x `loads` (whole, the same on every rank; may
-  /// be null) is added on the owned rows, and u is the solution on `nodes` and the owned rows, its
-  /// other rows unchanged.
+  /// With a ghost layer: b is this rank's part on the layer's rows (#nodes x #components, row k
+  /// node nodes[k]; the parts of the ranks add up to the right-hand side), `load_scale` x
+  /// `loads` (whole, the same on every rank; may be null) is added on the owned rows, and u
+  /// (whole-size) is the solution on `nodes` and the owned rows, its other rows unchanged.
   void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u, const Eigen::MatrixXd* loads = nullptr,
              double load_scale = 1);
   /// The ghost layer: `nodes` (sorted, distinct) are the nodes whose rows of b this rank
-  /// fills and whose u it reads (its cells' and contact points' nodes). Collective.
+  /// fills (b's rows, in this order) and whose u it reads (its cells' and contact points'
+  /// nodes). Collective.
   void set_ghost_layer(const std::vector<int>& nodes);
   bool ghost_layer() const { return ghost_layer_; }
   /// u whole on every rank, after solves with a ghost layer (its owned rows gathered).
@@ -191,7 +192,8 @@ class DistributedGlobalStep {
   double rtol_ = 0;  ///< -ltl_mpi_rtol's: every CG + GAMG solve to it (tight), else 0
   double eta_ = 0;   ///< else the inexact solves' eta (CgAmg::eta_option)
   bool ghost_layer_ = false;
-  int num_nodes_ = 0;  ///< the mesh's nodes (the rows of u)
+  int num_nodes_ = 0;   ///< the mesh's nodes (the rows of u)
+  int layer_rows_ = 0;  ///< with a ghost layer, the rows of b (its nodes)
   long iterations_ = 0, solves_ = 0, ghosts_ = 0;
   double setup_seconds_ = 0, ksp_seconds_ = 0;
 };

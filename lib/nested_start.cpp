@@ -81,11 +81,11 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   // A discretization of some cells (a rank's cells under mpirun, paper_notes/mpi.md) has the
   // mean gradients of its cells only: each rank computes its cells, on its rows of E and lambda
   // (the state between steps, Solver::initial_state; Discretization::cell_row).
-  const Eigen::MatrixXd GU = disc.cells().Gbar * s.u;
+  const Eigen::MatrixXd GU = disc.cells().Gbar * s.u;  // the held cells' rows
   const std::vector<int>& held = disc.held_cells();
   for (int at = 0; at < static_cast<int>(held.size()); ++at) {
     const int e = held[at];
-    Eigen::MatrixXd F = GU.block(d * e, 0, d, d).transpose();
+    Eigen::MatrixXd F = GU.block(d * at, 0, d, d).transpose();
     F.diagonal().array() += 1.0;
     double p = 0;
     if (incompressible) {

@@ -1034,6 +1034,10 @@ TEST(Mpi, Eq4_7_EachContactPointIsOnARankOfItsCell) {
         layer += near[v] && !fixed[v] && node_rank[v] != me;
     }
     EXPECT_EQ(dist.rank_share().layer_ghosts, P > 1 ? layer : 0) << kind << ", rank " << me;
+    // [(4.1)] The right-hand side of the global step on the layer's rows: the rank's cells'
+    // nodes (its points' are among them), not the mesh's (on one rank, no layer: every node).
+    const long touched = std::count(near.begin(), near.end(), 1);
+    EXPECT_EQ(dist.holdings().rhs_rows, P > 1 ? touched : p.mesh.num_nodes()) << kind;
     double largest = static_cast<double>(dist.rank_share().layer_ghosts);
     mpi::max(&largest, 1);
     if (me == 0)
@@ -1057,6 +1061,24 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   EXPECT_EQ(dist.holdings().cells_with_operators, static_cast<int>(cells.size()));
   EXPECT_EQ(dist.discretization().held_cells(), cells);
   EXPECT_EQ(serial.holdings().cells_with_operators, p.mesh.num_cells());
+  // [(2.7), (3.3)] Gbar has the rank's rows alone (no row index of the other cells), each block
+  // the serial Gbar's block of its cell.
+  const int dim = p.mesh.dim;
+  const SpMatR& G = dist.discretization().cells().Gbar;
+  EXPECT_EQ(G.rows(), static_cast<Eigen::Index>(dim) * static_cast<Eigen::Index>(cells.size()));
+  EXPECT_EQ(dist.discretization().cells().cell, cells);
+  {
+    Eigen::MatrixXd U = Eigen::MatrixXd::Random(p.mesh.num_nodes(), dim);
+    mpi::broadcast(U.data(), U.size());
+    const Eigen::MatrixXd GU = G * U, GU_serial = serial.discretization().cells().Gbar * U;
+    double diff = 0;
+    for (std::size_t k = 0; k < cells.size(); ++k)
+      diff =
+          std::max(diff, (GU.middleRows(dim * k, dim) - GU_serial.middleRows(dim * cells[k], dim))
+                             .cwiseAbs()
+                             .maxCoeff());
+    EXPECT_EQ(diff, 0.0);
+  }
   double nnz = static_cast<double>(dist.discretization().cells().Gbar.nonZeros());
   mpi::sum(&nnz, 1);
   EXPECT_EQ(nnz, static_cast<double>(serial.discretization().cells().Gbar.nonZeros()));
@@ -1094,6 +1116,10 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
             1e-12 * r.norm());
   EXPECT_LE((equilibrium_residual(dist.discretization(), 0.5 * f, rows, 2.0) - r).norm(),
             1e-12 * r.norm());
+  // [(2.2)] The elastic energy sums the ranks' parts of its cells, E whole or on the rank's rows.
+  const double J = serial.discretization().elastic_energy(s, F);
+  EXPECT_NEAR(dist.discretization().elastic_energy(s, F), J, 1e-12 * std::abs(J));
+  EXPECT_NEAR(dist.discretization().elastic_energy(rows, F), J, 1e-12 * std::abs(J));
   const double err = equilibrium_error(serial.discretization(), F, s);
   EXPECT_GT(err, 0);
   EXPECT_NEAR(equilibrium_error(dist.discretization(), F, s), err, 1e-12 * err);
