@@ -151,7 +151,7 @@ void Solver::global_phase(State& s, GlobalOutput& g) {
   const auto I = identity_rows(dim(), disc_.num_cells());
   T_ = Rq * (s.E - I) + s.lambda - 2 * disc_.split().C1 * I;
   rhs_.noalias() = cells.GbarT_vol * T_;
-  rhs_ += load_factor_ * disc_.dead_load();
+  disc_.add_dead_load(rhs_, load_factor_);
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, lagged
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_);
   if (points) rhs_.noalias() += points->meanT_area * (R_ * a.q_c * s.e + s.lambda_c);

@@ -56,6 +56,7 @@ struct Solver::Distribution {
   /// With a ghost layer: the nodes of the right-hand side's rows (sorted: the rank's cells' and
   /// points' nodes), and each node's row there (#nodes, -1: none). Empty without.
   std::vector<int> layer, layer_row;
+  Eigen::MatrixXd dead_layer;  ///< with a ghost layer: the dead loads on its rows
   /// #nodes (with a ghost layer #layer) x #owned points: the owned columns of meanT_area
   SpMatR meanT_own;
   Eigen::MatrixXd point_rhs;  ///< #owned points x dim: R q_c e + lambda_c of the owned points
@@ -200,6 +201,11 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     d.layer_row.assign(disc_.num_nodes(), -1);
     for (std::size_t k = 0; k < nodes.size(); ++k) d.layer_row[nodes[k]] = static_cast<int>(k);
     d.layer = std::move(nodes);
+    d.dead_layer.setZero(static_cast<Eigen::Index>(d.layer.size()), dim());
+    const std::vector<int>& loaded = disc_.loaded_nodes();
+    for (std::size_t k = 0; k < loaded.size(); ++k)
+      if (const int row = d.layer_row[loaded[k]]; row >= 0)
+        d.dead_layer.row(row) = disc_.loaded_rows().row(k);
     if (d.meanT_own.rows() == disc_.num_nodes()) {
       std::vector<Eigen::Triplet<double> > t;
       t.reserve(d.meanT_own.nonZeros());
@@ -308,7 +314,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   });
   const SpMatR& G = disc_.cells().Gbar;
   if (mpi::rank() == 0 && !ghosts)  // with ghosts, on the owned rows (solve)
-    rhs_ += load_factor_ * disc_.dead_load();
+    disc_.add_dead_load(rhs_, load_factor_);
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own, row_of);
   if (points) {
@@ -319,7 +325,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     rhs_.noalias() += d.meanT_own * d.point_rhs;
   }
   if (ghosts) {  // the ranks' parts (layer rows) added into PETSc's vector; u on its nodes
-    d.ksp->solve(rhs_, s.u, &disc_.dead_load(), load_factor_);
+    d.ksp->solve(rhs_, s.u, &d.dead_layer, load_factor_);
   } else {
     mpi::sum(rhs_.data(), rhs_.size());
     if (d.ksp)
@@ -517,7 +523,9 @@ Holdings Solver::holdings() const {
                   4.0 * static_cast<double>(disc_.held_cells().size());
   if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
   h.rhs_rows = static_cast<int>(rhs_.rows());
-  h.node_arrays = bytes_of(disc_.dead_load()) + bytes_of(rhs_);
+  h.node_arrays = bytes_of(disc_.loaded_rows()) +
+                  4.0 * static_cast<double>(disc_.loaded_nodes().size()) + bytes_of(rhs_);
+  if (dist_) h.node_arrays += bytes_of(dist_->dead_layer);
   if (dist_)
     h.node_arrays += 4.0 * static_cast<double>(dist_->layer.size() + dist_->layer_row.size());
   const DirichletData& bc = disc_.dirichlet();

@@ -54,6 +54,16 @@ ContactPoints stack_obstacles(const std::vector<ContactPoints>& obstacles, int n
 }
 }  // namespace
 
+Eigen::MatrixXd Discretization::dead_load() const {
+  Eigen::MatrixXd F = Eigen::MatrixXd::Zero(num_nodes(), dim());
+  add_dead_load(F, 1.0);
+  return F;
+}
+
+void Discretization::add_dead_load(Eigen::MatrixXd& f, double scale) const {
+  for (std::size_t k = 0; k < loaded_.size(); ++k) f.row(loaded_[k]) += scale * F_loaded_.row(k);
+}
+
 Eigen::VectorXd Discretization::volume_rows() const {
   return cells_.vol.replicate(1, dim()).transpose().reshaped();
 }
@@ -188,9 +198,16 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
   }
 
   // [LTL87 (1.2)] The consistent dead loads f and g at load factor 1.
-  F_dead_ = body_load(mesh, problem_.body_force);
-  for (const auto& t : problem_.tractions)
-    F_dead_ += surface_load(mesh, mesh.boundary(t.group, t.origin), t.g);
+  // Held on the loaded nodes' rows (dead_load() makes the whole array when asked).
+  {
+    Eigen::MatrixXd F = body_load(mesh, problem_.body_force);
+    for (const auto& t : problem_.tractions)
+      F += surface_load(mesh, mesh.boundary(t.group, t.origin), t.g);
+    for (int i = 0; i < nn; ++i)
+      if ((F.row(i).array() != 0.0).any()) loaded_.push_back(i);
+    F_loaded_.resize(static_cast<Eigen::Index>(loaded_.size()), dim);
+    for (std::size_t k = 0; k < loaded_.size(); ++k) F_loaded_.row(k) = F.row(loaded_[k]);
+  }
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

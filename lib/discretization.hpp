@@ -84,8 +84,15 @@ class Discretization {
   /// Per component, the sorted nodes whose displacement is prescribed, and their values.
   const DirichletData& dirichlet() const { return bc_; }
   /// The consistent dead loads f (body force) and g (tractions) at load factor 1, #nodes x dim
-  /// [LTL87 (1.2)].
-  const Eigen::MatrixXd& dead_load() const { return F_dead_; }
+  /// [LTL87 (1.2)]: a new array, made from the loaded nodes' rows (below).
+  Eigen::MatrixXd dead_load() const;
+  /// The dead loads as held: the loaded nodes (sorted: those whose row of dead_load() is not
+  /// zero, a traction's surface nodes when there is no body force) and their rows, so that a
+  /// dead load on a surface takes memory per surface node (paper_notes/mpi.md).
+  const std::vector<int>& loaded_nodes() const { return loaded_; }
+  const Eigen::MatrixXd& loaded_rows() const { return F_loaded_; }
+  /// [(1.2)] f += scale x dead_load() (f: #nodes x dim), without a whole array.
+  void add_dead_load(Eigen::MatrixXd& f, double scale) const;
   /// Identity blocks, (dim * #cells) x dim, the transposed-block layout of E and lambda (made
   /// on demand: not stored).
   Eigen::MatrixXd identity() const { return identity_rows(dim(), num_cells()); }
@@ -179,7 +186,8 @@ class Discretization {
   std::optional<ContactPoints> points_;  ///< several obstacles only: their points stacked
   std::vector<ContactPoints> obstacles_;
   DirichletData bc_;
-  Eigen::MatrixXd F_dead_;
+  std::vector<int> loaded_;
+  Eigen::MatrixXd F_loaded_;
   double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
   // Mean-det: the reference rule of the cell type (the point gradients are recomputed per cell
   // from the nodes' positions), and the work buffer of the nodal forces of a block of cells.

@@ -220,3 +220,36 @@ TEST(Discretization, Eq1_1_DirichletValuesHeldPerFixedNodeEachOnce) {
   for (int a : part) largest = std::max(largest, std::abs(-0.2 + 0.5 * p.mesh.X(a, 1)));
   EXPECT_EQ(bc.max_abs_value(), largest);
 }
+
+// [LTL87 (1.2)] The dead loads are held on the loaded nodes' rows: on the gutter, whose load is a
+// traction on its inner face, those of that face alone; on Fig 5, whose load is a body force,
+// every node. dead_load() makes the whole array from them, equal to the consistent loads
+// assembled afresh (body_load + surface_load), and add_dead_load adds a multiple in place.
+TEST(Discretization, Eq1_2_DeadLoadsAreHeldOnTheLoadedNodes) {
+  const ltl::Problem g = gutter();
+  const ltl::Discretization dg(g);
+  const ltl::Traction& t = g.tractions.at(0);
+  const ltl::Mesh::Boundary& inner = g.mesh.boundary(t.group, t.origin);
+  std::vector<int> face;
+  for (int f = 0; f < static_cast<int>(inner.facets.rows()); ++f)
+    for (int a = 0; a < static_cast<int>(inner.facets.cols()); ++a)
+      face.push_back(inner.facets(f, a));
+  std::sort(face.begin(), face.end());
+  face.erase(std::unique(face.begin(), face.end()), face.end());
+  EXPECT_EQ(dg.loaded_nodes(), face);
+  EXPECT_LT(static_cast<int>(face.size()), g.mesh.num_nodes() / 2);
+  EXPECT_EQ(dg.loaded_rows().rows(), static_cast<Eigen::Index>(face.size()));
+  const Eigen::MatrixXd Fg =
+      ltl::surface_load(g.mesh, inner, t.g) + ltl::body_load(g.mesh, g.body_force);
+  EXPECT_LE((dg.dead_load() - Fg).cwiseAbs().maxCoeff(), 1e-15 * Fg.cwiseAbs().maxCoeff());
+  EXPECT_GT(Fg.cwiseAbs().maxCoeff(), 0.0);
+
+  const ltl::Problem p = fig5(5);
+  const ltl::Discretization d(p);
+  EXPECT_EQ(static_cast<int>(d.loaded_nodes().size()), p.mesh.num_nodes());
+  const Eigen::MatrixXd F = ltl::body_load(p.mesh, p.body_force);
+  EXPECT_LE((d.dead_load() - F).cwiseAbs().maxCoeff(), 1e-15 * F.cwiseAbs().maxCoeff());
+  Eigen::MatrixXd f = Eigen::MatrixXd::Random(p.mesh.num_nodes(), p.mesh.dim), sum = f + 2.5 * F;
+  d.add_dead_load(f, 2.5);
+  EXPECT_LE((f - sum).cwiseAbs().maxCoeff(), 1e-15 * sum.cwiseAbs().maxCoeff());
+}
