@@ -53,10 +53,14 @@ struct Solver::Distribution {
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  /// With a ghost layer: the nodes of the right-hand side's rows (sorted: the rank's cells' and
-  /// points' nodes), and each node's row there (#nodes, -1: none). Empty without.
-  std::vector<int> layer, layer_row;
-  Eigen::MatrixXd dead_layer;  ///< with a ghost layer: the dead loads on its rows
+  /// With a ghost layer: the rows of the right-hand side (the rank's cells' and points' nodes,
+  /// sorted) and each node's row there (#nodes, -1: none); 0 and empty without.
+  int layer_rows = 0;
+  std::vector<int> layer_row;
+  /// With a ghost layer: the loaded nodes that the rank owns (node_ranks), their rows of the
+  /// right-hand side and their dead loads, which the rank adds into its part
+  std::vector<int> dead_rows;
+  Eigen::MatrixXd dead_values;
   /// #nodes (with a ghost layer #layer) x #owned points: the owned columns of meanT_area
   SpMatR meanT_own;
   Eigen::MatrixXd point_rhs;  ///< #owned points x dim: R q_c e + lambda_c of the owned points
@@ -200,19 +204,28 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     // renumbered once.
     d.layer_row.assign(disc_.num_nodes(), -1);
     for (std::size_t k = 0; k < nodes.size(); ++k) d.layer_row[nodes[k]] = static_cast<int>(k);
-    d.layer = std::move(nodes);
-    d.dead_layer.setZero(static_cast<Eigen::Index>(d.layer.size()), dim());
+    d.layer_rows = static_cast<int>(nodes.size());
+    // The dead loads once over the ranks: each rank adds those of the nodes it owns, which are
+    // its cells' (node_ranks), into its part.
     const std::vector<int>& loaded = disc_.loaded_nodes();
+    std::vector<int> own_loaded;
+    d.dead_rows.clear();
     for (std::size_t k = 0; k < loaded.size(); ++k)
-      if (const int row = d.layer_row[loaded[k]]; row >= 0)
-        d.dead_layer.row(row) = disc_.loaded_rows().row(k);
+      if (const int node = loaded[k]; node_rank[node] == mpi::rank()) {
+        if (d.layer_row[node] < 0)
+          throw Error(
+              cat("the ghost layer: owned node ", node, " is not one of the rank's cells'"));
+        own_loaded.push_back(static_cast<int>(k));
+        d.dead_rows.push_back(d.layer_row[node]);
+      }
+    d.dead_values = disc_.loaded_rows()(own_loaded, Eigen::all);
     if (d.meanT_own.rows() == disc_.num_nodes()) {
       std::vector<Eigen::Triplet<double> > t;
       t.reserve(d.meanT_own.nonZeros());
       for (int i = 0; i < d.meanT_own.outerSize(); ++i)
         for (SpMatR::InnerIterator it(d.meanT_own, i); it; ++it)
           t.emplace_back(d.layer_row[i], static_cast<int>(it.col()), it.value());
-      SpMatR local(static_cast<Eigen::Index>(d.layer.size()), d.meanT_own.cols());
+      SpMatR local(d.layer_rows, d.meanT_own.cols());
       local.setFromTriplets(t.begin(), t.end());
       d.meanT_own.swap(local);
     }
@@ -222,7 +235,7 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
 }
 
 int Solver::rhs_rows() const {
-  return dist_ && !dist_->layer.empty() ? static_cast<int>(dist_->layer.size()) : disc_.num_nodes();
+  return dist_ && dist_->layer_rows > 0 ? dist_->layer_rows : disc_.num_nodes();
 }
 
 bool Solver::distributed_cg_gamg() const {
@@ -306,15 +319,18 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const bool held_rows = disc_.partial();
   const bool ghosts = d.ksp && d.ksp->ghost_layer();
   const int* row_of = ghosts ? d.layer_row.data() : nullptr;
-  if (rhs_.rows() != rhs_rows()) rhs_.resize(rhs_rows(), dim);  // sized at the set-up: a guard
   rhs_.setZero();
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
     add_cell_forces(disc_.cells(), c0, n, held_rows ? at : c0, T_.middleRows(dim * at, dim * n),
                     rhs_, row_of);
   });
   const SpMatR& G = disc_.cells().Gbar;
-  if (mpi::rank() == 0 && !ghosts)  // with ghosts, on the owned rows (solve)
+  if (ghosts) {  // the dead loads of the rank's owned nodes, else once, on rank 0
+    for (std::size_t k = 0; k < d.dead_rows.size(); ++k)
+      rhs_.row(d.dead_rows[k]) += load_factor_ * d.dead_values.row(k);
+  } else if (mpi::rank() == 0) {
     disc_.add_dead_load(rhs_, load_factor_);
+  }
   if (disc_.mean_det())  // the pressure's work and gamma (L - GbarT_vol Gbar) u, owned cells
     disc_.fluctuation(s.u, &s.lambda, &s.E, nullptr, &rhs_, gamma_, &d.own, row_of);
   if (points) {
@@ -325,7 +341,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     rhs_.noalias() += d.meanT_own * d.point_rhs;
   }
   if (ghosts) {  // the ranks' parts (layer rows) added into PETSc's vector; u on its nodes
-    d.ksp->solve(rhs_, s.u, &d.dead_layer, load_factor_);
+    d.ksp->solve(rhs_, s.u);
   } else {
     mpi::sum(rhs_.data(), rhs_.size());
     if (d.ksp)
@@ -525,9 +541,9 @@ Holdings Solver::holdings() const {
   h.rhs_rows = static_cast<int>(rhs_.rows());
   h.node_arrays = bytes_of(disc_.loaded_rows()) +
                   4.0 * static_cast<double>(disc_.loaded_nodes().size()) + bytes_of(rhs_);
-  if (dist_) h.node_arrays += bytes_of(dist_->dead_layer);
   if (dist_)
-    h.node_arrays += 4.0 * static_cast<double>(dist_->layer.size() + dist_->layer_row.size());
+    h.node_arrays += bytes_of(dist_->dead_values) +
+                     4.0 * static_cast<double>(dist_->dead_rows.size() + dist_->layer_row.size());
   const DirichletData& bc = disc_.dirichlet();
   for (std::size_t i = 0; i < bc.fixed.size(); ++i)
     h.node_arrays +=

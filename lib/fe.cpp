@@ -353,11 +353,7 @@ void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref
                      Eigen::MatrixXd& f, const int* row_of) {
   const int dim = static_cast<int>(T.cols());
   for (int k = 0; k < n; ++k) T.middleRows(dim * k, dim) *= ops.vol(c0 + k);
-  if (!row_of) {
-    f.noalias() += ops.Gbar.middleRows(dim * at, dim * n).transpose() * T;
-    return;
-  }
-  // The same sum node by node: a cell's dim rows of Gbar hold its nodes in the same order
+  // Gbar^T T node by node: a cell's dim rows of Gbar hold its nodes in the same order
   // (cell_operators), so node a of cell k gets sum_j Gbar(dim k + j, a) T_k(j, :).
   const int* outer = ops.Gbar.outerIndexPtr();
   const int* node = ops.Gbar.innerIndexPtr();
@@ -365,7 +361,7 @@ void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref
   for (int k = 0; k < n; ++k) {
     const int r0 = dim * (at + k), npc = outer[r0 + 1] - outer[r0];
     for (int a = 0; a < npc; ++a) {
-      const int row = row_of[node[outer[r0] + a]];
+      const int row = row_of ? row_of[node[outer[r0] + a]] : node[outer[r0] + a];
       for (int i = 0; i < dim; ++i) {
         double sum = 0;
         for (int j = 0; j < dim; ++j) sum += g[outer[r0 + j] + a] * T(dim * k + j, i);

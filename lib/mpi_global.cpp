@@ -140,8 +140,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&&, const DirichletData& bc,
       "(`make test-mpi`)");
 }
 DistributedGlobalStep::~DistributedGlobalStep() = default;
-void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&, const Eigen::MatrixXd*,
-                                  double) {}
+void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&) {}
 void DistributedGlobalStep::set_ghost_layer(const std::vector<int>&) {}
 void DistributedGlobalStep::whole_u(Eigen::MatrixXd&) {}
 std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares() const {
@@ -336,7 +335,6 @@ struct DistributedGlobalStep::Group {
   // `read`.
   std::vector<PetscInt> add_row;
   std::vector<int> add_at;  ///< the row in the ghost layer's b of each added row
-  std::vector<int> own_at;  ///< the row in the ghost layer's b of each owned row
   std::vector<PetscScalar> add_value;
   std::vector<int> read_node;
   Vec read = nullptr;
@@ -653,13 +651,6 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
         g.add_at.push_back(static_cast<int>(k));
       }
     g.add_value.resize(g.add_row.size());
-    g.own_at.resize(g.own_node.size());  // the owned rows' nodes are the rank's cells'
-    for (std::size_t r = 0; r < g.own_node.size(); ++r) {
-      const auto at = std::lower_bound(nodes.begin(), nodes.end(), g.own_node[r]);
-      if (at == nodes.end() || *at != g.own_node[r])
-        throw Error(cat(g.what, ": owned node ", g.own_node[r], " is not in the ghost layer"));
-      g.own_at[r] = static_cast<int>(at - nodes.begin());
-    }
     // Read: the added rows and the owned block (the warm start of the next solve), each once.
     std::vector<std::pair<PetscInt, int> > row_node;  // (free row, its mesh node)
     for (std::size_t i = 0; i < g.add_row.size(); ++i)
@@ -692,8 +683,7 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
 // a ghost layer b is whole and the owned rows of the solution are gathered to every rank; with
 // it b is this rank's part, added into PETSc's vector, and u is scattered back on the rows the
 // rank reads.
-void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
-                                  const Eigen::MatrixXd* loads, double load_scale) {
+void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) {
   if (b.rows() != (ghost_layer_ ? layer_rows_ : num_nodes_))
     throw Error(cat("the distributed global step (4.5): a right-hand side of ", b.rows(),
                     " rows for ", ghost_layer_ ? layer_rows_ : num_nodes_));
@@ -720,7 +710,7 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u,
       for (int r = 0; r < own; ++r) {
         const int node = g.own_node[r];
         if (ghost_layer_)
-          pb[r] += (loads ? load_scale * (*loads)(g.own_at[r], c) : 0.0) - scale_ * g.shift(r, k);
+          pb[r] -= scale_ * g.shift(r, k);
         else
           pb[r] = b(node, c) - scale_ * g.shift(r, k);
         px[r] = u(node, c);
@@ -795,11 +785,10 @@ std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares()
     s.free_rows = g.offset.back();
     s.owned = g.offset[me + 1] - g.offset[me];
     for (const PetscInt r : g.add_row) s.ghosts += r < g.offset[me] || r >= g.offset[me + 1];
-    s.bytes =
-        sizeof(int) * (g.components.size() + g.offset.size() + g.own_node.size() + g.add_at.size() +
-                       g.own_at.size() + g.read_node.size() + g.whole_node.size()) +
-        sizeof(double) * (g.shift.size() + g.whole_x.size()) + sizeof(PetscInt) * g.add_row.size() +
-        sizeof(PetscScalar) * g.add_value.size();
+    s.bytes = sizeof(int) * (g.components.size() + g.offset.size() + g.own_node.size() +
+                             g.add_at.size() + g.read_node.size() + g.whole_node.size()) +
+              sizeof(double) * (g.shift.size() + g.whole_x.size()) +
+              sizeof(PetscInt) * g.add_row.size() + sizeof(PetscScalar) * g.add_value.size();
     shares.push_back(s);
   }
   return shares;

@@ -125,12 +125,9 @@ class DistributedGlobalStep {
   /// [LTL87 (4.1), (4.5)] K u = b with u = value_scale x value on the fixed nodes; b whole on
   /// every rank, u in: the warm start, out: the solution, whole on every rank. Collective.
   /// With a ghost layer: b is this rank's part on the layer's rows (#nodes x #components, row k
-  /// node nodes[k]; the parts of the ranks add up to the right-hand side), `load_scale` x
-  /// `loads` (on the layer's rows too, the whole loads' rows there; may be null) is added on the
-  /// owned rows, and u (whole-size) is the solution on `nodes` and the owned rows, its other rows
-  /// unchanged.
-  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u, const Eigen::MatrixXd* loads = nullptr,
-             double load_scale = 1);
+  /// node nodes[k]; the parts of the ranks add up to the right-hand side), and u (whole-size) is
+  /// the solution on `nodes` and the owned rows, its other rows unchanged.
+  void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u);
   /// The ghost layer: `nodes` (sorted, distinct) are the nodes whose rows of b this rank
   /// fills (b's rows, in this order) and whose u it reads (its cells' and contact points'
   /// nodes). Collective.
