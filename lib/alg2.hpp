@@ -48,7 +48,7 @@ enum class Ranks { One, All };
 struct Holdings {
   int cells_with_operators = 0;  ///< cells whose rows of Gbar are not empty
   double mesh = 0;         ///< the mesh in the discretization's problem: X, cells, boundary facets
-  double operators = 0;    ///< Gbar, GbarT_vol, the Laplacian, vol (the solver's copies too)
+  double operators = 0;    ///< Gbar, GbarT_vol, the Laplacian, vol, the columns' nodes
   double cell_arrays = 0;  ///< dense per-cell arrays: the work arrays, the cell lists
   /// Dense per-node arrays (dead loads, rhs), the ghost layer's node lists and the Dirichlet
   /// values (12 B per fixed dof).

@@ -4,10 +4,11 @@
 //   - PARTITIONED (Solver(Problem, Ranks::All), plain ALG2 or with the Newton phase): the cell
 //     operators. Each rank discretizes its own cells only, its part of the cells' dual graph
 //     by PT-Scotch (cell_partition, mpi_global.hpp; slabs with -ltl_mpi_slabs; Discretization
-//     of some cells: Gbar and the Laplacian of its cells) and assembles its part of K (4.5), which
-//     the distributed KSP sums (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over
-//     cells of the measures (equilibrium residual, energy) add the ranks' parts. The Newton phase
-//     holds its own per-cell data for its cells (newton.hpp). With the replicated factor, the
+//     of some cells: Gbar and the Laplacian of its cells, on the columns of their nodes,
+//     CellOperators::node) and assembles its part of K (4.5), which the distributed KSP sums
+//     (MatSetValues ADD_VALUES): no rank holds the whole K. The sums over cells of the measures
+//     (equilibrium residual, energy) add the ranks' parts. The Newton phase holds its own
+//     per-cell data for its cells (newton.hpp). With the replicated factor, the
 //     whole discretization on every rank.
 //   - REPLICATED: the mesh, the per-node dense arrays, u and the contact points' fields. Every
 //     rank reads the whole problem. The whole E and lambda exist only between ALG2 phases (for
@@ -54,7 +55,9 @@ struct Solver::Distribution {
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
   /// With a ghost layer: the rows of the right-hand side (the rank's cells' and points' nodes,
-  /// sorted) and each node's row there (#nodes, -1: none); 0 and empty without.
+  /// sorted) and the row there of each column of the cell operators (CellOperators::node: the
+  /// rank's cells' nodes on a discretization of its cells, else every node, -1: none); 0 and
+  /// empty without.
   int layer_rows = 0;
   std::vector<int> layer_row;
   /// With a ghost layer: the loaded nodes that the rank owns (node_ranks), their rows of the
@@ -201,10 +204,19 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     std::vector<char>().swap(touched);
     d.ksp->set_ghost_layer(nodes);
     // The right-hand side on the layer's rows alone (global_phase_distributed): meanT_own's rows
-    // renumbered once.
-    d.layer_row.assign(disc_.num_nodes(), -1);
-    for (std::size_t k = 0; k < nodes.size(); ++k) d.layer_row[nodes[k]] = static_cast<int>(k);
+    // renumbered once, each node's row in the layer (layer_of, whole-size) through the set-up
+    // only, each column's kept.
+    std::vector<int> layer_of(disc_.num_nodes(), -1);
+    for (std::size_t k = 0; k < nodes.size(); ++k) layer_of[nodes[k]] = static_cast<int>(k);
     d.layer_rows = static_cast<int>(nodes.size());
+    const std::vector<int>& column_node = disc_.cells().node;
+    if (column_node.empty()) {
+      d.layer_row = layer_of;
+    } else {
+      d.layer_row.resize(column_node.size());
+      for (std::size_t j = 0; j < column_node.size(); ++j)
+        d.layer_row[j] = layer_of[column_node[j]];
+    }
     // The dead loads once over the ranks: each rank adds those of the nodes it owns, which are
     // its cells' (node_ranks), into its part.
     const std::vector<int>& loaded = disc_.loaded_nodes();
@@ -212,11 +224,11 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     d.dead_rows.clear();
     for (std::size_t k = 0; k < loaded.size(); ++k)
       if (const int node = loaded[k]; node_rank[node] == mpi::rank()) {
-        if (d.layer_row[node] < 0)
+        if (layer_of[node] < 0)
           throw Error(
               cat("the ghost layer: owned node ", node, " is not one of the rank's cells'"));
         own_loaded.push_back(static_cast<int>(k));
-        d.dead_rows.push_back(d.layer_row[node]);
+        d.dead_rows.push_back(layer_of[node]);
       }
     d.dead_values = disc_.loaded_rows()(own_loaded, Eigen::all);
     if (d.meanT_own.rows() == disc_.num_nodes()) {
@@ -224,7 +236,7 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
       t.reserve(d.meanT_own.nonZeros());
       for (int i = 0; i < d.meanT_own.outerSize(); ++i)
         for (SpMatR::InnerIterator it(d.meanT_own, i); it; ++it)
-          t.emplace_back(d.layer_row[i], static_cast<int>(it.col()), it.value());
+          t.emplace_back(layer_of[i], static_cast<int>(it.col()), it.value());
       SpMatR local(d.layer_rows, d.meanT_own.cols());
       local.setFromTriplets(t.begin(), t.end());
       d.meanT_own.swap(local);
@@ -315,16 +327,17 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const auto I = identity_rows(dim, static_cast<int>(d.own.size()));
   T_ = Rq * (s.E - I) + s.lambda - 2 * disc_.split().C1 * I;
   // Gbar's block of own[at]: at on a discretization of the rank's cells, else the cell itself.
-  // With a ghost layer the right-hand side is on the layer's rows (layer_row), else whole.
+  // With a ghost layer the right-hand side is on the layer's rows (layer_row, by the cell
+  // operators' column), else whole (by column: the column's node, CellOperators::node).
   const bool held_rows = disc_.partial();
   const bool ghosts = d.ksp && d.ksp->ghost_layer();
   const int* row_of = ghosts ? d.layer_row.data() : nullptr;
+  const int* column_row = row_of ? row_of : held_rows ? disc_.cells().node.data() : nullptr;
   rhs_.setZero();
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
     add_cell_forces(disc_.cells(), c0, n, held_rows ? at : c0, T_.middleRows(dim * at, dim * n),
-                    rhs_, row_of);
+                    rhs_, column_row);
   });
-  const SpMatR& G = disc_.cells().Gbar;
   if (ghosts) {  // the dead loads of the rank's owned nodes, else once, on rank 0
     for (std::size_t k = 0; k < d.dead_rows.size(); ++k)
       rhs_.row(d.dead_rows[k]) += load_factor_ * d.dead_values.row(k);
@@ -350,9 +363,8 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
       global_->solve(rhs_, s.u);
   }
 
-  mpi::for_each_run(d.own, [&](int c0, int n, int at) {
-    g.GU.middleRows(dim * at, dim * n).noalias() =
-        G.middleRows(dim * (held_rows ? at : c0), dim * n) * s.u;
+  mpi::for_each_run(d.own, [&](int c0, int n, int at) {  // Gbar's columns read u by node
+    mean_gradients(disc_.cells(), held_rows ? at : c0, n, s.u, g.GU.middleRows(dim * at, dim * n));
   });
   if (disc_.mean_det()) {
     disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, &d.own);
@@ -529,7 +541,8 @@ Holdings Solver::holdings() const {
   for (const Mesh::Boundary& b : mesh.boundaries) h.mesh += 4.0 * b.facets.size();
   const CellOperators& c = disc_.cells();
   h.operators = bytes_of_sparse(c.Gbar) + bytes_of_sparse(c.GbarT_vol) +
-                bytes_of_sparse(c.laplacian) + bytes_of(c.vol);
+                bytes_of_sparse(c.laplacian) + bytes_of(c.vol) +
+                4.0 * static_cast<double>(c.node.size());
   const int dim = this->dim();
   for (Eigen::Index k = 0; k < c.Gbar.rows() / dim; ++k)
     if (c.Gbar.outerIndexPtr()[dim * k + 1] > c.Gbar.outerIndexPtr()[dim * k])

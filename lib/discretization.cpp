@@ -64,6 +64,16 @@ void Discretization::add_dead_load(Eigen::MatrixXd& f, double scale) const {
   for (std::size_t k = 0; k < loaded_.size(); ++k) f.row(loaded_[k]) += scale * F_loaded_.row(k);
 }
 
+const Eigen::MatrixXd& Discretization::on_columns(const Eigen::MatrixXd& u,
+                                                  Eigen::MatrixXd& work) const {
+  const std::vector<int>& node = cells_.node;
+  if (node.empty()) return u;
+  work.resize(static_cast<Eigen::Index>(node.size()), u.cols());
+  for (std::size_t k = 0; k < node.size(); ++k)
+    work.row(static_cast<Eigen::Index>(k)) = u.row(node[k]);
+  return work;
+}
+
 Eigen::VectorXd Discretization::volume_rows() const {
   return cells_.vol.replicate(1, dim()).transpose().reshaped();
 }
@@ -305,7 +315,8 @@ template <int d, int npc>
 void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::MatrixXd& u,
                       const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
                       Eigen::VectorXd* c, Eigen::MatrixXd* force, std::vector<double>& buffer,
-                      const std::vector<int>* cells, int n, const int* row_of) {
+                      const std::vector<int>* cells, int n, const int* row_of,
+                      const CellOperators* held) {
   constexpr int kBlock = 2048, kNodal = npc * d;
   if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
   if (cells) n = static_cast<int>(cells->size());
@@ -323,9 +334,21 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
       const Eigen::Map<const Eigen::Matrix<double, npc, d>> fe(
           buffer.data() + static_cast<std::size_t>(k - b0) * kNodal);
       const int e = cells ? (*cells)[k] : k;
+      // On some cells (held: cells is their list), node a's column is Gbar's in the cell's row
+      // block at the node's place among the cell's nodes in increasing order (cell_operators).
+      const int* column =
+          held ? held->Gbar.innerIndexPtr() + held->Gbar.outerIndexPtr()[d * k] : nullptr;
       for (int a = 0; a < npc; ++a) {
         const int node = kernel.cells(e, a);
-        force->row(row_of ? row_of[node] : node) += fe.row(a);
+        int row = node;
+        if (row_of && column) {
+          int place = 0;
+          for (int b = 0; b < npc; ++b) place += kernel.cells(e, b) < node;
+          row = row_of[column[place]];
+        } else if (row_of) {
+          row = row_of[node];
+        }
+        force->row(row) += fe.row(a);
       }
     }
   }
@@ -339,15 +362,19 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
   // The point gradients are recomputed per cell from the nodes' positions (no per-cell or
   // per-point table: memory per cell, not speed, limits the 3-D problems).
   const Mesh& mesh = problem_.mesh;
+  // row_of by column on some cells: the held cells, in their order.
+  const CellOperators* held = partial_ && row_of && force ? &cells_ : nullptr;
+  if (held && (!cells || *cells != cells_.cell))
+    throw Error("fluctuation: a force by column needs the held cells' list");
   if (dim() == 2)
     fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, cells, num_cells(), row_of);
+                           force, buffer_, cells, num_cells(), row_of, held);
   else if (mesh.nodes_per_cell() == 10)
     fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
-                            c, force, buffer_, cells, num_cells(), row_of);
+                            c, force, buffer_, cells, num_cells(), row_of, held);
   else
     fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, cells, num_cells(), row_of);
+                           force, buffer_, cells, num_cells(), row_of, held);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
@@ -445,7 +472,9 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   const Material& m = split_;
   double J = 0;  // over the held cells (E whole or on their rows, cell_row)
   const std::vector<int>& held = held_cells();
-  const Eigen::MatrixXd GU = cells_.Gbar * s.u;  // the held cells' rows
+  Eigen::MatrixXd work;
+  const Eigen::MatrixXd& uc = on_columns(s.u, work);  // on the operators' columns
+  const Eigen::MatrixXd GU = cells_.Gbar * uc;        // the held cells' rows
   double mean2 = 0;
   for (int at = 0; at < static_cast<int>(held.size()); ++at) {
     const Eigen::Index r = cell_row(s.E, held[at], at);
@@ -456,7 +485,7 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
       J += vol * m.W(Eigen::Matrix3d(s.E.block<3, 3>(r, 0).transpose()));
     mean2 += vol * GU.middleRows(static_cast<Eigen::Index>(d) * at, d).squaredNorm();
   }
-  const double grad2 = (s.u.transpose() * (cells_.laplacian * s.u)).trace();
+  const double grad2 = (uc.transpose() * (cells_.laplacian * uc)).trace();
   if (partial_) {  // the held cells' parts summed over the ranks
     double parts[3] = {J, grad2, mean2};
     mpi::sum(parts, 3);
@@ -470,12 +499,23 @@ Eigen::MatrixXd Discretization::held_cell_forces(
     const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
     const State* less_fluctuation) const {
   const int d = dim();
-  Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * u);
+  Eigen::MatrixXd work;
+  const Eigen::MatrixXd& uc = on_columns(u, work);  // on the operators' columns
+  // Column j's force goes to its node's row (node[j] on some cells).
+  const int* row_of = cells_.node.empty() ? nullptr : cells_.node.data();
+  Eigen::MatrixXd f;
+  if (row_of) {
+    f.setZero(num_nodes(), d);
+    const Eigen::MatrixXd Lu = 2 * split_.C1 * (cells_.laplacian * uc);
+    for (Eigen::Index j = 0; j < Lu.rows(); ++j) f.row(row_of[j]) = Lu.row(j);
+  } else {
+    f = 2 * split_.C1 * (cells_.laplacian * u);
+  }
   Eigen::MatrixXd T;
   mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {
-    T.noalias() = cells_.Gbar.middleRows(d * at, d * n) * u;
+    T.noalias() = cells_.Gbar.middleRows(d * at, d * n) * uc;
     stress(c0, n, at, T);
-    add_cell_forces(cells_, c0, n, at, T, f);
+    add_cell_forces(cells_, c0, n, at, T, f, row_of);
   });
   if (less_fluctuation && mean_det_) {  // f - force as -(-f + force): negation is exact
     const State& s = *less_fluctuation;

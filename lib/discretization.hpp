@@ -64,6 +64,10 @@ class Discretization {
   /// P = 2 split().C1 E - lambda.
   const Material& split() const { return split_; }
   const CellOperators& cells() const { return cells_; }
+  /// u (#nodes x dim) on the cell operators' columns (CellOperators::node), for Gbar u and L u:
+  /// u itself when every cell is held, else its rows of the held cells' nodes, copied into
+  /// `work` (resized; no allocation when it has that size already).
+  const Eigen::MatrixXd& on_columns(const Eigen::MatrixXd& u, Eigen::MatrixXd& work) const;
   /// The contact points: facets (discretization.contact = "facet-mean") or the nodes of the
   /// contact surface ("nodal"), with their weights, positions, the map from nodal values (mean)
   /// and the initial gap g_s = (p0 - x_s) . N >= 0 of each to the obstacle plane (section 6);
@@ -123,8 +127,10 @@ class Discretization {
   /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
   /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell. On the
   /// cells `cells` (sorted; null: all; a rank's cells when distributed, alg2_mpi.cpp): then the
-  /// k-th cell's rows of lambda and E are the k-th block and its c is c(k). With row_of, node
-  /// i's force goes to row row_of[i] of force (a rank's ghost layer's rows, alg2_mpi.cpp).
+  /// k-th cell's rows of lambda and E are the k-th block and its c is c(k). Node i's force goes
+  /// to row i of force, or with row_of to row row_of[j], j the column of node i in the cell
+  /// operators (i itself when every cell is held, CellOperators::node; on some cells `cells`
+  /// must be the held cells' list): a rank's ghost layer's rows (alg2_mpi.cpp).
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
                    double gamma = 0, const std::vector<int>* cells = nullptr,

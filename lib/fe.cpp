@@ -257,8 +257,8 @@ double cell_integrals(const Mesh& mesh, int c, Eigen::MatrixXd& gint, Eigen::Mat
 // the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
 // which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.
 // On a set of cells (a rank's cells, paper_notes/mpi.md): Gbar has the set's rows only, L sums
-// the set's cells only, vol is whole, and GbarT_vol is not built (the forces of a rank's cells go
-// run by run through add_cell_forces).
+// the set's cells only, both on the columns of the set's nodes, vol is whole, and GbarT_vol is not
+// built (the forces of a rank's cells go run by run through add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
   const int nn = mesh.num_nodes();
@@ -276,35 +276,54 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   }
   CellOperators ops;
   ops.cell = *held;
+  ops.num_nodes = nn;
   ops.vol.resize(nc);
-  // The cells around each node, then the pattern of L column by column (count, then fill).
-  std::vector<int> first(static_cast<std::size_t>(nn) + 1, 0), around;
+  // The columns: every node, or on some cells their nodes, numbered in increasing order (the
+  // whole-size map `local` lives through the construction only).
+  std::vector<int> local;
+  if (static_cast<int>(held->size()) != nc) {
+    local.assign(nn, -1);
+    for (int c : *held)
+      for (int a = 0; a < npc; ++a) local[mesh.cells(c, a)] = 0;
+    for (int i = 0; i < nn; ++i)
+      if (local[i] == 0) {
+        local[i] = static_cast<int>(ops.node.size());
+        ops.node.push_back(i);
+      }
+  }
+  const int ncol = local.empty() ? nn : static_cast<int>(ops.node.size());
+  auto col = [&](int c, int a) {
+    return local.empty() ? mesh.cells(c, a) : local[mesh.cells(c, a)];
+  };
+  // The cells around each column's node, then the pattern of L column by column (count, then
+  // fill).
+  std::vector<int> first(static_cast<std::size_t>(ncol) + 1, 0), around;
   for (int c : *held)
-    for (int a = 0; a < npc; ++a) ++first[mesh.cells(c, a) + 1];
-  for (int i = 0; i < nn; ++i) first[i + 1] += first[i];
-  around.resize(first[nn]);
+    for (int a = 0; a < npc; ++a) ++first[col(c, a) + 1];
+  for (int i = 0; i < ncol; ++i) first[i + 1] += first[i];
+  around.resize(first[ncol]);
   {
     std::vector<int> next(first.begin(), first.end() - 1);
     for (int c : *held)
-      for (int a = 0; a < npc; ++a) around[next[mesh.cells(c, a)]++] = c;
+      for (int a = 0; a < npc; ++a) around[next[col(c, a)]++] = c;
   }
   std::vector<int> neighbours;
-  auto column = [&](int j) {  // the sorted nodes sharing a cell with node j
+  auto column = [&](int j) {  // the sorted columns sharing a cell with column j
     neighbours.clear();
     for (int k = first[j]; k < first[j + 1]; ++k)
-      for (int a = 0; a < npc; ++a) neighbours.push_back(mesh.cells(around[k], a));
+      for (int a = 0; a < npc; ++a) neighbours.push_back(col(around[k], a));
     std::sort(neighbours.begin(), neighbours.end());
     neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
   };
   SpMat& L = ops.laplacian;
-  L.resize(nn, nn);
+  L.resize(ncol, ncol);
   L.outerIndexPtr()[0] = 0;
-  for (int j = 0; j < nn; ++j) {
+  for (int j = 0; j < ncol; ++j) {
     column(j);
     L.outerIndexPtr()[j + 1] = L.outerIndexPtr()[j] + static_cast<int>(neighbours.size());
   }
-  L.resizeNonZeros(L.outerIndexPtr()[nn]);
-  for (int j = 0; j < nn; ++j) {
+  L.resizeNonZeros(L.outerIndexPtr()[ncol]);
+  for (int j = 0; j < ncol; ++j) {
     column(j);
     std::copy(neighbours.begin(), neighbours.end(), L.innerIndexPtr() + L.outerIndexPtr()[j]);
   }
@@ -312,9 +331,9 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   std::vector<int>().swap(around);
   std::vector<int>().swap(first);
   // The integrals of the gradients, rows dim k + j of held cell k, with the cell's nodes in
-  // increasing order.
+  // increasing order (the columns' order is the nodes').
   const int nh = static_cast<int>(held->size());
-  SpMatR Gint(dim * nh, nn);
+  SpMatR Gint(dim * nh, ncol);
   Gint.resizeNonZeros(static_cast<Eigen::Index>(dim) * nh * npc);
   for (int r = 0; r <= dim * nh; ++r) Gint.outerIndexPtr()[r] = r * npc;
   Eigen::MatrixXd gint(npc, dim), Ke(npc, npc);
@@ -333,11 +352,11 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
     for (int j = 0; j < dim; ++j)
       for (int k = 0; k < npc; ++k) {
         const Eigen::Index i = Gint.outerIndexPtr()[dim * at + j] + k;
-        Gint.innerIndexPtr()[i] = mesh.cells(c, order[k]);
+        Gint.innerIndexPtr()[i] = col(c, order[k]);
         Gint.valuePtr()[i] = gint(order[k], j);
       }
     for (int a = 0; a < npc; ++a)
-      for (int b = 0; b < npc; ++b) L.coeffRef(mesh.cells(c, a), mesh.cells(c, b)) += Ke(a, b);
+      for (int b = 0; b < npc; ++b) L.coeffRef(col(c, a), col(c, b)) += Ke(a, b);
     ++at;
   }
   if (nh == nc) ops.GbarT_vol = Gint.transpose();
@@ -367,6 +386,25 @@ void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref
         for (int j = 0; j < dim; ++j) sum += g[outer[r0 + j] + a] * T(dim * k + j, i);
         f(row, i) += sum;
       }
+    }
+  }
+}
+
+void mean_gradients(const CellOperators& ops, int at, int n, const Eigen::MatrixXd& u,
+                    Eigen::Ref<Eigen::MatrixXd> T) {
+  const int dim = static_cast<int>(u.cols());
+  const int* outer = ops.Gbar.outerIndexPtr();
+  const int* col = ops.Gbar.innerIndexPtr();
+  const double* g = ops.Gbar.valuePtr();
+  const int* node = ops.node.empty() ? nullptr : ops.node.data();
+  for (int i = 0; i < dim; ++i) {  // column by column: u's and T's columns are contiguous
+    const double* ui = u.col(i).data();
+    for (int r = 0; r < dim * n; ++r) {
+      const int row = dim * at + r;
+      double sum = 0;
+      for (int k = outer[row]; k < outer[row + 1]; ++k)
+        sum += g[k] * ui[node ? node[col[k]] : col[k]];
+      T(r, i) = sum;
     }
   }
 }

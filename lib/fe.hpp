@@ -33,6 +33,8 @@ struct CellOperators {
   void swap(CellOperators& o) noexcept {
     vol.swap(o.vol);
     cell.swap(o.cell);
+    node.swap(o.node);
+    std::swap(num_nodes, o.num_nodes);
     Gbar.swap(o.Gbar);
     GbarT_vol.swap(o.GbarT_vol);
     laplacian.swap(o.laplacian);
@@ -42,35 +44,52 @@ struct CellOperators {
   /// The cells whose operators are held (sorted; every cell unless some were asked for): Gbar's
   /// row blocks, in this order.
   std::vector<int> cell;
-  /// (dim * #held) x #nodes: row dim*k + j of Gbar * U is the j-th column of the mean gradient
-  /// of cell e = cell[k], i.e. (Gbar * U)(dim*k + j, i) = mean of d u_i / d x_j over cell e
-  /// (U: #nodes x dim; k = e when every cell is held). On a rank's cells, its rows alone: no
-  /// row index of the other ranks' cells (paper_notes/mpi.md).
+  /// The nodes of Gbar's and the Laplacian's columns: empty when every cell is held (column i is
+  /// node i); on some cells, the sorted nodes of those cells (column i is node node[i]): a
+  /// rank's nodes numbered locally, as a distributed mesh numbers its part (paper_notes/mpi.md),
+  /// so that no index of the operators is of the whole mesh's size.
+  std::vector<int> node;
+  int num_nodes = 0;  ///< the mesh's
+  /// The operators' columns: #nodes, or on some cells the number of their nodes.
+  int columns() const { return node.empty() ? num_nodes : static_cast<int>(node.size()); }
+  /// (dim * #held) x columns(): row dim*k + j of Gbar * U is the j-th column of the mean
+  /// gradient of cell e = cell[k], i.e. (Gbar * U)(dim*k + j, i) = mean of d u_i / d x_j over
+  /// cell e (U: columns() x dim, row i the displacement of column i's node; k = e when every
+  /// cell is held). On a rank's cells, its rows alone and its nodes' columns alone: no index of
+  /// the other ranks' cells or nodes (paper_notes/mpi.md).
   SpMatR Gbar;
   /// #nodes x (dim * #cells): transpose of Gbar with rows weighted by |O_e|, so that
   /// GbarT_vol * T assembles sum_e |O_e| T_e : Gbar_e(v) for T: (dim*#cells) x dim, with
   /// T(dim*e + j, i) = (T_e)_{ij}.
   SpMatR GbarT_vol;
-  /// #nodes x #nodes, the scalar Laplacian integral grad phi_a . grad phi_b (exact quadrature on
-  /// affine P2 triangles and tetrahedra and on parallelepipeds).
+  /// columns() x columns(), the scalar Laplacian integral grad phi_a . grad phi_b (exact
+  /// quadrature on affine P2 triangles and tetrahedra and on parallelepipeds).
   SpMat laplacian;
 };
 
 /// [(2.7), (3.3)] The operators of the cells `held` (sorted; null: every cell): Gbar has their
-/// rows only, in their order (CellOperators::cell), and the Laplacian sums them only (a rank's
-/// cells in a distributed run, paper_notes/mpi.md); vol is every cell's. GbarT_vol is built only
-/// when every cell is held: on some cells it stays empty, and their forces go run by run
-/// (add_cell_forces).
+/// rows only, in their order (CellOperators::cell), and the Laplacian sums them only, both on
+/// the columns of their nodes (CellOperators::node; a rank's cells in a distributed run,
+/// paper_notes/mpi.md); vol is every cell's. GbarT_vol is built only when every cell is held:
+/// on some cells it stays empty, and their forces go run by run (add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held = nullptr);
 
 /// [(2.7), (4.1)] f += sum_e |O_e| T_e : Gbar_e(v) over the cells c0 .. c0 + n - 1 (a run of a
 /// rank's cells, at position `at` in CellOperators::cell), T their (dim n) x dim blocks, scaled
 /// by |O_e| in place: GbarT_vol T on those cells, from Gbar's rows dim at .. dim (at + n) - 1 (on
-/// a rank's cells T holds their rows only, and GbarT_vol is not built; paper_notes/mpi.md). With
-/// row_of, node i's force goes to row row_of[i] of f (a rank's right-hand side on its ghost
-/// layer's rows, alg2_mpi.cpp).
+/// a rank's cells T holds their rows only, and GbarT_vol is not built; paper_notes/mpi.md). The
+/// force of Gbar's column i goes to row i of f, or with row_of to row row_of[i]: on some cells
+/// f's row of the column's node (row_of = ops.node.data()), or a rank's right-hand side on its
+/// ghost layer's rows (alg2_mpi.cpp).
 void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref<Eigen::MatrixXd> T,
                      Eigen::MatrixXd& f, const int* row_of = nullptr);
+
+/// [(2.7), (3.3)] T = Gbar u on the held cells at .. at + n - 1 (positions in CellOperators::cell;
+/// T (dim n) x dim, transposed blocks like Gbar u), u whole (#nodes x dim): each column of Gbar
+/// reads u's row of its node (CellOperators::node), so that the operators of some cells meet a
+/// whole u without a copy of it on their columns.
+void mean_gradients(const CellOperators& ops, int at, int n, const Eigen::MatrixXd& u,
+                    Eigen::Ref<Eigen::MatrixXd> T);
 
 /// [(2.7), (3.3)] The integrals over cell c of its shape functions' gradients grad_q (at the
 /// quadrature points of for_each_quadrature_point, weights w_q): returns |O_c| = sum_q w_q, with

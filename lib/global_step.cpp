@@ -52,6 +52,20 @@ SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, dou
         *at += Rq * cells.vol(c) * m;
       }
   }
+  if (!cells.node.empty()) {  // some cells: from their nodes' columns to the mesh's numbering
+    const int nn = cells.num_nodes;
+    SpMat whole(nn, nn);
+    whole.resizeNonZeros(K.nonZeros());
+    std::fill(whole.outerIndexPtr(), whole.outerIndexPtr() + nn + 1, 0);
+    for (int j = 0; j < K.cols(); ++j)
+      whole.outerIndexPtr()[cells.node[j] + 1] = K.outerIndexPtr()[j + 1] - K.outerIndexPtr()[j];
+    for (int j = 0; j < nn; ++j) whole.outerIndexPtr()[j + 1] += whole.outerIndexPtr()[j];
+    for (Eigen::Index k = 0; k < K.nonZeros(); ++k) {  // node[] is increasing: the order stays
+      whole.innerIndexPtr()[k] = cells.node[K.innerIndexPtr()[k]];
+      whole.valuePtr()[k] = K.valuePtr()[k];
+    }
+    K.swap(whole);
+  }
   if (points && points->size() > 0) {
     const SpMat mean = SpMat(points->meanT_area * points->mean);
     bool in_pattern = true;

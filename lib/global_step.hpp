@@ -58,6 +58,8 @@ std::vector<std::vector<int>> components_by_dirichlet_set(const DirichletData& b
 
 /// [LTL87 (4.5)] K = 2 C1 L + R q Gbar^T diag(|O|) Gbar + R q_c M^T diag(|G|) M, with L the
 /// Laplacian, Gbar the mean gradient, M the facet mean (pass nullptr when there is no contact).
+/// #nodes x #nodes in the mesh's numbering, also from the operators of some cells (on their
+/// nodes' columns, CellOperators::node): then their part of K.
 SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, double C1, double Rq,
                     double Rqc);
 

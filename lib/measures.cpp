@@ -305,7 +305,8 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   // the largest over the ranks.
   Eigen::MatrixXd GU;
   mpi::for_each_run(d.held_cells(), [&](int c0, int n, int at) {
-    GU.noalias() = d.cells().Gbar.middleRows(dim * at, dim * n) * s.u;
+    GU.resize(dim * n, dim);
+    mean_gradients(d.cells(), at, n, s.u, GU);
     const Eigen::Index row = d.cell_row(s.E, c0, at);  // E whole or on the held cells' rows
     for (int k = 0; k < n; ++k) {
       const int e = c0 + k;

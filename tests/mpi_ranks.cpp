@@ -1067,10 +1067,31 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   const SpMatR& G = dist.discretization().cells().Gbar;
   EXPECT_EQ(G.rows(), static_cast<Eigen::Index>(dim) * static_cast<Eigen::Index>(cells.size()));
   EXPECT_EQ(dist.discretization().cells().cell, cells);
+  // [(2.7), (3.3)] ... and its rank's nodes' columns alone, numbered in increasing order (a
+  // distributed mesh's local numbering): so are the Laplacian's rows and columns.
+  const CellOperators& ops = dist.discretization().cells();
   {
-    Eigen::MatrixXd U = Eigen::MatrixXd::Random(p.mesh.num_nodes(), dim);
+    std::vector<int> nodes;
+    for (int c : cells)
+      for (int a = 0; a < p.mesh.nodes_per_cell(); ++a) nodes.push_back(p.mesh.cells(c, a));
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    if (P > 1) {
+      EXPECT_EQ(ops.node, nodes);
+      EXPECT_LT(ops.columns(), p.mesh.num_nodes());
+    } else {
+      EXPECT_TRUE(ops.node.empty());
+    }
+    EXPECT_EQ(ops.columns(), static_cast<int>(nodes.size()));
+    EXPECT_EQ(G.cols(), ops.columns());
+    EXPECT_EQ(ops.laplacian.rows(), ops.columns());
+    EXPECT_EQ(ops.laplacian.cols(), ops.columns());
+  }
+  {
+    Eigen::MatrixXd U = Eigen::MatrixXd::Random(p.mesh.num_nodes(), dim), work;
     mpi::broadcast(U.data(), U.size());
-    const Eigen::MatrixXd GU = G * U, GU_serial = serial.discretization().cells().Gbar * U;
+    const Eigen::MatrixXd GU = G * dist.discretization().on_columns(U, work),
+                          GU_serial = serial.discretization().cells().Gbar * U;
     double diff = 0;
     for (std::size_t k = 0; k < cells.size(); ++k)
       diff =
@@ -1084,6 +1105,21 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   EXPECT_EQ(nnz, static_cast<double>(serial.discretization().cells().Gbar.nonZeros()));
   const double L = dist.discretization().cells().laplacian.nonZeros();
   const double L_serial = serial.discretization().cells().laplacian.nonZeros();
+  {
+    // [(4.5)] The ranks' parts of K, from their columns to the mesh's numbering, add up to the
+    // serial K: sum_r K_r V = K V for a random V.
+    const double C1 = 1.7, Rq = 3.1;
+    const SpMat K_serial = global_matrix(serial.discretization().cells(), nullptr, C1, Rq, 0);
+    const SpMat K_part = global_matrix(ops, nullptr, C1, Rq, 0);
+    ASSERT_EQ(K_part.rows(), p.mesh.num_nodes());
+    ASSERT_EQ(K_part.cols(), p.mesh.num_nodes());
+    Eigen::VectorXd V = Eigen::VectorXd::Random(p.mesh.num_nodes());
+    mpi::broadcast(V.data(), V.size());
+    Eigen::VectorXd KV = K_part * V;
+    mpi::sum(KV.data(), KV.size());
+    const Eigen::VectorXd KV_serial = K_serial * V;
+    EXPECT_LE((KV - KV_serial).norm(), 1e-12 * KV_serial.norm());
+  }
   if (P > 1) {
     EXPECT_LT(L, L_serial);
     EXPECT_LT(dist.holdings().operators, serial.holdings().operators);

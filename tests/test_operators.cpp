@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <utility>
+#include <vector>
 
 #include "error.hpp"
 #include "fe.hpp"
@@ -93,6 +96,57 @@ TEST(GlobalMatrix, Eq4_5_IsSymmetricPositiveDefinite) {
   // Without the contact term and without Dirichlet nodes, constants are in the kernel.
   const SpMat K0 = global_matrix(c, nullptr, 187.5e3, 3e6, 0);
   EXPECT_LT((K0 * Eigen::VectorXd::Ones(bar.num_nodes())).norm(), 1e-6);
+}
+
+TEST(GlobalMatrix, Eq4_5_PartsOfSomeCellsOnTheirNodesAddUp) {
+  // [LTL87 (2.7), (3.3), (4.5)] The operators of some cells (a rank's, paper_notes/mpi.md) are on
+  // the columns of those cells' nodes, numbered in increasing order: Gbar's block of each cell is
+  // the whole Gbar's on those columns, L is that part's Laplacian there, and the parts of K of
+  // complementary sets of cells, back in the mesh's numbering, add up to K. On a distorted box:
+  // every third cell, and the others.
+  const Mesh m = distorted_box(3);
+  const CellOperators whole = cell_operators(m);
+  std::vector<int> a, b;
+  for (int c = 0; c < m.num_cells(); ++c) (c % 3 == 0 ? a : b).push_back(c);
+  const CellOperators oa = cell_operators(m, &a), ob = cell_operators(m, &b);
+  EXPECT_TRUE(whole.node.empty());
+  EXPECT_EQ(whole.columns(), m.num_nodes());
+  const Eigen::MatrixXd U = Eigen::MatrixXd::Random(m.num_nodes(), 3);
+  {
+    Eigen::MatrixXd T(3 * m.num_cells(), 3);
+    mean_gradients(whole, 0, m.num_cells(), U, T);
+    EXPECT_LT((T - whole.Gbar * U).norm(), 1e-14 * T.norm());
+  }
+  for (const auto& [set, ops] : {std::pair{&a, &oa}, std::pair{&b, &ob}}) {
+    std::vector<int> nodes;
+    for (int c : *set)
+      for (int k = 0; k < m.nodes_per_cell(); ++k) nodes.push_back(m.cells(c, k));
+    std::sort(nodes.begin(), nodes.end());
+    nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+    ASSERT_EQ(ops->node, nodes);
+    ASSERT_LT(ops->columns(), m.num_nodes());
+    ASSERT_EQ(ops->Gbar.cols(), ops->columns());
+    ASSERT_EQ(ops->laplacian.rows(), ops->columns());
+    const Eigen::MatrixXd GU = ops->Gbar * U(nodes, Eigen::all), GU_whole = whole.Gbar * U;
+    // ... and so is mean_gradients' from u whole (no copy on the columns), from the second cell.
+    const int n = static_cast<int>(set->size()) - 1;
+    Eigen::MatrixXd T(3 * n, 3);
+    mean_gradients(*ops, 1, n, U, T);
+    for (std::size_t k = 0; k < set->size(); ++k) {
+      EXPECT_EQ((GU.middleRows(3 * k, 3) - GU_whole.middleRows(3 * (*set)[k], 3)).norm(), 0.0);
+      if (k > 0) {
+        EXPECT_LT((T.middleRows(3 * (k - 1), 3) - GU_whole.middleRows(3 * (*set)[k], 3)).norm(),
+                  1e-14 * GU_whole.norm());
+      }
+    }
+    EXPECT_LT((ops->laplacian * Eigen::VectorXd::Ones(ops->columns())).norm(), 1e-12);
+  }
+  const SpMat K = global_matrix(whole, nullptr, 1.7, 3.1, 0);
+  const SpMat Ka = global_matrix(oa, nullptr, 1.7, 3.1, 0),
+              Kb = global_matrix(ob, nullptr, 1.7, 3.1, 0);
+  ASSERT_EQ(Ka.rows(), m.num_nodes());
+  ASSERT_EQ(Kb.cols(), m.num_nodes());
+  EXPECT_LT((SpMat(Ka + Kb) - K).norm(), 1e-12 * K.norm());
 }
 
 TEST(GlobalStep, SolvesWithDirichletValuesAndOneFactorPerDistinctSet) {
