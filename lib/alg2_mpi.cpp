@@ -205,18 +205,10 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     d.ksp->set_ghost_layer(nodes);
     // The right-hand side on the layer's rows alone (global_phase_distributed): meanT_own's rows
     // renumbered once, each node's row in the layer (layer_of, whole-size) through the set-up
-    // only, each column's kept.
+    // only, each column's kept (below).
     std::vector<int> layer_of(disc_.num_nodes(), -1);
     for (std::size_t k = 0; k < nodes.size(); ++k) layer_of[nodes[k]] = static_cast<int>(k);
     d.layer_rows = static_cast<int>(nodes.size());
-    const std::vector<int>& column_node = disc_.cells().node;
-    if (column_node.empty()) {
-      d.layer_row = layer_of;
-    } else {
-      d.layer_row.resize(column_node.size());
-      for (std::size_t j = 0; j < column_node.size(); ++j)
-        d.layer_row[j] = layer_of[column_node[j]];
-    }
     // The dead loads once over the ranks: each rank adds those of the nodes it owns, which are
     // its cells' (node_ranks), into its part.
     const std::vector<int>& loaded = disc_.loaded_nodes();
@@ -241,6 +233,10 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
       local.setFromTriplets(t.begin(), t.end());
       d.meanT_own.swap(local);
     }
+    const std::vector<int>& column_node = disc_.cells().node;  // empty: the columns are nodes
+    d.layer_row.resize(column_node.size());
+    for (std::size_t j = 0; j < column_node.size(); ++j) d.layer_row[j] = layer_of[column_node[j]];
+    if (column_node.empty()) d.layer_row.swap(layer_of);
   }
   rhs_.resize(rhs_rows(), dim());
   return true;

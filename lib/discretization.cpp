@@ -501,16 +501,11 @@ Eigen::MatrixXd Discretization::held_cell_forces(
   const int d = dim();
   Eigen::MatrixXd work;
   const Eigen::MatrixXd& uc = on_columns(u, work);  // on the operators' columns
-  // Column j's force goes to its node's row (node[j] on some cells).
+  // Column j's force goes to its node's row (node[j] on some cells, j on every cell).
   const int* row_of = cells_.node.empty() ? nullptr : cells_.node.data();
-  Eigen::MatrixXd f;
-  if (row_of) {
-    f.setZero(num_nodes(), d);
-    const Eigen::MatrixXd Lu = 2 * split_.C1 * (cells_.laplacian * uc);
-    for (Eigen::Index j = 0; j < Lu.rows(); ++j) f.row(row_of[j]) = Lu.row(j);
-  } else {
-    f = 2 * split_.C1 * (cells_.laplacian * u);
-  }
+  Eigen::MatrixXd f = Eigen::MatrixXd::Zero(num_nodes(), d);
+  const Eigen::MatrixXd Lu = 2 * split_.C1 * (cells_.laplacian * uc);
+  for (Eigen::Index j = 0; j < Lu.rows(); ++j) f.row(row_of ? row_of[j] : j) = Lu.row(j);
   Eigen::MatrixXd T;
   mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {
     T.noalias() = cells_.Gbar.middleRows(d * at, d * n) * uc;

@@ -81,9 +81,9 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   // A discretization of some cells (a rank's cells under mpirun, paper_notes/mpi.md) has the
   // mean gradients of its cells only: each rank computes its cells, on its rows of E and lambda
   // (the state between steps, Solver::initial_state; Discretization::cell_row).
-  Eigen::MatrixXd work;  // the held cells' rows, from u on the operators' columns
-  const Eigen::MatrixXd GU = disc.cells().Gbar * disc.on_columns(s.u, work);
   const std::vector<int>& held = disc.held_cells();
+  Eigen::MatrixXd GU(static_cast<Eigen::Index>(d) * static_cast<Eigen::Index>(held.size()), d);
+  mean_gradients(disc.cells(), 0, static_cast<int>(held.size()), s.u, GU);  // their rows
   for (int at = 0; at < static_cast<int>(held.size()); ++at) {
     const int e = held[at];
     Eigen::MatrixXd F = GU.block(d * at, 0, d, d).transpose();
