@@ -56,6 +56,10 @@ struct Holdings {
   /// The rows of the global step's right-hand side: #nodes, or on several ranks with a ghost
   /// layer the rank's cells' and points' nodes (alg2_mpi.cpp)
   int rhs_rows = 0;
+  /// The rows of u in a distributed ALG2's iterate while a phase runs (asked from a progress
+  /// callback): with a ghost layer the layer's (rhs_rows), else #nodes; 0 outside a phase and
+  /// in a serial solver (Ranks::One)
+  int iterate_u_rows = 0;
   double contact = 0;  ///< the contact points' operators and arrays
   /// With the Newton phase (newton.hpp): its cells (the rank's on several ranks), their
   /// data, their positions in the tangent's pattern, and the whole-mesh data it keeps.
@@ -331,17 +335,17 @@ class Solver {
   /// The rank's rows of a per-cell field (the k-th of own_cells() at rows dim k), cut from a
   /// whole field or copied from those rows.
   Eigen::MatrixXd rank_rows(const Eigen::MatrixXd& A) const;
-  /// Distributed: the iterate of the iterations from a state s, whose E and lambda are
+  /// Distributed: the iterate of the iterations from a state s, whose E, lambda and u are
   /// released: the rank's rows of E and lambda (the k-th of own_cells() at rows dim k; cut from
-  /// a whole s, moved from a state between steps on the rank's rows), u and the contact fields
-  /// whole (moved).
+  /// a whole s, moved from a state between steps on the rank's rows), u on the ghost layer's
+  /// rows (cut; whole and moved without a ghost layer), the contact fields whole (moved).
   State own_rows(State& s) const;
   /// The whole state from such an iterate (collective: E, lambda and the points' blocks
   /// gathered from the ranks).
   State whole(const State& own) const;
-  /// The state between steps from such an iterate (collective): u made whole (the ghost layer's
-  /// solves leave other rows stale), the points' blocks gathered, E and lambda kept on the rank's
-  /// rows when rows_between_steps(), else gathered (whole()).
+  /// The state between steps from such an iterate (collective): u made whole (from the ghost
+  /// layer's rows), the points' blocks gathered, E and lambda kept on the rank's rows when
+  /// rows_between_steps(), else gathered (whole()).
   State between_steps(State own) const;
   /// E and lambda gathered from the rank's rows (collective), the contact fields copied; no u.
   State whole_cells(const State& rows) const;

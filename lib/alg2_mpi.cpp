@@ -10,14 +10,14 @@
 //     (equilibrium residual, energy) add the ranks' parts. The Newton phase holds its own
 //     per-cell data for its cells (newton.hpp). With the replicated factor, the
 //     whole discretization on every rank.
-//   - REPLICATED: the mesh, the per-node dense arrays, u and the contact points' fields. Every
-//     rank reads the whole problem. The whole E and lambda exist only between ALG2 phases (for
-//     the Newton phase, the measures and the output) and when the equilibrium stopping test is
-//     due; the iterations run on the rank's rows of E and lambda (own_rows, whole), and so do
-//     T, Gbar u, J and the previous E. Anderson's packed iterate is the rank's cell rows and its
-//     contact points' rows (every point when the contact step is replicated, then in the
-//     replicated tail): its inner products sum the distributed head over the ranks. The states
-//     the load subdivision keeps to go back to are the rank's rows and its block of u
+//   - REPLICATED: the mesh, the per-node dense arrays, u between ALG2's phases and the contact
+//     points' fields. Every rank reads the whole problem. The whole E and lambda exist only between
+//     ALG2 phases (for the Newton phase, the measures and the output) and when the equilibrium
+//     stopping test is due; the iterations run on the rank's rows of E and lambda (own_rows,
+//     whole), and so do T, Gbar u, J and the previous E. Anderson's packed iterate is the rank's
+//     cell rows and its contact points' rows (every point when the contact step is replicated, then
+//     in the replicated tail): its inner products sum the distributed head over the ranks. The
+//     states the load subdivision keeps to go back to are the rank's rows and its block of u
 //     (kept_copy); the checks after a step run on the rank's cells (lib/admissibility.cpp).
 //   - DISTRIBUTED: the cells (the partition above) and the contact points (each on the smallest
 //     rank whose cells hold all its nodes, point_partition in mpi_global.hpp). A rank computes, on
@@ -26,8 +26,9 @@
 //     terms and targets, Gbar u and ubar; the strain step (4.6); the contact step (4.7) when the
 //     points are independent (d0 = 0); the update (4.3) and the residual sums (4.4). The global
 //     solve (4.5) is one distributed PETSc KSP (mpi_global.hpp) on a ghost layer: the ranks' parts
-//     of the right-hand side are added into PETSc's vector and u comes back on the nodes a rank
-//     reads (its other rows stale until the end of the phase); with mean-det under Anderson, or the
+//     of the right-hand side are added into PETSc's vector and u comes back on the layer's rows:
+//     the iterate's u is on those rows through the phase (own_rows), made whole at its end
+//     (between_steps, whole_u); with mean-det under Anderson, or the
 //     PETSc option -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x
 //     dim) and u gathered whole; with -ltl_mpi_replicated the serial factor on every rank
 //     (replicated). The residual parts are summed (3 values). E, lambda, u and the points' e,
@@ -54,12 +55,14 @@ struct Solver::Distribution {
   bool contact_replicated = false;
   bool use_ksp = true;  ///< false: the serial factor on every rank
   DistributedGlobalStep::Solver ksp_solver = DistributedGlobalStep::Solver::Mumps;
-  /// With a ghost layer: the rows of the right-hand side (the rank's cells' and points' nodes,
-  /// sorted) and the row there of each column of the cell operators (CellOperators::node: the
-  /// rank's cells' nodes on a discretization of its cells, else every node, -1: none); 0 and
-  /// empty without.
-  int layer_rows = 0;
+  /// With a ghost layer (its nodes ksp->layer_nodes(), sorted: the rows of the right-hand side
+  /// and of the iterate's u, the rank's cells' and points' nodes): the row there of each column
+  /// of the cell operators (CellOperators::node: the rank's cells' nodes on a discretization of
+  /// its cells, else every node, -1: none); empty without.
   std::vector<int> layer_row;
+  /// With a ghost layer: the rows of `mean` of own_points() (every point when the contact step
+  /// is replicated), their columns the layer's rows: ubar from u on the layer
+  SpMatR mean_layer;
   /// With a ghost layer: the loaded nodes that the rank owns (node_ranks), their rows of the
   /// right-hand side and their dead loads, which the rank adds into its part
   std::vector<int> dead_rows;
@@ -202,13 +205,11 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     for (int n = 0; n < disc_.num_nodes(); ++n)
       if (touched[n]) nodes.push_back(n);
     std::vector<char>().swap(touched);
-    d.ksp->set_ghost_layer(nodes);
     // The right-hand side on the layer's rows alone (global_phase_distributed): meanT_own's rows
     // renumbered once, each node's row in the layer (layer_of, whole-size) through the set-up
     // only, each column's kept (below).
     std::vector<int> layer_of(disc_.num_nodes(), -1);
     for (std::size_t k = 0; k < nodes.size(); ++k) layer_of[nodes[k]] = static_cast<int>(k);
-    d.layer_rows = static_cast<int>(nodes.size());
     // The dead loads once over the ranks: each rank adds those of the nodes it owns, which are
     // its cells' (node_ranks), into its part.
     const std::vector<int>& loaded = disc_.loaded_nodes();
@@ -229,21 +230,32 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
       for (int i = 0; i < d.meanT_own.outerSize(); ++i)
         for (SpMatR::InnerIterator it(d.meanT_own, i); it; ++it)
           t.emplace_back(layer_of[i], static_cast<int>(it.col()), it.value());
-      SpMatR local(d.layer_rows, d.meanT_own.cols());
+      SpMatR local(static_cast<int>(nodes.size()), d.meanT_own.cols());
       local.setFromTriplets(t.begin(), t.end());
       d.meanT_own.swap(local);
+    }
+    if (const ContactPoints* points = disc_.points()) {
+      const std::vector<int>& rows = own_points();
+      std::vector<Eigen::Triplet<double> > t;
+      for (std::size_t k = 0; k < rows.size(); ++k)
+        for (SpMatR::InnerIterator it(points->mean, rows[k]); it; ++it)
+          t.emplace_back(static_cast<int>(k), layer_of[it.col()], it.value());
+      d.mean_layer.resize(static_cast<int>(rows.size()), static_cast<int>(nodes.size()));
+      d.mean_layer.setFromTriplets(t.begin(), t.end());
     }
     const std::vector<int>& column_node = disc_.cells().node;  // empty: the columns are nodes
     d.layer_row.resize(column_node.size());
     for (std::size_t j = 0; j < column_node.size(); ++j) d.layer_row[j] = layer_of[column_node[j]];
     if (column_node.empty()) d.layer_row.swap(layer_of);
+    d.ksp->set_ghost_layer(std::move(nodes));
   }
   rhs_.resize(rhs_rows(), dim());
   return true;
 }
 
 int Solver::rhs_rows() const {
-  return dist_ && dist_->layer_rows > 0 ? dist_->layer_rows : disc_.num_nodes();
+  const std::vector<int>* layer = dist_ && dist_->ksp ? &dist_->ksp->layer_nodes() : nullptr;
+  return layer && !layer->empty() ? static_cast<int>(layer->size()) : disc_.num_nodes();
 }
 
 bool Solver::distributed_cg_gamg() const {
@@ -349,7 +361,7 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
     });
     rhs_.noalias() += d.meanT_own * d.point_rhs;
   }
-  if (ghosts) {  // the ranks' parts (layer rows) added into PETSc's vector; u on its nodes
+  if (ghosts) {  // the ranks' parts (layer rows) added into PETSc's vector; u on the layer's
     d.ksp->solve(rhs_, s.u);
   } else {
     mpi::sum(rhs_.data(), rhs_.size());
@@ -359,16 +371,21 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
       global_->solve(rhs_, s.u);
   }
 
-  mpi::for_each_run(d.own, [&](int c0, int n, int at) {  // Gbar's columns read u by node
-    mean_gradients(disc_.cells(), held_rows ? at : c0, n, s.u, g.GU.middleRows(dim * at, dim * n));
+  // Gbar's columns read u's rows: the layer's (row_of), else their nodes'.
+  mpi::for_each_run(d.own, [&](int c0, int n, int at) {
+    mean_gradients(disc_.cells(), held_rows ? at : c0, n, s.u, g.GU.middleRows(dim * at, dim * n),
+                   row_of);
   });
   if (disc_.mean_det()) {
-    disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, &d.own);
+    disc_.fluctuation(s.u, nullptr, nullptr, &g.J, nullptr, 0.0, &d.own, row_of);
     g.J = 1.0 - g.J.array();
   }
   if (points) {
-    mpi::for_each_run(own_points(), [&](int f0, int n, int) {
-      g.ubar.middleRows(f0, n).noalias() = points->mean.middleRows(f0, n) * s.u;
+    mpi::for_each_run(own_points(), [&](int f0, int n, int at) {
+      if (ghosts)
+        g.ubar.middleRows(f0, n).noalias() = d.mean_layer.middleRows(at, n) * s.u;
+      else
+        g.ubar.middleRows(f0, n).noalias() = points->mean.middleRows(f0, n) * s.u;
     });
   }
 }
@@ -408,7 +425,13 @@ State Solver::own_rows(State& s) const {
     own.E.swap(s.E);
     own.lambda.swap(s.lambda);
   }
-  own.u.swap(s.u);
+  if (dist_->ksp && dist_->ksp->ghost_layer()) {
+    const std::vector<int>& layer = dist_->ksp->layer_nodes();
+    own.u = s.u(layer, Eigen::all);  // the ghost layer's rows (global_phase_distributed)
+    Eigen::MatrixXd().swap(s.u);
+  } else {
+    own.u.swap(s.u);
+  }
   own.e.swap(s.e);
   own.beta.swap(s.beta);
   own.lambda_c.swap(s.lambda_c);
@@ -548,11 +571,14 @@ Holdings Solver::holdings() const {
                   4.0 * static_cast<double>(disc_.held_cells().size());
   if (dist_) h.cell_arrays += 4.0 * (dist_->cells.order.size() + dist_->own.size());
   h.rhs_rows = static_cast<int>(rhs_.rows());
+  if (alg2_rows_) h.iterate_u_rows = static_cast<int>(alg2_rows_->u.rows());
   h.node_arrays = bytes_of(disc_.loaded_rows()) +
                   4.0 * static_cast<double>(disc_.loaded_nodes().size()) + bytes_of(rhs_);
   if (dist_)
     h.node_arrays += bytes_of(dist_->dead_values) +
                      4.0 * static_cast<double>(dist_->dead_rows.size() + dist_->layer_row.size());
+  if (dist_ && dist_->ksp)
+    h.node_arrays += 4.0 * static_cast<double>(dist_->ksp->layer_nodes().size());
   const DirichletData& bc = disc_.dirichlet();
   for (std::size_t i = 0; i < bc.fixed.size(); ++i)
     h.node_arrays +=
@@ -561,7 +587,7 @@ Holdings Solver::holdings() const {
     h.contact = bytes_of_sparse(p->mean) + bytes_of_sparse(p->meanT_area) + bytes_of(p->area) +
                 bytes_of(p->centre) + bytes_of(p->gap) + bytes_of(p->normals) +
                 bytes_of(global_out_.ubar) + bytes_of(w_point_);
-    if (dist_) h.contact += bytes_of_sparse(dist_->meanT_own);
+    if (dist_) h.contact += bytes_of_sparse(dist_->meanT_own) + bytes_of_sparse(dist_->mean_layer);
   }
   if (newton_) {
     const Newton::Holdings n = newton_->holdings();

@@ -255,14 +255,16 @@ struct FluctuationKernel {
   }
 
   /// Cell e, whose E and lambda are the blocks at rows d row: returns c_e; with fe, the cell's
-  /// nodal force (p_e and gamma as above).
-  double operator()(int e, int row, const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
-                    const Eigen::MatrixXd* E, double gamma, double* fe) const {
+  /// nodal force (p_e and gamma as above). u's row of the cell's node a: u_row[a], or the node
+  /// (u_row null).
+  double operator()(int e, int row, const Eigen::MatrixXd& u, const int* u_row,
+                    const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
+                    double* fe) const {
     Eigen::Matrix<double, npc, 2 * d> XU;  // [Xe ue]
     for (int a = 0; a < npc; ++a) {
       const int n = cells(e, a);
       XU.row(a).template head<d>() = X.row(n);
-      XU.row(a).template tail<d>() = u.row(n);
+      XU.row(a).template tail<d>() = u.row(u_row ? u_row[a] : n);
     }
     Mat G[Discretization::kMaxPoints], JTinv[Discretization::kMaxPoints];
     double w[Discretization::kMaxPoints];
@@ -320,13 +322,29 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
   constexpr int kBlock = 2048, kNodal = npc * d;
   if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
   if (cells) n = static_cast<int>(cells->size());
+  // With row_of, the rows of u and of the force of the k-th cell's nodes: row_of[j], j the node's
+  // column, on some cells (held: cells is their list) Gbar's column in the cell's row block at
+  // the node's place among the cell's nodes in increasing order (cell_operators), else the node.
+  const auto rows_of = [&](int e, int k, int* row) {
+    const int* column =
+        held ? held->Gbar.innerIndexPtr() + held->Gbar.outerIndexPtr()[d * k] : nullptr;
+    for (int a = 0; a < npc; ++a) {
+      const int node = kernel.cells(e, a);
+      int place = 0;
+      if (column)
+        for (int b = 0; b < npc; ++b) place += kernel.cells(e, b) < node;
+      row[a] = row_of[column ? column[place] : node];
+    }
+  };
   for (int b0 = 0; b0 < n; b0 += kBlock) {
     const int b1 = std::min(n, b0 + kBlock);
 #pragma omp parallel for schedule(static)
     for (int k = b0; k < b1; ++k) {
       const int e = cells ? (*cells)[k] : k;
+      int row[npc];
+      if (row_of) rows_of(e, k, row);
       double* fe = force ? buffer.data() + static_cast<std::size_t>(k - b0) * kNodal : nullptr;
-      const double ce = kernel(e, k, u, lambda, E, gamma, fe);
+      const double ce = kernel(e, k, u, row_of ? row : nullptr, lambda, E, gamma, fe);
       if (c) (*c)(k) = ce;
     }
     if (!force) continue;
@@ -334,22 +352,9 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
       const Eigen::Map<const Eigen::Matrix<double, npc, d>> fe(
           buffer.data() + static_cast<std::size_t>(k - b0) * kNodal);
       const int e = cells ? (*cells)[k] : k;
-      // On some cells (held: cells is their list), node a's column is Gbar's in the cell's row
-      // block at the node's place among the cell's nodes in increasing order (cell_operators).
-      const int* column =
-          held ? held->Gbar.innerIndexPtr() + held->Gbar.outerIndexPtr()[d * k] : nullptr;
-      for (int a = 0; a < npc; ++a) {
-        const int node = kernel.cells(e, a);
-        int row = node;
-        if (row_of && column) {
-          int place = 0;
-          for (int b = 0; b < npc; ++b) place += kernel.cells(e, b) < node;
-          row = row_of[column[place]];
-        } else if (row_of) {
-          row = row_of[node];
-        }
-        force->row(row) += fe.row(a);
-      }
+      int row[npc];
+      if (row_of) rows_of(e, k, row);
+      for (int a = 0; a < npc; ++a) force->row(row_of ? row[a] : kernel.cells(e, a)) += fe.row(a);
     }
   }
 }
@@ -363,9 +368,9 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
   // per-point table: memory per cell, not speed, limits the 3-D problems).
   const Mesh& mesh = problem_.mesh;
   // row_of by column on some cells: the held cells, in their order.
-  const CellOperators* held = partial_ && row_of && force ? &cells_ : nullptr;
+  const CellOperators* held = partial_ && row_of ? &cells_ : nullptr;
   if (held && (!cells || *cells != cells_.cell))
-    throw Error("fluctuation: a force by column needs the held cells' list");
+    throw Error("fluctuation: rows by column need the held cells' list");
   if (dim() == 2)
     fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
                            force, buffer_, cells, num_cells(), row_of, held);

@@ -127,10 +127,11 @@ class Discretization {
   /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
   /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell. On the
   /// cells `cells` (sorted; null: all; a rank's cells when distributed, alg2_mpi.cpp): then the
-  /// k-th cell's rows of lambda and E are the k-th block and its c is c(k). Node i's force goes
-  /// to row i of force, or with row_of to row row_of[j], j the column of node i in the cell
-  /// operators (i itself when every cell is held, CellOperators::node; on some cells `cells`
-  /// must be the held cells' list): a rank's ghost layer's rows (alg2_mpi.cpp).
+  /// k-th cell's rows of lambda and E are the k-th block and its c is c(k). Node i's u is row i
+  /// of u and its force goes to row i of force, or with row_of both are row row_of[j], j the
+  /// column of node i in the cell operators (i itself when every cell is held,
+  /// CellOperators::node; on some cells `cells` must be the held cells' list): a rank's iterate
+  /// and right-hand side on its ghost layer's rows (alg2_mpi.cpp).
   void fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd* lambda,
                    const Eigen::MatrixXd* E, Eigen::VectorXd* c, Eigen::MatrixXd* force,
                    double gamma = 0, const std::vector<int>* cells = nullptr,

@@ -391,12 +391,12 @@ void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref
 }
 
 void mean_gradients(const CellOperators& ops, int at, int n, const Eigen::MatrixXd& u,
-                    Eigen::Ref<Eigen::MatrixXd> T) {
+                    Eigen::Ref<Eigen::MatrixXd> T, const int* row_of) {
   const int dim = static_cast<int>(u.cols());
   const int* outer = ops.Gbar.outerIndexPtr();
   const int* col = ops.Gbar.innerIndexPtr();
   const double* g = ops.Gbar.valuePtr();
-  const int* node = ops.node.empty() ? nullptr : ops.node.data();
+  const int* node = row_of ? row_of : ops.node.empty() ? nullptr : ops.node.data();
   for (int i = 0; i < dim; ++i) {  // column by column: u's and T's columns are contiguous
     const double* ui = u.col(i).data();
     for (int r = 0; r < dim * n; ++r) {

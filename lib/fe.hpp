@@ -85,11 +85,12 @@ void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref
                      Eigen::MatrixXd& f, const int* row_of = nullptr);
 
 /// [(2.7), (3.3)] T = Gbar u on the held cells at .. at + n - 1 (positions in CellOperators::cell;
-/// T (dim n) x dim, transposed blocks like Gbar u), u whole (#nodes x dim): each column of Gbar
+/// T (dim n) x dim, transposed blocks like Gbar u). u whole (#nodes x dim): each column of Gbar
 /// reads u's row of its node (CellOperators::node), so that the operators of some cells meet a
-/// whole u without a copy of it on their columns.
+/// whole u without a copy of it on their columns; with row_of, column j reads u's row
+/// row_of[j] (a rank's iterate on its ghost layer's rows, alg2_mpi.cpp).
 void mean_gradients(const CellOperators& ops, int at, int n, const Eigen::MatrixXd& u,
-                    Eigen::Ref<Eigen::MatrixXd> T);
+                    Eigen::Ref<Eigen::MatrixXd> T, const int* row_of = nullptr);
 
 /// [(2.7), (3.3)] The integrals over cell c of its shape functions' gradients grad_q (at the
 /// quadrature points of for_each_quadrature_point, weights w_q): returns |O_c| = sum_q w_q, with

@@ -141,7 +141,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&&, const DirichletData& bc,
 }
 DistributedGlobalStep::~DistributedGlobalStep() = default;
 void DistributedGlobalStep::solve(const Eigen::MatrixXd&, Eigen::MatrixXd&) {}
-void DistributedGlobalStep::set_ghost_layer(const std::vector<int>&) {}
+void DistributedGlobalStep::set_ghost_layer(std::vector<int>) {}
 void DistributedGlobalStep::whole_u(Eigen::MatrixXd&) {}
 std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares() const {
   return {};
@@ -330,13 +330,23 @@ struct DistributedGlobalStep::Group {
   KSP ksp = nullptr;
   Vec b = nullptr, xv = nullptr;
   Vec r = nullptr;  ///< b - A x0, the warm start's residual (CG + GAMG, inexact)
-  // The ghost layer (set_ghost_layer): the free rows of b this rank adds, and the nodes of the
-  // free rows of u it reads (the added ones and its owned block) with their scatter from xv into
-  // `read`.
+  // The ghost layer (set_ghost_layer): the free rows of b this rank adds, and the layer's rows
+  // of the free rows of u it reads (the added ones and its owned block) with their scatter from
+  // xv into `read`.
   std::vector<PetscInt> add_row;
   std::vector<int> add_at;  ///< the row in the ghost layer's b of each added row
   std::vector<PetscScalar> add_value;
-  std::vector<int> read_node;
+  std::vector<int> read_at;
+  /// f(r, k) for each owned row r and the row k of its node in the ghost layer's nodes `layer`:
+  /// both lists in increasing order, a merge (set_ghost_layer checks that the layer holds them).
+  template <class F>
+  void for_each_own_row(const std::vector<int>& layer, F&& f) const {
+    std::size_t k = 0;
+    for (std::size_t r = 0; r < own_node.size(); ++r) {
+      while (layer[k] < own_node[r]) ++k;
+      f(static_cast<int>(r), static_cast<int>(k));
+    }
+  }
   Vec read = nullptr;
   VecScatter scatter = nullptr;
   // Without a ghost layer (one rank, mean-det under Anderson, -ltl_mpi_no_ghosts) every solve
@@ -629,8 +639,17 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
 
 DistributedGlobalStep::~DistributedGlobalStep() = default;
 
-void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
+void DistributedGlobalStep::set_ghost_layer(std::vector<int> nodes) {
   const int me = mpi::rank();
+  const auto layer_row = [&](int node) {  // -1: not in the layer
+    const auto at = std::lower_bound(nodes.begin(), nodes.end(), node);
+    return at != nodes.end() && *at == node ? static_cast<int>(at - nodes.begin()) : -1;
+  };
+  layer_fixed_.assign(bc_.fixed.size(), {});
+  for (std::size_t i = 0; i < bc_.fixed.size(); ++i)
+    for (std::size_t k = 0; k < bc_.fixed[i].size(); ++k)
+      if (const int row = layer_row(bc_.fixed[i][k]); row >= 0)
+        layer_fixed_[i].emplace_back(row, static_cast<int>(k));
   for (auto& gp : groups_) {
     Group& g = *gp;
     const int f0 = g.offset[me], f1 = g.offset[me + 1];
@@ -659,11 +678,15 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
     std::sort(row_node.begin(), row_node.end());
     row_node.erase(std::unique(row_node.begin(), row_node.end()), row_node.end());
     std::vector<PetscInt> read(row_node.size());
-    g.read_node.resize(row_node.size());
+    g.read_at.resize(row_node.size());
     for (std::size_t i = 0; i < row_node.size(); ++i) {
       read[i] = row_node[i].first;
-      g.read_node[i] = row_node[i].second;
+      g.read_at[i] = layer_row(row_node[i].second);  // the added rows' and the owned rows'
     }
+    for (std::size_t r = 0; r < g.own_node.size(); ++r)  // for_each_own_row's merge
+      if (layer_row(g.own_node[r]) < 0 || (r > 0 && g.own_node[r] <= g.own_node[r - 1]))
+        throw Error(cat(g.what, ": the ghost layer lacks the rank's own node ", g.own_node[r],
+                        ", or its own nodes are not in increasing order"));
     if (g.scatter) VecScatterDestroy(&g.scatter);
     if (g.read) VecDestroy(&g.read);
     IS is = nullptr;
@@ -676,7 +699,7 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
     ISDestroy(&is);
   }
   ghost_layer_ = true;
-  layer_rows_ = static_cast<int>(nodes.size());
+  layer_node_.swap(nodes);
 }
 
 // [LTL87 (4.5)] One KSP solve per component of each Dirichlet set, from the warm start u. Without
@@ -684,11 +707,15 @@ void DistributedGlobalStep::set_ghost_layer(const std::vector<int>& nodes) {
 // it b is this rank's part, added into PETSc's vector, and u is scattered back on the rows the
 // rank reads.
 void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) {
-  if (b.rows() != (ghost_layer_ ? layer_rows_ : num_nodes_))
+  const auto rows = ghost_layer_ ? static_cast<Eigen::Index>(layer_node_.size()) : num_nodes_;
+  if (b.rows() != rows)
     throw Error(cat("the distributed global step (4.5): a right-hand side of ", b.rows(),
-                    " rows for ", ghost_layer_ ? layer_rows_ : num_nodes_));
-  if (u.rows() != num_nodes_ || u.cols() != b.cols())
-    u = Eigen::MatrixXd::Zero(num_nodes_, b.cols());
+                    " rows for ", rows));
+  if (u.size() == 0) u = Eigen::MatrixXd::Zero(b.rows(), b.cols());  // no warm start
+  if (u.rows() != b.rows() || u.cols() != b.cols())
+    throw Error(cat("the distributed global step (4.5): a warm start u of ", u.rows(), " x ",
+                    u.cols(), " for ", b.rows(), " x ", b.cols(),
+                    ghost_layer_ ? " (the ghost layer's rows)" : " (the mesh's nodes)"));
   const int me = mpi::rank();
   for (auto& gp : groups_) {
     Group& g = *gp;
@@ -707,13 +734,17 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) 
       PetscScalar *pb = nullptr, *px = nullptr;
       check(VecGetArray(g.b, &pb), g.what, "VecGetArray");
       check(VecGetArray(g.xv, &px), g.what, "VecGetArray");
-      for (int r = 0; r < own; ++r) {
-        const int node = g.own_node[r];
-        if (ghost_layer_)
+      if (ghost_layer_) {
+        g.for_each_own_row(layer_node_, [&](int r, int at) {
           pb[r] -= scale_ * g.shift(r, k);
-        else
+          px[r] = u(at, c);
+        });
+      } else {
+        for (int r = 0; r < own; ++r) {
+          const int node = g.own_node[r];
           pb[r] = b(node, c) - scale_ * g.shift(r, k);
-        px[r] = u(node, c);
+          px[r] = u(node, c);
+        }
       }
       check(VecRestoreArray(g.b, &pb), g.what, "VecRestoreArray");
       check(VecRestoreArray(g.xv, &px), g.what, "VecRestoreArray");
@@ -748,31 +779,38 @@ void DistributedGlobalStep::solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u) 
               "VecScatterEnd");
         const PetscScalar* cr = nullptr;
         check(VecGetArrayRead(g.read, &cr), g.what, "VecGetArrayRead");
-        for (std::size_t i = 0; i < g.read_node.size(); ++i) u(g.read_node[i], c) = cr[i];
+        for (std::size_t i = 0; i < g.read_at.size(); ++i) u(g.read_at[i], c) = cr[i];
         check(VecRestoreArrayRead(g.read, &cr), g.what, "VecRestoreArrayRead");
+        for (const auto& [row, at] : layer_fixed_[c]) u(row, c) = scale_ * bc_.value[c][at];
       } else {
         const PetscScalar* cx = nullptr;
         check(VecGetArrayRead(g.xv, &cx), g.what, "VecGetArrayRead");
         g.gather_into(u, c, cx, g.whole_node, g.whole_x);
         check(VecRestoreArrayRead(g.xv, &cx), g.what, "VecRestoreArrayRead");
+        bc_.impose(u, c, scale_);
       }
-      bc_.impose(u, c, scale_);
     }
   }
 }
 
 void DistributedGlobalStep::whole_u(Eigen::MatrixXd& u) {
   if (!ghost_layer_) return;
+  if (u.rows() != static_cast<Eigen::Index>(layer_node_.size()))
+    throw Error(cat("the distributed global step: u of ", u.rows(), " rows on a ghost layer of ",
+                    layer_node_.size()));
+  Eigen::MatrixXd whole = Eigen::MatrixXd::Zero(num_nodes_, u.cols());
   const int me = mpi::rank();
   for (auto& gp : groups_) {
     Group& g = *gp;
     std::vector<double> own(g.offset[me + 1] - g.offset[me]), x;
     std::vector<int> node;  // gathered once for the set's components, freed on return
     for (const int c : g.components) {
-      for (std::size_t r = 0; r < own.size(); ++r) own[r] = u(g.own_node[r], c);
-      g.gather_into(u, c, own.data(), node, x);
+      g.for_each_own_row(layer_node_, [&](int r, int at) { own[r] = u(at, c); });
+      g.gather_into(whole, c, own.data(), node, x);
     }
   }
+  for (int c = 0; c < whole.cols(); ++c) bc_.impose(whole, c, scale_);
+  u.swap(whole);
 }
 
 std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares() const {
@@ -786,7 +824,7 @@ std::vector<DistributedGlobalStep::SetShare> DistributedGlobalStep::set_shares()
     s.owned = g.offset[me + 1] - g.offset[me];
     for (const PetscInt r : g.add_row) s.ghosts += r < g.offset[me] || r >= g.offset[me + 1];
     s.bytes = sizeof(int) * (g.components.size() + g.offset.size() + g.own_node.size() +
-                             g.add_at.size() + g.read_node.size() + g.whole_node.size()) +
+                             g.add_at.size() + g.read_at.size() + g.whole_node.size()) +
               sizeof(double) * (g.shift.size() + g.whole_x.size()) +
               sizeof(PetscInt) * g.add_row.size() + sizeof(PetscScalar) * g.add_value.size();
     shares.push_back(s);

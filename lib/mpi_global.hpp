@@ -14,13 +14,14 @@
 // iteration counts and the same answer (tests/mpi_ranks.cpp). Until 2026-12-03 that tight
 // tolerance was the only one (paper_notes/mpi.md, "The distributed CG + GAMG, inexact").
 //
-// The right-hand side and u are whole arrays on every rank. By default (the first slice of the
-// distribution, paper_notes/mpi.md) b is whole and the same on every rank: a rank copies its
-// rows in, solves, and the solution's row blocks are gathered back to every rank (mpi::gather).
-// With a ghost layer (set_ghost_layer) each rank's b holds its own cells' and points' part only,
-// added into PETSc's vector row by row (the rows of other ranks travel at the assembly), and u
-// is brought back on the nodes the rank reads only (a VecScatter of its ghosts): no O(#nodes)
-// message; whole_u gathers every row when a whole u is wanted.
+// By default (the first slice of the distribution, paper_notes/mpi.md) the right-hand side and
+// u are whole arrays on every rank: b is the same on every rank, a rank copies its rows in,
+// solves, and the solution's row blocks are gathered back to every rank (mpi::gather). With a
+// ghost layer (set_ghost_layer: the rank's cells' and points' nodes) b and u are on the layer's
+// rows: each rank's b holds its own cells' and points' part only, added into PETSc's vector row
+// by row (the rows of other ranks travel at the assembly), and u is brought back on the layer's
+// rows only (a VecScatter of its ghosts; the Dirichlet values imposed on its fixed nodes): no
+// O(#nodes) message or array; whole_u makes u whole when a whole u is wanted.
 #pragma once
 
 #include <Eigen/Dense>
@@ -124,16 +125,20 @@ class DistributedGlobalStep {
 
   /// [LTL87 (4.1), (4.5)] K u = b with u = value_scale x value on the fixed nodes; b whole on
   /// every rank, u in: the warm start, out: the solution, whole on every rank. Collective.
-  /// With a ghost layer: b is this rank's part on the layer's rows (#nodes x #components, row k
-  /// node nodes[k]; the parts of the ranks add up to the right-hand side), and u (whole-size) is
-  /// the solution on `nodes` and the owned rows, its other rows unchanged.
+  /// With a ghost layer: b is this rank's part on the layer's rows (#layer x #components, row k
+  /// node nodes[k]; the parts of the ranks add up to the right-hand side), and so is u (in: the
+  /// warm start, out: the solution on the layer's nodes, which hold the rank's own rows). An
+  /// empty u starts from 0; a u of other rows or columns than b's is an Error.
   void solve(const Eigen::MatrixXd& b, Eigen::MatrixXd& u);
   /// The ghost layer: `nodes` (sorted, distinct) are the nodes whose rows of b this rank
-  /// fills (b's rows, in this order) and whose u it reads (its cells' and contact points'
-  /// nodes). Collective.
-  void set_ghost_layer(const std::vector<int>& nodes);
+  /// fills and of u it reads (b's and u's rows, in this order: its cells' and contact points'
+  /// nodes); they must hold the rank's own rows (node_rank). Collective.
+  void set_ghost_layer(std::vector<int> nodes);
   bool ghost_layer() const { return ghost_layer_; }
-  /// u whole on every rank, after solves with a ghost layer (its owned rows gathered).
+  /// The ghost layer's nodes (empty without one).
+  const std::vector<int>& layer_nodes() const { return layer_node_; }
+  /// With a ghost layer: u on the layer's rows made whole (#nodes x #components) on every rank,
+  /// the ranks' own rows gathered and the fixed nodes' values imposed. Without: unchanged.
   /// Collective.
   void whole_u(Eigen::MatrixXd& u);
 
@@ -190,8 +195,11 @@ class DistributedGlobalStep {
   double rtol_ = 0;  ///< -ltl_mpi_rtol's: every CG + GAMG solve to it (tight), else 0
   double eta_ = 0;   ///< else the inexact solves' eta (CgAmg::eta_option)
   bool ghost_layer_ = false;
-  int num_nodes_ = 0;   ///< the mesh's nodes (the rows of u)
-  int layer_rows_ = 0;  ///< with a ghost layer, the rows of b (its nodes)
+  int num_nodes_ = 0;            ///< the mesh's nodes (the rows of u)
+  std::vector<int> layer_node_;  ///< with a ghost layer, the nodes of the rows of b and u
+  /// With a ghost layer, per component i: (the layer's row, k) of each fixed node fixed[i][k]
+  /// in the layer (the Dirichlet values of u's rows)
+  std::vector<std::vector<std::pair<int, int>>> layer_fixed_;
   long iterations_ = 0, solves_ = 0, ghosts_ = 0;
   double setup_seconds_ = 0, ksp_seconds_ = 0;
 };

@@ -1047,6 +1047,52 @@ TEST(Mpi, Eq4_7_EachContactPointIsOnARankOfItsCell) {
   }
 }
 
+/// [LTL87 (4.1), (4.5), (4.3)] The iterate's u on the ghost layer's rows: during an ALG2 phase on
+/// several ranks a rank holds u on the rows of its right-hand side (its cells' and contact
+/// points' nodes), not the mesh's; Gbar u, the mean-det targets and ubar read it there, and the
+/// state the phase ends with has u whole again, the serial iterate's after the same 12 iterations
+/// (CG + GAMG's solves tight) on every rank. On the coarse gutter (mean-det, H8) with nodal and
+/// facet-mean contact points. Fails when a reader of u takes its rows for the nodes'
+/// (mean_gradients, the fluctuation kernel, ubar), or when u is left whole in the phase.
+TEST(Mpi, Eq4_5_TheIterateHoldsUOnTheGhostLayersRows) {
+  const int P = mpi::size();
+  for (const char* kind : {"nodal", "facet-mean"}) {
+    std::vector<std::string> keys = kCoarseGutter;
+    keys.insert(keys.end(),
+                {cat("discretization.contact=\"", kind, "\""), "algorithm.tol=1e-300",
+                 "algorithm.blowup=1e100", "algorithm.solver=\"alg2\"", "algorithm.max_iter=12"});
+    const Problem p = load_problem(ltl::testing::source_path(kFig6), keys);
+    Solver serial(p, Ranks::One);
+    State s1 = serial.initial_state();
+    serial.solve_step(s1, Eigen::VectorXd(s1.beta), [](const IterationRecord&) {});
+    keys.push_back("algorithm.global_solver=\"cg-amg\"");
+    const TightCg tight;
+    Solver dist(load_problem(ltl::testing::source_path(kFig6), keys), Ranks::All);
+    State s = dist.initial_state();
+    int fewest = p.mesh.num_nodes() + 1, most = -1, n = 0;  // u's rows at each iteration
+    dist.solve_step(s, Eigen::VectorXd(s.beta), [&](const IterationRecord&) {
+      const int rows = dist.holdings().iterate_u_rows;
+      fewest = std::min(fewest, rows), most = std::max(most, rows), ++n;
+    });
+    EXPECT_EQ(n, 12) << kind;
+    const int layer = dist.holdings().rhs_rows;
+    EXPECT_EQ(fewest, layer) << kind << ", rank " << mpi::rank();
+    EXPECT_EQ(most, layer) << kind << ", rank " << mpi::rank();
+    if (P > 1) {
+      EXPECT_LT(layer, p.mesh.num_nodes()) << kind;
+    }
+    EXPECT_EQ(dist.holdings().iterate_u_rows, 0) << kind << ": outside the phase";
+    ASSERT_EQ(s.u.rows(), p.mesh.num_nodes()) << kind;
+    const double rel = relative(s.u, s1.u);
+    EXPECT_LE(rel, 1e-8) << kind << ", rank " << mpi::rank();
+    EXPECT_TRUE(same_on_every_rank(dist.whole_state(s))) << kind;
+    if (mpi::rank() == 0)
+      std::cout << "coarse gutter, " << kind << " contact, " << P << " rank(s): u on " << layer
+                << " of " << p.mesh.num_nodes() << " rows in the phase; after 12 iterations "
+                << "|u - u_serial| / |u_serial| = " << rel << "\n";
+  }
+}
+
 /// Each rank holds the operators of its own cells only (Discretization of some cells, plain
 /// ALG2): its cells with rows of Gbar are its part (cell_partition), the parts' Gbar
 /// entries add up to the serial Gbar's (no cell on two ranks), and on several ranks a rank's

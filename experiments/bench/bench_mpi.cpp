@@ -9,8 +9,8 @@
 //           iteration by our collectives and by PETSc's messages; the KSP iterations per solve;
 //           the peak resident memory of every rank (VmHWM). Times are the largest over the
 //           ranks; the load average is printed beside them. A second line, "MEM ...": the
-//           resident size (VmRSS / VmHWM / the allocator's live bytes, MB, largest rank) after
-//           each setup phase (start, mesh read, solver set up, the last iteration, the step's
+//           resident size (VmRSS / VmHWM / the allocator's live bytes to 0.1 MB; MB, largest rank)
+//           after each setup phase (start, mesh read, solver set up, the last iteration, the step's
 //           end; after the mesh read also the largest rank but rank 0, which alone runs gmsh,
 //           and the seconds load_problem took) and the bytes per cell the largest rank holds
 //           (Solver::holdings).
@@ -139,7 +139,7 @@ int bench(int argc, char** argv) {
     const double hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
     const double live = max_of(live_heap_bytes() / 1048576.0);
     phases += ltl::cat(" ", name, "=", static_cast<int>(rss), "/", static_cast<int>(hwm), "/",
-                       static_cast<int>(live));
+                       std::round(10 * live) / 10);
   };
   phase("start");
   const double t_load = now_seconds();
