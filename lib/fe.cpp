@@ -396,14 +396,15 @@ void mean_gradients(const CellOperators& ops, int at, int n, const Eigen::Matrix
   const int* outer = ops.Gbar.outerIndexPtr();
   const int* col = ops.Gbar.innerIndexPtr();
   const double* g = ops.Gbar.valuePtr();
-  const int* node = row_of ? row_of : ops.node.empty() ? nullptr : ops.node.data();
+  // u's row of column j: row_of[j], else the column's node (the column itself on every cell)
+  const int* u_row = row_of ? row_of : ops.node.empty() ? nullptr : ops.node.data();
   for (int i = 0; i < dim; ++i) {  // column by column: u's and T's columns are contiguous
     const double* ui = u.col(i).data();
     for (int r = 0; r < dim * n; ++r) {
       const int row = dim * at + r;
       double sum = 0;
       for (int k = outer[row]; k < outer[row + 1]; ++k)
-        sum += g[k] * ui[node ? node[col[k]] : col[k]];
+        sum += g[k] * ui[u_row ? u_row[col[k]] : col[k]];
       T(r, i) = sum;
     }
   }

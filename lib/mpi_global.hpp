@@ -195,7 +195,7 @@ class DistributedGlobalStep {
   double rtol_ = 0;  ///< -ltl_mpi_rtol's: every CG + GAMG solve to it (tight), else 0
   double eta_ = 0;   ///< else the inexact solves' eta (CgAmg::eta_option)
   bool ghost_layer_ = false;
-  int num_nodes_ = 0;            ///< the mesh's nodes (the rows of u)
+  int num_nodes_ = 0;            ///< the mesh's nodes (the rows of u without a ghost layer)
   std::vector<int> layer_node_;  ///< with a ghost layer, the nodes of the rows of b and u
   /// With a ghost layer, per component i: (the layer's row, k) of each fixed node fixed[i][k]
   /// in the layer (the Dirichlet values of u's rows)
