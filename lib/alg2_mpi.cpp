@@ -254,8 +254,9 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
 }
 
 int Solver::rhs_rows() const {
-  const std::vector<int>* layer = dist_ && dist_->ksp ? &dist_->ksp->layer_nodes() : nullptr;
-  return layer && !layer->empty() ? static_cast<int>(layer->size()) : disc_.num_nodes();
+  if (dist_ && dist_->ksp && dist_->ksp->ghost_layer())  // the rows solve() takes
+    return static_cast<int>(dist_->ksp->layer_nodes().size());
+  return disc_.num_nodes();
 }
 
 bool Solver::distributed_cg_gamg() const {

@@ -317,10 +317,11 @@ template <int d, int npc>
 void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::MatrixXd& u,
                       const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
                       Eigen::VectorXd* c, Eigen::MatrixXd* force, std::vector<double>& buffer,
-                      const std::vector<int>* cells, int n, const int* row_of,
-                      const CellOperators* held) {
+                      std::vector<int>& rows, const std::vector<int>* cells, int n,
+                      const int* row_of, const CellOperators* held) {
   constexpr int kBlock = 2048, kNodal = npc * d;
   if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
+  if (force && row_of) rows.resize(static_cast<std::size_t>(kBlock) * npc);
   if (cells) n = static_cast<int>(cells->size());
   // With row_of, the rows of u and of the force of the k-th cell's nodes: row_of[j], j the node's
   // column, on some cells (held: cells is their list) Gbar's column in the cell's row block at
@@ -341,7 +342,8 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
 #pragma omp parallel for schedule(static)
     for (int k = b0; k < b1; ++k) {
       const int e = cells ? (*cells)[k] : k;
-      int row[npc];
+      int alone[npc];  // the rows, kept for the scatter below when there is a force
+      int* row = force && row_of ? rows.data() + static_cast<std::size_t>(k - b0) * npc : alone;
       if (row_of) rows_of(e, k, row);
       double* fe = force ? buffer.data() + static_cast<std::size_t>(k - b0) * kNodal : nullptr;
       const double ce = kernel(e, k, u, row_of ? row : nullptr, lambda, E, gamma, fe);
@@ -352,9 +354,8 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
       const Eigen::Map<const Eigen::Matrix<double, npc, d>> fe(
           buffer.data() + static_cast<std::size_t>(k - b0) * kNodal);
       const int e = cells ? (*cells)[k] : k;
-      int row[npc];
-      if (row_of) rows_of(e, k, row);
-      for (int a = 0; a < npc; ++a) force->row(row_of ? row[a] : kernel.cells(e, a)) += fe.row(a);
+      const int* row = row_of ? rows.data() + static_cast<std::size_t>(k - b0) * npc : nullptr;
+      for (int a = 0; a < npc; ++a) force->row(row ? row[a] : kernel.cells(e, a)) += fe.row(a);
     }
   }
 }
@@ -373,13 +374,13 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
     throw Error("fluctuation: rows by column need the held cells' list");
   if (dim() == 2)
     fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, cells, num_cells(), row_of, held);
+                           force, buffer_, rows_, cells, num_cells(), row_of, held);
   else if (mesh.nodes_per_cell() == 10)
     fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
-                            c, force, buffer_, cells, num_cells(), row_of, held);
+                            c, force, buffer_, rows_, cells, num_cells(), row_of, held);
   else
     fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, cells, num_cells(), row_of, held);
+                           force, buffer_, rows_, cells, num_cells(), row_of, held);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {

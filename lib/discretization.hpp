@@ -197,11 +197,13 @@ class Discretization {
   Eigen::MatrixXd F_loaded_;
   double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
   // Mean-det: the reference rule of the cell type (the point gradients are recomputed per cell
-  // from the nodes' positions), and the work buffer of the nodal forces of a block of cells.
+  // from the nodes' positions), and the work buffers of the nodal forces of a block of cells and
+  // of their nodes' rows (with a row map, fluctuation).
   bool mean_det_ = false;
   int nq_ = 0;
   ReferenceRule rule_;
   mutable std::vector<double> buffer_;
+  mutable std::vector<int> rows_;
 };
 
 }  // namespace ltl
