@@ -43,7 +43,7 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
   if (dist_) {
     w_cell_.resize(dim * static_cast<Eigen::Index>(n_own));
     for (int k = 0; k < n_own; ++k)
-      w_cell_.segment(dim * k, dim).setConstant(std::sqrt(a.q * disc_.cells().vol(own[k])));
+      w_cell_.segment(dim * k, dim).setConstant(std::sqrt(a.q * disc_.cell_volume(own[k], k)));
     w_cell_ /= norm_I_;
   } else {
     w_cell_ = (a.q * disc_.volume_rows()).cwiseSqrt() / norm_I_;
@@ -292,14 +292,13 @@ IterationRecord Solver::iterate(State& s, const Eigen::VectorXd& beta_prev, int&
 void Solver::residuals(const GlobalOutput& g, const State& s, const State& prev,
                        IterationRecord& rec, bool& finite) const {
   const AlgorithmParams& a = alg();
-  const Eigen::VectorXd& vol = disc_.cells().vol;
   double B2 = 0, G2 = 0, beta2 = 0;
   const int dim = this->dim();
   const std::vector<int>& cells = own_cells();
   const Eigen::Index nr = dim * static_cast<Eigen::Index>(cells.size());
 #pragma omp parallel for schedule(static) reduction(+ : B2, G2)
   for (Eigen::Index k = 0; k < nr; ++k) {
-    const double v = vol(cells[k / dim]);
+    const double v = disc_.cell_volume(cells[k / dim], static_cast<int>(k / dim));
     double b = 0, gr = 0;
     for (int i = 0; i < dim; ++i) {
       const double Bri = (i == k % dim ? 1.0 : 0.0) + g.GU(k, i) - s.E(k, i);

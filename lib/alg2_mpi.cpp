@@ -344,8 +344,8 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   const int* column_row = row_of ? row_of : held_rows ? disc_.cells().node.data() : nullptr;
   rhs_.setZero();
   mpi::for_each_run(d.own, [&](int c0, int n, int at) {
-    add_cell_forces(disc_.cells(), c0, n, held_rows ? at : c0, T_.middleRows(dim * at, dim * n),
-                    rhs_, column_row);
+    add_cell_forces(disc_.cells(), n, held_rows ? at : c0, T_.middleRows(dim * at, dim * n), rhs_,
+                    column_row);
   });
   if (ghosts) {  // the dead loads of the rank's owned nodes, else once, on rank 0
     for (std::size_t k = 0; k < d.dead_rows.size(); ++k)

@@ -49,8 +49,9 @@ Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_
                                   const std::vector<int>* cells, int first_node, int count) {
   const int d = mesh.dim;
   const int n = cells ? static_cast<int>(cells->size()) : mesh.num_cells();
-  if (sigma.rows() != static_cast<Eigen::Index>(d) * n)
-    throw Error(cat("nodal_stress_sums: ", sigma.rows(), " rows of sigma for ", n, " cells"));
+  if (sigma.rows() != static_cast<Eigen::Index>(d) * n || cell_volume.size() != n)
+    throw Error(cat("nodal_stress_sums: ", sigma.rows(), " rows of sigma and ", cell_volume.size(),
+                    " volumes for ", n, " cells"));
   if (count < 0) count = mesh.num_nodes() - first_node;
   if (first_node < 0 || count < 0 || first_node + count > mesh.num_nodes())
     throw Error(
@@ -64,7 +65,7 @@ Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_
       const int node = mesh.cells(c, a) - first_node;
       if (node < 0 || node >= count) continue;
       if (!stressed) St = stress_3x3(sigma, sigma33, d, k).transpose(), stressed = true;
-      const double w = cell_volume(c);
+      const double w = cell_volume(k);
       sums.block<1, 9>(node, 0) += w * Eigen::Map<const Eigen::RowVectorXd>(St.data(), 9);
       sums(node, 9) += w;
     }

@@ -39,7 +39,8 @@ DerivedFields cell_fields(const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma
                           const Eigen::VectorXd& sigma33);
 
 /// The sums of the nodal stress average over the cells `cells` (sorted; null: every cell),
-/// whose blocks sigma (and sigma33) hold in that order, at the nodes first_node ..
+/// whose blocks sigma (and sigma33) and volumes cell_volume hold in that order (a rank's cells
+/// with their volumes alone, CellOperators::vol), at the nodes first_node ..
 /// first_node + count - 1 (count < 0: every node from first_node): count x 10, columns 0-8
 /// sum_c |O_c| sigma_c (3x3, row-major), column 9 sum_c |O_c|. The sums of the ranks' cells add
 /// up to the whole mesh's (one reduction), from which nodal_stress makes the average; a block of

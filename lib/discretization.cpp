@@ -96,7 +96,11 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
   }
 
   cells_ = cell_operators(mesh, held);
-  volume_ = cells_.vol.sum();
+  // |Omega| and the centroid below from every cell's volume: on some cells (a rank's) the
+  // whole mesh's, made here and dropped, the operators keeping their cells' alone.
+  const Eigen::VectorXd mesh_vol = partial_ ? cell_volumes(mesh) : Eigen::VectorXd();
+  const Eigen::VectorXd& all_vol = partial_ ? mesh_vol : cells_.vol;
+  volume_ = all_vol.sum();
 
   // Mean-det incompressibility (DiscretizationChoice::mean_det): the point gradients at the
   // cell quadrature points (triangles: degree 4, exact for det(delta), quadratic on affine P2
@@ -122,7 +126,7 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
       Eigen::VectorXd xc = Eigen::VectorXd::Zero(dim);
       for (int a = 0; a < mesh.nodes_per_cell(); ++a)
         xc += mesh.X.row(mesh.cells(c, a)).transpose();
-      centroid += cells_.vol(c) * xc / mesh.nodes_per_cell();
+      centroid += all_vol(c) * xc / mesh.nodes_per_cell();
     }
     centroid /= volume_;
   }
@@ -244,17 +248,20 @@ struct FluctuationKernel {
   int nq = 0;
   const Eigen::MatrixXi& cells;
   const Eigen::MatrixXd& X;
-  const Eigen::VectorXd& vol;
+  const Eigen::VectorXd& vol;  ///< the held cells' volumes (CellOperators::vol)
+  bool by_position;            ///< vol(k) is the k-th cell's (some cells), else vol(e) cell e's
 
-  FluctuationKernel(const ReferenceRule& rule, const Mesh& mesh, const Eigen::VectorXd& v)
-      : nq(rule.size()), cells(mesh.cells), X(mesh.X), vol(v) {
+  FluctuationKernel(const ReferenceRule& rule, const Mesh& mesh, const Eigen::VectorXd& v,
+                    bool position)
+      : nq(rule.size()), cells(mesh.cells), X(mesh.X), vol(v), by_position(position) {
     for (int k = 0; k < nq; ++k) {
       dN[k] = rule.dN[k];
       wref[k] = rule.w[k];
     }
   }
 
-  /// Cell e, whose E and lambda are the blocks at rows d row: returns c_e; with fe, the cell's
+  /// Cell e, the row-th of the cells computed, whose E and lambda are the blocks at rows d row
+  /// and whose volume is vol(row) or vol(e) (by_position): returns c_e; with fe, the cell's
   /// nodal force (p_e and gamma as above). u's row of the cell's node a: u_row[a], or the node
   /// (u_row null).
   double operator()(int e, int row, const Eigen::MatrixXd& u, const int* u_row,
@@ -277,7 +284,8 @@ struct FluctuationKernel {
       G[k].noalias() = JTinv[k] * H.template rightCols<d>();
       Fbar += w[k] * G[k];
     }
-    Fbar /= vol(e);
+    const double vol_e = vol(by_position ? row : e);
+    Fbar /= vol_e;
     Fbar.diagonal().array() += 1.0;
     double p = 0;
     if (lambda) {
@@ -305,7 +313,7 @@ struct FluctuationKernel {
         force.noalias() += dN[k] * M;
       }
     }
-    return d == 2 ? mean_det / vol(e) : mean_det / vol(e) - Fbar.determinant();
+    return d == 2 ? mean_det / vol_e : mean_det / vol_e - Fbar.determinant();
   }
 };
 
@@ -369,22 +377,24 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
   // per-point table: memory per cell, not speed, limits the 3-D problems).
   const Mesh& mesh = problem_.mesh;
   // row_of by column on some cells: the held cells, in their order.
+  // On some cells, their own list (their volumes alone are held, by position).
+  if (partial_ && !cells) cells = &cells_.cell;
+  if (partial_ && cells != &cells_.cell && *cells != cells_.cell)
+    throw Error("fluctuation: a discretization of some cells computes the held cells' list");
   const CellOperators* held = partial_ && row_of ? &cells_ : nullptr;
-  if (held && (!cells || *cells != cells_.cell))
-    throw Error("fluctuation: rows by column need the held cells' list");
   if (dim() == 2)
-    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, rows_, cells, num_cells(), row_of, held);
+    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol, partial_), u, lambda, E,
+                           gamma, c, force, buffer_, rows_, cells, num_cells(), row_of, held);
   else if (mesh.nodes_per_cell() == 10)
-    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol), u, lambda, E, gamma,
-                            c, force, buffer_, rows_, cells, num_cells(), row_of, held);
+    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol, partial_), u, lambda,
+                            E, gamma, c, force, buffer_, rows_, cells, num_cells(), row_of, held);
   else
-    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol), u, lambda, E, gamma, c,
-                           force, buffer_, rows_, cells, num_cells(), row_of, held);
+    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol, partial_), u, lambda, E,
+                           gamma, c, force, buffer_, rows_, cells, num_cells(), row_of, held);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
-  Eigen::VectorXd c = Eigen::VectorXd::Zero(num_cells());
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(held_cells().size()));
   if (mean_det_) fluctuation(u, nullptr, nullptr, &c, nullptr);
   return c;
 }
@@ -392,11 +402,28 @@ Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const 
 Eigen::MatrixXd Discretization::fluctuation_force(const State& s) const {
   Eigen::MatrixXd force = Eigen::MatrixXd::Zero(num_nodes(), dim());
   if (!mean_det_) return force;
-  // E and lambda on the held cells' rows (a rank's state between steps, cell_row): those cells'
-  // part, summed over the ranks (collective); whole: every cell here.
-  const bool rows = partial_ && !whole_field(s.E);
-  fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0, rows ? &held_cells() : nullptr);
-  if (rows) mpi::sum(force.data(), force.size());
+  // On some cells (a rank's) the held cells' part, summed over the ranks (collective), with E and
+  // lambda on the held cells' rows (a rank's state between steps, cell_row) or whole (read at
+  // those rows: the held cells' volumes alone are here); on every cell every cell here.
+  if (!partial_) {
+    fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0);
+    return force;
+  }
+  if (whole_field(s.E)) {
+    const int d = dim();
+    const auto held_rows = [&](const Eigen::MatrixXd& A) {
+      Eigen::MatrixXd rows(d * static_cast<Eigen::Index>(held_cells().size()), d);
+      mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {
+        rows.middleRows(d * at, d * n) = A.middleRows(d * c0, d * n);
+      });
+      return rows;
+    };
+    const Eigen::MatrixXd E = held_rows(s.E), lambda = held_rows(s.lambda);
+    fluctuation(s.u, &lambda, &E, nullptr, &force, 0.0);
+  } else {
+    fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0);
+  }
+  mpi::sum(force.data(), force.size());
   return force;
 }
 
@@ -484,7 +511,7 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   double mean2 = 0;
   for (int at = 0; at < static_cast<int>(held.size()); ++at) {
     const Eigen::Index r = cell_row(s.E, held[at], at);
-    const double vol = cells_.vol(held[at]);
+    const double vol = cells_.vol(at);
     if (d == 2)
       J += vol * m.W(Eigen::Matrix2d(s.E.block<2, 2>(r, 0).transpose()));
     else
@@ -516,7 +543,7 @@ Eigen::MatrixXd Discretization::held_cell_forces(
   mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {
     T.noalias() = cells_.Gbar.middleRows(d * at, d * n) * uc;
     stress(c0, n, at, T);
-    add_cell_forces(cells_, c0, n, at, T, f, row_of);
+    add_cell_forces(cells_, n, at, T, f, row_of);
   });
   if (less_fluctuation && mean_det_) {  // f - force as -(-f + force): negation is exact
     const State& s = *less_fluctuation;

@@ -53,6 +53,9 @@ class Discretization {
   Eigen::Index cell_row(const Eigen::MatrixXd& field, int cell, int at) const {
     return static_cast<Eigen::Index>(dim()) * (whole_field(field) ? cell : at);
   }
+  /// |O_e| of held cell `cell`, at position `at` in held_cells() [(2.7)]: on a discretization of
+  /// some cells (a rank's) only the held cells' volumes are kept (CellOperators::vol).
+  double cell_volume(int cell, int at) const { return cells_.vol(partial_ ? at : cell); }
   /// Is a per-cell field (State::E, lambda) whole, dim #cells rows (not the held cells' rows)?
   bool whole_field(const Eigen::MatrixXd& field) const {
     return field.rows() == static_cast<Eigen::Index>(dim()) * num_cells();
@@ -100,9 +103,10 @@ class Discretization {
   /// Identity blocks, (dim * #cells) x dim, the transposed-block layout of E and lambda (made
   /// on demand: not stored).
   Eigen::MatrixXd identity() const { return identity_rows(dim(), num_cells()); }
-  /// |O_e| repeated on the dim rows of cell e (made on demand).
+  /// |O_e| repeated on the dim rows of each held cell (every cell unless partial(); made on
+  /// demand).
   Eigen::VectorXd volume_rows() const;
-  double volume() const { return volume_; }              ///< |Omega|
+  double volume() const { return volume_; }  ///< |Omega|, of every cell also when partial()
   double contact_area() const { return contact_area_; }  ///< |Gamma_c| (0 without contact)
 
   /// True when incompressibility is imposed on the cell mean of det F
@@ -115,18 +119,22 @@ class Discretization {
   ///   c_e = (1/|O_e|) integral det F - det(Fbar_e)   (= the mean of det(delta) in 2-D),
   /// and the pressure p_e of the constraint does the extra work
   /// p_e integral (cof F - cof Fbar) : grad v (= p_e integral cof(delta) : grad v in 2-D).
-  /// Returns c_e per cell (zero vector when !mean_det()).
+  /// Returns c_e per held cell, in the order of held_cells() (c(at); c(e) when every cell is
+  /// held); zeros when !mean_det(). u whole.
   Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const;
   /// The force sum_e p_e integral_e (cof F - cof Fbar) : grad v (#nodes x dim) with p_e read
   /// from the multiplier, p_e = lambda_e : E_e / (d det E_e) (lambda = p cof E at a fixed point,
   /// cof E : E = d det E); zero when !mean_det(). ALG2 adds it, lagged, to the right-hand side
-  /// of (4.1).
+  /// of (4.1). When partial(): the held cells' part summed over the MPI ranks (collective), E
+  /// and lambda whole or on the held cells' rows (cell_row).
   Eigen::MatrixXd fluctuation_force(const State& s) const;
   /// The allocation-free kernel of the two above (after its first call): c (#cells) and/or
   /// force (#nodes x dim, added to, not overwritten) at u, with p_e from lambda and E when force
   /// is wanted. With gamma, force also gains gamma (L - GbarT_vol Gbar) u, the energy of the
   /// intra-cell fluctuation of grad u (mean-det's proximal term, alg2.cpp), cell by cell. On the
-  /// cells `cells` (sorted; null: all; a rank's cells when distributed, alg2_mpi.cpp): then the
+  /// cells `cells` (sorted; null: the held cells, all unless partial(), where `cells` must be the
+  /// held cells' list, whose volumes alone are kept; a rank's cells when distributed,
+  /// alg2_mpi.cpp): then the
   /// k-th cell's rows of lambda and E are the k-th block and its c is c(k). Node i's u is row i
   /// of u and its force goes to row i of force, or with row_of both are row row_of[j], j the
   /// column of node i in the cell operators (i itself when every cell is held,

@@ -257,8 +257,9 @@ double cell_integrals(const Mesh& mesh, int c, Eigen::MatrixXd& gint, Eigen::Mat
 // the node-to-cell incidence, then each cell's block added to it, cell by cell (the order in
 // which the triplets were summed before); the mean gradient's rows hold one cell's nodes each.
 // On a set of cells (a rank's cells, paper_notes/mpi.md): Gbar has the set's rows only, L sums
-// the set's cells only, both on the columns of the set's nodes, vol is whole, and GbarT_vol is not
-// built (the forces of a rank's cells go run by run through add_cell_forces).
+// the set's cells only, both on the columns of the set's nodes, vol has the set's volumes only,
+// and GbarT_vol is not built (the forces of a rank's cells go run by run through
+// add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   const int dim = mesh.dim, nc = mesh.num_cells(), npc = mesh.nodes_per_cell();
   const int nn = mesh.num_nodes();
@@ -277,7 +278,7 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   CellOperators ops;
   ops.cell = *held;
   ops.num_nodes = nn;
-  ops.vol.resize(nc);
+  ops.vol.resize(static_cast<Eigen::Index>(held->size()));
   // The columns: every node, or on some cells their nodes, numbered in increasing order (the
   // whole-size map `local` lives through the construction only).
   std::vector<int> local;
@@ -338,14 +339,9 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
   for (int r = 0; r <= dim * nh; ++r) Gint.outerIndexPtr()[r] = r * npc;
   Eigen::MatrixXd gint(npc, dim), Ke(npc, npc);
   std::vector<int> order(npc);
-  for (int c = 0, at = 0; c < nc; ++c) {
-    if (at == nh || (*held)[at] != c) {  // the volume alone
-      double vol = 0;
-      for_each_point(mesh, c, [&](const auto&, const auto&, double w) { vol += w; });
-      ops.vol(c) = vol;
-      continue;
-    }
-    ops.vol(c) = cell_integrals(mesh, c, gint, Ke);
+  for (int at = 0; at < nh; ++at) {
+    const int c = (*held)[at];
+    ops.vol(at) = cell_integrals(mesh, c, gint, Ke);
     for (int a = 0; a < npc; ++a) order[a] = a;
     std::sort(order.begin(), order.end(),
               [&](int a, int b) { return mesh.cells(c, a) < mesh.cells(c, b); });
@@ -357,21 +353,30 @@ CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held) {
       }
     for (int a = 0; a < npc; ++a)
       for (int b = 0; b < npc; ++b) L.coeffRef(col(c, a), col(c, b)) += Ke(a, b);
-    ++at;
   }
   if (nh == nc) ops.GbarT_vol = Gint.transpose();
   // Gbar = diag(1 / |O_e|) Gint, scaled in place.
   for (int r = 0; r < dim * nh; ++r)
     for (SpMatR::InnerIterator it(Gint, r); it; ++it)
-      it.valueRef() = (1.0 / ops.vol(ops.cell[r / dim])) * it.value();
+      it.valueRef() = (1.0 / ops.vol(r / dim)) * it.value();
   ops.Gbar.swap(Gint);
   return ops;
 }
 
-void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref<Eigen::MatrixXd> T,
+Eigen::VectorXd cell_volumes(const Mesh& mesh) {
+  Eigen::VectorXd vol(mesh.num_cells());
+  for (int c = 0; c < mesh.num_cells(); ++c) {
+    double v = 0;  // cell_integrals' sum, without its gradients
+    for_each_point(mesh, c, [&](const auto&, const auto&, double w) { v += w; });
+    vol(c) = v;
+  }
+  return vol;
+}
+
+void add_cell_forces(const CellOperators& ops, int n, int at, Eigen::Ref<Eigen::MatrixXd> T,
                      Eigen::MatrixXd& f, const int* row_of) {
   const int dim = static_cast<int>(T.cols());
-  for (int k = 0; k < n; ++k) T.middleRows(dim * k, dim) *= ops.vol(c0 + k);
+  for (int k = 0; k < n; ++k) T.middleRows(dim * k, dim) *= ops.vol(at + k);
   // Gbar^T T node by node: a cell's dim rows of Gbar hold its nodes in the same order
   // (cell_operators), so node a of cell k gets sum_j Gbar(dim k + j, a) T_k(j, :).
   const int* outer = ops.Gbar.outerIndexPtr();

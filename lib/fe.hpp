@@ -40,7 +40,10 @@ struct CellOperators {
     laplacian.swap(o.laplacian);
   }
 
-  Eigen::VectorXd vol;  ///< #cells, |O_e|
+  /// |O_e| of the held cells, in their order: vol(k) is cell cell[k]'s (vol(e) is cell e's
+  /// when every cell is held). On a rank's cells their volumes alone (paper_notes/mpi.md); the
+  /// whole mesh's are cell_volumes'.
+  Eigen::VectorXd vol;
   /// The cells whose operators are held (sorted; every cell unless some were asked for): Gbar's
   /// row blocks, in this order.
   std::vector<int> cell;
@@ -70,18 +73,25 @@ struct CellOperators {
 /// [(2.7), (3.3)] The operators of the cells `held` (sorted; null: every cell): Gbar has their
 /// rows only, in their order (CellOperators::cell), and the Laplacian sums them only, both on
 /// the columns of their nodes (CellOperators::node; a rank's cells in a distributed run,
-/// paper_notes/mpi.md); vol is every cell's. GbarT_vol is built only when every cell is held:
-/// on some cells it stays empty, and their forces go run by run (add_cell_forces).
+/// paper_notes/mpi.md), and vol holds their volumes alone. GbarT_vol is built only when every
+/// cell is held: on some cells it stays empty, and their forces go run by run (add_cell_forces).
 CellOperators cell_operators(const Mesh& mesh, const std::vector<int>* held = nullptr);
 
-/// [(2.7), (4.1)] f += sum_e |O_e| T_e : Gbar_e(v) over the cells c0 .. c0 + n - 1 (a run of a
-/// rank's cells, at position `at` in CellOperators::cell), T their (dim n) x dim blocks, scaled
-/// by |O_e| in place: GbarT_vol T on those cells, from Gbar's rows dim at .. dim (at + n) - 1 (on
+/// [(2.7)] |O_e| = sum_q w_q of every cell (the quadrature of for_each_quadrature_point, summed
+/// in the order in which cell_operators sums it: the same numbers as its vol), without the
+/// operators: the whole mesh's volumes where a rank holds its cells' alone (the results file's
+/// /mesh/cell_volume, the body's volume and centroid).
+Eigen::VectorXd cell_volumes(const Mesh& mesh);
+
+/// [(2.7), (4.1)] f += sum_e |O_e| T_e : Gbar_e(v) over the held cells at .. at + n - 1
+/// (positions in CellOperators::cell: a run of a rank's cells), T their (dim n) x dim blocks,
+/// scaled by |O_e| (vol(at + k)) in place: GbarT_vol T on those cells, from Gbar's rows dim at ..
+/// dim (at + n) - 1 (on
 /// a rank's cells T holds their rows only, and GbarT_vol is not built; paper_notes/mpi.md). The
 /// force of Gbar's column i goes to row i of f, or with row_of to row row_of[i]: on some cells
 /// f's row of the column's node (row_of = ops.node.data()), or a rank's right-hand side on its
 /// ghost layer's rows (alg2_mpi.cpp).
-void add_cell_forces(const CellOperators& ops, int c0, int n, int at, Eigen::Ref<Eigen::MatrixXd> T,
+void add_cell_forces(const CellOperators& ops, int n, int at, Eigen::Ref<Eigen::MatrixXd> T,
                      Eigen::MatrixXd& f, const int* row_of = nullptr);
 
 /// [(2.7), (3.3)] T = Gbar u on the held cells at .. at + n - 1 (positions in CellOperators::cell;

@@ -49,7 +49,7 @@ SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, dou
         if (!at)  // cell_operators' layout: L holds every pair of nodes of a cell
           throw Error(cat("global matrix (4.5): nodes ", node[a], " and ", node[b], " of cell ", c,
                           " are not in the Laplacian's pattern"));
-        *at += Rq * cells.vol(c) * m;
+        *at += Rq * cells.vol(k) * m;
       }
   }
   if (!cells.node.empty()) {  // some cells: from their nodes' columns to the mesh's numbering

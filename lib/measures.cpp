@@ -256,7 +256,7 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
     for (int at = 0; at < static_cast<int>(held.size()); ++at) {
       const int e = held[at];
       const double det = s.E.block(d.cell_row(s.E, e, at), 0, dim, dim).determinant();
-      m.det_error = std::max(m.det_error, std::abs(det + c(e) - 1));
+      m.det_error = std::max(m.det_error, std::abs(det + c(at) - 1));
     }
     if (d.partial()) mpi::max(&m.det_error, 1);
   }
@@ -299,8 +299,9 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;  // no heap
   const Small I = Small::Identity(dim, dim);
   const bool incompressible = d.problem().material.incompressible();
-  const Eigen::VectorXd c =
-      incompressible ? d.fluctuation_det(s.u) : Eigen::VectorXd::Zero(d.num_cells());
+  const Eigen::VectorXd c = incompressible
+                                ? d.fluctuation_det(s.u)  // the held cells', in their order
+                                : Eigen::VectorXd::Zero(d.held_cells().size());
   // The cells whose Gbar this rank holds (all unless partial), run by run (Gbar u of the run),
   // the largest over the ranks.
   Eigen::MatrixXd GU;
@@ -309,10 +310,9 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
     mean_gradients(d.cells(), at, n, s.u, GU);
     const Eigen::Index row = d.cell_row(s.E, c0, at);  // E whole or on the held cells' rows
     for (int k = 0; k < n; ++k) {
-      const int e = c0 + k;
       const Small F = I + GU.middleRows(dim * k, dim);
       err = std::max(err, (F - s.E.middleRows(row + dim * k, dim)).cwiseAbs().maxCoeff());
-      if (incompressible) err = std::max(err, std::abs(F.determinant() + c(e) - 1));
+      if (incompressible) err = std::max(err, std::abs(F.determinant() + c(at + k) - 1));
     }
   });
   if (d.partial()) mpi::max(&err, 1);

@@ -54,6 +54,7 @@ Newton::Newton(const Discretization& disc, bool krylov, const mpi::Partition* ce
     for (int e = 0; e < nc; ++e) cells_[e] = e;
   }
   if (distributed_ && distributed_newton_solves()) node_rank_ = node_ranks(mesh, *cells);
+  if (disc.partial()) whole_vol_ = cell_volumes(mesh);
   slot_.assign(nc, -1);
   for (std::size_t k = 0; k < cells_.size(); ++k) slot_[cells_[k]] = static_cast<int>(k);
   nodes_.resize(cells_.size() * npc_);
@@ -159,7 +160,7 @@ Newton::Holdings Newton::holdings() const {
   h.positions = 4.0 * cell_pos_.size();
   auto sparse = [](const SpMat& A) { return 12.0 * A.nonZeros() + 4.0 * (A.outerSize() + 1); };
   h.whole = 4.0 * (free_.size() + node_rank_.size() + diag_pos_.size() + dof_of_free_.size()) +
-            sparse(pattern_);
+            sparse(pattern_) + 8.0 * whole_vol_.size();
   return h;
 }
 
@@ -265,7 +266,7 @@ void Newton::assemble(const Unknowns& x, Eigen::VectorXd* Ru, Eigen::VectorXd* G
   const int n = npc_, nce = own ? static_cast<int>(cells_.size()) : disc_.num_cells();
   if (!own && split_) throw Error("Newton: the cells of another rank (their data is theirs)");
   const Material& m = disc_.split();
-  const Eigen::VectorXd& vol = disc_.cells().vol;
+  const Eigen::VectorXd& vol = volumes();
   Eigen::MatrixXd ue(n, d), fe(n, d), Ke(d * n, d * n);
   Eigen::VectorXd be(d * n);
   // The fourth-order tangents as (d*d) x (d*d) matrices, column k d + l = the derivative in the
@@ -451,7 +452,7 @@ Newton::Result Newton::solve(State& s, const Eigen::MatrixXd& f, double load_fac
   const int d = dim_, nc = disc_.num_cells();
   const ContactPoints* pts = disc_.points();
   const int np = pts ? pts->size() : 0;
-  const Eigen::VectorXd& vol = disc_.cells().vol;
+  const Eigen::VectorXd& vol = volumes();
   Result result;
   const double wall0 = report.history.empty() ? 0.0 : report.history.back().wall;
   Unknowns x = unknowns(s);

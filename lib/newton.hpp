@@ -252,6 +252,13 @@ class Newton {
   /// This rank's cells, ascending (all of them on one rank), and per cell its index in cells_
   /// (-1: another rank's).
   std::vector<int> cells_, slot_;
+  /// |O_e| of every cell: the discretization's, or on a discretization of some cells (a rank's,
+  /// which holds its cells' alone) this copy, made by cell_volumes (the constraint's measure
+  /// reads every cell's, as it reads the pressures of every cell).
+  Eigen::VectorXd whole_vol_;
+  const Eigen::VectorXd& volumes() const {
+    return disc_.partial() ? whole_vol_ : disc_.cells().vol;
+  }
   /// Are s's E and lambda the rank's cells' rows (split_; cells_ in order), not whole?
   bool on_rows(const State& s) const;
   bool krylov_ = false;           ///< the constructor's krylov

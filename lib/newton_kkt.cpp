@@ -289,7 +289,7 @@ bool Newton::krylov_step(const Unknowns& base, const Eigen::VectorXd& Ru, const 
   a = nfree_ ? a / nfree_ : 1.0;
   const double kappa = NewtonKrylov::option("-ltl_newton_penalty", 10.0) * a;
   const double mu = 2 * disc_.split().C1;
-  const Eigen::VectorXd& vol = disc_.cells().vol;
+  const Eigen::VectorXd& vol = volumes();
   // The constraint rows of this rank, scaled, and their part of A and of the right-hand side:
   // its cells', then (the lead) the active contact points'.
   static const std::vector<int> none;

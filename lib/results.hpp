@@ -152,8 +152,9 @@ ContactOutput contact_output(const Mesh& mesh, const std::vector<std::string>& g
 /// How ResultsFile::create starts a file.
 struct ResultsOptions {
   ContactOutput contact;
-  /// /mesh/cell_volume: the solver's CellOperators::vol, or when empty cell_operators(mesh).vol
-  /// (the discretization's, never a second copy of shape functions).
+  /// /mesh/cell_volume: the solver's CellOperators::vol, or when empty cell_volumes(mesh) (the
+  /// discretization's quadrature, never a second copy of shape functions; a rank's
+  /// discretization holds its cells' volumes alone).
   Eigen::VectorXd cell_volume;
   /// false: `path` is left as it is (an existing file stays) until the first append(); the mesh
   /// is committed together with the first step.

@@ -380,7 +380,7 @@ Sizes write_mesh(hid_t f, const Mesh& mesh, const RunInfo& info, const ResultsOp
   write_ints(f, "/mesh/cells", {un(nc), un(npc)}, rows_of(mesh.cells), dim, path);
   // Cell volumes from the discretization (one definition of the shape functions, lib/fe).
   const Eigen::VectorXd volume =
-      options.cell_volume.size() ? options.cell_volume : cell_operators(mesh).vol;
+      options.cell_volume.size() ? options.cell_volume : cell_volumes(mesh);
   if (volume.size() != nc)
     fail(path, cat("cell volumes have ", volume.size(), " entries, expected ", nc));
   write_doubles(f, "/mesh/cell_volume", {un(nc)}, vec(volume), dim, path);

@@ -161,8 +161,7 @@ void check_load_scale(const Solver& solver, double load_scale, int p) {
   const Problem& problem = solver.problem();
   const int dim = problem.mesh.dim;
   if (!(load_scale > 0) || solver.discretization().dirichlet().max_abs_value() > 0) return;
-  const double h =
-      std::pow(solver.discretization().cells().vol.sum() / problem.mesh.num_cells(), 1.0 / dim);
+  const double h = std::pow(solver.discretization().volume() / problem.mesh.num_cells(), 1.0 / dim);
   const double unit = problem.material.C1 * std::pow(h, dim - 1);
   if (load_scale >= 1e-12 * unit) return;
   throw Error(cat(problem.name, ": the loads at step ", p,
@@ -663,7 +662,10 @@ void ResultsWriter::create_file() {
   if (!options_.init.empty()) info.attributes["initial_from"] = options_.init;
   ResultsOptions options;
   options.commit = false;
-  options.cell_volume = solver_.discretization().cells().vol;
+  // Every cell's volume: the discretization's, or on a rank's cells (which it holds alone)
+  // ResultsFile::create's cell_volumes(mesh).
+  if (!solver_.discretization().partial())
+    options.cell_volume = solver_.discretization().cells().vol;
   std::vector<std::string> groups;  // one per obstacle
   for (const ContactCondition& cc : problem.contacts) groups.push_back(cc.group);
   Mesh::Boundary facets;  // several obstacles: their facets, one after the other

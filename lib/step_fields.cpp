@@ -6,6 +6,7 @@
 
 #include "derived_fields.hpp"
 #include "error.hpp"
+#include "fe.hpp"
 #include "mpi_comm.hpp"
 #include "results_fields.hpp"
 #include "results_layout.hpp"
@@ -143,7 +144,13 @@ std::pair<Eigen::Index, Eigen::Index> StepFields::serve(const std::string& reque
                                 static_cast<int>(count / p.m));
       } else {  // the nodal stress of nodes first .. first + count - 1, summed over the ranks
         const Discretization& disc = solver_.discretization();
-        Eigen::MatrixXd sums = nodal_stress_sums(disc.problem().mesh, disc.cells().vol, p.own,
+        const Mesh& mesh = disc.problem().mesh;
+        // The held cells' volumes, in their order: on the rank's rows, or every cell's on a
+        // discretization of every cell; a whole state on some cells reads every cell's volume,
+        // made here (cell_volumes: the rank holds its cells' alone).
+        const Eigen::VectorXd made =
+            !rows_ && disc.partial() ? cell_volumes(mesh) : Eigen::VectorXd();
+        Eigen::MatrixXd sums = nodal_stress_sums(mesh, made.size() ? made : disc.cells().vol, p.own,
                                                  p.sigma33, rows_ ? &disc.held_cells() : nullptr,
                                                  static_cast<int>(first), static_cast<int>(count));
         if (rows_) mpi::sum_to_writer(sums.data(), sums.size());

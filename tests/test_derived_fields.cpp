@@ -114,7 +114,8 @@ TEST(DerivedFields, Eq2_7_FieldsOfSomeCellsAddUpToTheWholeMeshs) {
         EXPECT_EQ(part.von_mises(k), whole.von_mises(cells[k])) << geo;
         EXPECT_EQ(part.stretches.row(k), whole.stretches.row(cells[k])) << geo;
       }
-      sums += ltl::nodal_stress_sums(mesh, vol, Sk, s33k, &cells);
+      // Their volumes alone, in their order (a rank's CellOperators::vol).
+      sums += ltl::nodal_stress_sums(mesh, vol(cells), Sk, s33k, &cells);
     }
     DerivedFields nodal;
     ltl::nodal_stress(std::move(sums), nodal);
@@ -134,7 +135,9 @@ TEST(DerivedFields, Eq2_7_FieldsOfSomeCellsAddUpToTheWholeMeshs) {
       if (d == 2) s33e(k) = s33(even[k]);
     }
     DerivedFields half;
-    ltl::nodal_stress(ltl::nodal_stress_sums(mesh, vol, Se, s33e, &even), half);
+    ltl::nodal_stress(ltl::nodal_stress_sums(mesh, vol(even), Se, s33e, &even), half);
+    // Every cell's volumes for one set's cells: an Error, not sums weighted by other cells'.
+    EXPECT_THROW(ltl::nodal_stress_sums(mesh, vol, Se, s33e, &even), ltl::Error) << geo;
     EXPECT_GT((half.sigma_node - whole.sigma_node).cwiseAbs().maxCoeff(), 1e-3 * scale) << geo;
   }
 }

@@ -11,6 +11,7 @@
 
 #include "alg2.hpp"
 #include "config.hpp"
+#include "error.hpp"
 #include "fe.hpp"
 #include "measures.hpp"
 #include "testing.hpp"
@@ -167,6 +168,71 @@ TEST(MeanDet, Eq2_7_SomeCellsReadUOnTheRowsOfTheirColumns3D) {
   // rows kept for the scatter are found again in the second block.
   expect_rows_of_columns_read_like_nodes(
       gutter({"mesh.parameters.na=32", "mesh.parameters.nl=70"}));
+}
+
+// (2.7) The volumes |O_e| of some cells (a rank's, paper_notes/mpi.md) are held alone, in the
+// order of the held cells: the same numbers as the whole discretization's (and cell_volumes'),
+// |Omega| still the whole body's, and every reader of them by position: c_e of mean-det per held
+// cell, the fluctuation force from E and lambda whole or on the held cells' rows; a list of other
+// cells than the held ones is an Error (their volumes are not here).
+void expect_some_cells_hold_their_volumes(const ltl::Problem& problem) {
+  const int nn = problem.mesh.num_nodes(), d = problem.mesh.dim, nc = problem.mesh.num_cells();
+  std::vector<int> held;
+  for (int c = 1; c < nc; c += 2) held.push_back(c);
+  const ltl::Discretization whole(problem), part(problem, &held);
+  ASSERT_TRUE(part.partial() && part.mean_det());
+  const int nh = static_cast<int>(held.size());
+  const Eigen::VectorXd all = ltl::cell_volumes(problem.mesh);
+  ASSERT_EQ(all.size(), nc);
+  EXPECT_EQ((all - whole.cells().vol).cwiseAbs().maxCoeff(), 0.0);
+  ASSERT_EQ(part.cells().vol.size(), nh);
+  for (int at = 0; at < nh; ++at) {
+    EXPECT_EQ(part.cells().vol(at), all(held[at])) << at;
+    EXPECT_EQ(part.cell_volume(held[at], at), all(held[at])) << at;
+    EXPECT_EQ(whole.cell_volume(held[at], at), all(held[at])) << at;
+  }
+  EXPECT_EQ(part.volume(), whole.volume());
+  EXPECT_GT(whole.volume(), 2 * part.cells().vol.sum() * 0.9);  // the whole body, not the part's
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-0.05, 0.05);
+  ltl::State s;
+  s.u.resize(nn, d);
+  s.E.resize(d * nc, d);
+  s.lambda.resize(d * nc, d);
+  for (int i = 0; i < nn; ++i)
+    for (int k = 0; k < d; ++k) s.u(i, k) = U(rng);
+  for (int r = 0; r < d * nc; ++r)
+    for (int k = 0; k < d; ++k)
+      s.E(r, k) = (r % d == k ? 1.0 : 0.0) + U(rng), s.lambda(r, k) = 1e6 * U(rng);
+  // [(2.7)] c_e per held cell, in their order.
+  const Eigen::VectorXd c_whole = whole.fluctuation_det(s.u), c_part = part.fluctuation_det(s.u);
+  ASSERT_EQ(c_part.size(), nh);
+  for (int at = 0; at < nh; ++at) EXPECT_EQ(c_part(at), c_whole(held[at])) << at;
+  EXPECT_GT(c_whole.cwiseAbs().maxCoeff(), 1e-6);
+  // The held cells' part of the force, from E and lambda whole (read at the held cells' rows) and
+  // on those rows: the whole discretization's on the same cells, exactly.
+  ltl::State rows = s;
+  rows.E.resize(d * nh, d);
+  rows.lambda.resize(d * nh, d);
+  for (int at = 0; at < nh; ++at) {
+    rows.E.middleRows(d * at, d) = s.E.middleRows(d * held[at], d);
+    rows.lambda.middleRows(d * at, d) = s.lambda.middleRows(d * held[at], d);
+  }
+  Eigen::MatrixXd f_held = Eigen::MatrixXd::Zero(nn, d);
+  whole.fluctuation(s.u, &rows.lambda, &rows.E, nullptr, &f_held, 0.0, &held);
+  ASSERT_GT(f_held.cwiseAbs().maxCoeff(), 1.0);
+  EXPECT_EQ((part.fluctuation_force(s) - f_held).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((part.fluctuation_force(rows) - f_held).cwiseAbs().maxCoeff(), 0.0);
+  // Other cells than the held ones: their volumes are not held.
+  std::vector<int> fewer(held.begin(), held.end() - 1);
+  Eigen::VectorXd c_fewer(nh - 1);
+  EXPECT_THROW(part.fluctuation(s.u, nullptr, nullptr, &c_fewer, nullptr, 0.0, &fewer), ltl::Error);
+}
+TEST(Discretization, Eq2_7_SomeCellsHoldTheirVolumesAlone) {
+  expect_some_cells_hold_their_volumes(fig5(7));
+}
+TEST(Discretization, Eq2_7_SomeCellsHoldTheirVolumesAlone3D) {
+  expect_some_cells_hold_their_volumes(gutter());
 }
 
 // (2.7), (4.1)-(4.4): at the converged Fig 5 state the deformed area equals the reference area
