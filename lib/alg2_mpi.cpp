@@ -132,7 +132,8 @@ void Solver::distribute() {
     t.reserve(own);
     for (int k = 0; k < own; ++k) t.emplace_back(d.own_points[k], k, 1.0);
     select.setFromTriplets(t.begin(), t.end());
-    d.meanT_own = points->meanT_area * select;
+    SpMatR work;  // meanT_area, made again on a rank's discretization (contact_points.hpp)
+    d.meanT_own = points->meanT_area_of(work) * select;
     d.point_rhs.resize(own, disc_.dim());
   }
 }
@@ -585,9 +586,10 @@ Holdings Solver::holdings() const {
     h.node_arrays +=
         static_cast<double>(sizeof(int) * bc.fixed[i].size() + sizeof(double) * bc.value[i].size());
   if (const ContactPoints* p = disc_.points()) {
-    h.contact = bytes_of_sparse(p->mean) + bytes_of_sparse(p->meanT_area) + bytes_of(p->area) +
-                bytes_of(p->centre) + bytes_of(p->gap) + bytes_of(p->normals) +
-                bytes_of(global_out_.ubar) + bytes_of(w_point_);
+    h.contact = bytes_of_sparse(p->mean) + bytes_of_sparse(p->meanT_area) +
+                bytes_of_sparse(p->meanT_area_by_point) + bytes_of(p->area) + bytes_of(p->centre) +
+                bytes_of(p->gap) + bytes_of(p->normals) + bytes_of(global_out_.ubar) +
+                bytes_of(w_point_);
     if (dist_) h.contact += bytes_of_sparse(dist_->meanT_own) + bytes_of_sparse(dist_->mean_layer);
   }
   if (newton_) {

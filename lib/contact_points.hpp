@@ -23,7 +23,13 @@ struct ContactPoints {
   Eigen::VectorXd area;    ///< #points, weight |G_s|: facet measure, or integral of phi_a
   Eigen::MatrixXd centre;  ///< dim x #points, reference position x_s (facet centre or node)
   SpMatR mean;             ///< #points x #nodes, (mean * U).row(s) = ubar_s (facet mean or u_a)
-  SpMatR meanT_area;       ///< #nodes x #points, transpose of mean weighted by |G_s|
+  /// #nodes x #points, transpose of mean weighted by |G_s|: its row index is of every node.
+  /// Empty on a discretization of some cells (a rank's, paper_notes/mpi.md), which keeps the same
+  /// entries by point instead (meanT_area_by_point; meanT_area_of makes this matrix again).
+  SpMatR meanT_area;
+  /// The entries of meanT_area compressed by point (index of #points + 1, not of every node):
+  /// held on a discretization of some cells only, else empty.
+  SpMat meanT_area_by_point;
   /// Facet-mean points only, for the exact kernel integral: the corners of each point's facet
   /// (2 in 2-D, 3 (triangle faces) or 4 (quadrilateral faces, cyclic order) in 3-D), each
   /// dim x #points; empty for nodal points.
@@ -42,6 +48,14 @@ struct ContactPoints {
   /// a node of two obstacles' groups is two points, one per plane (paper_notes/obstacles.md).
   std::vector<int> offset;
   int size() const { return static_cast<int>(area.size()); }
+  /// [(4.5), (4.1)] meanT_area: itself, or when only meanT_area_by_point is held the same matrix
+  /// made from it into `work` (the same entries in the same order, so that its products are the
+  /// whole discretization's to the bit): for the set-up and the step's end, not an iteration.
+  const SpMatR& meanT_area_of(SpMatR& work) const {
+    if (meanT_area.nonZeros() > 0 || meanT_area_by_point.nonZeros() == 0) return meanT_area;
+    work = meanT_area_by_point;
+    return work;
+  }
   /// The number of obstacles whose points these are (1 for the points of one obstacle).
   int obstacles() const { return offset.empty() ? 1 : static_cast<int>(offset.size()) - 1; }
 };

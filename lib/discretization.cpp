@@ -185,6 +185,17 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
   // One obstacle: its points are all the points (no copy); several: stacked.
   if (obstacles_.size() > 1) points_ = stack_obstacles(obstacles_, nn);
   if (points()) contact_area_ = points()->area.sum();
+  // On some cells (a rank's), meanT_area's entries are kept by point: its row index of every
+  // node goes (ContactPoints::meanT_area_of makes it again where it is read, at the set-up and at
+  // the step's end).
+  if (partial_) {
+    const auto by_point = [](ContactPoints& p) {
+      p.meanT_area_by_point = p.meanT_area;
+      SpMatR().swap(p.meanT_area);
+    };
+    for (ContactPoints& p : obstacles_) by_point(p);
+    if (points_) by_point(*points_);
+  }
 
   // Dirichlet data per component: fixed parts, symmetry planes, prescribed displacements.
   // A node's component fixed by several conditions is listed once, with the last one's value

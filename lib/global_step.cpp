@@ -67,7 +67,8 @@ SpMat global_matrix(const CellOperators& cells, const ContactPoints* points, dou
     K.swap(whole);
   }
   if (points && points->size() > 0) {
-    const SpMat mean = SpMat(points->meanT_area * points->mean);
+    SpMatR work;  // meanT_area, made again on a rank's discretization (contact_points.hpp)
+    const SpMat mean = SpMat(points->meanT_area_of(work) * points->mean);
     bool in_pattern = true;
     for (int j = 0; j < mean.outerSize() && in_pattern; ++j)
       for (SpMat::InnerIterator it(mean, j); it; ++it)

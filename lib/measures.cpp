@@ -217,7 +217,8 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
     r = c.GbarT_vol * d.piola(s) + 2 * C1 * (c.laplacian * s.u - c.GbarT_vol * GU) -
         load_scale * f_ext;
   }
-  if (d.points()) r -= d.points()->meanT_area * s.lambda_c;
+  SpMatR work;  // meanT_area, made again on a rank's discretization (contact_points.hpp)
+  if (d.points()) r -= d.points()->meanT_area_of(work) * s.lambda_c;
   if (d.mean_det() && !fold) r -= d.fluctuation_force(s);
   return r;
 }

@@ -13,6 +13,7 @@
 #include "config.hpp"
 #include "error.hpp"
 #include "fe.hpp"
+#include "global_step.hpp"
 #include "measures.hpp"
 #include "testing.hpp"
 
@@ -233,6 +234,56 @@ TEST(Discretization, Eq2_7_SomeCellsHoldTheirVolumesAlone) {
 }
 TEST(Discretization, Eq2_7_SomeCellsHoldTheirVolumesAlone3D) {
   expect_some_cells_hold_their_volumes(gutter());
+}
+
+// (4.5), (4.1) On some cells (a rank's) the contact points keep the entries of M^T |G| by point
+// (an index of #points + 1, not of every node), and meanT_area_of makes the same matrix again,
+// its entries in the same order, so that the global step's contact term R q_c M^T |G| M, the
+// right-hand side's M^T |G| (R q_c e + lambda_c) and the reactions are the whole
+// discretization's to the bit.
+void expect_contact_transpose_by_point(const ltl::Problem& problem) {
+  const int d = problem.mesh.dim;
+  std::vector<int> held;
+  for (int c = 0; c < problem.mesh.num_cells(); c += 2) held.push_back(c);
+  const ltl::Discretization whole(problem), part(problem, &held);
+  ASSERT_TRUE(whole.points() && part.points());
+  const ltl::ContactPoints &w = *whole.points(), &p = *part.points();
+  const int np = p.size();
+  ASSERT_GT(np, 0);
+  EXPECT_EQ(p.meanT_area.outerSize(), 0);  // no index of every node
+  EXPECT_EQ(p.meanT_area_by_point.outerSize(), np);
+  EXPECT_EQ(w.meanT_area_by_point.nonZeros(), 0);
+  ltl::SpMatR work;
+  EXPECT_EQ(&w.meanT_area_of(work), &w.meanT_area);
+  const ltl::SpMatR& made = p.meanT_area_of(work);
+  ASSERT_EQ(&made, &work);
+  ASSERT_EQ(made.rows(), w.meanT_area.rows());
+  ASSERT_EQ(made.cols(), w.meanT_area.cols());
+  ASSERT_EQ(made.nonZeros(), w.meanT_area.nonZeros());
+  EXPECT_TRUE(std::equal(made.outerIndexPtr(), made.outerIndexPtr() + made.rows() + 1,
+                         w.meanT_area.outerIndexPtr()));
+  EXPECT_TRUE(std::equal(made.innerIndexPtr(), made.innerIndexPtr() + made.nonZeros(),
+                         w.meanT_area.innerIndexPtr()));
+  EXPECT_TRUE(
+      std::equal(made.valuePtr(), made.valuePtr() + made.nonZeros(), w.meanT_area.valuePtr()));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> U(-1, 1);
+  Eigen::MatrixXd lambda_c(np, d);
+  for (int i = 0; i < np; ++i)
+    for (int k = 0; k < d; ++k) lambda_c(i, k) = U(rng);
+  EXPECT_EQ((made * lambda_c - w.meanT_area * lambda_c).cwiseAbs().maxCoeff(), 0.0);
+  // [(4.5)] K's contact term alone (C1 = R q = 0) on the part's operators, from the part's points
+  // and from the whole's: the same matrix.
+  const ltl::SpMat Kp = ltl::global_matrix(part.cells(), &p, 0.0, 0.0, 2.0);
+  const ltl::SpMat Kw = ltl::global_matrix(part.cells(), &w, 0.0, 0.0, 2.0);
+  EXPECT_GT(Kw.norm(), 0.0);
+  EXPECT_EQ(ltl::SpMat(Kp - Kw).norm(), 0.0);
+}
+TEST(Discretization, Eq4_5_SomeCellsKeepTheContactTransposeByPoint) {
+  expect_contact_transpose_by_point(fig5(7));
+}
+TEST(Discretization, Eq4_5_SomeCellsKeepTheContactTransposeByPoint3D) {
+  expect_contact_transpose_by_point(gutter());
 }
 
 // (2.7), (4.1)-(4.4): at the converged Fig 5 state the deformed area equals the reference area
