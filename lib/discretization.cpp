@@ -387,8 +387,8 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
   // The point gradients are recomputed per cell from the nodes' positions (no per-cell or
   // per-point table: memory per cell, not speed, limits the 3-D problems).
   const Mesh& mesh = problem_.mesh;
-  // row_of by column on some cells: the held cells, in their order.
-  // On some cells, their own list (their volumes alone are held, by position).
+  // On some cells, their own list (their volumes alone are held, by position); row_of by column
+  // there: the held cells' columns, in their order.
   if (partial_ && !cells) cells = &cells_.cell;
   if (partial_ && cells != &cells_.cell && *cells != cells_.cell)
     throw Error("fluctuation: a discretization of some cells computes the held cells' list");
