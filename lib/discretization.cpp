@@ -260,22 +260,28 @@ struct FluctuationKernel {
   const Eigen::MatrixXi& cells;
   const Eigen::MatrixXd& X;
   const Eigen::VectorXd& vol;  ///< the held cells' volumes (CellOperators::vol)
-  bool by_position;            ///< vol(k) is the k-th cell's (some cells), else vol(e) cell e's
+  bool vol_by_position;        ///< vol(at) is the at-th cell's (some cells), else vol(e) cell e's
+  bool E_by_cell;              ///< E and lambda whole: cell e's block at d e, else at d at
 
   FluctuationKernel(const ReferenceRule& rule, const Mesh& mesh, const Eigen::VectorXd& v,
-                    bool position)
-      : nq(rule.size()), cells(mesh.cells), X(mesh.X), vol(v), by_position(position) {
+                    bool vol_position, bool E_whole)
+      : nq(rule.size()),
+        cells(mesh.cells),
+        X(mesh.X),
+        vol(v),
+        vol_by_position(vol_position),
+        E_by_cell(E_whole) {
     for (int k = 0; k < nq; ++k) {
       dN[k] = rule.dN[k];
       wref[k] = rule.w[k];
     }
   }
 
-  /// Cell e, the row-th of the cells computed, whose E and lambda are the blocks at rows d row
-  /// and whose volume is vol(row) or vol(e) (by_position): returns c_e; with fe, the cell's
-  /// nodal force (p_e and gamma as above). u's row of the cell's node a: u_row[a], or the node
-  /// (u_row null).
-  double operator()(int e, int row, const Eigen::MatrixXd& u, const int* u_row,
+  /// Cell e, at position `at` among the cells computed, whose E and lambda are the blocks at rows
+  /// d e or d at (E_by_cell) and whose volume is vol(e) or vol(at) (vol_by_position): returns c_e;
+  /// with fe, the cell's nodal force (p_e and gamma as above). u's row of the cell's node a:
+  /// u_row[a], or the node (u_row null).
+  double operator()(int e, int at, const Eigen::MatrixXd& u, const int* u_row,
                     const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
                     double* fe) const {
     Eigen::Matrix<double, npc, 2 * d> XU;  // [Xe ue]
@@ -295,11 +301,12 @@ struct FluctuationKernel {
       G[k].noalias() = JTinv[k] * H.template rightCols<d>();
       Fbar += w[k] * G[k];
     }
-    const double vol_e = vol(by_position ? row : e);
+    const double vol_e = vol(vol_by_position ? at : e);
     Fbar /= vol_e;
     Fbar.diagonal().array() += 1.0;
     double p = 0;
     if (lambda) {
+      const int row = E_by_cell ? e : at;
       const Mat Ee = E->block<d, d>(d * row, 0);
       p = (lambda->block<d, d>(d * row, 0).cwiseProduct(Ee)).sum() / (d * Ee.determinant());
     }
@@ -393,15 +400,20 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
   if (partial_ && cells != &cells_.cell && *cells != cells_.cell)
     throw Error("fluctuation: a discretization of some cells computes the held cells' list");
   const CellOperators* held = partial_ && row_of ? &cells_ : nullptr;
+  // E and lambda whole (cell_row), or in the order of `cells`.
+  const bool E_by_cell = E && whole_field(*E);
   if (dim() == 2)
-    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol, partial_), u, lambda, E,
-                           gamma, c, force, buffer_, rows_, cells, num_cells(), row_of, held);
+    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol, partial_, E_by_cell), u,
+                           lambda, E, gamma, c, force, buffer_, rows_, cells, num_cells(), row_of,
+                           held);
   else if (mesh.nodes_per_cell() == 10)
-    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol, partial_), u, lambda,
-                            E, gamma, c, force, buffer_, rows_, cells, num_cells(), row_of, held);
+    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol, partial_, E_by_cell),
+                            u, lambda, E, gamma, c, force, buffer_, rows_, cells, num_cells(),
+                            row_of, held);
   else
-    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol, partial_), u, lambda, E,
-                           gamma, c, force, buffer_, rows_, cells, num_cells(), row_of, held);
+    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol, partial_, E_by_cell), u,
+                           lambda, E, gamma, c, force, buffer_, rows_, cells, num_cells(), row_of,
+                           held);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
@@ -413,28 +425,10 @@ Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const 
 Eigen::MatrixXd Discretization::fluctuation_force(const State& s) const {
   Eigen::MatrixXd force = Eigen::MatrixXd::Zero(num_nodes(), dim());
   if (!mean_det_) return force;
-  // On some cells (a rank's) the held cells' part, summed over the ranks (collective), with E and
-  // lambda on the held cells' rows (a rank's state between steps, cell_row) or whole (read at
-  // those rows: the held cells' volumes alone are here); on every cell every cell here.
-  if (!partial_) {
-    fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0);
-    return force;
-  }
-  if (whole_field(s.E)) {
-    const int d = dim();
-    const auto held_rows = [&](const Eigen::MatrixXd& A) {
-      Eigen::MatrixXd rows(d * static_cast<Eigen::Index>(held_cells().size()), d);
-      mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {
-        rows.middleRows(d * at, d * n) = A.middleRows(d * c0, d * n);
-      });
-      return rows;
-    };
-    const Eigen::MatrixXd E = held_rows(s.E), lambda = held_rows(s.lambda);
-    fluctuation(s.u, &lambda, &E, nullptr, &force, 0.0);
-  } else {
-    fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0);
-  }
-  mpi::sum(force.data(), force.size());
+  // Every cell here, or on some cells (a rank's) the held cells' part, summed over the ranks
+  // (collective); E and lambda whole or on the held cells' rows (cell_row).
+  fluctuation(s.u, &s.lambda, &s.E, nullptr, &force, 0.0);
+  if (partial_) mpi::sum(force.data(), force.size());
   return force;
 }
 
@@ -558,10 +552,8 @@ Eigen::MatrixXd Discretization::held_cell_forces(
   });
   if (less_fluctuation && mean_det_) {  // f - force as -(-f + force): negation is exact
     const State& s = *less_fluctuation;
-    if (whole_field(s.E) && partial_)
-      throw Error("held_cell_forces: the fluctuation needs E and lambda on the held cells' rows");
     f = -f;
-    fluctuation(s.u, &s.lambda, &s.E, nullptr, &f, 0.0, partial_ ? &held_cells() : nullptr);
+    fluctuation(s.u, &s.lambda, &s.E, nullptr, &f, 0.0);
     f = -f;
   }
   if (partial_) mpi::sum(f.data(), f.size());

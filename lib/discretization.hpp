@@ -182,9 +182,9 @@ class Discretization {
   /// cells c0 .. c0 + n - 1 ((dim n) x dim, at `at` in held_cells()), into their T_e in place.
   /// The sum over cells of energy_gradient and of measures.cpp's equilibrium residual on a
   /// rank's cells.
-  /// With `less_fluctuation` (mean-det, its E and lambda on the held cells' rows): less those
-  /// cells' fluctuation_force, before the one sum over the ranks (no second #nodes x dim array,
-  /// no second reduction).
+  /// With `less_fluctuation` (mean-det; its E and lambda whole or on the held cells' rows): less
+  /// those cells' fluctuation_force, before the one sum over the ranks (no second #nodes x dim
+  /// array, no second reduction).
   Eigen::MatrixXd held_cell_forces(
       const Eigen::MatrixXd& u,
       const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,

@@ -195,14 +195,12 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   const CellOperators& c = d.cells();
   const double C1 = d.split().C1;
   Eigen::MatrixXd r;
-  // On a rank's cells with E and lambda on their rows, mean-det's fluctuation force goes into
-  // the same sum over the ranks as the cells' forces (one array, one reduction).
-  const bool fold = d.partial() && d.mean_det() && !d.whole_field(s.E);
   if (d.partial()) {
     // The held cells' part, run by run with Gbar^T |O_e| in place of GbarT_vol (no per-cell
     // array of the whole mesh), summed over the ranks (collective):
     //   Gbar^T |O_e| [2 C1 (E - Gbar u) - lambda] + 2 C1 L u,
-    // E and lambda whole or on the held cells' rows (Discretization::cell_row).
+    // E and lambda whole or on the held cells' rows (Discretization::cell_row); mean-det's
+    // fluctuation force in the same sum (one array, one reduction).
     const int dim = d.dim();
     r = d.held_cell_forces(
         s.u,
@@ -210,7 +208,7 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
           const Eigen::Index row = d.cell_row(s.E, c0, at);
           T = 2 * C1 * (s.E.middleRows(row, dim * n) - T) - s.lambda.middleRows(row, dim * n);
         },
-        fold ? &s : nullptr);
+        &s);
     r -= load_scale * f_ext;
   } else {
     const Eigen::MatrixXd GU = c.Gbar * s.u;
@@ -219,7 +217,7 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   }
   SpMatR work;  // meanT_area, made again on a rank's discretization (contact_points.hpp)
   if (d.points()) r -= d.points()->meanT_area_of(work) * s.lambda_c;
-  if (d.mean_det() && !fold) r -= d.fluctuation_force(s);
+  if (d.mean_det() && !d.partial()) r -= d.fluctuation_force(s);  // folded above on some cells
   return r;
 }
 

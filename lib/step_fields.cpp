@@ -144,15 +144,11 @@ std::pair<Eigen::Index, Eigen::Index> StepFields::serve(const std::string& reque
                                 static_cast<int>(count / p.m));
       } else {  // the nodal stress of nodes first .. first + count - 1, summed over the ranks
         const Discretization& disc = solver_.discretization();
-        const Mesh& mesh = disc.problem().mesh;
-        // The held cells' volumes, in their order: on the rank's rows, or every cell's on a
-        // discretization of every cell; a whole state on some cells reads every cell's volume,
-        // made here (cell_volumes: the rank holds its cells' alone).
-        const Eigen::VectorXd made =
-            !rows_ && disc.partial() ? cell_volumes(mesh) : Eigen::VectorXd();
-        Eigen::MatrixXd sums = nodal_stress_sums(mesh, made.size() ? made : disc.cells().vol, p.own,
-                                                 p.sigma33, rows_ ? &disc.held_cells() : nullptr,
-                                                 static_cast<int>(first), static_cast<int>(count));
+        // The held cells' volumes, in their order (every cell's on a discretization of every
+        // cell), or those made when it was opened (Part::volume).
+        Eigen::MatrixXd sums = nodal_stress_sums(
+            disc.problem().mesh, p.volume.size() ? p.volume : disc.cells().vol, p.own, p.sigma33,
+            rows_ ? &disc.held_cells() : nullptr, static_cast<int>(first), static_cast<int>(count));
         if (rows_) mpi::sum_to_writer(sums.data(), sums.size());
         if (!writer) continue;
         DerivedFields df;
@@ -188,6 +184,7 @@ void StepFields::make(const std::string& name) {
   } else if (name == "sigma_node" || name == "von_mises_node") {
     // The nodal stress: every rank's sums over its cells, added up on the writer block by block.
     cauchy_stress(disc, s, p.own, p.sigma33);
+    if (!rows_ && disc.partial()) p.volume = cell_volumes(disc.problem().mesh);
     p.kind = Part::Kind::Nodes;
     p.von_mises = name == "von_mises_node";
     p.rows = disc.problem().mesh.num_nodes();

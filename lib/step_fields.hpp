@@ -63,8 +63,11 @@ class StepFields final : public FieldSource {
     /// cells added up.
     enum class Kind { Here, Cells, Nodes } kind = Kind::Here;
     const Eigen::MatrixXd* state = nullptr;  ///< its rows in the state (null: in `own`)
-    Eigen::MatrixXd own;              ///< what was made for it (Nodes: sigma of the rank's cells)
-    Eigen::VectorXd sigma33;          ///< Nodes in plane strain: sigma33 of the rank's cells
+    Eigen::MatrixXd own;      ///< what was made for it (Nodes: sigma of the rank's cells)
+    Eigen::VectorXd sigma33;  ///< Nodes in plane strain: sigma33 of the rank's cells
+    /// Nodes of a whole state on a rank's discretization (which holds its cells' volumes alone):
+    /// every cell's volume (cell_volumes), made once when opened; else empty
+    Eigen::VectorXd volume;
     int m = 1;                        ///< Cells: rows per cell
     bool von_mises = false;           ///< Nodes: von_mises_node, else sigma_node
     Eigen::Index rows = 0, cols = 0;  ///< the whole field's size

@@ -1684,6 +1684,23 @@ TEST(Mpi, Eq2_7_StepFieldsAreMadeOnEachRanksCellsAndReadByBlocks) {
   if (mpi::rank() == 0) {
     EXPECT_EQ(blocks, (n + 4) / 5 + (nc + 6) / 7);
   }
+  // (2.7) A whole state on the ranks' discretizations of their cells, which hold their cells'
+  // volumes alone: every rank sums every cell, with every cell's volume (cell_volumes, made once
+  // when the field is opened), and rank 0 reads the serial nodal stress by blocks.
+  StepFields whole_fields(dist, whole);
+  const std::string third = whole_fields.written([&] {
+    const auto [nodes, nine] = whole_fields.open("sigma_node");
+    ASSERT_EQ(nodes, p.mesh.num_nodes());
+    ASSERT_EQ(nine, 9);
+    Eigen::MatrixXd sigma_node(nodes, 9), block;
+    for (Eigen::Index first = 0; first < nodes; first += 5) {
+      whole_fields.read("sigma_node", first, std::min<Eigen::Index>(5, nodes - first), block);
+      sigma_node.middleRows(first, block.rows()) = block;
+    }
+    whole_fields.close("sigma_node");
+    EXPECT_LE(relative(sigma_node, df.sigma_node), 1e-12);
+  });
+  EXPECT_EQ(third, "") << "rank " << mpi::rank();
 }
 
 /// The field datasets of one step group of a results file: each row of the field table stored
