@@ -419,7 +419,7 @@ class Solver::Alg2Map final : public FixedPointMap {
   // Distributed, on the state between steps made from the iterate (when the stopping test is
   // due): u whole, E and lambda the rank's rows (or gathered with the replicated factor).
   double equilibrium_error() const override {
-    return ltl::equilibrium_error(solver_.discretization(), solver_.discretization().dead_load(),
+    return ltl::equilibrium_error(solver_.discretization(),
                                   solver_.dist_ ? solver_.between_steps(s_) : s_,
                                   solver_.load_factor());
   }
@@ -528,8 +528,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     }
   }
   hold_rows(s);  // after a Newton phase (whole): the state between steps
-  const EquilibriumMeasure eq =
-      equilibrium_measure(discretization(), disc_.dead_load(), s, load_factor_);
+  const EquilibriumMeasure eq = equilibrium_measure(discretization(), s, load_factor_);
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;
   report.det_min = eq.det_min;
@@ -569,7 +568,7 @@ void Solver::set_displacement_factor(double factor) {
 }
 
 double Solver::largest_load() const {
-  return ltl::largest_load(disc_.dead_load(), load_factor_);
+  return ltl::largest_load(disc_, load_factor_);
 }
 
 double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {

@@ -31,7 +31,9 @@
 //     (between_steps, whole_u); with mean-det under Anderson, or the
 //     PETSc option -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x
 //     dim) and u gathered whole; with -ltl_mpi_replicated the serial factor on every rank
-//     (replicated). The residual parts are summed (3 values). E, lambda, u and the points' e,
+//     (replicated). The residual parts are summed (3 values); the step's equilibrium residual
+//     (4.5), its stopping test and the reactions on the ranks' blocks of the nodes
+//     (equilibrium_residual_rows, measures.hpp). E, lambda, u and the points' e,
 //     lambda_c and beta are gathered once, at the end of the phase.
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).

@@ -532,32 +532,49 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   return J + m.C1 * (grad2 - mean2) - (F.array() * s.u.array()).sum();
 }
 
-Eigen::MatrixXd Discretization::held_cell_forces(
+Eigen::MatrixXd Discretization::held_cell_forces_on_columns(
     const Eigen::MatrixXd& u,
     const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
     const State* less_fluctuation) const {
   const int d = dim();
   Eigen::MatrixXd work;
   const Eigen::MatrixXd& uc = on_columns(u, work);  // on the operators' columns
-  // Column j's force goes to its node's row (node[j] on some cells, j on every cell).
-  const int* row_of = cells_.node.empty() ? nullptr : cells_.node.data();
-  Eigen::MatrixXd f = Eigen::MatrixXd::Zero(num_nodes(), d);
-  const Eigen::MatrixXd Lu = 2 * split_.C1 * (cells_.laplacian * uc);
-  for (Eigen::Index j = 0; j < Lu.rows(); ++j) f.row(row_of ? row_of[j] : j) = Lu.row(j);
+  Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * uc);
   Eigen::MatrixXd T;
   mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {
     T.noalias() = cells_.Gbar.middleRows(d * at, d * n) * uc;
     stress(c0, n, at, T);
-    add_cell_forces(cells_, n, at, T, f, row_of);
+    add_cell_forces(cells_, n, at, T, f, nullptr);
   });
   if (less_fluctuation && mean_det_) {  // f - force as -(-f + force): negation is exact
     const State& s = *less_fluctuation;
+    // On some cells u and the force by column (row_of the identity on the columns).
+    std::vector<int> column;
+    if (partial_) {
+      column.resize(cells_.node.size());
+      for (std::size_t j = 0; j < column.size(); ++j) column[j] = static_cast<int>(j);
+    }
     f = -f;
-    fluctuation(s.u, &s.lambda, &s.E, nullptr, &f, 0.0);
+    fluctuation(uc, &s.lambda, &s.E, nullptr, &f, 0.0, nullptr,
+                column.empty() ? nullptr : column.data());
     f = -f;
   }
-  if (partial_) mpi::sum(f.data(), f.size());
   return f;
+}
+
+Eigen::MatrixXd Discretization::held_cell_forces(
+    const Eigen::MatrixXd& u,
+    const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
+    const State* less_fluctuation) const {
+  Eigen::MatrixXd f = held_cell_forces_on_columns(u, stress, less_fluctuation);
+  if (cells_.node.empty()) return f;  // every cell: the columns are the nodes
+  // Column j's force goes to its node's row.
+  Eigen::MatrixXd whole = Eigen::MatrixXd::Zero(num_nodes(), dim());
+  for (std::size_t j = 0; j < cells_.node.size(); ++j)
+    whole.row(cells_.node[j]) = f.row(static_cast<Eigen::Index>(j));
+  f = Eigen::MatrixXd();
+  if (partial_) mpi::sum(whole.data(), whole.size());
+  return whole;
 }
 
 Eigen::MatrixXd Discretization::energy_gradient(const Eigen::MatrixXd& u,

@@ -189,6 +189,14 @@ class Discretization {
       const Eigen::MatrixXd& u,
       const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
       const State* less_fluctuation = nullptr) const;
+  /// The same before the sum over the ranks: the held cells' part alone, on the operators'
+  /// columns (row j the force at node cells().node[j]; at node j when every cell is held). What
+  /// a rank adds to the blocks of the nodes (mpi::sum_rows_to_blocks, measures.cpp's
+  /// equilibrium_residual_rows) without an array of every node.
+  Eigen::MatrixXd held_cell_forces_on_columns(
+      const Eigen::MatrixXd& u,
+      const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
+      const State* less_fluctuation = nullptr) const;
   /// The elastic and load part of the discrete functional J_p (2.2) at a state, load F:
   ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - F.u
   double elastic_energy(const State& s, const Eigen::MatrixXd& F) const;

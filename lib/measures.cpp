@@ -221,28 +221,100 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
   return r;
 }
 
+ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::MatrixXd* f_ext,
+                                       const State& s, double load_scale) {
+  ResidualRows out;
+  if (!d.partial()) {
+    out.r = equilibrium_residual(d, f_ext ? *f_ext : d.dead_load(), s, load_scale);
+    return out;
+  }
+  // The rank's cells' part on their nodes (the operators' columns), as in equilibrium_residual,
+  // summed on the ranks' blocks of the nodes.
+  const int dim = d.dim();
+  const double C1 = d.split().C1;
+  const std::vector<int> offset = mpi::blocks(d.num_nodes(), mpi::size());
+  const int n0 = offset[mpi::rank()];
+  {
+    const Eigen::MatrixXd f = d.held_cell_forces_on_columns(
+        s.u,
+        [&](int c0, int n, int at, Eigen::MatrixXd& T) {
+          const Eigen::Index row = d.cell_row(s.E, c0, at);
+          T = 2 * C1 * (s.E.middleRows(row, dim * n) - T) - s.lambda.middleRows(row, dim * n);
+        },
+        &s);
+    mpi::sum_rows_to_blocks(f, d.cells().node, offset, out.r);
+  }
+  out.first = n0;
+  const Eigen::Index nb = out.r.rows();
+  if (f_ext) {
+    out.r -= load_scale * f_ext->middleRows(n0, nb);
+  } else {  // the dead loads of the block's loaded nodes (sorted)
+    const std::vector<int>& loaded = d.loaded_nodes();
+    for (std::size_t k = 0; k < loaded.size(); ++k)
+      if (loaded[k] >= n0 && loaded[k] < n0 + nb)
+        out.r.row(loaded[k] - n0) -= load_scale * d.loaded_rows().row(static_cast<Eigen::Index>(k));
+  }
+  // The contact term M^T |G| lambda_c (4.5) on the block's rows, point by point: for each row
+  // the points in increasing order, as the row-major product sums them.
+  if (const ContactPoints* pts = d.points()) {
+    Eigen::MatrixXd c = Eigen::MatrixXd::Zero(nb, dim);
+    const SpMat& by_point = pts->meanT_area_by_point;  // held on some cells (contact_points.hpp)
+    if (by_point.nonZeros() > 0) {
+      for (int f = 0; f < by_point.outerSize(); ++f)
+        for (SpMat::InnerIterator it(by_point, f); it; ++it)
+          if (it.row() >= n0 && it.row() < n0 + nb)
+            c.row(it.row() - n0) += it.value() * s.lambda_c.row(f);
+    } else {
+      c = pts->meanT_area.middleRows(n0, nb) * s.lambda_c;
+    }
+    out.r -= c;
+  }
+  return out;
+}
+
 namespace {
 /// The largest |equilibrium_residual| over the free dofs, and over the fixed ones (the largest
-/// reaction).
+/// reaction): over the ranks' blocks of the nodes on a rank's cells (equilibrium_residual_rows).
 struct FreeAndFixed {
   double free = 0, reaction = 0;
 };
-FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::MatrixXd& f_ext,
+FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::MatrixXd* f_ext,
                                      const State& s, double load_scale) {
-  Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s, load_scale);
+  ResidualRows rows = equilibrium_residual_rows(d, f_ext, s, load_scale);
+  Eigen::MatrixXd& r = rows.r;
+  const int n0 = rows.first, n1 = rows.first + static_cast<int>(r.rows());
   FreeAndFixed m;
   const auto& fixed = d.dirichlet().fixed;
   for (int c = 0; c < d.dim(); ++c)
-    for (int i : fixed[c]) m.reaction = std::max(m.reaction, std::abs(r(i, c))), r(i, c) = 0;
-  m.free = r.cwiseAbs().maxCoeff();
+    for (int i : fixed[c])
+      if (i >= n0 && i < n1)
+        m.reaction = std::max(m.reaction, std::abs(r(i - n0, c))), r(i - n0, c) = 0;
+  m.free = r.size() ? r.cwiseAbs().maxCoeff() : 0.0;
+  if (d.partial()) {  // the largest over the ranks' blocks
+    double both[2] = {m.free, m.reaction};
+    mpi::max(both, 2);
+    m.free = both[0];
+    m.reaction = both[1];
+  }
   return m;
 }
 }  // namespace
 
-EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                       const State& s, double load_scale) {
+double largest_load(const Discretization& d, double load_scale) {
+  const Eigen::MatrixXd& f = d.loaded_rows();
+  return std::abs(load_scale) * (f.size() ? f.cwiseAbs().maxCoeff() : 0.0);
+}
+
+namespace {
+/// The loads' largest nodal value: f_ext's, or (null) the discretization's dead loads'.
+double largest_of_loads(const Discretization& d, const Eigen::MatrixXd* f_ext, double load_scale) {
+  return f_ext ? largest_load(*f_ext, load_scale) : largest_load(d, load_scale);
+}
+
+EquilibriumMeasure measure_under(const Discretization& d, const Eigen::MatrixXd* f_ext,
+                                 const State& s, double load_scale) {
   EquilibriumMeasure m;
-  const double load = largest_load(f_ext, load_scale);
+  const double load = largest_of_loads(d, f_ext, load_scale);
   m.force_residual =
       residual_free_and_fixed(d, f_ext, s, load_scale).free / (load > 0 ? load : 1.0);
   if (d.problem().material.incompressible()) {
@@ -262,6 +334,16 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
   if (d.points()) m.penetration = std::max(0.0, max_penetration(d, s));
   m.det_min = min_det_F(d, s.u);
   return m;
+}
+}  // namespace
+
+EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
+                                       const State& s, double load_scale) {
+  return measure_under(d, &f_ext, s, load_scale);
+}
+
+EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, double load_scale) {
+  return measure_under(d, nullptr, s, load_scale);
 }
 
 double penetration_of(const Discretization& d, const State& s, int k) {
@@ -284,12 +366,13 @@ double max_penetration(const Discretization& d, const State& s) {
   return pen;
 }
 
-double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s,
-                         double load_scale) {
+namespace {
+double error_under(const Discretization& d, const Eigen::MatrixXd* f_ext, const State& s,
+                   double load_scale) {
   const int dim = d.dim();
   const FreeAndFixed r = residual_free_and_fixed(d, f_ext, s, load_scale);
   const double h = std::pow(d.volume() / d.num_cells(), 1.0 / dim);
-  double scale = largest_load(f_ext, load_scale);
+  double scale = largest_of_loads(d, f_ext, load_scale);
   if (!(scale > 0)) scale = r.reaction;
   if (!(scale > 0)) scale = d.split().C1 * std::pow(h, dim - 1);
   double err = r.free / scale;
@@ -316,6 +399,16 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
   });
   if (d.partial()) mpi::max(&err, 1);
   return std::max(err, max_penetration(d, s) / std::pow(d.volume(), 1.0 / dim));
+}
+}  // namespace
+
+double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s,
+                         double load_scale) {
+  return error_under(d, &f_ext, s, load_scale);
+}
+
+double equilibrium_error(const Discretization& d, const State& s, double load_scale) {
+  return error_under(d, nullptr, s, load_scale);
 }
 
 }  // namespace ltl

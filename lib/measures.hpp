@@ -130,6 +130,9 @@ double load_along_normal(const Problem& problem, const Eigen::MatrixXd& f_ext);
 /// max |load_scale f_ext|, the largest nodal load, without making the array: |load_scale| max
 /// |f_ext|, which is max |fl(load_scale f_ext)| exactly (rounding is monotonic).
 double largest_load(const Eigen::MatrixXd& f_ext, double load_scale = 1);
+/// The same for the discretization's dead loads (Discretization::dead_load), read on the loaded
+/// nodes: no #nodes x dim array.
+double largest_load(const Discretization& d, double load_scale);
 
 /// Residual of the discrete equilibrium, #nodes x dim:
 ///   r = GbarT_vol P + 2 C1 (L u - GbarT_vol Gbar u) - f_ext - meanT_area lambda_c^T
@@ -142,6 +145,20 @@ double largest_load(const Eigen::MatrixXd& f_ext, double load_scale = 1);
 /// (Solver) passes them so, with no #nodes x dim copy.
 Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::MatrixXd& f_ext,
                                      const State& s, double load_scale = 1);
+
+/// [(4.5)] The rows first .. first + r.rows() - 1 of equilibrium_residual: every row (first 0)
+/// on a discretization of every cell. On a rank's cells (Discretization::partial()) the rank's
+/// block of the nodes (mpi::blocks(#nodes, ranks)): each rank's cells' part on their nodes
+/// (Discretization::held_cell_forces_on_columns), summed by the blocks' ranks
+/// (mpi::sum_rows_to_blocks), less the block's loads and contact term (by point). No rank makes
+/// an array of every node, and the sum moves the rank's nodes, not every node (collective). With
+/// f_ext null, the loads are the discretization's dead loads (read on the loaded nodes).
+struct ResidualRows {
+  Eigen::MatrixXd r;
+  int first = 0;
+};
+ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::MatrixXd* f_ext,
+                                       const State& s, double load_scale = 1);
 
 struct EquilibriumMeasure {
   double force_residual = 0;  ///< max |r| over free dofs / max |f_ext| (largest nodal load)
@@ -160,6 +177,9 @@ struct EquilibriumMeasure {
 /// The equilibrium measure of a state under the loads f_ext (reported with every converged step).
 EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::MatrixXd& f_ext,
                                        const State& s, double load_scale = 1);
+/// The same under the discretization's dead loads times load_scale, without making them whole
+/// (the solver's step; on a rank's cells on the blocks of the nodes, equilibrium_residual_rows).
+EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, double load_scale);
 
 /// Max over the obstacles and their contact groups' nodes of (x - x_0) . N, the deformed node's
 /// distance behind the obstacle plane (m; > 0: penetration); -inf without contact.
@@ -178,5 +198,7 @@ double penetration_of(const Discretization& d, const State& s, int k);
 /// A step is converged when this is at most `algorithm.force_tol`, whatever the iteration.
 double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, const State& s,
                          double load_scale = 1);
+/// The same under the discretization's dead loads times load_scale (equilibrium_measure above).
+double equilibrium_error(const Discretization& d, const State& s, double load_scale);
 
 }  // namespace ltl

@@ -144,6 +144,26 @@ void rows_of_items(const Eigen::MatrixXd& own, Eigen::MatrixXd& block, const Par
 }
 }  // namespace
 
+namespace {
+/// sum_rows_to_blocks's checks: node sorted, in 0 .. offset.back() - 1, one per row of A.
+void check_block_rows(const Eigen::MatrixXd& A, const std::vector<int>& node,
+                      const std::vector<int>& offset) {
+  if (static_cast<Eigen::Index>(node.size()) != A.rows())
+    throw Error(cat("sum_rows_to_blocks: ", A.rows(), " rows for ", node.size(), " nodes"));
+  for (std::size_t k = 0; k < node.size(); ++k)
+    if (node[k] < 0 || node[k] >= offset.back() || (k > 0 && node[k] <= node[k - 1]))
+      throw Error(cat("sum_rows_to_blocks: node ", node[k], " at row ", k, " is outside 0 .. ",
+                      offset.back() - 1, " or not after the row before"));
+}
+/// The rows of A put at their nodes, those of [n0, n0 + block.rows()), added to block.
+void add_rows_at_nodes(const Eigen::MatrixXd& A, const std::vector<int>& node, int n0,
+                       Eigen::MatrixXd& block) {
+  for (std::size_t k = 0; k < node.size(); ++k)
+    if (node[k] >= n0 && node[k] < n0 + block.rows())
+      block.row(node[k] - n0) += A.row(static_cast<Eigen::Index>(k));
+}
+}  // namespace
+
 #ifndef LTL_HAVE_MPI
 
 void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
@@ -194,6 +214,12 @@ bool option(const char*) {
 void set_option(const char*, bool, const char*) {}
 double petsc_reductions() {
   return 0;
+}
+void sum_rows_to_blocks(const Eigen::MatrixXd& A, const std::vector<int>& node,
+                        const std::vector<int>& offset, Eigen::MatrixXd& block) {
+  check_block_rows(A, node, offset);
+  block = Eigen::MatrixXd::Zero(offset[1] - offset[0], A.cols());
+  add_rows_at_nodes(A, node, offset[0], block);
 }
 
 #else
@@ -473,6 +499,58 @@ void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
   std::vector<double>().swap(recv_);
   if (writer) traffic_.bytes += 8.0 * own.cols() * (total - counts_[me]);
   traffic_.calls += 1;
+  traffic_.seconds += seconds_since(t0);
+}
+
+void sum_rows_to_blocks(const Eigen::MatrixXd& A, const std::vector<int>& node,
+                        const std::vector<int>& offset, Eigen::MatrixXd& block) {
+  check_block_rows(A, node, offset);
+  const int P = size_, cols = static_cast<int>(A.cols());
+  const int n0 = offset[rank_], n1 = offset[rank_ + 1];
+  block = Eigen::MatrixXd::Zero(n1 - n0, cols);
+  if (!up || P == 1) return add_rows_at_nodes(A, node, n0, block);
+  const auto t0 = clock_type::now();
+  // The rows to block r are the run of sorted nodes in [offset[r], offset[r + 1]): in order.
+  std::vector<int> send_rows(P), recv_rows(P), send_at(P + 1, 0), recv_at(P + 1, 0);
+  for (int r = 0; r < P; ++r) {
+    send_at[r + 1] =
+        static_cast<int>(std::lower_bound(node.begin(), node.end(), offset[r + 1]) - node.begin());
+    send_rows[r] = send_at[r + 1] - send_at[r];
+  }
+  check(MPI_Alltoall(send_rows.data(), 1, MPI_INT, recv_rows.data(), 1, MPI_INT, MPI_COMM_WORLD),
+        "MPI_Alltoall");
+  for (int r = 0; r < P; ++r) recv_at[r + 1] = recv_at[r] + recv_rows[r];
+  std::vector<int> nodes_in(recv_at[P]);
+  check(MPI_Alltoallv(node.data(), send_rows.data(), send_at.data(), MPI_INT, nodes_in.data(),
+                      recv_rows.data(), recv_at.data(), MPI_INT, MPI_COMM_WORLD),
+        "MPI_Alltoallv");
+  // The values row by row (cols per row), in the nodes' order.
+  send_.resize(static_cast<std::size_t>(cols) * node.size());
+  for (Eigen::Index k = 0; k < A.rows(); ++k)
+    for (int j = 0; j < cols; ++j) send_[static_cast<std::size_t>(cols) * k + j] = A(k, j);
+  recv_.resize(static_cast<std::size_t>(cols) * nodes_in.size());
+  counts_.resize(2 * P);
+  displs_.resize(2 * P);
+  int* sc = counts_.data();
+  int* rc = counts_.data() + P;
+  int* sd = displs_.data();
+  int* rd = displs_.data() + P;
+  for (int r = 0; r < P; ++r) {
+    sc[r] = cols * send_rows[r];
+    sd[r] = cols * send_at[r];
+    rc[r] = cols * recv_rows[r];
+    rd[r] = cols * recv_at[r];
+  }
+  check(MPI_Alltoallv(send_.data(), sc, sd, MPI_DOUBLE, recv_.data(), rc, rd, MPI_DOUBLE,
+                      MPI_COMM_WORLD),
+        "MPI_Alltoallv");
+  for (std::size_t k = 0; k < nodes_in.size(); ++k)  // from rank 0 up: a fixed order
+    for (int j = 0; j < cols; ++j)
+      block(nodes_in[k] - n0, j) += recv_[static_cast<std::size_t>(cols) * k + j];
+  std::vector<double>().swap(send_);
+  std::vector<double>().swap(recv_);
+  traffic_.bytes += (8.0 * cols + 4.0) * (recv_at[P] - recv_rows[rank_]);
+  traffic_.calls += 3;
   traffic_.seconds += seconds_since(t0);
 }
 

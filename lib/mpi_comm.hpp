@@ -136,6 +136,17 @@ void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Parti
 void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
                            const Partition& part, int rows_per_item, int first = 0, int count = -1);
 
+/// [(4.5)] The ranks' parts of a nodal array, summed on the ranks' blocks of the nodes: rank r
+/// holds rows A.row(k) at the nodes node[k] (sorted, increasing; the same node may be on other
+/// ranks too: the nodes of a rank's cells); afterwards `block` (resized) holds on rank r the rows
+/// offset[r] .. offset[r + 1] - 1 (blocks(#nodes, size())) of the sum over the ranks of their
+/// rows put at their nodes, zero where no rank has a row. Each rank sends its rows of each block
+/// to the block's rank with their node numbers (MPI_Alltoallv), which adds them in rank order:
+/// the rank's rows out and its block's in, no array of every node (collective). An Error names
+/// a node outside the blocks or out of order.
+void sum_rows_to_blocks(const Eigen::MatrixXd& A, const std::vector<int>& node,
+                        const std::vector<int>& offset, Eigen::MatrixXd& block);
+
 /// What our collectives moved since the start: bytes received (payload), calls, wall seconds.
 struct Traffic {
   double bytes = 0, calls = 0, seconds = 0;

@@ -1,20 +1,23 @@
 #include "reactions.hpp"
 
 #include "measures.hpp"
+#include "mpi_comm.hpp"
 
 namespace ltl {
 
-SupportReactions support_reactions(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                   const State& s, double load_scale) {
+SupportReactions support_reactions(const Discretization& d, const State& s, double load_scale) {
   const Problem& pb = d.problem();
-  const int dim = pb.mesh.dim, nn = pb.mesh.num_nodes();
+  const int dim = pb.mesh.dim;
   const int nd = static_cast<int>(pb.dirichlet.size());
-  const Eigen::MatrixXd r = equilibrium_residual(d, f_ext, s, load_scale);
+  // The residual's rows of this rank's block of the nodes (all of them unless on a rank's
+  // cells), whose reactions the rank sums; the sums are added over the ranks.
+  const ResidualRows rows = equilibrium_residual_rows(d, nullptr, s, load_scale);
+  const int n0 = rows.first, nb = static_cast<int>(rows.r.rows());
   SupportReactions out;
   out.force = Eigen::MatrixXd::Zero(nd, dim);
   out.u = Eigen::MatrixXd::Zero(nd, dim);
-  // owner(node, c): the first condition that fixes the degree of freedom.
-  Eigen::MatrixXi owner = Eigen::MatrixXi::Constant(nn, dim, -1);
+  // owner(node - n0, c): the first condition that fixes the degree of freedom.
+  Eigen::MatrixXi owner = Eigen::MatrixXi::Constant(nb, dim, -1);
   for (int k = 0; k < nd; ++k) {
     const DirichletCondition& dc = pb.dirichlet[k];
     std::string key = dc.origin.empty() ? "dirichlet[" + std::to_string(k) + "]" : dc.origin;
@@ -23,14 +26,16 @@ SupportReactions support_reactions(const Discretization& d, const Eigen::MatrixX
     const std::vector<int> nodes = pb.mesh.boundary_nodes(dc.group, dc.origin);
     for (int a : nodes) {
       out.u.row(k) += s.u.row(a);
+      if (a < n0 || a >= n0 + nb) continue;
       for (int c : dc.components)
-        if (owner(a, c) < 0) {
-          owner(a, c) = k;
-          out.force(k, c) += r(a, c);
+        if (owner(a - n0, c) < 0) {
+          owner(a - n0, c) = k;
+          out.force(k, c) += rows.r(a - n0, c);
         }
     }
     if (!nodes.empty()) out.u.row(k) /= static_cast<double>(nodes.size());
   }
+  if (d.partial()) mpi::sum(out.force.data(), out.force.size());
   return out;
 }
 

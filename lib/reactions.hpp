@@ -35,10 +35,11 @@ struct SupportReactions {
 };
 
 /// [LTL87 (1.2), (4.5)] The reactions and support displacements at a converged state under the
-/// loads load_scale x f_ext (#nodes x dim: Solver::external_load, or the dead loads and the
-/// step's load factor).
-SupportReactions support_reactions(const Discretization& d, const Eigen::MatrixXd& f_ext,
-                                   const State& s, double load_scale = 1);
+/// discretization's dead loads times load_scale (the step's load factor). On a rank's cells
+/// (Discretization::partial(), collective) each rank sums the reactions of its block of the
+/// nodes (equilibrium_residual_rows) and the sums are added over the ranks: no array of every
+/// node's residual; u is whole there (the state between steps).
+SupportReactions support_reactions(const Discretization& d, const State& s, double load_scale = 1);
 
 /// The labels joined by "; " (the attribute `conditions` of the datasets).
 std::string joined_labels(const SupportReactions& r);

@@ -104,8 +104,8 @@ StepData step_data(const Solver& solver, const TimeStep& step, StepFields* field
   d.measures.push_back({"load_factor", solver.load_factor(), "1",
                         "load factor of the step ([load] ramp): multiplies the body force, the "
                         "tractions and the prescribed displacements"});
-  const SupportReactions r = support_reactions(
-      solver.discretization(), solver.discretization().dead_load(), state, solver.load_factor());
+  const SupportReactions r =
+      support_reactions(solver.discretization(), state, solver.load_factor());
   d.fields["reactions"] = r.force;
   d.fields["support_u"] = r.u;
   d.conditions = joined_labels(r);

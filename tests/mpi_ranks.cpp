@@ -36,6 +36,7 @@
 #include "mpi_comm.hpp"
 #include "mpi_global.hpp"
 #include "mpi_newton.hpp"
+#include "reactions.hpp"
 #include "results.hpp"
 #include "results_fields.hpp"
 #include "simulation.hpp"
@@ -1210,6 +1211,115 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
               << dist.holdings().cells_with_operators << " of " << p.mesh.num_cells() << " cells, "
               << dist.holdings().operators << " B (serial " << serial.holdings().operators
               << " B), Laplacian " << L << " of " << L_serial << " entries\n";
+}
+
+/// [(4.5)] A nodal array summed on the ranks' blocks of the nodes (mpi::sum_rows_to_blocks): each
+/// rank holds rows at its nodes, some of them on other ranks too (a node i held by ranks r with
+/// i mod (r + 2) = 0 or i mod 3 = 0, value 1000 r + i in column 0 and -(r + 1) in column 1);
+/// every rank's block gets exactly the sums over the ranks at its nodes, zero where no rank has a
+/// row, and nodes out of order are an Error on the rank that has them.
+TEST(Mpi, Eq4_5_RowSumsOnTheBlocksOfTheNodesAddEveryRanksRows) {
+  const int P = mpi::size(), me = mpi::rank(), n = 101;
+  const auto holds = [](int r, int i) { return i % (r + 2) == 0 || i % 3 == 0; };
+  std::vector<int> node;
+  for (int i = 0; i < n; ++i)
+    if (holds(me, i)) node.push_back(i);
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(node.size()), 2);
+  for (std::size_t k = 0; k < node.size(); ++k) {
+    A(static_cast<Eigen::Index>(k), 0) = 1000.0 * me + node[k];
+    A(static_cast<Eigen::Index>(k), 1) = -(me + 1.0);
+  }
+  const std::vector<int> offset = mpi::blocks(n, P);
+  Eigen::MatrixXd block;
+  const mpi::Traffic t0 = mpi::traffic();
+  mpi::sum_rows_to_blocks(A, node, offset, block);
+  const mpi::Traffic t1 = mpi::traffic();
+  ASSERT_EQ(block.rows(), offset[me + 1] - offset[me]);
+  ASSERT_EQ(block.cols(), 2);
+  double diff = 0;
+  int empty = 0;
+  for (int i = offset[me]; i < offset[me + 1]; ++i) {
+    double sum0 = 0, sum1 = 0;
+    for (int r = 0; r < P; ++r)
+      if (holds(r, i)) sum0 += 1000.0 * r + i, sum1 -= r + 1.0;
+    empty += sum1 == 0;
+    diff = std::max({diff, std::abs(block(i - offset[me], 0) - sum0),
+                     std::abs(block(i - offset[me], 1) - sum1)});
+  }
+  EXPECT_EQ(diff, 0.0);
+  double e = empty;
+  mpi::sum(&e, 1);
+  EXPECT_GT(e, 0);  // some nodes no rank holds: zero rows
+  // What a rank receives: the rows of its block that the other ranks hold, no more.
+  if (P > 1) {
+    double rows_in = 0;
+    for (int i = offset[me]; i < offset[me + 1]; ++i)
+      for (int r = 0; r < P; ++r) rows_in += r != me && holds(r, i);
+    EXPECT_EQ(t1.bytes - t0.bytes, (8.0 * 2 + 4.0) * rows_in);
+  }
+  std::vector<int> unsorted = node;
+  std::swap(unsorted[0], unsorted[1]);
+  EXPECT_THROW(mpi::sum_rows_to_blocks(A, unsorted, offset, block), Error);
+}
+
+/// [(4.5), (1.2)] The equilibrium residual on a rank's cells made on the ranks' blocks of the
+/// nodes (equilibrium_residual_rows): each rank's cells' forces on their nodes, summed by the
+/// blocks' ranks, less the block's dead loads (read on the loaded nodes) and contact term (by
+/// point), with no array of every node. On the coarse gutter (mean-det, contact, symmetry and
+/// a clamped end) at a random state (u, E on the rank's rows, lambda and lambda_c), every rank's
+/// block is its rows of the serial residual to 1e-12, and the step's measure, the stopping test
+/// and the supports' reactions (1.2) are the serial ones; a rank receives less than one array
+/// of every node (the whole sum was an MPI_Allreduce of #nodes x dim).
+TEST(Mpi, Eq4_5_TheResidualIsSummedOnTheRanksBlocksOfTheNodes) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
+  const Solver serial(p, Ranks::One);
+  const Solver dist(p, Ranks::All);
+  const int P = mpi::size(), me = mpi::rank(), dim = p.mesh.dim, nn = p.mesh.num_nodes();
+  ASSERT_TRUE(serial.discretization().points());
+  ASSERT_FALSE(serial.discretization().loaded_nodes().empty());
+  State s = serial.initial_state();
+  s.u = 1e-3 * Eigen::MatrixXd::Random(nn, dim);
+  s.E += 1e-2 * Eigen::MatrixXd::Random(s.E.rows(), s.E.cols());
+  s.lambda += 1e3 * Eigen::MatrixXd::Random(s.lambda.rows(), s.lambda.cols());
+  s.lambda_c = 1e3 * Eigen::MatrixXd::Random(s.lambda_c.rows(), dim);
+  for (Eigen::MatrixXd* a : {&s.u, &s.E, &s.lambda, &s.lambda_c})
+    mpi::broadcast(a->data(), a->size());
+  const double scale = 0.7;
+  const Eigen::MatrixXd r =
+      equilibrium_residual(serial.discretization(), serial.discretization().dead_load(), s, scale);
+  ASSERT_GT(r.norm(), 0);
+  State rows = s;
+  dist.hold_rows(rows);
+  ASSERT_TRUE(P == 1 || rows.E.rows() < s.E.rows());
+  const mpi::Traffic t0 = mpi::traffic();
+  const ResidualRows block = equilibrium_residual_rows(dist.discretization(), nullptr, rows, scale);
+  const mpi::Traffic t1 = mpi::traffic();
+  const std::vector<int> offset = mpi::blocks(nn, P);
+  ASSERT_EQ(block.first, P > 1 ? offset[me] : 0);
+  ASSERT_EQ(block.r.rows(), P > 1 ? offset[me + 1] - offset[me] : nn);
+  EXPECT_LE((block.r - r.middleRows(block.first, block.r.rows())).cwiseAbs().maxCoeff(),
+            1e-12 * r.cwiseAbs().maxCoeff());
+  if (P > 1) {
+    EXPECT_LT(t1.bytes - t0.bytes, 8.0 * nn * dim);
+  }
+  // The loads given whole: the same rows.
+  const Eigen::MatrixXd& f = serial.discretization().dead_load();
+  const ResidualRows given = equilibrium_residual_rows(dist.discretization(), &f, rows, scale);
+  EXPECT_LE((given.r - block.r).cwiseAbs().maxCoeff(), 1e-12 * r.cwiseAbs().maxCoeff());
+  // The step's measure and the stopping test under the dead loads, and the reactions (1.2).
+  const EquilibriumMeasure m = equilibrium_measure(serial.discretization(), f, s, scale);
+  const EquilibriumMeasure md = equilibrium_measure(dist.discretization(), rows, scale);
+  EXPECT_GT(m.force_residual, 0);
+  EXPECT_NEAR(md.force_residual, m.force_residual, 1e-12 * m.force_residual);
+  const double err = equilibrium_error(serial.discretization(), f, s, scale);
+  EXPECT_NEAR(equilibrium_error(dist.discretization(), rows, scale), err, 1e-12 * err);
+  const SupportReactions R = support_reactions(serial.discretization(), s, scale);
+  const SupportReactions Rd = support_reactions(dist.discretization(), rows, scale);
+  ASSERT_EQ(Rd.force.rows(), R.force.rows());
+  ASSERT_GT(R.force.cwiseAbs().maxCoeff(), 0);
+  EXPECT_LE((Rd.force - R.force).cwiseAbs().maxCoeff(), 1e-12 * R.force.cwiseAbs().maxCoeff());
+  EXPECT_EQ(Rd.u, R.u);
+  EXPECT_EQ(Rd.labels, R.labels);
 }
 
 /// The checks after a step on a rank's cells (lib/admissibility.cpp, lib/measures.cpp): det F at
