@@ -416,13 +416,9 @@ class Solver::Alg2Map final : public FixedPointMap {
     ++R_changes;
     return true;
   }
-  // Distributed, on the state between steps made from the iterate (when the stopping test is
-  // due): u whole, E and lambda the rank's rows (or gathered with the replicated factor).
-  double equilibrium_error() const override {
-    return ltl::equilibrium_error(solver_.discretization(),
-                                  solver_.dist_ ? solver_.between_steps(s_) : s_,
-                                  solver_.load_factor());
-  }
+  // Distributed, at the iterate's rows on a ghost layer, else on the state between steps made
+  // from it (Solver::equilibrium_error_of).
+  double equilibrium_error() const override { return solver_.equilibrium_error_of(s_); }
   int R_changes = 0;
 
  private:

@@ -36,6 +36,8 @@
 
 namespace ltl {
 
+struct IterateRows;  // measures.hpp
+
 namespace mpi {
 struct Partition;
 }
@@ -179,6 +181,12 @@ class Solver {
   /// Null when `s` is the iterate: ALG2's phase of a serial solver (Ranks::One), or `s` between
   /// ALG2's phases without a Newton iterate.
   std::optional<State> iterate_to_writer(const State& s) const;
+  /// [(4.5)] The equilibrium stopping test (measures.hpp: equilibrium_error) at the iterate of
+  /// the ALG2 phase under way on the ranks, as the phase evaluates it when it is due: on a
+  /// ghost layer at the iterate's rows (no whole u or contact field made: iterate_rows), else on
+  /// the state between steps made from it. Null outside such a phase (collective: from a
+  /// progress callback, every rank).
+  std::optional<double> iterate_equilibrium_error() const;
 
   /// A copy of the state s to go back to (load subdivision, lib/simulation.cpp): in a
   /// distributed solver its E and lambda are the rank's rows only (as own_rows) and u the rank's
@@ -328,6 +336,12 @@ class Solver {
   /// distributed, not replicated)? Its iterate's e, lambda_c and beta are then current on those
   /// points only, until gather_points.
   bool points_distributed() const;
+  /// Where the phase's iterate holds u and lambda_c (the rows of the rank's ghost layer and its
+  /// points) when the stopping test can read it there: on a ghost layer of a discretization of
+  /// the rank's cells. False otherwise (the test makes the state between steps).
+  bool iterate_rows(IterateRows& at) const;
+  /// The stopping test at the phase's iterate `own` (iterate_equilibrium_error).
+  double equilibrium_error_of(const State& own) const;
   /// The owned points' rows of e, lambda_c and beta gathered (collective): at the end of an ALG2
   /// phase and wherever a whole state is made from the iterate (whole(), between_steps()), not
   /// after each iteration.

@@ -32,9 +32,9 @@
 //     PETSc option -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x
 //     dim) and u gathered whole; with -ltl_mpi_replicated the serial factor on every rank
 //     (replicated). The residual parts are summed (3 values); the step's equilibrium residual
-//     (4.5), its stopping test and the reactions on the ranks' blocks of the nodes
-//     (equilibrium_residual_rows, measures.hpp). E, lambda, u and the points' e,
-//     lambda_c and beta are gathered once, at the end of the phase.
+//     (4.5), its stopping test (at the iterate's rows on a ghost layer) and the reactions on the
+//     ranks' blocks of the nodes (equilibrium_residual_rows, measures.hpp). E, lambda, u and the
+//     points' e, lambda_c and beta are gathered once, at the end of the phase.
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
@@ -42,6 +42,7 @@
 
 #include "alg2.hpp"
 #include "error.hpp"
+#include "measures.hpp"
 #include "mpi_comm.hpp"
 #include "mpi_global.hpp"
 
@@ -392,6 +393,25 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
         g.ubar.middleRows(f0, n).noalias() = points->mean.middleRows(f0, n) * s.u;
     });
   }
+}
+
+bool Solver::iterate_rows(IterateRows& at) const {
+  if (!dist_ || !rows_between_steps() || !dist_->ksp || !dist_->ksp->ghost_layer()) return false;
+  at.nodes = &dist_->ksp->layer_nodes();
+  at.column_row = dist_->layer_row.data();
+  at.points = points_distributed() ? &dist_->own_points : nullptr;
+  return true;
+}
+
+double Solver::equilibrium_error_of(const State& own) const {
+  if (IterateRows at; iterate_rows(at)) return equilibrium_error(disc_, own, load_factor_, at);
+  // u whole, E and lambda the rank's rows (or gathered with the replicated factor)
+  return equilibrium_error(disc_, dist_ ? between_steps(own) : own, load_factor_);
+}
+
+std::optional<double> Solver::iterate_equilibrium_error() const {
+  if (!alg2_rows_) return std::nullopt;
+  return equilibrium_error_of(*alg2_rows_);
 }
 
 bool Solver::points_distributed() const {

@@ -416,9 +416,9 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
                            held);
 }
 
-Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u) const {
+Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u, const int* u_row) const {
   Eigen::VectorXd c = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(held_cells().size()));
-  if (mean_det_) fluctuation(u, nullptr, nullptr, &c, nullptr);
+  if (mean_det_) fluctuation(u, nullptr, nullptr, &c, nullptr, 0.0, nullptr, u_row);
   return c;
 }
 
@@ -535,10 +535,14 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
 Eigen::MatrixXd Discretization::held_cell_forces_on_columns(
     const Eigen::MatrixXd& u,
     const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
-    const State* less_fluctuation) const {
+    const State* less_fluctuation, const int* u_row) const {
   const int d = dim();
   Eigen::MatrixXd work;
-  const Eigen::MatrixXd& uc = on_columns(u, work);  // on the operators' columns
+  if (u_row) {  // from u's rows of the columns' nodes
+    work.resize(cells_.columns(), u.cols());
+    for (Eigen::Index j = 0; j < work.rows(); ++j) work.row(j) = u.row(u_row[j]);
+  }
+  const Eigen::MatrixXd& uc = u_row ? work : on_columns(u, work);  // on the operators' columns
   Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * uc);
   Eigen::MatrixXd T;
   mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {

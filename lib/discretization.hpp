@@ -120,8 +120,9 @@ class Discretization {
   /// and the pressure p_e of the constraint does the extra work
   /// p_e integral (cof F - cof Fbar) : grad v (= p_e integral cof(delta) : grad v in 2-D).
   /// Returns c_e per held cell, in the order of held_cells() (c(at); c(e) when every cell is
-  /// held); zeros when !mean_det(). u whole.
-  Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u) const;
+  /// held); zeros when !mean_det(). u whole, or with u_row on some cells column j's node at
+  /// u's row u_row[j] (fluctuation's row_of: a rank's iterate on its ghost layer's rows).
+  Eigen::VectorXd fluctuation_det(const Eigen::MatrixXd& u, const int* u_row = nullptr) const;
   /// The force sum_e p_e integral_e (cof F - cof Fbar) : grad v (#nodes x dim) with p_e read
   /// from the multiplier, p_e = lambda_e : E_e / (d det E_e) (lambda = p cof E at a fixed point,
   /// cof E : E = d det E); zero when !mean_det(). ALG2 adds it, lagged, to the right-hand side
@@ -192,11 +193,13 @@ class Discretization {
   /// The same before the sum over the ranks: the held cells' part alone, on the operators'
   /// columns (row j the force at node cells().node[j]; at node j when every cell is held). What
   /// a rank adds to the blocks of the nodes (mpi::sum_rows_to_blocks, measures.cpp's
-  /// equilibrium_residual_rows) without an array of every node.
+  /// equilibrium_residual_rows) without an array of every node. With u_row, u holds column j's
+  /// node at row u_row[j] (a rank's iterate on its ghost layer's rows, alg2_mpi.cpp), else u is
+  /// whole; so does less_fluctuation's.
   Eigen::MatrixXd held_cell_forces_on_columns(
       const Eigen::MatrixXd& u,
       const std::function<void(int c0, int n, int at, Eigen::MatrixXd& T)>& stress,
-      const State* less_fluctuation = nullptr) const;
+      const State* less_fluctuation = nullptr, const int* u_row = nullptr) const;
   /// The elastic and load part of the discrete functional J_p (2.2) at a state, load F:
   ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - F.u
   double elastic_energy(const State& s, const Eigen::MatrixXd& F) const;

@@ -222,8 +222,10 @@ Eigen::MatrixXd equilibrium_residual(const Discretization& d, const Eigen::Matri
 }
 
 ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::MatrixXd* f_ext,
-                                       const State& s, double load_scale) {
+                                       const State& s, double load_scale, const IterateRows* at) {
   ResidualRows out;
+  if (at && !d.partial())
+    throw Error("equilibrium_residual_rows: an iterate on a rank's rows needs the rank's cells");
   if (!d.partial()) {
     out.r = equilibrium_residual(d, f_ext ? *f_ext : d.dead_load(), s, load_scale);
     return out;
@@ -234,14 +236,27 @@ ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::Mat
   const double C1 = d.split().C1;
   const std::vector<int> offset = mpi::blocks(d.num_nodes(), mpi::size());
   const int n0 = offset[mpi::rank()];
+  const ContactPoints* pts = d.points();
+  const bool points_on_rows = pts && at && at->points;  // the rank's points' terms, summed below
   {
-    const Eigen::MatrixXd f = d.held_cell_forces_on_columns(
+    Eigen::MatrixXd f = d.held_cell_forces_on_columns(
         s.u,
-        [&](int c0, int n, int at, Eigen::MatrixXd& T) {
-          const Eigen::Index row = d.cell_row(s.E, c0, at);
+        [&](int c0, int n, int k, Eigen::MatrixXd& T) {
+          const Eigen::Index row = d.cell_row(s.E, c0, k);
           T = 2 * C1 * (s.E.middleRows(row, dim * n) - T) - s.lambda.middleRows(row, dim * n);
         },
-        &s);
+        &s, at ? at->column_row : nullptr);
+    if (points_on_rows) {  // M^T |G| lambda_c of the rank's points at their nodes' columns
+      const std::vector<int>& node = d.cells().node;
+      for (int p : *at->points)
+        for (SpMat::InnerIterator it(pts->meanT_area_by_point, p); it; ++it) {
+          const auto j = std::lower_bound(node.begin(), node.end(), it.row());
+          if (j == node.end() || *j != it.row())
+            throw Error(cat("equilibrium_residual_rows: contact point ", p, "'s node ", it.row(),
+                            " is not a node of the rank's cells"));
+          f.row(j - node.begin()) -= it.value() * s.lambda_c.row(p);
+        }
+    }
     mpi::sum_rows_to_blocks(f, d.cells().node, offset, out.r);
   }
   out.first = n0;
@@ -256,7 +271,7 @@ ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::Mat
   }
   // The contact term M^T |G| lambda_c (4.5) on the block's rows, point by point: for each row
   // the points in increasing order, as the row-major product sums them.
-  if (const ContactPoints* pts = d.points()) {
+  if (pts && !points_on_rows) {
     Eigen::MatrixXd c = Eigen::MatrixXd::Zero(nb, dim);
     const SpMat& by_point = pts->meanT_area_by_point;  // held on some cells (contact_points.hpp)
     if (by_point.nonZeros() > 0) {
@@ -279,8 +294,9 @@ struct FreeAndFixed {
   double free = 0, reaction = 0;
 };
 FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::MatrixXd* f_ext,
-                                     const State& s, double load_scale) {
-  ResidualRows rows = equilibrium_residual_rows(d, f_ext, s, load_scale);
+                                     const State& s, double load_scale,
+                                     const IterateRows* at = nullptr) {
+  ResidualRows rows = equilibrium_residual_rows(d, f_ext, s, load_scale, at);
   Eigen::MatrixXd& r = rows.r;
   const int n0 = rows.first, n1 = rows.first + static_cast<int>(r.rows());
   FreeAndFixed m;
@@ -346,7 +362,11 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, 
   return measure_under(d, nullptr, s, load_scale);
 }
 
-double penetration_of(const Discretization& d, const State& s, int k) {
+namespace {
+/// penetration_of with u's rows at the nodes `nodes` (sorted; null: u whole): the group's nodes
+/// among them alone.
+double penetration_at(const Discretization& d, const State& s, int k,
+                      const std::vector<int>* nodes) {
   const Problem& pb = d.problem();
   double pen = -INFINITY;
   if (k < 0 || k >= static_cast<int>(pb.contacts.size())) return pen;
@@ -354,23 +374,42 @@ double penetration_of(const Discretization& d, const State& s, int k) {
   const int dim = pb.mesh.dim;
   const Eigen::VectorXd N = cc.plane_normal.head(dim);
   const Eigen::VectorXd p0 = cc.plane_point.head(dim);
-  for (int n : pb.mesh.boundary_nodes(cc.group))
-    pen = std::max(pen, (pb.mesh.X.row(n) + s.u.row(n) - p0.transpose()).dot(N));
+  for (int n : pb.mesh.boundary_nodes(cc.group)) {
+    Eigen::Index row = n;
+    if (nodes) {
+      const auto j = std::lower_bound(nodes->begin(), nodes->end(), n);
+      if (j == nodes->end() || *j != n) continue;
+      row = j - nodes->begin();
+    }
+    pen = std::max(pen, (pb.mesh.X.row(n) + s.u.row(row) - p0.transpose()).dot(N));
+  }
   return pen;
+}
+
+double penetration_at(const Discretization& d, const State& s, const std::vector<int>* nodes) {
+  double pen = -INFINITY;
+  for (int k = 0; k < static_cast<int>(d.problem().contacts.size()); ++k)
+    pen = std::max(pen, penetration_at(d, s, k, nodes));
+  return pen;
+}
+}  // namespace
+
+double penetration_of(const Discretization& d, const State& s, int k) {
+  return penetration_at(d, s, k, nullptr);
 }
 
 double max_penetration(const Discretization& d, const State& s) {
-  double pen = -INFINITY;
-  for (int k = 0; k < static_cast<int>(d.problem().contacts.size()); ++k)
-    pen = std::max(pen, penetration_of(d, s, k));
-  return pen;
+  return penetration_at(d, s, nullptr);
 }
 
 namespace {
+/// equilibrium_error under f_ext (null: the dead loads), s whole or, with `at`, a rank's iterate
+/// on its ghost layer's rows.
 double error_under(const Discretization& d, const Eigen::MatrixXd* f_ext, const State& s,
-                   double load_scale) {
+                   double load_scale, const IterateRows* at = nullptr) {
   const int dim = d.dim();
-  const FreeAndFixed r = residual_free_and_fixed(d, f_ext, s, load_scale);
+  const FreeAndFixed r = residual_free_and_fixed(d, f_ext, s, load_scale, at);
+  const int* u_row = at ? at->column_row : nullptr;
   const double h = std::pow(d.volume() / d.num_cells(), 1.0 / dim);
   double scale = largest_of_loads(d, f_ext, load_scale);
   if (!(scale > 0)) scale = r.reaction;
@@ -382,23 +421,31 @@ double error_under(const Discretization& d, const Eigen::MatrixXd* f_ext, const 
   const Small I = Small::Identity(dim, dim);
   const bool incompressible = d.problem().material.incompressible();
   const Eigen::VectorXd c = incompressible
-                                ? d.fluctuation_det(s.u)  // the held cells', in their order
+                                ? d.fluctuation_det(s.u, u_row)  // the held cells', in order
                                 : Eigen::VectorXd::Zero(d.held_cells().size());
   // The cells whose Gbar this rank holds (all unless partial), run by run (Gbar u of the run),
   // the largest over the ranks.
   Eigen::MatrixXd GU;
-  mpi::for_each_run(d.held_cells(), [&](int c0, int n, int at) {
+  mpi::for_each_run(d.held_cells(), [&](int c0, int n, int k0) {
     GU.resize(dim * n, dim);
-    mean_gradients(d.cells(), at, n, s.u, GU);
-    const Eigen::Index row = d.cell_row(s.E, c0, at);  // E whole or on the held cells' rows
+    mean_gradients(d.cells(), k0, n, s.u, GU, u_row);
+    const Eigen::Index row = d.cell_row(s.E, c0, k0);  // E whole or on the held cells' rows
     for (int k = 0; k < n; ++k) {
       const Small F = I + GU.middleRows(dim * k, dim);
       err = std::max(err, (F - s.E.middleRows(row + dim * k, dim)).cwiseAbs().maxCoeff());
-      if (incompressible) err = std::max(err, std::abs(F.determinant() + c(at + k) - 1));
+      if (incompressible) err = std::max(err, std::abs(F.determinant() + c(k0 + k) - 1));
     }
   });
-  if (d.partial()) mpi::max(&err, 1);
-  return std::max(err, max_penetration(d, s) / std::pow(d.volume(), 1.0 / dim));
+  // The penetration at u's nodes (with `at` the rank's layer's: every contact node is on some
+  // rank's layer), the largest over the ranks.
+  double pen = penetration_at(d, s, at ? at->nodes : nullptr);
+  if (d.partial()) {
+    double both[2] = {err, pen};
+    mpi::max(both, 2);
+    err = both[0];
+    pen = both[1];
+  }
+  return std::max(err, pen / std::pow(d.volume(), 1.0 / dim));
 }
 }  // namespace
 
@@ -409,6 +456,12 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
 
 double equilibrium_error(const Discretization& d, const State& s, double load_scale) {
   return error_under(d, nullptr, s, load_scale);
+}
+
+double equilibrium_error(const Discretization& d, const State& s, double load_scale,
+                         const IterateRows& at) {
+  if (!d.partial()) throw Error("equilibrium_error: an iterate on a rank's rows needs its cells");
+  return error_under(d, nullptr, s, load_scale, &at);
 }
 
 }  // namespace ltl

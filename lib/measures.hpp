@@ -157,8 +157,20 @@ struct ResidualRows {
   Eigen::MatrixXd r;
   int first = 0;
 };
+/// Where a rank's ALG2 iterate holds u and the contact multipliers (a phase on a ghost layer,
+/// alg2_mpi.cpp: Solver::iterate_rows): u's rows are the nodes `nodes` (sorted), column j of the
+/// cell operators at u's row column_row[j], and lambda_c current at the points `points` alone
+/// (the rank's, each point on one rank; null: every point current on every rank).
+struct IterateRows {
+  const std::vector<int>* nodes = nullptr;
+  const int* column_row = nullptr;
+  const std::vector<int>* points = nullptr;
+};
+/// With `at` (a rank's discretization only), s is in that form: the rank's points' contact terms
+/// are added at their nodes with its cells' forces, before the sum on the blocks.
 ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::MatrixXd* f_ext,
-                                       const State& s, double load_scale = 1);
+                                       const State& s, double load_scale = 1,
+                                       const IterateRows* at = nullptr);
 
 struct EquilibriumMeasure {
   double force_residual = 0;  ///< max |r| over free dofs / max |f_ext| (largest nodal load)
@@ -200,5 +212,11 @@ double equilibrium_error(const Discretization& d, const Eigen::MatrixXd& f_ext, 
                          double load_scale = 1);
 /// The same under the discretization's dead loads times load_scale (equilibrium_measure above).
 double equilibrium_error(const Discretization& d, const State& s, double load_scale);
+/// The same at a rank's ALG2 iterate on its ghost layer's rows (IterateRows; a discretization of
+/// the rank's cells, collective): the residual on the blocks of the nodes from the rank's cells
+/// and points, the compatibility and det terms on its cells, the penetration at its layer's
+/// nodes, the largest over the ranks. The stopping test then makes no whole u or lambda_c.
+double equilibrium_error(const Discretization& d, const State& s, double load_scale,
+                         const IterateRows& at);
 
 }  // namespace ltl

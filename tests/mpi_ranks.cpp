@@ -1322,6 +1322,54 @@ TEST(Mpi, Eq4_5_TheResidualIsSummedOnTheRanksBlocksOfTheNodes) {
   EXPECT_EQ(Rd.labels, R.labels);
 }
 
+/// [(4.5)] The equilibrium stopping test at the iterate's rows (Solver::iterate_equilibrium_error,
+/// measures.hpp's IterateRows): on a ghost layer a rank reads u on its layer's rows and lambda_c
+/// at its own points, adds its points' contact terms at their nodes with its cells' forces and
+/// sums the residual on the blocks of the nodes, with no whole u or contact field made. On Fig 5
+/// (P2 triangles, mean-det, contact), plain ALG2 with CG + GAMG, at every 50th iteration: the same
+/// number as the test on the state between steps made from the iterate (to 1e-12 of its largest
+/// value over the checks: the sums' rounding), u on fewer rows
+/// than the nodes and fewer bytes received than one whole u; and the run stopped by that test
+/// gives the serial answer and iteration count. Fails if the points' terms are left out or
+/// counted on every rank, or if the penetration reads u's rows as nodes.
+TEST(Mpi, Eq4_5_TheStoppingTestReadsTheIteratesRows) {
+  const std::vector<std::string> equilibrium = {"algorithm.stopping=\"equilibrium\"",
+                                                "algorithm.solver=\"alg2\""};
+  std::vector<std::string> keys = equilibrium;
+  keys.push_back("algorithm.global_solver=\"cg-amg\"");
+  const Problem p = load_problem(ltl::testing::source_path(kFig5), keys);
+  const int P = mpi::size(), nn = p.mesh.num_nodes(), dim = p.mesh.dim;
+  const TightCg tight;
+  Solver solver(p, Ranks::All);
+  State s = solver.initial_state();
+  int checked = 0, most_rows = 0;
+  double worst = 0, most_bytes = 0, largest = 0;
+  solver.solve_step(s, Eigen::VectorXd(s.beta), [&](const IterationRecord& rec) {
+    if (rec.n % 50 != 0) return;
+    const mpi::Traffic t0 = mpi::traffic();
+    const std::optional<double> a = solver.iterate_equilibrium_error();
+    const mpi::Traffic t1 = mpi::traffic();
+    const std::optional<State> w = solver.iterate_to_writer(s);
+    if (!a || !w) return;
+    const double b = equilibrium_error(solver.discretization(), *w, solver.load_factor());
+    worst = std::max(worst, std::abs(*a - b));
+    largest = std::max(largest, b);
+    most_bytes = std::max(most_bytes, t1.bytes - t0.bytes);
+    most_rows = std::max(most_rows, solver.holdings().iterate_u_rows);
+    ++checked;
+  });
+  EXPECT_GT(checked, 5);
+  EXPECT_GT(largest, 0);
+  // The sums' order differs (the points' terms added before the sum over the ranks, not after):
+  // rounding of the forces' scale, not of the residual's (measured 8.5e-16 of 0.49 at most).
+  EXPECT_LE(worst, 1e-12 * largest);
+  if (P > 1) {
+    EXPECT_LT(most_rows, nn);
+    EXPECT_LT(most_bytes, 8.0 * nn * dim);
+  }
+  expect_serial_answer("Fig 5, equilibrium stopping", kFig5, equilibrium, "cg-amg");
+}
+
 /// The checks after a step on a rank's cells (lib/admissibility.cpp, lib/measures.cpp): det F at
 /// the quadrature points, det E, the polar rotation against the neighbours' (on any rank) and the
 /// det constraint (5.3) run over the rank's cells, and the counts and the worst cell are reduced

@@ -20,12 +20,18 @@
 //           --cuts K1,K2,...: only the partition of the cells into K parts for each K, by
 //           slabs and by PT-Scotch (run on the ranks of mpirun): the facets cut, the largest part
 //           over the mean, the partitioner's seconds; then it stops.
+//           --stop-test 1: after the last timed iteration, the equilibrium stopping test (4.5)
+//           at the iterate once as ALG2 evaluates it (Solver::iterate_equilibrium_error: on a
+//           ghost layer at the iterate's rows) and once on the state between steps made from
+//           the iterate (the form it took until the fourth session of 2026-12-04): a line
+//           "STOP ...", the milliseconds, our bytes received and VmHWM after each, largest rank.
+//           Not with the timed iterations' bytes.
 //           --body cube N: a cube of N^3 H8 glued to its base instead (experiments/bench/
 //           cube.toml), a compact body for the partition of the cells (PETSC_OPTIONS=
 //           -ltl_mpi_slabs: slabs instead of PT-Scotch's graph partition).
 //
 // Run:      mpirun -n P build-mpi/experiments/bench_mpi NT NA NL [--iters N] [--warm N]
-//               [--solver mumps|cg-amg] [--distribute 1] [--label TEXT]
+//               [--solver mumps|cg-amg] [--distribute 1] [--stop-test 1] [--label TEXT]
 //           mpirun -n P build-mpi/experiments/bench_mpi --body cube N [options]
 //           (make bench-mpi runs the table of paper_notes/mpi.md). Without MPI (the default
 //           build) it runs on one rank with the serial solver.
@@ -36,6 +42,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <string>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -45,6 +52,7 @@
 #include "alg2.hpp"
 #include "config.hpp"
 #include "error.hpp"
+#include "measures.hpp"
 #include "mpi_comm.hpp"
 #include "mpi_global.hpp"
 
@@ -84,7 +92,7 @@ double max_of(double v) {
 
 const char* kUsage =
     "usage: bench_mpi NT NA NL [--iters N] [--warm N] [--solver mumps|cg-amg] [--distribute 1]"
-    " [--label TEXT]\n       bench_mpi --body cube N [the same options]\n";
+    " [--stop-test 1] [--label TEXT]\n       bench_mpi --body cube N [the same options]\n";
 
 int bench(int argc, char** argv) {
   for (int i = 1; i < argc; ++i)
@@ -95,11 +103,12 @@ int bench(int argc, char** argv) {
   int iters = 20, warm = 3;
   std::string solver_name = "mumps", label = "-", body = "gutter", cuts;
   bool distribute = false;  // --distribute 1: the distributed solver on one rank too
+  bool stop_test = false;   // --stop-test 1: the equilibrium stopping test's two forms
   std::vector<std::string> positional;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool known = a == "--iters" || a == "--warm" || a == "--solver" || a == "--label" ||
-                       a == "--distribute" || a == "--body" || a == "--cuts";
+                       a == "--distribute" || a == "--body" || a == "--cuts" || a == "--stop-test";
     if (a.rfind("-", 0) == 0 && (!known || i + 1 >= argc)) {
       std::fprintf(stderr, "bench_mpi: bad option %s\n%s", a.c_str(), kUsage);
       return 2;
@@ -114,6 +123,7 @@ int bench(int argc, char** argv) {
     if (a == "--solver") solver_name = v;
     if (a == "--label") label = v;
     if (a == "--distribute") distribute = std::atoi(v.c_str()) != 0;
+    if (a == "--stop-test") stop_test = std::atoi(v.c_str()) != 0;
     if (a == "--body") body = v;
     if (a == "--cuts") cuts = v;
   }
@@ -197,6 +207,8 @@ int bench(int argc, char** argv) {
   double petsc0 = 0, msgs0 = 0, red0 = 0, ksp_s0 = 0;
   long ksp_it0 = 0, ksp_solves0 = 0;
   int n = 0;
+  std::string stop_line;         // --stop-test
+  ltl::mpi::Traffic stop_moved;  // its traffic, left out of the iterations'
   solver.solve_step(s, beta_prev, [&](const ltl::IterationRecord& rec) {
     ++n;
     if (n > warm) {
@@ -207,6 +219,30 @@ int bench(int argc, char** argv) {
       wall = rec.wall;
     }
     if (n == warm + iters) phase("last_iteration");  // before the end of the step's gathers
+    if (n == warm + iters && stop_test) {
+      // The stopping test (4.5) in its two forms, outside the timed iterations' traffic.
+      const ltl::mpi::Traffic a0 = ltl::mpi::traffic();
+      double t0 = now_seconds();
+      const double on_rows = solver.iterate_equilibrium_error().value_or(NAN);
+      const double rows_ms = 1e3 * max_of(now_seconds() - t0);
+      const ltl::mpi::Traffic a1 = ltl::mpi::traffic();
+      const double rows_hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
+      t0 = now_seconds();
+      const std::optional<ltl::State> w = solver.iterate_to_writer(s);
+      const double between =
+          w ? ltl::equilibrium_error(solver.discretization(), *w, solver.load_factor()) : NAN;
+      const double between_ms = 1e3 * max_of(now_seconds() - t0);
+      const ltl::mpi::Traffic a2 = ltl::mpi::traffic();
+      const double between_hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
+      stop_moved = {a2.bytes - a0.bytes, a2.calls - a0.calls, a2.seconds - a0.seconds};
+      const double rows_bytes = max_of(a1.bytes - a0.bytes);
+      const double between_bytes = max_of(a2.bytes - a1.bytes);
+      stop_line =
+          ltl::cat("STOP label=", label, " ranks=", ltl::mpi::size(), " at_rows: error=", on_rows,
+                   " ms=", rows_ms, " bytes=", rows_bytes, " hwm_MB=", rows_hwm,
+                   " between_steps: error=", between, " ms=", between_ms, " bytes=", between_bytes,
+                   " hwm_MB=", between_hwm, "\n");
+    }
     if (n != warm) return;
     wall0 = rec.wall;
     c0 = ltl::mpi::traffic();
@@ -220,7 +256,10 @@ int bench(int argc, char** argv) {
   });
   phase("step_end");
   const int timed = n - warm;
-  const ltl::mpi::Traffic c1 = ltl::mpi::traffic();
+  ltl::mpi::Traffic c1 = ltl::mpi::traffic();
+  c1.bytes -= stop_moved.bytes;
+  c1.calls -= stop_moved.calls;
+  c1.seconds -= stop_moved.seconds;
   const ltl::RankShare r = solver.rank_share();
   auto ms = [&](double sec) { return timed > 0 ? 1e3 * max_of(sec) / timed : 0.0; };
   const double bytes_ours = max_of((c1.bytes - c0.bytes) / timed);
@@ -271,6 +310,7 @@ int bench(int argc, char** argv) {
         mesh.num_cells(), mesh.num_nodes(), setup, timed, t_it, t_g, t_ksp, t_coll, t_s, t_c, t_u,
         its, bytes_ours, calls_ours, bytes_petsc, msgs_petsc, reductions, ghosts, layer, rows_ratio,
         peaks.c_str(), loadavg().c_str(), label.c_str(), P, phases.c_str(), held.c_str());
+  if (ltl::mpi::rank() == 0 && !stop_line.empty()) std::printf("%s", stop_line.c_str());
   std::fflush(stdout);
   return 0;
 }
