@@ -237,7 +237,7 @@ ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::Mat
   const std::vector<int> offset = mpi::blocks(d.num_nodes(), mpi::size());
   const int n0 = offset[mpi::rank()];
   const ContactPoints* pts = d.points();
-  const bool points_on_rows = pts && at && at->points;  // the rank's points' terms, summed below
+  const bool points_on_rows = pts && at && at->points;  // its points' terms, before the sum
   {
     Eigen::MatrixXd f = d.held_cell_forces_on_columns(
         s.u,
