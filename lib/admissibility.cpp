@@ -124,7 +124,11 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
   const Mesh& mesh = pb.mesh;
   const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
   r.h = std::pow(d.volume() / std::max(1, nc), 1.0 / dim);
-  const Eigen::MatrixXd x = mesh.X + s.u;
+  // The deformed position x = X + u of node n, made where it is read (no #nodes x dim copy: it
+  // was the step's end's largest transient on a rank, paper_notes/mpi.md).
+  const auto deformed = [&](int n) {
+    return position(Eigen::RowVectorXd(mesh.X.row(n) + s.u.row(n)), 0);
+  };
 
   // 1. Obstacle: every node of the body on the admissible side of the plane. The contact
   // surface is held by the discretization at its contact points only (its nodes, or its facet
@@ -154,16 +158,26 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
       if (!(depth - tol <= worst_excess)) worst_excess = depth - tol, worst = where();
     };
     for (int n = 0; n < nn; ++n) {
-      const double depth = (x.row(n).transpose() - p0).dot(N);
+      double depth = 0;  // (x - p0) . N
+      for (int c = 0; c < dim; ++c) depth += (mesh.X(n, c) + s.u(n, c) - p0(c)) * N(c);
       if (depth > r.max_inside || std::isnan(depth)) r.max_inside = depth, r.inside_node = n;
       if (!on_surface[n])
         record(depth, r.inside_tol, [&] {
-          return cat("node ", n, " at reference ", position(mesh.X, n), ", deformed ",
-                     position(x, n), ", ", depth, " m inside");
+          return cat("node ", n, " at reference ", position(mesh.X, n), ", deformed ", deformed(n),
+                     ", ", depth, " m inside");
         });
     }
     if (points) {
-      const Eigen::MatrixXd xbar = pts->mean * x, ubar = pts->mean * s.u;  // #points x dim
+      // xbar = mean x row by row, each sum in the order of the row-major product mean * x.
+      Eigen::MatrixXd xbar(pts->size(), dim);
+      for (int i = 0; i < pts->size(); ++i)
+        for (int c = 0; c < dim; ++c) {
+          double sum = 0;
+          for (SpMatR::InnerIterator it(pts->mean, i); it; ++it)
+            sum += it.value() * (mesh.X(it.col(), c) + s.u(it.col(), c));
+          xbar(i, c) = sum;
+        }
+      const Eigen::MatrixXd ubar = pts->mean * s.u;  // #points x dim
       const bool nodal = !pts->nodes.empty();
       for (int i = r0; i < r1; ++i) {
         const double depth = (xbar.row(i).transpose() - p0).dot(N);
@@ -171,7 +185,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
         record(depth, r.inside_tol + (std::isfinite(residual) ? residual : 0.0), [&] {
           const std::string where =
               nodal ? cat("node ", pts->nodes[i], " at reference ", position(mesh.X, pts->nodes[i]),
-                          ", deformed ", position(x, pts->nodes[i]))
+                          ", deformed ", deformed(pts->nodes[i]))
                     : cat("contact facet ", i, " (mean of its nodes at reference ",
                           position(pts->centre.transpose(), i), ", deformed ", position(xbar, i),
                           ")");

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <limits>
 #include <optional>
+#include <utility>
 
 #include "config.hpp"
 #include "error.hpp"
@@ -772,14 +773,14 @@ void ResultsWriter::interrupted(int p, int signal) {
                                 " during step ", p, " (t = ", p * problem_.time.dt, " s); ", kept));
 }
 
-RunSummary ResultsWriter::finish(const State& last) {
+RunSummary ResultsWriter::finish(State last) {
   std::optional<ResultsFile>& file = file_->results;
   const int P = problem_.time.steps, last_done = summary_.last_step;
   if (file && last_done != P) file->set_status(cat("stopped after step ", last_done));
   if (file && options_.resume && last_done == first_ - 1 && last_done == P)
     file->set_status("complete");
-  summary_.state = last;
-  return summary_;
+  summary_.state = std::move(last);
+  return std::move(summary_);
 }
 
 RunSummary run(Solver& solver, const RunOptions& options,
@@ -806,7 +807,7 @@ RunSummary run(Solver& solver, const RunOptions& options,
     results.append(step);
     if (on_step) on_step(solver, p, state);
   }
-  RunSummary summary = results.finish(state);
+  RunSummary summary = results.finish(std::move(state));  // the state's one copy
   const Problem& problem = solver.problem();
   // The peak resident memory (VmHWM) of the process; of a distributed solver the smallest and
   // the largest over the ranks (collective: every rank of it gets here).

@@ -182,8 +182,10 @@ class ResultsWriter {
   int resume_iterations() const { return resume_iterations_; }
 
   /// Marks a stopped run "stopped after step p" (or a resumed finished run "complete") and
-  /// returns the summary, with `last` the last converged state.
-  RunSummary finish(const State& last);
+  /// returns the summary, with `last` the last converged state, moved into it (the run's own
+  /// state: no copy of u and of the rank's rows at the end of a run; the writer's summary is
+  /// left empty).
+  RunSummary finish(State last);
 
  private:
   struct File;
