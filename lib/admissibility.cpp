@@ -168,16 +168,8 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
         });
     }
     if (points) {
-      // xbar = mean x row by row, each sum in the order of the row-major product mean * x.
-      Eigen::MatrixXd xbar(pts->size(), dim);
-      for (int i = 0; i < pts->size(); ++i)
-        for (int c = 0; c < dim; ++c) {
-          double sum = 0;
-          for (SpMatR::InnerIterator it(pts->mean, i); it; ++it)
-            sum += it.value() * (mesh.X(it.col(), c) + s.u(it.col(), c));
-          xbar(i, c) = sum;
-        }
       const Eigen::MatrixXd ubar = pts->mean * s.u;  // #points x dim
+      const Eigen::MatrixXd xbar = pts->mean * mesh.X + ubar;
       const bool nodal = !pts->nodes.empty();
       for (int i = r0; i < r1; ++i) {
         const double depth = (xbar.row(i).transpose() - p0).dot(N);

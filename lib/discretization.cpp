@@ -64,13 +64,13 @@ void Discretization::add_dead_load(Eigen::MatrixXd& f, double scale) const {
   for (std::size_t k = 0; k < loaded_.size(); ++k) f.row(loaded_[k]) += scale * F_loaded_.row(k);
 }
 
-const Eigen::MatrixXd& Discretization::on_columns(const Eigen::MatrixXd& u,
-                                                  Eigen::MatrixXd& work) const {
+const Eigen::MatrixXd& Discretization::on_columns(const Eigen::MatrixXd& u, Eigen::MatrixXd& work,
+                                                  const int* u_row) const {
   const std::vector<int>& node = cells_.node;
-  if (node.empty()) return u;
-  work.resize(static_cast<Eigen::Index>(node.size()), u.cols());
-  for (std::size_t k = 0; k < node.size(); ++k)
-    work.row(static_cast<Eigen::Index>(k)) = u.row(node[k]);
+  if (node.empty() && !u_row) return u;
+  const int* row = u_row ? u_row : node.data();
+  work.resize(cells_.columns(), u.cols());
+  for (Eigen::Index k = 0; k < work.rows(); ++k) work.row(k) = u.row(row[k]);
   return work;
 }
 
@@ -538,11 +538,7 @@ Eigen::MatrixXd Discretization::held_cell_forces_on_columns(
     const State* less_fluctuation, const int* u_row) const {
   const int d = dim();
   Eigen::MatrixXd work;
-  if (u_row) {  // from u's rows of the columns' nodes
-    work.resize(cells_.columns(), u.cols());
-    for (Eigen::Index j = 0; j < work.rows(); ++j) work.row(j) = u.row(u_row[j]);
-  }
-  const Eigen::MatrixXd& uc = u_row ? work : on_columns(u, work);  // on the operators' columns
+  const Eigen::MatrixXd& uc = on_columns(u, work, u_row);  // on the operators' columns
   Eigen::MatrixXd f = 2 * split_.C1 * (cells_.laplacian * uc);
   Eigen::MatrixXd T;
   mpi::for_each_run(held_cells(), [&](int c0, int n, int at) {

@@ -69,8 +69,10 @@ class Discretization {
   const CellOperators& cells() const { return cells_; }
   /// u (#nodes x dim) on the cell operators' columns (CellOperators::node), for Gbar u and L u:
   /// u itself when every cell is held, else its rows of the held cells' nodes, copied into
-  /// `work` (resized; no allocation when it has that size already).
-  const Eigen::MatrixXd& on_columns(const Eigen::MatrixXd& u, Eigen::MatrixXd& work) const;
+  /// `work` (resized; no allocation when it has that size already). With u_row, u is not whole:
+  /// column j's node is at its row u_row[j] (a rank's iterate on its ghost layer's rows).
+  const Eigen::MatrixXd& on_columns(const Eigen::MatrixXd& u, Eigen::MatrixXd& work,
+                                    const int* u_row = nullptr) const;
   /// The contact points: facets (discretization.contact = "facet-mean") or the nodes of the
   /// contact surface ("nodal"), with their weights, positions, the map from nodal values (mean)
   /// and the initial gap g_s = (p0 - x_s) . N >= 0 of each to the obstacle plane (section 6);

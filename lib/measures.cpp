@@ -269,19 +269,16 @@ ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::Mat
       if (loaded[k] >= n0 && loaded[k] < n0 + nb)
         out.r.row(loaded[k] - n0) -= load_scale * d.loaded_rows().row(static_cast<Eigen::Index>(k));
   }
-  // The contact term M^T |G| lambda_c (4.5) on the block's rows, point by point: for each row
-  // the points in increasing order, as the row-major product sums them.
+  // The contact term M^T |G| lambda_c (4.5) on the block's rows, from the entries kept by point
+  // on some cells (contact_points.hpp), point by point: for each row the points in increasing
+  // order, as the row-major product sums them.
   if (pts && !points_on_rows) {
     Eigen::MatrixXd c = Eigen::MatrixXd::Zero(nb, dim);
-    const SpMat& by_point = pts->meanT_area_by_point;  // held on some cells (contact_points.hpp)
-    if (by_point.nonZeros() > 0) {
-      for (int f = 0; f < by_point.outerSize(); ++f)
-        for (SpMat::InnerIterator it(by_point, f); it; ++it)
-          if (it.row() >= n0 && it.row() < n0 + nb)
-            c.row(it.row() - n0) += it.value() * s.lambda_c.row(f);
-    } else {
-      c = pts->meanT_area.middleRows(n0, nb) * s.lambda_c;
-    }
+    const SpMat& by_point = pts->meanT_area_by_point;
+    for (int f = 0; f < by_point.outerSize(); ++f)
+      for (SpMat::InnerIterator it(by_point, f); it; ++it)
+        if (it.row() >= n0 && it.row() < n0 + nb)
+          c.row(it.row() - n0) += it.value() * s.lambda_c.row(f);
     out.r -= c;
   }
   return out;
@@ -460,8 +457,7 @@ double equilibrium_error(const Discretization& d, const State& s, double load_sc
 
 double equilibrium_error(const Discretization& d, const State& s, double load_scale,
                          const IterateRows& at) {
-  if (!d.partial()) throw Error("equilibrium_error: an iterate on a rank's rows needs its cells");
-  return error_under(d, nullptr, s, load_scale, &at);
+  return error_under(d, nullptr, s, load_scale, &at);  // a rank's cells (else an Error)
 }
 
 }  // namespace ltl
