@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "error.hpp"
+#include "measures.hpp"
 #include "mpi_comm.hpp"
 #include "signed_svd.hpp"
 
@@ -92,15 +93,22 @@ int count_over_ranks(const Discretization& d, int n) {
 
 }  // namespace
 
-double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell,
-                 int* cells_inverted) {
+double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell, int* cells_inverted,
+                 const std::vector<int>* u_nodes) {
   const Mesh& mesh = d.problem().mesh;
   const int dim = mesh.dim, npc = mesh.nodes_per_cell();
   double worst = std::numeric_limits<double>::infinity();
   int inverted = 0, worst_cell = -1;
   Eigen::MatrixXd Uc(npc, dim), F(dim, dim);
+  const auto row_of = [&](int n) -> Eigen::Index {  // u's row of node n
+    if (!u_nodes) return n;
+    const auto j = std::lower_bound(u_nodes->begin(), u_nodes->end(), n);
+    if (j == u_nodes->end() || *j != n)
+      throw Error(cat("min_det_F: node ", n, " is not one of u's rows"));
+    return j - u_nodes->begin();
+  };
   for (int c : d.held_cells()) {  // every cell, or a rank's (then reduced below)
-    for (int a = 0; a < npc; ++a) Uc.row(a) = u.row(mesh.cells(c, a));
+    for (int a = 0; a < npc; ++a) Uc.row(a) = u.row(row_of(mesh.cells(c, a)));
     double cell_min = std::numeric_limits<double>::infinity();
     for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double) {
       // grad u = sum_a u_a (x) grad phi_a = Uc^T grad; F = I + grad u.
@@ -118,17 +126,29 @@ double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell,
   return worst;
 }
 
-AdmissibilityReport check_admissibility(const Discretization& d, const State& s) {
+AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
+                                        const IterateRows* at) {
   AdmissibilityReport r;
   const Problem& pb = d.problem();
   const Mesh& mesh = pb.mesh;
   const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
   r.h = std::pow(d.volume() / std::max(1, nc), 1.0 / dim);
   // The deformed position x = X + u of node n, made where it is read (no #nodes x dim copy: it
-  // was the step's end's largest transient on a rank, paper_notes/mpi.md).
+  // was the step's end's largest transient on a rank, paper_notes/mpi.md); with `at` u's row of
+  // n from the ranks whose layer holds it (collective: every rank asks for the same node).
   const auto deformed = [&](int n) {
-    return position(Eigen::RowVectorXd(mesh.X.row(n) + s.u.row(n)), 0);
+    const Eigen::MatrixXd un = u_at_nodes(s, {n}, at);
+    return position(Eigen::RowVectorXd(mesh.X.row(n) + un.row(0)), 0);
   };
+  // The nodes this rank checks against the planes and their rows of u: every node, or with `at`
+  // those it owns (each node on one rank), in increasing order.
+  std::vector<int> own_nodes, own_rows;
+  if (at) {
+    for (int row : *at->owned) own_nodes.push_back((*at->nodes)[row]), own_rows.push_back(row);
+  } else {
+    own_nodes.resize(nn);
+    for (int n = 0; n < nn; ++n) own_nodes[n] = n;
+  }
 
   // 1. Obstacle: every node of the body on the admissible side of the plane. The contact
   // surface is held by the discretization at its contact points only (its nodes, or its facet
@@ -157,18 +177,38 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
       ++r.nodes_inside;
       if (!(depth - tol <= worst_excess)) worst_excess = depth - tol, worst = where();
     };
-    for (int n = 0; n < nn; ++n) {
+    // The nodes off the contact surface, in increasing order: the deepest (the first of the
+    // deepest) and the deepest beyond the tolerance, over the ranks' nodes with `at`.
+    double max_inside = -std::numeric_limits<double>::infinity(), excess = max_inside;
+    int max_node = -1, excess_node = -1, inside = 0;
+    for (std::size_t j = 0; j < own_nodes.size(); ++j) {
+      const int n = own_nodes[j];
+      const Eigen::Index row = at ? own_rows[j] : n;
       double depth = 0;  // (x - p0) . N
-      for (int c = 0; c < dim; ++c) depth += (mesh.X(n, c) + s.u(n, c) - p0(c)) * N(c);
-      if (depth > r.max_inside || std::isnan(depth)) r.max_inside = depth, r.inside_node = n;
-      if (!on_surface[n])
-        record(depth, r.inside_tol, [&] {
-          return cat("node ", n, " at reference ", position(mesh.X, n), ", deformed ", deformed(n),
-                     ", ", depth, " m inside");
-        });
+      for (int c = 0; c < dim; ++c) depth += (mesh.X(n, c) + s.u(row, c) - p0(c)) * N(c);
+      if (depth > max_inside || std::isnan(depth)) max_inside = depth, max_node = n;
+      if (!on_surface[n] && depth > r.inside_tol) {
+        ++inside;
+        if (!(depth - r.inside_tol <= excess)) excess = depth - r.inside_tol, excess_node = n;
+      }
+    }
+    if (at) {
+      extreme_over_ranks(d, max_inside, max_node, true);
+      extreme_over_ranks(d, excess, excess_node, true);
+      inside = count_over_ranks(d, inside);
+    }
+    if (max_inside > r.max_inside || std::isnan(max_inside))
+      r.max_inside = max_inside, r.inside_node = max_node;
+    r.nodes_inside += inside;
+    if (excess_node >= 0 && !(excess <= worst_excess)) {
+      const int n = excess_node;
+      const double depth = excess + r.inside_tol;
+      worst_excess = excess;
+      worst = cat("node ", n, " at reference ", position(mesh.X, n), ", deformed ", deformed(n),
+                  ", ", depth, " m inside");
     }
     if (points) {
-      const Eigen::MatrixXd ubar = pts->mean * s.u;  // #points x dim
+      const Eigen::MatrixXd ubar = point_means(*pts, s, at);  // #points x dim
       const Eigen::MatrixXd xbar = pts->mean * mesh.X + ubar;
       const bool nodal = !pts->nodes.empty();
       for (int i = r0; i < r1; ++i) {
@@ -201,7 +241,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s)
   }
 
   // 2. Orientation: det F > 0 at every quadrature point, det E_e > 0.
-  r.det_F_min = min_det_F(d, s.u, &r.det_F_cell, &r.cells_inverted);
+  r.det_F_min = min_det_F(d, s.u, &r.det_F_cell, &r.cells_inverted, at ? at->nodes : nullptr);
   // E whole, or on the held cells' rows (a rank's state between steps, Discretization::cell_row).
   const std::vector<int>& held = d.held_cells();
   const int nh = static_cast<int>(held.size());

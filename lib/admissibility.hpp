@@ -31,6 +31,8 @@
 
 namespace ltl {
 
+struct IterateRows;  // measures.hpp: where a distributed solver's state holds u
+
 /// A node is inside the obstacle when (x - p0) . N > kInsideTolerance h, h = (|Omega| /
 /// #cells)^(1/dim) the mean cell size; a contact point is allowed its constraint residual on
 /// top of it (AdmissibilityReport::max_inside).
@@ -96,15 +98,21 @@ struct AdmissibilityReport {
 /// decomposition per cell. A discretization of some cells (a rank's, under mpirun) checks its
 /// cells and reduces the counts and the worst cells over the ranks (collective): every rank
 /// gets the report of one process.
-AdmissibilityReport check_admissibility(const Discretization& d, const State& s);
+/// With `at`, s is a distributed solver's state between steps, u on the rank's layer rows
+/// (IterateRows, measures.hpp): each rank checks the nodes it owns and its cells, and every
+/// rank gets the same report (collective).
+AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
+                                        const IterateRows* at = nullptr);
 
 /// The smallest det F = det(I + grad u) over the quadrature points of every cell (in plane
 /// strain the in-plane block, F33 = 1), and its cell in `cell` if not null. Under mean-det
 /// incompressibility det F varies inside a cell (only its cell mean is 1): this is the measure
 /// of local inversion, det_error (lib/measures.hpp) the measure of the constraint. Over the
 /// discretization's cells; a rank's, then the smallest over the ranks (collective).
+/// With `u_nodes` (sorted), u's rows are those nodes' (a rank's ghost layer, IterateRows), which
+/// hold the discretization's cells' nodes.
 double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell = nullptr,
-                 int* cells_inverted = nullptr);
+                 int* cells_inverted = nullptr, const std::vector<int>* u_nodes = nullptr);
 
 /// The measures of the report as written to the results file (/steps/N/measures).
 std::vector<StoredMeasure> stored_measures(const AdmissibilityReport& r);

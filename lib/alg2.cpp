@@ -124,6 +124,7 @@ State Solver::initial_state(bool whole) const {
   State s;
   s.u = Eigen::MatrixXd::Zero(disc_.problem().mesh.num_nodes(), dim);
   for (int i = 0; i < dim; ++i) disc_.dirichlet().impose(s.u, i, 1.0);
+  if (!whole) layer_rows(s.u);  // with a ghost layer, its rows (the state between steps)
   s.E = whole || !rows_between_steps()
             ? disc_.identity()
             : Eigen::MatrixXd(identity_rows(dim, static_cast<int>(disc_.held_cells().size())));
@@ -452,11 +453,11 @@ void Solver::release_work() {
 //
 // Distributed, the iterations run on the rank's rows of E and lambda (own_rows): s's E and
 // lambda are released at the start of each ALG2 phase and at its end the state between steps is
-// made (between_steps: E and lambda stay on the rank's rows, u is made whole), so that no
+// made (between_steps: E and lambda stay on the rank's rows, u on the ghost layer's), so that no
 // iteration moves or holds a whole cell field. The Newton phase takes that state too (its E and
-// lambda on the rank's rows, Newton::on_rows) and leaves it in the same form; a whole state (a
-// discretization of every cell) is cut to the rank's rows before the step's measure
-// (hold_rows).
+// lambda on the rank's rows, Newton::on_rows; u made whole, whole_u) and leaves it with u whole;
+// a whole state (a discretization of every cell) and u are cut to the rank's rows before the
+// step's measure (hold_rows).
 StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
                               const std::function<void(const IterationRecord&)>& progress) {
   StepReport report;
@@ -477,7 +478,7 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       drive(map, params, report, progress);
     }
     if (dist_) {
-      s = between_steps(std::move(own));  // E and lambda on the rank's rows, u whole
+      s = between_steps(std::move(own));  // E and lambda on the rank's rows, u on the layer's
       own = State();
     }
   };
@@ -498,10 +499,12 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
       const bool alg2_done = report.converged && phase.tol <= a.tol;
       const bool capped = !report.converged && report.iterations >= a.max_iter;
       const bool stalled = !report.converged && report.status.rfind("stagnated", 0) == 0;
-      if (!(report.converged || capped || stalled) || !s.u.allFinite() ||
-          report.newton_attempts >= 3)
+      double not_finite = s.u.allFinite() ? 0 : 1;  // u on the ranks' layers: on every rank
+      if (u_on_layer()) mpi::max(&not_finite, 1);
+      if (!(report.converged || capped || stalled) || not_finite > 0 || report.newton_attempts >= 3)
         break;
       ++report.newton_attempts;
+      whole_u(s.u);  // the Newton phase's unknowns are whole (newton.hpp)
       if (contact_) newton_->set_glue(*contact_, beta_prev);
       const bool glued = contact_ && contact_->glued();
       const State before = glued ? s : State();
@@ -524,7 +527,9 @@ StepReport Solver::solve_step(State& s, const Eigen::VectorXd& beta_prev,
     }
   }
   hold_rows(s);  // after a Newton phase (whole): the state between steps
-  const EquilibriumMeasure eq = equilibrium_measure(discretization(), s, load_factor_);
+  IterateRows at;
+  const EquilibriumMeasure eq =
+      equilibrium_measure(discretization(), s, load_factor_, state_rows(at));
   report.force_residual = eq.force_residual;
   report.det_error = eq.det_error;
   report.det_min = eq.det_min;
@@ -568,6 +573,11 @@ double Solver::largest_load() const {
 }
 
 double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {
+  if (u_on_layer() && s.u.rows() != disc_.num_nodes()) {  // u on the layer's rows: made whole
+    State w = s;
+    whole_u(w.u);
+    return energy(w, beta_prev);
+  }
   double J = disc_.elastic_energy(s, external_load());
   if (contact_) J += contact_->energy(s.e, s.beta, beta_prev);
   return J;

@@ -116,10 +116,25 @@ class Solver {
   /// (Ranks::All, the default distributed KSP) keeps a state's E and lambda on the rank's rows
   /// only, the rows of discretization().held_cells() in their order (Discretization::cell_row):
   /// initial_state, solve_step, kept_copy / restore and the measures of lib/measures.hpp and
-  /// lib/admissibility.hpp (collective) take and give that form; u and the contact fields are
-  /// whole on every rank. whole_state() and cells_to_writer() gather it. On one process, and with
-  /// the replicated factor, the state is whole, and this is the same thing.
+  /// lib/admissibility.hpp (collective) take and give that form. With a ghost layer (the default
+  /// distributed KSP) u is on its rows too, the rank's cells' and contact points' nodes (since
+  /// 2026-12-05; state_rows says where); else whole on every rank. The contact fields are whole
+  /// on every rank. whole_state(), cells_to_writer() and nodes_to_writer() gather it. On one
+  /// process, and with the replicated factor, the state is whole, and this is the same thing.
   State initial_state(bool whole = false) const;
+  /// Where a state between steps holds u (IterateRows, measures.hpp: the ghost layer's nodes,
+  /// the cell operators' columns' rows, the rank's points and its owned nodes' rows), for the
+  /// measures, the reactions and the admissibility check: `at` filled and returned when u is
+  /// on the layer's rows, null when it is whole.
+  const IterateRows* state_rows(IterateRows& at) const;
+  /// u of a state between steps made whole on every rank (collective when it is on the layer's
+  /// rows; else nothing): what the Newton phase takes.
+  void whole_u(Eigen::MatrixXd& u) const;
+  /// The nodes first .. first + count - 1 (count < 0: to the last) of u of a state between steps,
+  /// on rank 0 alone, the results writer, in `block` (collective when u is on the layer's rows:
+  /// each node's row from the rank that owns it); on the other ranks `block` is left empty.
+  void nodes_to_writer(const Eigen::MatrixXd& u, Eigen::MatrixXd& block, int first = 0,
+                       int count = -1) const;
   /// Does a state between steps hold E and lambda on the rank's rows (above)?
   bool rows_between_steps() const;
   /// The whole state from a state between steps, on every rank (collective; a copy when it is
@@ -134,7 +149,8 @@ class Solver {
   void cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& block, int rows_per_cell,
                        int first_cell = 0, int count = -1) const;
   /// A whole state (a results file's, --resume, --init) made the state between steps: E and
-  /// lambda cut to the rank's rows (nothing when they are whole between steps).
+  /// lambda cut to the rank's rows and u to the layer's (nothing when they are whole between
+  /// steps).
   void hold_rows(State& s) const;
 
   /// [LTL87 (2.1), (4.1)-(4.4) / (7.7)-(7.10)] Iterates from `state` (warm start) to
@@ -189,11 +205,11 @@ class Solver {
   std::optional<double> iterate_equilibrium_error() const;
 
   /// A copy of the state s to go back to (load subdivision, lib/simulation.cpp): in a
-  /// distributed solver its E and lambda are the rank's rows only (as own_rows) and u the rank's
-  /// block of the nodes (mpi::blocks), the contact fields whole; on one process a plain copy.
-  /// restore() makes s that state again, in the form of the state between steps (collective
-  /// when distributed: u gathered); s's own fields are released first, so that one whole state
-  /// exists at a time.
+  /// distributed solver its E and lambda are the rank's rows only (as own_rows) and u the ghost
+  /// layer's rows (u_on_layer; without a layer the rank's block of the nodes, mpi::blocks), the
+  /// contact fields whole; on one process a plain copy. restore() makes s that state again, in
+  /// the form of the state between steps (collective when u is kept by blocks: u gathered); s's
+  /// own fields are released first, so that one whole state exists at a time.
   State kept_copy(const State& s) const;
   void restore(const State& kept, State& s) const;
 
@@ -357,10 +373,15 @@ class Solver {
   /// The whole state from such an iterate (collective: E, lambda and the points' blocks
   /// gathered from the ranks).
   State whole(const State& own) const;
-  /// The state between steps from such an iterate (collective): u made whole (from the ghost
-  /// layer's rows), the points' blocks gathered, E and lambda kept on the rank's rows when
-  /// rows_between_steps(), else gathered (whole()).
+  /// The state between steps from such an iterate (collective): the points' blocks gathered,
+  /// E and lambda kept on the rank's rows and u on the ghost layer's when rows_between_steps(),
+  /// else all gathered (whole()).
   State between_steps(State own) const;
+  /// Is u of the state between steps on the rank's ghost layer's rows (a distributed solver of
+  /// the rank's cells with a ghost layer: state_rows)?
+  bool u_on_layer() const;
+  /// u cut to the ghost layer's rows when u_on_layer() and it is whole; else left as it is.
+  void layer_rows(Eigen::MatrixXd& u) const;
   /// E and lambda gathered from the rank's rows (collective), the contact fields copied; no u.
   State whole_cells(const State& rows) const;
 

@@ -10,15 +10,16 @@
 //     (equilibrium residual, energy) add the ranks' parts. The Newton phase holds its own
 //     per-cell data for its cells (newton.hpp). With the replicated factor, the
 //     whole discretization on every rank.
-//   - REPLICATED: the mesh, the per-node dense arrays, u between ALG2's phases and the contact
-//     points' fields. Every rank reads the whole problem. The whole E and lambda exist only between
-//     ALG2 phases (for the Newton phase, the measures and the output) and when the equilibrium
-//     stopping test is due; the iterations run on the rank's rows of E and lambda (own_rows,
-//     whole), and so do T, Gbar u, J and the previous E. Anderson's packed iterate is the rank's
-//     cell rows and its contact points' rows (every point when the contact step is replicated, then
-//     in the replicated tail): its inner products sum the distributed head over the ranks. The
-//     states the load subdivision keeps to go back to are the rank's rows and its block of u
-//     (kept_copy); the checks after a step run on the rank's cells (lib/admissibility.cpp).
+//   - REPLICATED: the mesh, the per-node dense arrays, the contact points' fields, and u in the
+//     Newton phase (and without a ghost layer). Every rank reads the whole problem. The whole E and
+//     lambda exist only between ALG2 phases (for the Newton phase, the measures and the output) and
+//     when the equilibrium stopping test is due; the iterations run on the rank's rows of E and
+//     lambda (own_rows, whole), and so do T, Gbar u, J and the previous E. Anderson's packed
+//     iterate is the rank's cell rows and its contact points' rows (every point when the contact
+//     step is replicated, then in the replicated tail): its inner products sum the distributed head
+//     over the ranks. The states the load subdivision keeps to go back to are the rank's rows and
+//     its layer's rows of u (kept_copy); the checks after a step run on the rank's cells and the
+//     nodes it owns (lib/admissibility.cpp).
 //   - DISTRIBUTED: the cells (the partition above) and the contact points (each on the smallest
 //     rank whose cells hold all its nodes, point_partition in mpi_global.hpp). A rank computes, on
 //     its own cells and points: the global step's per-cell right-hand side Gbar^T [R q (E - I) +
@@ -27,14 +28,17 @@
 //     points are independent (d0 = 0); the update (4.3) and the residual sums (4.4). The global
 //     solve (4.5) is one distributed PETSc KSP (mpi_global.hpp) on a ghost layer: the ranks' parts
 //     of the right-hand side are added into PETSc's vector and u comes back on the layer's rows:
-//     the iterate's u is on those rows through the phase (own_rows), made whole at its end
-//     (between_steps, whole_u); with mean-det under Anderson, or the
+//     the iterate's u is on those rows through the phase (own_rows) and, since 2026-12-05,
+//     between steps too (between_steps; state_rows for the measures, the reactions and the
+//     admissibility check, nodes_to_writer for the writer, whole_u for the Newton phase and
+//     whole_state); with mean-det under Anderson, or the
 //     PETSc option -ltl_mpi_no_ghosts, the right-hand side is summed (one Allreduce of #nodes x
 //     dim) and u gathered whole; with -ltl_mpi_replicated the serial factor on every rank
 //     (replicated). The residual parts are summed (3 values); the step's equilibrium residual
 //     (4.5), its stopping test (at the iterate's rows on a ghost layer) and the reactions on the
-//     ranks' blocks of the nodes (equilibrium_residual_rows, measures.hpp). E, lambda, u and the
-//     points' e, lambda_c and beta are gathered once, at the end of the phase.
+//     ranks' blocks of the nodes (equilibrium_residual_rows, measures.hpp). The points' e,
+//     lambda_c and beta are gathered once, at the end of the phase (and E, lambda and u without
+//     a ghost layer).
 //   - With a dissipative glue (d0 > 0) the contact step is a Gauss-Seidel sweep whose points are
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
@@ -63,6 +67,9 @@ struct Solver::Distribution {
   /// of the cell operators (CellOperators::node: the rank's cells' nodes on a discretization of
   /// its cells, else every node, -1: none); empty without.
   std::vector<int> layer_row;
+  /// With a ghost layer: the layer's rows (positions in its nodes) of the nodes this rank owns
+  /// (node_ranks: each node on one rank), in increasing order (IterateRows::owned)
+  std::vector<int> owned_rows;
   /// With a ghost layer: the rows of `mean` of own_points() (every point when the contact step
   /// is replicated), their columns the layer's rows: ubar from u on the layer
   SpMatR mean_layer;
@@ -206,8 +213,12 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
         for (SpMatR::InnerIterator it(points->mean, f); it; ++it) touched[it.col()] = 1;
     }
     std::vector<int> nodes;
+    d.owned_rows.clear();
     for (int n = 0; n < disc_.num_nodes(); ++n)
-      if (touched[n]) nodes.push_back(n);
+      if (touched[n]) {
+        if (node_rank[n] == mpi::rank()) d.owned_rows.push_back(static_cast<int>(nodes.size()));
+        nodes.push_back(n);
+      }
     std::vector<char>().swap(touched);
     // The right-hand side on the layer's rows alone (global_phase_distributed): meanT_own's rows
     // renumbered once, each node's row in the layer (layer_of, whole-size) through the set-up
@@ -396,11 +407,53 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
 }
 
 bool Solver::iterate_rows(IterateRows& at) const {
-  if (!dist_ || !rows_between_steps() || !dist_->ksp || !dist_->ksp->ghost_layer()) return false;
+  if (!u_on_layer()) return false;
   at.nodes = &dist_->ksp->layer_nodes();
   at.column_row = dist_->layer_row.data();
   at.points = points_distributed() ? &dist_->own_points : nullptr;
+  at.owned = &dist_->owned_rows;
   return true;
+}
+
+bool Solver::u_on_layer() const {
+  return dist_ && rows_between_steps() && dist_->ksp && dist_->ksp->ghost_layer();
+}
+
+const IterateRows* Solver::state_rows(IterateRows& at) const {
+  return iterate_rows(at) ? &at : nullptr;
+}
+
+void Solver::layer_rows(Eigen::MatrixXd& u) const {
+  if (!u_on_layer() || u.rows() != disc_.num_nodes()) return;  // on the layer's rows already
+  Eigen::MatrixXd rows = u(dist_->ksp->layer_nodes(), Eigen::all);
+  u.swap(rows);
+}
+
+void Solver::whole_u(Eigen::MatrixXd& u) const {
+  if (!u_on_layer() || u.rows() == disc_.num_nodes()) return;
+  dist_->ksp->whole_u(u);
+}
+
+void Solver::nodes_to_writer(const Eigen::MatrixXd& u, Eigen::MatrixXd& block, int first,
+                             int count) const {
+  if (count < 0) count = disc_.num_nodes() - first;
+  if (!u_on_layer() || u.rows() == disc_.num_nodes()) {  // whole on every rank
+    if (mpi::rank() == 0)
+      block = u.middleRows(first, count);
+    else
+      Eigen::MatrixXd().swap(block);
+    return;
+  }
+  // The rows of the block's nodes that the rank owns, the others zero: their sum is the block.
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(count, u.cols());
+  const std::vector<int>& nodes = dist_->ksp->layer_nodes();
+  for (int row : dist_->owned_rows)
+    if (const int n = nodes[row]; n >= first && n < first + count) sum.row(n - first) = u.row(row);
+  mpi::sum_to_writer(sum.data(), sum.size());
+  if (mpi::rank() == 0)
+    block.swap(sum);
+  else
+    Eigen::MatrixXd().swap(block);
 }
 
 double Solver::equilibrium_error_of(const State& own) const {
@@ -449,11 +502,11 @@ State Solver::own_rows(State& s) const {
     own.E.swap(s.E);
     own.lambda.swap(s.lambda);
   }
-  if (dist_->ksp && dist_->ksp->ghost_layer()) {
+  if (dist_->ksp && dist_->ksp->ghost_layer() && s.u.rows() == disc_.num_nodes()) {
     const std::vector<int>& layer = dist_->ksp->layer_nodes();
     own.u = s.u(layer, Eigen::all);  // the ghost layer's rows (global_phase_distributed)
     Eigen::MatrixXd().swap(s.u);
-  } else {
+  } else {  // whole without a ghost layer, or on its rows already (the state between steps)
     own.u.swap(s.u);
   }
   own.e.swap(s.e);
@@ -495,7 +548,7 @@ std::optional<State> Solver::iterate_to_writer(const State& s) const {
 
 State Solver::between_steps(State own) const {
   if (!rows_between_steps()) return whole(own);
-  if (dist_->ksp) dist_->ksp->whole_u(own.u);  // after solves with a ghost layer
+  // u stays on the ghost layer's rows (u_on_layer); without one it is whole already.
   gather_points(own);
   return own;
 }
@@ -505,15 +558,22 @@ bool Solver::rows_between_steps() const {
 }
 
 void Solver::hold_rows(State& s) const {
+  layer_rows(s.u);
   if (!rows_between_steps() || !disc_.whole_field(s.E)) return;  // held on the rows already
   s.E = rank_rows(s.E);
   s.lambda = rank_rows(s.lambda);
 }
 
 State Solver::whole_state(const State& s) const {
-  if (!rows_between_steps() || disc_.whole_field(s.E)) return s;
-  State w = whole_cells(s);
-  w.u = s.u;
+  if (!rows_between_steps()) return s;
+  State w;
+  if (disc_.whole_field(s.E)) {
+    w = s;
+  } else {
+    w = whole_cells(s);
+    w.u = s.u;
+  }
+  whole_u(w.u);  // from the ghost layer's rows (collective)
   return w;
 }
 
@@ -542,7 +602,12 @@ State Solver::kept_copy(const State& s) const {
   State kept;
   kept.E = rank_rows(s.E);
   kept.lambda = rank_rows(s.lambda);
-  kept.u = s.u.middleRows(d.n0, d.n1 - d.n0);  // the rank's block of the nodes (mpi::blocks)
+  if (u_on_layer()) {  // the ghost layer's rows (the state between steps)
+    kept.u = s.u;
+    layer_rows(kept.u);
+  } else {
+    kept.u = s.u.middleRows(d.n0, d.n1 - d.n0);  // the rank's block of the nodes (mpi::blocks)
+  }
   copy_contact_fields(s, kept);
   return kept;
 }
@@ -560,6 +625,10 @@ void Solver::restore(const State& kept, State& s) const {
     copy_contact_fields(kept, s);
   } else {
     s = whole_cells(kept);
+  }
+  if (u_on_layer()) {  // the ghost layer's rows, as kept
+    s.u = kept.u;
+    return;
   }
   s.u.resize(disc_.num_nodes(), dim());
   s.u.middleRows(d.n0, d.n1 - d.n0) = kept.u;

@@ -16,15 +16,76 @@ Eigen::VectorXi contact_set(const Eigen::VectorXd& p) {
   return in;
 }
 
-ContactMeasures contact_measures(const Discretization& d, const State& s, int axis, int k) {
+namespace {
+/// The row of u at node n: n itself when u is whole (at null), else n's position in the rank's
+/// layer (-1: not there).
+Eigen::Index u_row_of(int n, const IterateRows* at) {
+  if (!at) return n;
+  const auto j = std::lower_bound(at->nodes->begin(), at->nodes->end(), n);
+  return j == at->nodes->end() || *j != n ? -1 : j - at->nodes->begin();
+}
+
+/// f(i, A.row(i)) for the points i a rank computes (its own, or every point), then A made whole:
+/// the largest over the ranks (each point's row is one rank's, -inf elsewhere; collective).
+template <class F>
+Eigen::MatrixXd on_points(int n_points, int cols, const IterateRows* at, F&& f) {
+  const bool split = at && at->points;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Constant(n_points, cols, split ? -INFINITY : 0.0);
+  if (split)
+    for (int i : *at->points) f(i, A.row(i));
+  else
+    for (int i = 0; i < n_points; ++i) f(i, A.row(i));
+  if (split) mpi::max(A.data(), A.size());
+  return A;
+}
+}  // namespace
+
+Eigen::MatrixXd u_at_nodes(const State& s, const std::vector<int>& nodes, const IterateRows* at) {
+  if (!at) return s.u(nodes, Eigen::all);
+  Eigen::MatrixXd U =
+      Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(nodes.size()), s.u.cols(), -INFINITY);
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    if (const Eigen::Index row = u_row_of(nodes[k], at); row >= 0)
+      U.row(static_cast<Eigen::Index>(k)) = s.u.row(row);
+  mpi::max(U.data(), U.size());
+  return U;
+}
+
+Eigen::MatrixXd point_means(const ContactPoints& pts, const State& s, const IterateRows* at,
+                            const Eigen::MatrixXd* X) {
+  if (!at) return X ? Eigen::MatrixXd(pts.mean * (*X + s.u)) : Eigen::MatrixXd(pts.mean * s.u);
+  const int dim = static_cast<int>(s.u.cols());
+  return on_points(pts.size(), dim, at, [&](int i, auto row) {
+    row.setZero();
+    for (SpMatR::InnerIterator it(pts.mean, i); it; ++it) {
+      const Eigen::Index r = u_row_of(static_cast<int>(it.col()), at);
+      if (r < 0)
+        throw Error(cat("point_means: contact point ", i, "'s node ", it.col(),
+                        " is not on the rank's layer"));
+      for (int c = 0; c < dim; ++c)
+        row(c) += it.value() * (X ? (*X)(it.col(), c) + s.u(r, c) : s.u(r, c));
+    }
+  });
+}
+
+ContactMeasures contact_measures(const Discretization& d, const State& s, int axis, int k,
+                                 const IterateRows* at) {
   ContactMeasures m;
   const Problem& pb = d.problem();
   if (pb.contacts.empty() || !d.points() || k < 0 || k >= d.num_obstacles()) return m;
   const ContactPoints& points = *d.points();
   // Obstacle k's rows of the points (all of them with one obstacle).
   const int r0 = points.offset[k], r1 = points.offset[k + 1];
-  const Eigen::MatrixXd x = pb.mesh.X + s.u;        // deformed nodes
-  const Eigen::MatrixXd xp = points.mean * x;       // deformed contact points
+  // The deformed contact points, and for each the largest deformed coordinate along `axis` of
+  // its nodes (x = X + u), on the ranks whose layer holds them with `at`.
+  const Eigen::MatrixXd xp = point_means(points, s, at, &pb.mesh.X);
+  const Eigen::MatrixXd edge = on_points(points.size(), 1, at, [&](int i, auto row) {
+    row(0) = -INFINITY;
+    for (SpMatR::InnerIterator it(points.mean, i); it; ++it) {
+      const Eigen::Index r = u_row_of(static_cast<int>(it.col()), at);
+      if (r >= 0) row(0) = std::max(row(0), pb.mesh.X(it.col(), axis) + s.u(r, axis));
+    }
+  });
   const Eigen::VectorXd p = d.contact_pressure(s);  // nominal contact pressure
   const Eigen::VectorXd f = d.contact_forces(s);    // point forces
   const Eigen::VectorXi in = contact_set(p.segment(r0, r1 - r0));
@@ -37,13 +98,12 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
     if (!in(i - r0)) continue;
     ++m.in_contact;
     m.area += points.area(i);
-    for (SpMatR::InnerIterator it(points.mean, i); it; ++it)
-      m.a_edge = std::max(m.a_edge, x(it.col(), axis));
+    m.a_edge = std::max(m.a_edge, edge(i, 0));
     M0 += points.area(i) * p(i);
     M2 += points.area(i) * p(i) * xp(i, axis) * xp(i, axis);
   }
   m.a_moment = M0 > 0 ? 2 * std::sqrt(M2 / M0) : 0.0;
-  m.penetration = penetration_of(d, s, k);
+  m.penetration = penetration_of(d, s, k, at);
   return m;
 }
 
@@ -79,15 +139,17 @@ PeelMeasures peel_measures(const Problem& pb, const ContactPoints& points, const
   return m;
 }
 
-StepMeasures step_measures(const Discretization& d, const State& s, int axis) {
+StepMeasures step_measures(const Discretization& d, const State& s, int axis,
+                           const IterateRows* at) {
   StepMeasures m;
   const Problem& pb = d.problem();
   const ContactPoints* points = d.points();
   m.max_displacement = s.u.size() ? s.u.rowwise().norm().maxCoeff() : 0.0;
+  if (at) mpi::max(&m.max_displacement, 1);  // the largest over the ranks' layers
   if (pb.contacts.empty() || !points) return m;
-  m.contact = contact_measures(d, s, axis);
+  m.contact = contact_measures(d, s, axis, 0, at);
   for (int k = 1; k < d.num_obstacles(); ++k)
-    m.obstacles.push_back(contact_measures(d, s, axis, k));
+    m.obstacles.push_back(contact_measures(d, s, axis, k, at));
   // The contact set per point, each obstacle's against its own peak pressure.
   const Eigen::VectorXd p = d.contact_pressure(s);
   m.in_contact.resize(p.size());
@@ -325,16 +387,17 @@ double largest_of_loads(const Discretization& d, const Eigen::MatrixXd* f_ext, d
 }
 
 EquilibriumMeasure measure_under(const Discretization& d, const Eigen::MatrixXd* f_ext,
-                                 const State& s, double load_scale) {
+                                 const State& s, double load_scale,
+                                 const IterateRows* at = nullptr) {
   EquilibriumMeasure m;
   const double load = largest_of_loads(d, f_ext, load_scale);
   m.force_residual =
-      residual_free_and_fixed(d, f_ext, s, load_scale).free / (load > 0 ? load : 1.0);
+      residual_free_and_fixed(d, f_ext, s, load_scale, at).free / (load > 0 ? load : 1.0);
   if (d.problem().material.incompressible()) {
     // The constraint as discretized: det E_e = 1 (det-mean) or det E_e + c_e(u) = 1 (mean-det).
     // On a rank's cells (a discretization of some cells), the largest over the ranks; E whole
     // or on the held cells' rows (Discretization::cell_row).
-    const Eigen::VectorXd c = d.fluctuation_det(s.u);
+    const Eigen::VectorXd c = d.fluctuation_det(s.u, at ? at->column_row : nullptr);
     const std::vector<int>& held = d.held_cells();
     const int dim = d.dim();
     for (int at = 0; at < static_cast<int>(held.size()); ++at) {
@@ -344,8 +407,13 @@ EquilibriumMeasure measure_under(const Discretization& d, const Eigen::MatrixXd*
     }
     if (d.partial()) mpi::max(&m.det_error, 1);
   }
-  if (d.points()) m.penetration = std::max(0.0, max_penetration(d, s));
-  m.det_min = min_det_F(d, s.u);
+  if (d.points()) {
+    double pen = -INFINITY;
+    for (int k = 0; k < static_cast<int>(d.problem().contacts.size()); ++k)
+      pen = std::max(pen, penetration_of(d, s, k, at));
+    m.penetration = std::max(0.0, pen);
+  }
+  m.det_min = min_det_F(d, s.u, nullptr, nullptr, at ? at->nodes : nullptr);
   return m;
 }
 }  // namespace
@@ -355,8 +423,9 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
   return measure_under(d, &f_ext, s, load_scale);
 }
 
-EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, double load_scale) {
-  return measure_under(d, nullptr, s, load_scale);
+EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, double load_scale,
+                                       const IterateRows* at) {
+  return measure_under(d, nullptr, s, load_scale, at);
 }
 
 namespace {
@@ -393,6 +462,12 @@ double penetration_at(const Discretization& d, const State& s, const std::vector
 
 double penetration_of(const Discretization& d, const State& s, int k) {
   return penetration_at(d, s, k, nullptr);
+}
+
+double penetration_of(const Discretization& d, const State& s, int k, const IterateRows* at) {
+  double pen = penetration_at(d, s, k, at ? at->nodes : nullptr);
+  if (at) mpi::max(&pen, 1);  // the largest over the ranks' layers
+  return pen;
 }
 
 double max_penetration(const Discretization& d, const State& s) {

@@ -38,6 +38,8 @@
 
 namespace ltl {
 
+struct IterateRows;  // below: where a distributed solver's state holds u
+
 /// A contact point is in contact where its pressure exceeds this fraction of the peak pressure.
 inline constexpr double kContactThreshold = 1e-6;
 
@@ -75,7 +77,10 @@ struct ContactMeasures {
 /// points (none without a contact surface); `axis` is the coordinate along which the contact
 /// zone's half-width is measured (x1 for Figs 5-6).
 /// Several obstacles (paper_notes/obstacles.md): those of obstacle k, over its own points.
-ContactMeasures contact_measures(const Discretization& d, const State& s, int axis = 0, int k = 0);
+/// With `at`, s is a distributed solver's state between steps, u on a rank's layer rows
+/// (IterateRows; collective).
+ContactMeasures contact_measures(const Discretization& d, const State& s, int axis = 0, int k = 0,
+                                 const IterateRows* at = nullptr);
 
 /// [LTL87 (4.11)] The opening of each contact point, -e_i . N (m): the contact displacement
 /// away from the support (e . N <= 0 is the non-penetration of (1.1); > 0: lifted off).
@@ -111,7 +116,9 @@ struct StepMeasures {
   Eigen::VectorXi in_contact;   ///< contact_set() per contact point (empty without contact)
   double max_displacement = 0;  ///< max over nodes of |u| (m)
 };
-StepMeasures step_measures(const Discretization& d, const State& s, int axis = 0);
+/// With `at`, u on a rank's layer rows (contact_measures; collective).
+StepMeasures step_measures(const Discretization& d, const State& s, int axis = 0,
+                           const IterateRows* at = nullptr);
 
 /// The measures as written to results files (/steps/N/measures): name, value, unit,
 /// description; one list, so that the file and this header cannot disagree. `dim` selects the
@@ -161,11 +168,26 @@ struct ResidualRows {
 /// alg2_mpi.cpp: Solver::iterate_rows): u's rows are the nodes `nodes` (sorted), column j of the
 /// cell operators at u's row column_row[j], and lambda_c current at the points `points` alone
 /// (the rank's, each point on one rank; null: every point current on every rank).
+/// Between steps a distributed solver's state holds u on the same rows (Solver::state_rows), and
+/// `owned` lists the rows (positions in `nodes`) of the nodes that the rank owns, each node of the
+/// mesh owned by one rank (node_ranks, mpi_global.hpp): what counts a node once over the ranks.
+/// A node's row is the same on every rank whose layer holds it.
 struct IterateRows {
   const std::vector<int>* nodes = nullptr;
   const int* column_row = nullptr;
   const std::vector<int>* points = nullptr;
+  const std::vector<int>* owned = nullptr;
 };
+/// u's rows at the nodes `nodes` (any order), on every rank: s.u's rows when u is whole (at
+/// null), else from the ranks whose layer holds them (collective: every node is on some rank's
+/// layer; the largest over the ranks of the rows, -inf where a rank has none, is the row).
+Eigen::MatrixXd u_at_nodes(const State& s, const std::vector<int>& nodes, const IterateRows* at);
+/// [(3.2)] mean * u of the contact points (#points x dim: ubar, of the constraint ubar = e), or
+/// with X mean * (X + u), their deformed positions, with u whole (at null) or on a rank's layer
+/// rows (collective): each rank the rows of its points (every point when `at->points` is null),
+/// summed term by term as the row-major product does.
+Eigen::MatrixXd point_means(const ContactPoints& pts, const State& s, const IterateRows* at,
+                            const Eigen::MatrixXd* X = nullptr);
 /// With `at` (a rank's discretization only), s is in that form: the rank's points' contact terms
 /// are added at their nodes with its cells' forces, before the sum on the blocks.
 ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::MatrixXd* f_ext,
@@ -191,7 +213,10 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const Eigen::Mat
                                        const State& s, double load_scale = 1);
 /// The same under the discretization's dead loads times load_scale, without making them whole
 /// (the solver's step; on a rank's cells on the blocks of the nodes, equilibrium_residual_rows).
-EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, double load_scale);
+/// With `at`, u on a rank's layer rows (IterateRows: the state between steps of a distributed
+/// solver; collective).
+EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, double load_scale,
+                                       const IterateRows* at = nullptr);
 
 /// Max over the obstacles and their contact groups' nodes of (x - x_0) . N, the deformed node's
 /// distance behind the obstacle plane (m; > 0: penetration); -inf without contact.
@@ -199,6 +224,9 @@ double max_penetration(const Discretization& d, const State& s);
 /// The same for obstacle k alone: max over its group's nodes of (x - p0_k) . N_k. A node behind
 /// ANY obstacle is inadmissible: max_penetration is the max over the obstacles.
 double penetration_of(const Discretization& d, const State& s, int k);
+/// The same with u on a rank's layer rows (at; collective: the largest over the ranks), or whole
+/// (at null).
+double penetration_of(const Discretization& d, const State& s, int k, const IterateRows* at);
 
 /// The stopping test of `algorithm.stopping = "equilibrium"` (4.5): the largest of
 /// - the force residual on the free dofs (equilibrium_residual) relative to a force scale: the

@@ -55,6 +55,7 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   const PointLocator locate(source.mesh);
   State& s = out.state;
   s = solver.initial_state();
+  s.u.setZero(mesh.num_nodes(), d);  // whole here, every node's row set below (then hold_rows)
   for (int a = 0; a < mesh.num_nodes(); ++a) {
     const Eigen::VectorXd x = mesh.X.row(a).transpose();
     const PointLocator::Hit hit = locate.locate(x);

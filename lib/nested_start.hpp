@@ -51,7 +51,8 @@ constexpr double kMaxOutside = 0.1;
 /// no completed step, is of another dimension, or when a node lies farther outside the source
 /// mesh than kMaxOutside. Collective when the solver's discretization holds some of the cells
 /// only (Discretization::partial: several MPI ranks): each rank computes E and lambda on its
-/// cells, then every rank gets them whole. A source without contact fields
+/// cells, then every rank gets them whole; u is whole (Solver::hold_rows cuts the state to the
+/// state between steps). A source without contact fields
 /// leaves lambda_c = 0 and beta = beta_0 (the solver's initial state); a problem without contact
 /// ignores the source's.
 NestedStart nested_start(const Solver& solver, const std::string& path,

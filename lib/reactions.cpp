@@ -5,13 +5,14 @@
 
 namespace ltl {
 
-SupportReactions support_reactions(const Discretization& d, const State& s, double load_scale) {
+SupportReactions support_reactions(const Discretization& d, const State& s, double load_scale,
+                                   const IterateRows* at) {
   const Problem& pb = d.problem();
   const int dim = pb.mesh.dim;
   const int nd = static_cast<int>(pb.dirichlet.size());
   // The residual's rows of this rank's block of the nodes (all of them unless on a rank's
   // cells), whose reactions the rank sums; the sums are added over the ranks.
-  const ResidualRows rows = equilibrium_residual_rows(d, nullptr, s, load_scale);
+  const ResidualRows rows = equilibrium_residual_rows(d, nullptr, s, load_scale, at);
   const int n0 = rows.first, nb = static_cast<int>(rows.r.rows());
   SupportReactions out;
   out.force = Eigen::MatrixXd::Zero(nd, dim);
@@ -24,8 +25,10 @@ SupportReactions support_reactions(const Discretization& d, const State& s, doub
     if (key.size() > 6 && key.compare(key.size() - 6, 6, ".group") == 0) key.resize(key.size() - 6);
     out.labels.push_back(key + ":" + dc.group);
     const std::vector<int> nodes = pb.mesh.boundary_nodes(dc.group, dc.origin);
-    for (int a : nodes) {
-      out.u.row(k) += s.u.row(a);
+    const Eigen::MatrixXd u = u_at_nodes(s, nodes, at);  // their rows of u
+    for (std::size_t j = 0; j < nodes.size(); ++j) {
+      const int a = nodes[j];
+      out.u.row(k) += u.row(static_cast<Eigen::Index>(j));
       if (a < n0 || a >= n0 + nb) continue;
       for (int c : dc.components)
         if (owner(a - n0, c) < 0) {

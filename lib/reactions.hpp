@@ -22,6 +22,8 @@
 
 namespace ltl {
 
+struct IterateRows;  // measures.hpp: where a distributed solver's state holds u
+
 struct SupportReactions {
   /// One label per Dirichlet condition, in the problem's order: "<key>:<group>", e.g.
   /// "fixed[0]:left", "symmetry[1]:bottom" (the configuration key without ".group").
@@ -38,8 +40,11 @@ struct SupportReactions {
 /// discretization's dead loads times load_scale (the step's load factor). On a rank's cells
 /// (Discretization::partial(), collective) each rank sums the reactions of its block of the
 /// nodes (equilibrium_residual_rows) and the sums are added over the ranks: no array of every
-/// node's residual; u is whole there (the state between steps).
-SupportReactions support_reactions(const Discretization& d, const State& s, double load_scale = 1);
+/// node's residual. With `at` (IterateRows, measures.hpp) u is on the rank's layer rows (a
+/// distributed solver's state between steps): the conditions' nodes' rows come from the ranks
+/// that hold them, the same rows summed in the same order as on one process.
+SupportReactions support_reactions(const Discretization& d, const State& s, double load_scale = 1,
+                                   const IterateRows* at = nullptr);
 
 /// The labels joined by "; " (the attribute `conditions` of the datasets).
 std::string joined_labels(const SupportReactions& r);

@@ -89,7 +89,10 @@ StepData step_data(const Solver& solver, const TimeStep& step, StepFields* field
   d.source = fields;
   d.report = &step.report;
   // Every measure of the step (lib/measures.hpp), one definition each.
-  const StepMeasures m = step_measures(solver.discretization(), state);
+  // Under mpirun u is on each rank's ghost layer's rows (Solver::state_rows).
+  IterateRows at;
+  const IterateRows* rows = solver.state_rows(at);
+  const StepMeasures m = step_measures(solver.discretization(), state, 0, rows);
   d.measures = stored_measures(m, problem.mesh.dim);
   if (step.admissibility.h > 0)
     for (StoredMeasure& a : stored_measures(step.admissibility)) d.measures.push_back(a);
@@ -106,7 +109,7 @@ StepData step_data(const Solver& solver, const TimeStep& step, StepFields* field
                         "load factor of the step ([load] ramp): multiplies the body force, the "
                         "tractions and the prescribed displacements"});
   const SupportReactions r =
-      support_reactions(solver.discretization(), state, solver.load_factor());
+      support_reactions(solver.discretization(), state, solver.load_factor(), rows);
   d.fields["reactions"] = r.force;
   d.fields["support_u"] = r.u;
   d.conditions = joined_labels(r);
@@ -258,7 +261,8 @@ TimeStep solve_at_factor(Solver& solver, int p, double factor, State& state, int
   double not_finite = state.u.allFinite() && state.E.allFinite() ? 0 : 1;
   if (solver.rows_between_steps()) mpi::max(&not_finite, 1);
   if (not_finite == 0) {
-    step.admissibility = check_admissibility(solver.discretization(), state);
+    IterateRows at;
+    step.admissibility = check_admissibility(solver.discretization(), state, solver.state_rows(at));
     report.det_min = step.admissibility.det_F_min;
     if (report.converged && !step.admissibility.admissible()) {
       report.converged = false;
@@ -534,7 +538,8 @@ ResultsWriter::ResultsWriter(const Solver& solver, const RunOptions& options)
                     problem.name.c_str(), nested.source_load_factor, f1);
     }
   }
-  // Under mpirun: the state between steps, E and lambda on the rank's rows (Solver::hold_rows).
+  // Under mpirun: the state between steps, E and lambda on the rank's rows and u on its ghost
+  // layer's (Solver::hold_rows).
   solver.hold_rows(start_);
   if (resume_iterate_) solver.hold_rows(*resume_iterate_);
   first_ = p0;

@@ -142,6 +142,8 @@ std::pair<Eigen::Index, Eigen::Index> StepFields::serve(const std::string& reque
                           " are not whole cells of ", p.m, " rows"));
         solver_.cells_to_writer(p.data(), rows, p.m, static_cast<int>(first / p.m),
                                 static_cast<int>(count / p.m));
+      } else if (p.kind == Part::Kind::NodeRows) {
+        solver_.nodes_to_writer(p.data(), rows, static_cast<int>(first), static_cast<int>(count));
       } else {  // the nodal stress of nodes first .. first + count - 1, summed over the ranks
         const Discretization& disc = solver_.discretization();
         // The held cells' volumes, in their order (every cell's on a discretization of every
@@ -173,6 +175,15 @@ void StepFields::make(const std::string& name) {
   const int d = disc.dim();
   const bool writer = !rows_ || mpi::rank() == 0;
   Part& p = open_[name];
+  // u on the ranks' ghost layers' rows (the state between steps, Solver::state_rows): each
+  // rank's owned nodes' rows, added up on the writer block by block.
+  if (name == "u" && rows_ && s.u.rows() != disc.num_nodes()) {
+    p.state = &s.u;
+    p.kind = Part::Kind::NodeRows;
+    p.rows = disc.num_nodes();
+    p.cols = s.u.cols();
+    return;
+  }
   // Whole on every rank: the nodes' and the contact points' fields, read on the writer alone.
   if (name == "u" || name == "e" || name == "lambda_c" || name == "beta") {
     const Eigen::MatrixXd& v = layout::state_field(s, name, p.own);

@@ -9,7 +9,8 @@
 // Under mpirun, with a solver whose state between steps holds E and lambda on each rank's rows
 // (Solver::rows_between_steps), each rank makes a cell field on its own cells when it is opened,
 // and rank 0, the writer, gathers the rows of each block it reads (Solver::cells_to_writer); the
-// nodal stress of a block of nodes is summed over the ranks' cells (mpi::sum_to_writer). Opening
+// nodal stress of a block of nodes is summed over the ranks' cells (mpi::sum_to_writer), and u,
+// on the ranks' ghost layers' rows, by the nodes each rank owns (Solver::nodes_to_writer). Opening
 // and reading are then collective: rank 0 sends each request to the other ranks, which serve it,
 // until the write is done (written()). paper_notes/mpi.md, "The writer holds one block".
 #pragma once
@@ -58,10 +59,11 @@ class StepFields final : public FieldSource {
  private:
   /// A field made on this rank.
   struct Part {
-    /// Where its rows are read: whole on this rank (the nodes' and contact points' fields, every
-    /// field on one process), the ranks' cells' rows gathered, or the nodal sums of the ranks'
-    /// cells added up.
-    enum class Kind { Here, Cells, Nodes } kind = Kind::Here;
+    /// Where its rows are read: whole on this rank (the contact points' fields, u when it is
+    /// whole, every field on one process), the ranks' cells' rows gathered, the nodal sums of
+    /// the ranks' cells added up, or u's rows of the nodes each rank owns (u on the ranks' ghost
+    /// layers, Solver::nodes_to_writer).
+    enum class Kind { Here, Cells, Nodes, NodeRows } kind = Kind::Here;
     const Eigen::MatrixXd* state = nullptr;  ///< its rows in the state (null: in `own`)
     Eigen::MatrixXd own;      ///< what was made for it (Nodes: sigma of the rank's cells)
     Eigen::VectorXd sigma33;  ///< Nodes in plane strain: sigma33 of the rank's cells

@@ -1083,10 +1083,13 @@ TEST(Mpi, Eq4_5_TheIterateHoldsUOnTheGhostLayersRows) {
       EXPECT_LT(layer, p.mesh.num_nodes()) << kind;
     }
     EXPECT_EQ(dist.holdings().iterate_u_rows, 0) << kind << ": outside the phase";
-    ASSERT_EQ(s.u.rows(), p.mesh.num_nodes()) << kind;
-    const double rel = relative(s.u, s1.u);
+    // Between steps u stays on the layer's rows (Solver::state_rows), made whole on request.
+    EXPECT_EQ(s.u.rows(), layer) << kind;
+    const State w = dist.whole_state(s);
+    ASSERT_EQ(w.u.rows(), p.mesh.num_nodes()) << kind;
+    const double rel = relative(w.u, s1.u);
     EXPECT_LE(rel, 1e-8) << kind << ", rank " << mpi::rank();
-    EXPECT_TRUE(same_on_every_rank(dist.whole_state(s))) << kind;
+    EXPECT_TRUE(same_on_every_rank(w)) << kind;
     if (mpi::rank() == 0)
       std::cout << "coarse gutter, " << kind << " contact, " << P << " rank(s): u on " << layer
                 << " of " << p.mesh.num_nodes() << " rows in the phase; after 12 iterations "
@@ -1194,6 +1197,7 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   State rows = s;
   dist.hold_rows(rows);
   ASSERT_TRUE(P == 1 || rows.E.rows() < s.E.rows());
+  rows.u = s.u;  // whole, as these functions of the discretization take it
   const Eigen::MatrixXd& f = dist.discretization().dead_load();
   EXPECT_LE((equilibrium_residual(dist.discretization(), f, rows, dist.load_factor()) - r).norm(),
             1e-12 * r.norm());
@@ -1291,8 +1295,13 @@ TEST(Mpi, Eq4_5_TheResidualIsSummedOnTheRanksBlocksOfTheNodes) {
   State rows = s;
   dist.hold_rows(rows);
   ASSERT_TRUE(P == 1 || rows.E.rows() < s.E.rows());
+  // u on the ghost layer's rows (Solver::state_rows; null: whole, on one process).
+  IterateRows buf;
+  const IterateRows* at = dist.state_rows(buf);
+  ASSERT_TRUE(P == 1 || (at && rows.u.rows() < nn));
   const mpi::Traffic t0 = mpi::traffic();
-  const ResidualRows block = equilibrium_residual_rows(dist.discretization(), nullptr, rows, scale);
+  const ResidualRows block =
+      equilibrium_residual_rows(dist.discretization(), nullptr, rows, scale, at);
   const mpi::Traffic t1 = mpi::traffic();
   const std::vector<int> offset = mpi::blocks(nn, P);
   ASSERT_EQ(block.first, P > 1 ? offset[me] : 0);
@@ -1304,22 +1313,40 @@ TEST(Mpi, Eq4_5_TheResidualIsSummedOnTheRanksBlocksOfTheNodes) {
   }
   // The loads given whole: the same rows.
   const Eigen::MatrixXd& f = serial.discretization().dead_load();
-  const ResidualRows given = equilibrium_residual_rows(dist.discretization(), &f, rows, scale);
+  const ResidualRows given = equilibrium_residual_rows(dist.discretization(), &f, rows, scale, at);
   EXPECT_LE((given.r - block.r).cwiseAbs().maxCoeff(), 1e-12 * r.cwiseAbs().maxCoeff());
-  // The step's measure and the stopping test under the dead loads, and the reactions (1.2).
+  // The step's measure and the stopping test under the dead loads, and the reactions (1.2) and
+  // the supports' mean displacements, exact: their nodes' rows from the ranks' layers.
   const EquilibriumMeasure m = equilibrium_measure(serial.discretization(), f, s, scale);
-  const EquilibriumMeasure md = equilibrium_measure(dist.discretization(), rows, scale);
+  const EquilibriumMeasure md = equilibrium_measure(dist.discretization(), rows, scale, at);
   EXPECT_GT(m.force_residual, 0);
   EXPECT_NEAR(md.force_residual, m.force_residual, 1e-12 * m.force_residual);
+  EXPECT_EQ(md.det_min, m.det_min);
+  EXPECT_EQ(md.det_error, m.det_error);
+  EXPECT_EQ(md.penetration, m.penetration);
   const double err = equilibrium_error(serial.discretization(), f, s, scale);
-  EXPECT_NEAR(equilibrium_error(dist.discretization(), rows, scale), err, 1e-12 * err);
+  EXPECT_NEAR(at ? equilibrium_error(dist.discretization(), rows, scale, *at)
+                 : equilibrium_error(dist.discretization(), rows, scale),
+              err, 1e-12 * err);
   const SupportReactions R = support_reactions(serial.discretization(), s, scale);
-  const SupportReactions Rd = support_reactions(dist.discretization(), rows, scale);
+  const SupportReactions Rd = support_reactions(dist.discretization(), rows, scale, at);
   ASSERT_EQ(Rd.force.rows(), R.force.rows());
   ASSERT_GT(R.force.cwiseAbs().maxCoeff(), 0);
   EXPECT_LE((Rd.force - R.force).cwiseAbs().maxCoeff(), 1e-12 * R.force.cwiseAbs().maxCoeff());
   EXPECT_EQ(Rd.u, R.u);
   EXPECT_EQ(Rd.labels, R.labels);
+  // The step's measures (4.11) with u on the layers: the contact points' deformed positions from
+  // the ranks that own them, the largest |u| and the deepest node over the ranks.
+  const StepMeasures sm = step_measures(serial.discretization(), s);
+  const StepMeasures smd = step_measures(dist.discretization(), rows, 0, at);
+  ASSERT_TRUE(sm.contact && smd.contact);
+  ASSERT_GT(sm.contact->in_contact, 0);
+  EXPECT_EQ(smd.max_displacement, sm.max_displacement);
+  EXPECT_EQ(smd.in_contact, sm.in_contact);
+  EXPECT_EQ(smd.contact->a_edge, sm.contact->a_edge);
+  EXPECT_NEAR(smd.contact->a_moment, sm.contact->a_moment, 1e-14 * sm.contact->a_moment);
+  EXPECT_EQ(smd.contact->penetration, sm.contact->penetration);
+  EXPECT_EQ(smd.contact->force, sm.contact->force);
 }
 
 /// [(4.5)] The equilibrium stopping test at the iterate's rows (Solver::iterate_equilibrium_error,
@@ -1351,7 +1378,8 @@ TEST(Mpi, Eq4_5_TheStoppingTestReadsTheIteratesRows) {
     const mpi::Traffic t1 = mpi::traffic();
     const std::optional<State> w = solver.iterate_to_writer(s);
     if (!a || !w) return;
-    const double b = equilibrium_error(solver.discretization(), *w, solver.load_factor());
+    const double b =
+        equilibrium_error(solver.discretization(), solver.whole_state(*w), solver.load_factor());
     worst = std::max(worst, std::abs(*a - b));
     largest = std::max(largest, b);
     most_bytes = std::max(most_bytes, t1.bytes - t0.bytes);
@@ -1378,14 +1406,25 @@ TEST(Mpi, Eq4_5_TheStoppingTestReadsTheIteratesRows) {
 /// negated, the first and the last cell's E = -2 I: a tie of the smallest det E across ranks),
 /// every rank reports exactly the serial admissibility, its failures word for word, and
 /// the serial det_error and det_min. And a state kept to go back to (load subdivision,
-/// Solver::kept_copy) holds E and lambda on the rank's cells only, u on the rank's block of the
-/// nodes, and comes back whole and exact.
+/// Solver::kept_copy) holds E and lambda on the rank's cells only, u on the rank's ghost layer's
+/// rows (since 2026-12-05 the state between steps holds it so: Solver::state_rows, and the
+/// obstacle check reads each node on the rank that owns it), and comes back whole and exact.
 TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
   const Solver serial(p, Ranks::One);
   const Solver dist(p, Ranks::All);
   State s = serial.initial_state();
   s.u = 0.2 * Eigen::MatrixXd::Random(p.mesh.num_nodes(), p.mesh.dim);
+  // Every 11th node pushed through the obstacle's plane, each to its own depth.
+  const ContactCondition& cc = p.contacts.front();
+  const Eigen::Vector3d N = cc.plane_normal.head(3).normalized(), p0 = cc.plane_point.head(3);
+  for (int n = 0; n < p.mesh.num_nodes(); n += 11) {
+    const double depth = 0.01 * (1.0 + static_cast<double>(n) / p.mesh.num_nodes());
+    s.u.row(n) = ((p0 - p.mesh.X.row(n).transpose()).dot(N) + depth) * N.transpose();
+  }
+  // The prescribed values where they are prescribed, as in every state between steps (u made
+  // whole from the ranks' layers takes them there: DistributedGlobalStep::whole_u).
+  for (int i = 0; i < p.mesh.dim; ++i) serial.discretization().dirichlet().impose(s.u, i, 1.0);
   s.E += 1e-2 * Eigen::MatrixXd::Random(s.E.rows(), s.E.cols());
   s.lambda += 1e3 * Eigen::MatrixXd::Random(s.lambda.rows(), s.lambda.cols());
   for (int c = 0; c < p.mesh.num_cells(); c += 7) s.E.middleRows(3 * c, 3) *= -1;
@@ -1393,18 +1432,24 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   const int last = p.mesh.num_cells() - 1;
   s.E.middleRows(0, 3) = s.E.middleRows(3 * last, 3) = -2 * Eigen::Matrix3d::Identity();
   for (Eigen::MatrixXd* m : {&s.u, &s.E, &s.lambda}) mpi::broadcast(m->data(), m->size());
-  // The same state between steps: E and lambda on the rank's rows (Solver::hold_rows).
+  // The same state between steps: E and lambda on the rank's rows, u on the ghost layer's
+  // (Solver::hold_rows, state_rows; null: u whole).
   State rows = s;
   dist.hold_rows(rows);
   const int nh = static_cast<int>(dist.discretization().held_cells().size());
   EXPECT_EQ(rows.E.rows(), 3 * nh);
+  IterateRows buf;
+  const IterateRows* layer = dist.state_rows(buf);
+  ASSERT_TRUE(mpi::size() == 1 || (layer && rows.u.rows() < s.u.rows()));
   const AdmissibilityReport a = check_admissibility(serial.discretization(), s);
   EXPECT_GT(a.cells_inverted, 0);
   EXPECT_GT(a.cells_rotated, 0);
   EXPECT_EQ(a.det_E_min, -8);
   EXPECT_EQ(a.det_E_cell, 0);
+  EXPECT_GT(a.nodes_inside, 0);  // nodes inside the obstacle: counted once over the ranks
   for (const State* t : {&s, &rows}) {
-    const AdmissibilityReport b = check_admissibility(dist.discretization(), *t);
+    const AdmissibilityReport b =
+        check_admissibility(dist.discretization(), *t, t == &rows ? layer : nullptr);
     EXPECT_EQ(b.det_F_min, a.det_F_min);
     EXPECT_EQ(b.det_F_cell, a.det_F_cell);
     EXPECT_EQ(b.cells_inverted, a.cells_inverted);
@@ -1414,38 +1459,47 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
     EXPECT_EQ(b.rotation_cell, a.rotation_cell);
     EXPECT_EQ(b.cells_rotated, a.cells_rotated);
     EXPECT_EQ(b.failures, a.failures);
+    EXPECT_EQ(b.max_inside, a.max_inside);
+    EXPECT_EQ(b.inside_node, a.inside_node);
+    EXPECT_EQ(b.nodes_inside, a.nodes_inside);
   }
   const Eigen::MatrixXd& F = serial.external_load();
+  ASSERT_EQ(serial.load_factor(), 1.0);  // F: the dead loads at factor 1
   const EquilibriumMeasure ma = equilibrium_measure(serial.discretization(), F, s);
   EXPECT_GT(ma.det_error, 0);
   const double energy = serial.energy(s, s.beta);
   for (const State* t : {&s, &rows}) {
-    const EquilibriumMeasure mb = equilibrium_measure(dist.discretization(), F, *t);
+    const EquilibriumMeasure mb = t == &rows
+                                      ? equilibrium_measure(dist.discretization(), *t, 1.0, layer)
+                                      : equilibrium_measure(dist.discretization(), F, *t);
     EXPECT_EQ(mb.det_error, ma.det_error);
     EXPECT_EQ(mb.det_min, ma.det_min);
     EXPECT_NEAR(mb.force_residual, ma.force_residual, 1e-12 * ma.force_residual);
     EXPECT_NEAR(dist.energy(*t, t->beta), energy, 1e-12 * std::abs(energy));
     const double err = equilibrium_error(serial.discretization(), F, s);
-    EXPECT_NEAR(equilibrium_error(dist.discretization(), F, *t), err, 1e-12 * err);
+    EXPECT_NEAR(t == &rows && layer ? equilibrium_error(dist.discretization(), *t, 1.0, *layer)
+                                    : equilibrium_error(dist.discretization(), F, *t),
+                err, 1e-12 * err);
   }
   const State kept = dist.kept_copy(rows);
   const std::vector<int> cells = cell_partition(p.mesh, mpi::size()).items(mpi::rank());
   EXPECT_EQ(kept.E.rows(), 3 * static_cast<Eigen::Index>(cells.size()));
   EXPECT_EQ(kept.lambda.rows(), kept.E.rows());
-  const std::vector<int> nodes = mpi::blocks(p.mesh.num_nodes(), mpi::size());
-  EXPECT_EQ(kept.u.rows(), nodes[mpi::rank() + 1] - nodes[mpi::rank()]);
+  EXPECT_EQ(kept.u.rows(), rows.u.rows());  // the layer's rows, as between steps
   State back;
   dist.restore(kept, back);  // the state between steps again: the rank's rows
   EXPECT_EQ(back.E, rows.E);
   EXPECT_EQ(back.lambda, rows.lambda);
-  EXPECT_EQ(back.u, s.u);
+  EXPECT_EQ(back.u, rows.u);
+  EXPECT_EQ(dist.whole_state(back).u, s.u);
   EXPECT_EQ(dist.whole_state(back).E, s.E);
   EXPECT_EQ(dist.whole_state(back).lambda, s.lambda);
   if (mpi::rank() == 0)
     std::cout << "coarse gutter, " << mpi::size() << " rank(s): " << a.cells_inverted
-              << " cells inverted, " << a.cells_rotated << " turned; det F min " << a.det_F_min
-              << " in cell " << a.det_F_cell << ", rotation jump " << a.rotation_jump
-              << " deg in cell " << a.rotation_cell << "\n";
+              << " cells inverted, " << a.cells_rotated << " turned, " << a.nodes_inside
+              << " points inside the obstacle; det F min " << a.det_F_min << " in cell "
+              << a.det_F_cell << ", rotation jump " << a.rotation_jump << " deg in cell "
+              << a.rotation_cell << "\n";
 }
 
 /// [LTL87 (1.5)] The load subdivision on the ranks (lib/simulation.cpp, Solver::kept_copy and
@@ -1475,9 +1529,10 @@ TEST(Mpi, Eq1_5_LoadSubdivisionOnTheRanksIsTheSerialOne) {
   }
   EXPECT_FALSE(sb.attempts[0].converged);
   EXPECT_NE(sb.attempts[0].status.find("inadmissible"), std::string::npos) << sb.attempts[0].status;
-  const double rel = relative(b.u, a.u);
+  const State wb = dist.whole_state(b);
+  const double rel = relative(wb.u, a.u);
   EXPECT_LE(rel, 1e-8);
-  EXPECT_LE(relative(dist.whole_state(b).lambda, a.lambda), 1e-8);
+  EXPECT_LE(relative(wb.lambda, a.lambda), 1e-8);
   if (mpi::rank() == 0) std::cout << "block at 60 %, " << mpi::size() << " rank(s): attempts";
   for (const StepAttempt& t : sb.attempts)
     if (mpi::rank() == 0)
@@ -1556,11 +1611,12 @@ TEST(Mpi, Eq4_1to4_4_NoIterationMovesACellField) {
 /// [(4.1)-(4.4)] A checkpoint (Solver::iterate_to_writer then ResultsWriter::checkpoint, called
 /// from the progress callback as lib/simulation.cpp's --checkpoint does): the iterate stays on
 /// each rank's rows of E and lambda, and rank 0, the writer, reads them a block of cells at a
-/// time (StepFields). The checkpoint in the file is the serial iterate of the same iteration;
-/// u and the contact fields are the same on every rank. The iterations around the save gather
-/// nothing (the 40 B in 2 calls per iteration of the test above). Fails if the iterate is not
-/// made (the caller's E is released during the ALG2 phase), is gathered whole on rank 0 or on
-/// every rank, or is gathered at every iteration.
+/// time (StepFields), and u on each rank's ghost layer's rows, which it reads a block of nodes
+/// at a time from the ranks that own them. The checkpoint in the file is the serial iterate of
+/// the same iteration; u made whole and the contact fields are the same on every rank. The
+/// iterations around the save gather nothing (the 40 B in 2 calls per iteration of the test above).
+/// Fails if the iterate is not made (the caller's E is released during the ALG2 phase), is gathered
+/// whole on rank 0 or on every rank, or is gathered at every iteration.
 TEST(Mpi, Eq4_1to4_4_ACheckpointStaysOnTheRanksRowsUntilTheWriterReadsIt) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6),
                                  {"mesh.parameters.nl=20", "mesh.parameters.na=5",
@@ -1620,6 +1676,14 @@ TEST(Mpi, Eq4_1to4_4_ACheckpointStaysOnTheRanksRowsUntilTheWriterReadsIt) {
   ASSERT_TRUE(at) << "rank " << mpi::rank() << ": the iterate is on the rank's rows";
   EXPECT_EQ(at->E.rows(), dim * own) << "rank " << mpi::rank() << ": E on the rank's rows";
   EXPECT_EQ(at->lambda.rows(), dim * own) << "rank " << mpi::rank();
+  // u on the rank's ghost layer's rows (Solver::state_rows), whole on request.
+  IterateRows layer;
+  if (mpi::size() > 1) {
+    ASSERT_TRUE(dist.state_rows(layer));
+    EXPECT_EQ(at->u.rows(), static_cast<Eigen::Index>(layer.nodes->size()));
+    EXPECT_LT(at->u.rows(), p.mesh.num_nodes());
+  }
+  dist.whole_u(at->u);
   EXPECT_LE(relative(at->u, at_serial.u), 1e-10) << "rank " << mpi::rank();
   EXPECT_LE(relative(at->e, at_serial.e), 1e-10) << "rank " << mpi::rank();
   // lambda_c is rounding here (1e-12 Pa: no contact force yet): against the stresses' scale.

@@ -23,7 +23,8 @@
 //           --stop-test 1: after the last timed iteration, the equilibrium stopping test (4.5)
 //           at the iterate once as ALG2 evaluates it (Solver::iterate_equilibrium_error: on a
 //           ghost layer at the iterate's rows) and once on the state between steps made from
-//           the iterate (the form it took until the fourth session of 2026-12-04): a line
+//           the iterate, u made whole (the form it took until the fourth session of
+//           2026-12-04): a line
 //           "STOP ...", the milliseconds, our bytes received and VmHWM after each, largest rank.
 //           Not with the timed iterations' bytes.
 //           --body cube N: a cube of N^3 H8 glued to its base instead (experiments/bench/
@@ -228,7 +229,8 @@ int bench(int argc, char** argv) {
       const ltl::mpi::Traffic a1 = ltl::mpi::traffic();
       const double rows_hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
       t0 = now_seconds();
-      const std::optional<ltl::State> w = solver.iterate_to_writer(s);
+      std::optional<ltl::State> w = solver.iterate_to_writer(s);
+      if (w) solver.whole_u(w->u);  // the state between steps with u whole, as it was
       const double between =
           w ? ltl::equilibrium_error(solver.discretization(), *w, solver.load_factor()) : NAN;
       const double between_ms = 1e3 * max_of(now_seconds() - t0);
