@@ -91,6 +91,10 @@ double resident_bytes() {
   return status_bytes("VmRSS:");
 }
 
+ResidentSplit resident_split() {
+  return {status_bytes("RssAnon:"), status_bytes("RssFile:"), status_bytes("RssShmem:")};
+}
+
 void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part, int m) {
   const int me = rank();
   whole.resize(static_cast<Eigen::Index>(m) * part.order.size(), own.cols());

@@ -170,5 +170,13 @@ void set_option(const char* name, bool on, const char* value = nullptr);
 double peak_resident_bytes();
 /// Resident memory of this process now (VmRSS, bytes; 0 where /proc is missing).
 double resident_bytes();
+/// The resident memory now split as the kernel counts it (bytes; 0 where /proc is missing):
+/// anonymous pages (RssAnon: the heap, the process's own data), file-backed pages (RssFile: the
+/// executable's and the libraries' code and read-only data, shared by the processes of a node
+/// that map the same files) and shared memory (RssShmem: MPI's shared-memory transport).
+struct ResidentSplit {
+  double anonymous = 0, file = 0, shared_memory = 0;
+};
+ResidentSplit resident_split();
 
 }  // namespace ltl::mpi

@@ -13,7 +13,10 @@
 //           after each setup phase (start, mesh read, solver set up, the last iteration, the step's
 //           end; after the mesh read also the largest rank but rank 0, which alone runs gmsh,
 //           and the seconds load_problem took) and the bytes per cell the largest rank holds
-//           (Solver::holdings).
+//           (Solver::holdings); then the resident size split into anonymous, file-backed and
+//           shared-memory pages at the start and at the step's end (MB, largest rank each:
+//           mpi::resident_split), the file-backed ones the libraries' code, shared by a node's
+//           ranks.
 //           PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every rank (the memory
 //           before the partition of the operators, paper_notes/mpi.md).
 //
@@ -153,6 +156,15 @@ int bench(int argc, char** argv) {
                        std::round(10 * live) / 10);
   };
   phase("start");
+  // The resident size split (anonymous / file-backed / shared memory; mpi::resident_split), at
+  // the start and at the step's end, the largest over the ranks: the file-backed pages are the
+  // libraries' code, one copy per node however many ranks map it.
+  auto split = [&](const char* name) {
+    const ltl::mpi::ResidentSplit r = ltl::mpi::resident_split();
+    const auto mb = [&](double b) { return std::round(10 * max_of(b / 1048576.0)) / 10; };
+    return ltl::cat(" ", name, "=", mb(r.anonymous), "/", mb(r.file), "/", mb(r.shared_memory));
+  };
+  std::string splits = split("start");
   const double t_load = now_seconds();
   ltl::Problem problem =
       ltl::load_problem(std::string(LTL_SOURCE_DIR) +
@@ -257,6 +269,7 @@ int bench(int argc, char** argv) {
     ksp_solves0 = r.ksp_solves;
   });
   phase("step_end");
+  splits += split("step_end");
   const int timed = n - warm;
   ltl::mpi::Traffic c1 = ltl::mpi::traffic();
   c1.bytes -= stop_moved.bytes;
@@ -303,7 +316,8 @@ int bench(int argc, char** argv) {
         "update=%.2f ksp_its_per_solve=%.1f bytes_per_it_ours=%.0f calls_per_it=%.0f "
         "bytes_per_it_petsc=%.0f messages_per_it_petsc=%.0f reductions_per_it_petsc=%.0f "
         "ghosts=%.0f layer_ghosts=%.0f rows_max_over_mean=%.3f peak_MB_per_rank=%s load=%s\n"
-        "MEM label=%s ranks=%d rss/hwm_MB_after:%s held_B_per_cell: %s\n",
+        "MEM label=%s ranks=%d rss/hwm_MB_after:%s held_B_per_cell: %s "
+        "anon/file/shmem_MB:%s\n",
         label.c_str(), P,
         all ? (r.replicated_cholesky ? "replicated-cholesky"
                : r.mumps             ? "mumps"
@@ -311,7 +325,8 @@ int bench(int argc, char** argv) {
             : "serial",
         mesh.num_cells(), mesh.num_nodes(), setup, timed, t_it, t_g, t_ksp, t_coll, t_s, t_c, t_u,
         its, bytes_ours, calls_ours, bytes_petsc, msgs_petsc, reductions, ghosts, layer, rows_ratio,
-        peaks.c_str(), loadavg().c_str(), label.c_str(), P, phases.c_str(), held.c_str());
+        peaks.c_str(), loadavg().c_str(), label.c_str(), P, phases.c_str(), held.c_str(),
+        splits.c_str());
   if (ltl::mpi::rank() == 0 && !stop_line.empty()) std::printf("%s", stop_line.c_str());
   std::fflush(stdout);
   return 0;
