@@ -821,11 +821,20 @@ RunSummary run(Solver& solver, const RunOptions& options,
   if (ranks) mpi::min_max(lo, lo, hi);
   summary.peak_memory_min = static_cast<double>(lo);
   summary.peak_memory_max = static_cast<double>(hi);
-  const std::string memory = hi == 0 ? std::string()
-                             : ranks
-                                 ? cat(", peak memory per rank ", std::lround(lo / 1e6), "-",
-                                       std::lround(hi / 1e6), " MB over ", mpi::size(), " ranks")
-                                 : cat(", peak memory ", std::lround(hi / 1e6), " MB");
+  // Of it, the pages of the executable's and the libraries' files (RssFile now, the largest over
+  // the ranks): their code, which a node keeps once for all its ranks (paper_notes/mpi.md,
+  // "What the resident size is made of").
+  double code = mpi::resident_split().file;
+  if (ranks) mpi::max(&code, 1);
+  const std::string of_it = code > 0 ? cat(" (", ranks ? "up to " : "", std::lround(code / 1e6),
+                                           " MB of it the libraries' code",
+                                           ranks ? ", shared by a node's ranks" : "", ")")
+                                     : std::string();
+  const std::string memory =
+      hi == 0 ? std::string()
+      : ranks ? cat(", peak memory per rank ", std::lround(lo / 1e6), "-", std::lround(hi / 1e6),
+                    " MB over ", mpi::size(), " ranks", of_it)
+              : cat(", peak memory ", std::lround(hi / 1e6), " MB", of_it);
   if (options.verbosity > 0 && summary.last_step < summary.first_step)  // a finished run resumed
     std::printf(
         "%s: nothing to do: %s already holds steps 1..%d (time.steps = %d; raise it to "

@@ -44,7 +44,7 @@ mem=$(sed -n 's/.*peak memory per rank \([0-9]\+\)-\([0-9]\+\) MB over 2 ranks.*
 echo "peak memory per rank (MB): $mem"
 [ -n "$mem" ] && [ "${mem% *}" -gt 0 ] && [ "${mem% *}" -le "${mem#* }" ] ||
   fail "no peak memory per rank in the run's last line"
-grep -q 'peak memory [0-9]\+ MB, wrote' "$tmp/serial.txt" || fail "no peak memory in the serial run's line"
+grep -q 'peak memory [0-9]\+ MB (.*code.*), wrote' "$tmp/serial.txt" || fail "no peak memory in the serial run's line"
 [ -f "$tmp/ranks.h5" ] || fail "no results file"
 [ "$(ls "$tmp" | grep -c '\.h5$')" = 2 ] || fail "more than one results file per run"
 cfg="$src/experiments/fig3/fig3.toml"
