@@ -14,9 +14,9 @@
 //           end; after the mesh read also the largest rank but rank 0, which alone runs gmsh,
 //           and the seconds load_problem took) and the bytes per cell the largest rank holds
 //           (Solver::holdings); then the resident size split into anonymous, file-backed and
-//           shared-memory pages at the start and at the step's end (MB, largest rank each:
-//           mpi::resident_split), the file-backed ones the libraries' code, shared by a node's
-//           ranks.
+//           shared-memory pages at the start and at the step's end (MB, largest rank each, and
+//           the largest rank but rank 0: mpi::resident_split), the file-backed ones the
+//           libraries' code, shared by a node's ranks.
 //           PETSC_OPTIONS=-ltl_mpi_whole: the whole discretization on every rank (the memory
 //           before the partition of the operators, paper_notes/mpi.md).
 //
@@ -161,8 +161,17 @@ int bench(int argc, char** argv) {
   // libraries' code, one copy per node however many ranks map it.
   auto split = [&](const char* name) {
     const ltl::mpi::ResidentSplit r = ltl::mpi::resident_split();
+    const bool other = ltl::mpi::rank() != 0;
     const auto mb = [&](double b) { return std::round(10 * max_of(b / 1048576.0)) / 10; };
-    return ltl::cat(" ", name, "=", mb(r.anonymous), "/", mb(r.file), "/", mb(r.shared_memory));
+    const auto mb_other = [&](double b) {  // the largest rank but rank 0
+      return std::round(10 * max_of(other ? b / 1048576.0 : 0.0)) / 10;
+    };
+    std::string t =
+        ltl::cat(" ", name, "=", mb(r.anonymous), "/", mb(r.file), "/", mb(r.shared_memory));
+    if (ltl::mpi::size() > 1)
+      t += ltl::cat(" (other ranks ", mb_other(r.anonymous), "/", mb_other(r.file), "/",
+                    mb_other(r.shared_memory), ")");
+    return t;
   };
   std::string splits = split("start");
   const double t_load = now_seconds();
