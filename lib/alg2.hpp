@@ -189,8 +189,10 @@ class Solver {
   /// ALG2 phase ends; inside that phase this makes the iterate into the state between steps, as
   /// the phase's end does (between_steps; collective: every rank calls it at the same
   /// iteration): E and lambda the rank's rows, which the writer gathers a block of cells at a
-  /// time (StepFields; whole on every rank with the replicated factor), u from the ghost layers
-  /// and the contact fields from the ranks' points (whole on every rank). Only then: an iteration
+  /// time (StepFields; whole on every rank with the replicated factor), u on the ghost layer's
+  /// rows, which the writer reads a block of nodes at a time (nodes_to_writer; whole without a
+  /// ghost layer), and the contact fields from the ranks' points (whole on every rank). Only
+  /// then: an iteration
   /// without a save gathers
   /// nothing (until 2026-12-03 a run with --checkpoint gathered E and lambda to every rank at every
   /// iteration, and until the fifth session of that day a save gathered them whole on rank 0).
