@@ -100,12 +100,10 @@ double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell, i
   double worst = std::numeric_limits<double>::infinity();
   int inverted = 0, worst_cell = -1;
   Eigen::MatrixXd Uc(npc, dim), F(dim, dim);
-  const auto row_of = [&](int n) -> Eigen::Index {  // u's row of node n
-    if (!u_nodes) return n;
-    const auto j = std::lower_bound(u_nodes->begin(), u_nodes->end(), n);
-    if (j == u_nodes->end() || *j != n)
-      throw Error(cat("min_det_F: node ", n, " is not one of u's rows"));
-    return j - u_nodes->begin();
+  const auto row_of = [&](int n) {  // u's row of node n
+    const int row = u_nodes ? mpi::position_in(*u_nodes, n) : n;
+    if (row < 0) throw Error(cat("min_det_F: node ", n, " is not one of u's rows"));
+    return row;
   };
   for (int c : d.held_cells()) {  // every cell, or a rank's (then reduced below)
     for (int a = 0; a < npc; ++a) Uc.row(a) = u.row(row_of(mesh.cells(c, a)));
@@ -337,10 +335,8 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
     extreme_over_ranks(d, r.rotation_jump, r.rotation_cell, true);
     if (r.cells_rotated > 0) {
       // tr E of the worst cell, from the rank that holds it.
-      const auto it = std::lower_bound(held.begin(), held.end(), r.rotation_cell);
-      double trace = it != held.end() && *it == r.rotation_cell
-                         ? E_of(static_cast<int>(it - held.begin())).trace()
-                         : 0.0;
+      const int k = mpi::position_in(held, r.rotation_cell);
+      double trace = k >= 0 ? E_of(k).trace() : 0.0;
       if (d.partial()) mpi::sum(&trace, 1);
       r.failures.push_back(cat(
           r.cells_rotated,

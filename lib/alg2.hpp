@@ -122,10 +122,11 @@ class Solver {
   /// on every rank. whole_state(), cells_to_writer() and nodes_to_writer() gather it. On one
   /// process, and with the replicated factor, the state is whole, and this is the same thing.
   State initial_state(bool whole = false) const;
-  /// Where a state between steps holds u (IterateRows, measures.hpp: the ghost layer's nodes,
-  /// the cell operators' columns' rows, the rank's points and its owned nodes' rows), for the
-  /// measures, the reactions and the admissibility check: `at` filled and returned when u is
-  /// on the layer's rows, null when it is whole.
+  /// Where a state between steps, and an ALG2 phase's iterate, hold u (IterateRows,
+  /// measures.hpp: the ghost layer's nodes, the cell operators' columns' rows, the rank's points
+  /// and its owned nodes' rows), for the measures, the reactions, the admissibility check and
+  /// the stopping test: `at` filled and returned when u is on the layer's rows, null when it is
+  /// whole.
   const IterateRows* state_rows(IterateRows& at) const;
   /// u of a state between steps made whole on every rank (collective when it is on the layer's
   /// rows; else nothing): what the Newton phase takes.
@@ -201,7 +202,7 @@ class Solver {
   std::optional<State> iterate_to_writer(const State& s) const;
   /// [(4.5)] The equilibrium stopping test (measures.hpp: equilibrium_error) at the iterate of
   /// the ALG2 phase under way on the ranks, as the phase evaluates it when it is due: on a
-  /// ghost layer at the iterate's rows (no whole u or contact field made: iterate_rows), else on
+  /// ghost layer at the iterate's rows (no whole u or contact field made: state_rows), else on
   /// the state between steps made from it. Null outside such a phase (collective: from a
   /// progress callback, every rank).
   std::optional<double> iterate_equilibrium_error() const;
@@ -354,10 +355,6 @@ class Solver {
   /// distributed, not replicated)? Its iterate's e, lambda_c and beta are then current on those
   /// points only, until gather_points.
   bool points_distributed() const;
-  /// Where the phase's iterate holds u and lambda_c (the rows of the rank's ghost layer and its
-  /// points) when the stopping test can read it there: on a ghost layer of a discretization of
-  /// the rank's cells. False otherwise (the test makes the state between steps).
-  bool iterate_rows(IterateRows& at) const;
   /// The stopping test at the phase's iterate `own` (iterate_equilibrium_error).
   double equilibrium_error_of(const State& own) const;
   /// The owned points' rows of e, lambda_c and beta gathered (collective): at the end of an ALG2

@@ -406,21 +406,17 @@ void Solver::global_phase_distributed(State& s, GlobalOutput& g) {
   }
 }
 
-bool Solver::iterate_rows(IterateRows& at) const {
-  if (!u_on_layer()) return false;
-  at.nodes = &dist_->ksp->layer_nodes();
-  at.column_row = dist_->layer_row.data();
-  at.points = points_distributed() ? &dist_->own_points : nullptr;
-  at.owned = &dist_->owned_rows;
-  return true;
-}
-
 bool Solver::u_on_layer() const {
   return dist_ && rows_between_steps() && dist_->ksp && dist_->ksp->ghost_layer();
 }
 
 const IterateRows* Solver::state_rows(IterateRows& at) const {
-  return iterate_rows(at) ? &at : nullptr;
+  if (!u_on_layer()) return nullptr;
+  at.nodes = &dist_->ksp->layer_nodes();
+  at.column_row = dist_->layer_row.data();
+  at.points = points_distributed() ? &dist_->own_points : nullptr;
+  at.owned = &dist_->owned_rows;
+  return &at;
 }
 
 void Solver::layer_rows(Eigen::MatrixXd& u) const {
@@ -437,27 +433,25 @@ void Solver::whole_u(Eigen::MatrixXd& u) const {
 void Solver::nodes_to_writer(const Eigen::MatrixXd& u, Eigen::MatrixXd& block, int first,
                              int count) const {
   if (count < 0) count = disc_.num_nodes() - first;
+  Eigen::MatrixXd rows;
   if (!u_on_layer() || u.rows() == disc_.num_nodes()) {  // whole on every rank
-    if (mpi::rank() == 0)
-      block = u.middleRows(first, count);
-    else
-      Eigen::MatrixXd().swap(block);
-    return;
+    if (mpi::rank() == 0) rows = u.middleRows(first, count);
+  } else {  // the rows of the block's nodes that each rank owns, the others zero, summed
+    rows = Eigen::MatrixXd::Zero(count, u.cols());
+    const std::vector<int>& nodes = dist_->ksp->layer_nodes();
+    for (int row : dist_->owned_rows)
+      if (const int n = nodes[row]; n >= first && n < first + count)
+        rows.row(n - first) = u.row(row);
+    mpi::sum_to_writer(rows.data(), rows.size());
   }
-  // The rows of the block's nodes that the rank owns, the others zero: their sum is the block.
-  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(count, u.cols());
-  const std::vector<int>& nodes = dist_->ksp->layer_nodes();
-  for (int row : dist_->owned_rows)
-    if (const int n = nodes[row]; n >= first && n < first + count) sum.row(n - first) = u.row(row);
-  mpi::sum_to_writer(sum.data(), sum.size());
-  if (mpi::rank() == 0)
-    block.swap(sum);
-  else
-    Eigen::MatrixXd().swap(block);
+  if (mpi::rank() != 0) rows = Eigen::MatrixXd();  // released: the writer's alone
+  block.swap(rows);
 }
 
 double Solver::equilibrium_error_of(const State& own) const {
-  if (IterateRows at; iterate_rows(at)) return equilibrium_error(disc_, own, load_factor_, at);
+  IterateRows rows;
+  if (const IterateRows* at = state_rows(rows))
+    return equilibrium_error(disc_, own, load_factor_, *at);
   // u whole, E and lambda the rank's rows (or gathered with the replicated factor)
   return equilibrium_error(disc_, dist_ ? between_steps(own) : own, load_factor_);
 }

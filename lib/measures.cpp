@@ -20,9 +20,7 @@ namespace {
 /// The row of u at node n: n itself when u is whole (at null), else n's position in the rank's
 /// layer (-1: not there).
 Eigen::Index u_row_of(int n, const IterateRows* at) {
-  if (!at) return n;
-  const auto j = std::lower_bound(at->nodes->begin(), at->nodes->end(), n);
-  return j == at->nodes->end() || *j != n ? -1 : j - at->nodes->begin();
+  return at ? mpi::position_in(*at->nodes, n) : n;
 }
 
 /// f(i, A.row(i)) for the points i a rank computes (its own, or every point), then A made whole:
@@ -312,11 +310,11 @@ ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::Mat
       const std::vector<int>& node = d.cells().node;
       for (int p : *at->points)
         for (SpMat::InnerIterator it(pts->meanT_area_by_point, p); it; ++it) {
-          const auto j = std::lower_bound(node.begin(), node.end(), it.row());
-          if (j == node.end() || *j != it.row())
+          const int j = mpi::position_in(node, static_cast<int>(it.row()));
+          if (j < 0)
             throw Error(cat("equilibrium_residual_rows: contact point ", p, "'s node ", it.row(),
                             " is not a node of the rank's cells"));
-          f.row(j - node.begin()) -= it.value() * s.lambda_c.row(p);
+          f.row(j) -= it.value() * s.lambda_c.row(p);
         }
     }
     mpi::sum_rows_to_blocks(f, d.cells().node, offset, out.r);
@@ -407,12 +405,7 @@ EquilibriumMeasure measure_under(const Discretization& d, const Eigen::MatrixXd*
     }
     if (d.partial()) mpi::max(&m.det_error, 1);
   }
-  if (d.points()) {
-    double pen = -INFINITY;
-    for (int k = 0; k < static_cast<int>(d.problem().contacts.size()); ++k)
-      pen = std::max(pen, penetration_of(d, s, k, at));
-    m.penetration = std::max(0.0, pen);
-  }
+  if (d.points()) m.penetration = std::max(0.0, max_penetration(d, s, at));
   m.det_min = min_det_F(d, s.u, nullptr, nullptr, at ? at->nodes : nullptr);
   return m;
 }
@@ -441,13 +434,8 @@ double penetration_at(const Discretization& d, const State& s, int k,
   const Eigen::VectorXd N = cc.plane_normal.head(dim);
   const Eigen::VectorXd p0 = cc.plane_point.head(dim);
   for (int n : pb.mesh.boundary_nodes(cc.group)) {
-    Eigen::Index row = n;
-    if (nodes) {
-      const auto j = std::lower_bound(nodes->begin(), nodes->end(), n);
-      if (j == nodes->end() || *j != n) continue;
-      row = j - nodes->begin();
-    }
-    pen = std::max(pen, (pb.mesh.X.row(n) + s.u.row(row) - p0.transpose()).dot(N));
+    const int row = nodes ? mpi::position_in(*nodes, n) : n;
+    if (row >= 0) pen = std::max(pen, (pb.mesh.X.row(n) + s.u.row(row) - p0.transpose()).dot(N));
   }
   return pen;
 }
@@ -460,18 +448,16 @@ double penetration_at(const Discretization& d, const State& s, const std::vector
 }
 }  // namespace
 
-double penetration_of(const Discretization& d, const State& s, int k) {
-  return penetration_at(d, s, k, nullptr);
-}
-
 double penetration_of(const Discretization& d, const State& s, int k, const IterateRows* at) {
   double pen = penetration_at(d, s, k, at ? at->nodes : nullptr);
   if (at) mpi::max(&pen, 1);  // the largest over the ranks' layers
   return pen;
 }
 
-double max_penetration(const Discretization& d, const State& s) {
-  return penetration_at(d, s, nullptr);
+double max_penetration(const Discretization& d, const State& s, const IterateRows* at) {
+  double pen = penetration_at(d, s, at ? at->nodes : nullptr);
+  if (at) mpi::max(&pen, 1);
+  return pen;
 }
 
 namespace {

@@ -165,7 +165,7 @@ struct ResidualRows {
   int first = 0;
 };
 /// Where a rank's ALG2 iterate holds u and the contact multipliers (a phase on a ghost layer,
-/// alg2_mpi.cpp: Solver::iterate_rows): u's rows are the nodes `nodes` (sorted), column j of the
+/// alg2_mpi.cpp: Solver::state_rows): u's rows are the nodes `nodes` (sorted), column j of the
 /// cell operators at u's row column_row[j], and lambda_c current at the points `points` alone
 /// (the rank's, each point on one rank; null: every point current on every rank).
 /// Between steps a distributed solver's state holds u on the same rows (Solver::state_rows), and
@@ -219,14 +219,13 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, 
                                        const IterateRows* at = nullptr);
 
 /// Max over the obstacles and their contact groups' nodes of (x - x_0) . N, the deformed node's
-/// distance behind the obstacle plane (m; > 0: penetration); -inf without contact.
-double max_penetration(const Discretization& d, const State& s);
+/// distance behind the obstacle plane (m; > 0: penetration); -inf without contact. With `at`, u
+/// on a rank's layer rows (collective: the largest over the ranks' layers).
+double max_penetration(const Discretization& d, const State& s, const IterateRows* at = nullptr);
 /// The same for obstacle k alone: max over its group's nodes of (x - p0_k) . N_k. A node behind
 /// ANY obstacle is inadmissible: max_penetration is the max over the obstacles.
-double penetration_of(const Discretization& d, const State& s, int k);
-/// The same with u on a rank's layer rows (at; collective: the largest over the ranks), or whole
-/// (at null).
-double penetration_of(const Discretization& d, const State& s, int k, const IterateRows* at);
+double penetration_of(const Discretization& d, const State& s, int k,
+                      const IterateRows* at = nullptr);
 
 /// The stopping test of `algorithm.stopping = "equilibrium"` (4.5): the largest of
 /// - the force residual on the free dofs (equilibrium_residual) relative to a force scale: the

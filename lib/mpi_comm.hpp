@@ -12,6 +12,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cstdint>
 #include <exception>
 #include <string>
@@ -116,6 +117,13 @@ void for_each_run(const int* items, const int* end, F&& f) {
 template <class F>
 void for_each_run(const std::vector<int>& items, F&& f) {
   for_each_run(items.data(), items.data() + items.size(), f);
+}
+
+/// The position of `item` in the sorted `items` (a rank's cells, nodes or points), -1 when it is
+/// not one of them: a rank's row of an item of the whole numbering.
+inline int position_in(const std::vector<int>& items, int item) {
+  const auto j = std::lower_bound(items.begin(), items.end(), item);
+  return j != items.end() && *j == item ? static_cast<int>(j - items.begin()) : -1;
 }
 
 /// The row gather of a Partition: rank r holds the rows [rows_per_item i, rows_per_item (i + 1))

@@ -641,14 +641,10 @@ DistributedGlobalStep::~DistributedGlobalStep() = default;
 
 void DistributedGlobalStep::set_ghost_layer(std::vector<int> nodes) {
   const int me = mpi::rank();
-  const auto layer_row = [&](int node) {  // -1: not in the layer
-    const auto at = std::lower_bound(nodes.begin(), nodes.end(), node);
-    return at != nodes.end() && *at == node ? static_cast<int>(at - nodes.begin()) : -1;
-  };
   layer_fixed_.assign(bc_.fixed.size(), {});
   for (std::size_t i = 0; i < bc_.fixed.size(); ++i)
     for (std::size_t k = 0; k < bc_.fixed[i].size(); ++k)
-      if (const int row = layer_row(bc_.fixed[i][k]); row >= 0)
+      if (const int row = mpi::position_in(nodes, bc_.fixed[i][k]); row >= 0)
         layer_fixed_[i].emplace_back(row, static_cast<int>(k));
   for (auto& gp : groups_) {
     Group& g = *gp;
@@ -681,10 +677,12 @@ void DistributedGlobalStep::set_ghost_layer(std::vector<int> nodes) {
     g.read_at.resize(row_node.size());
     for (std::size_t i = 0; i < row_node.size(); ++i) {
       read[i] = row_node[i].first;
-      g.read_at[i] = layer_row(row_node[i].second);  // the added rows' and the owned rows'
+      g.read_at[i] =
+          mpi::position_in(nodes, row_node[i].second);  // the added rows' and the owned rows'
     }
     for (std::size_t r = 0; r < g.own_node.size(); ++r)  // for_each_own_row's merge
-      if (layer_row(g.own_node[r]) < 0 || (r > 0 && g.own_node[r] <= g.own_node[r - 1]))
+      if (mpi::position_in(nodes, g.own_node[r]) < 0 ||
+          (r > 0 && g.own_node[r] <= g.own_node[r - 1]))
         throw Error(cat(g.what, ": the ghost layer lacks the rank's own node ", g.own_node[r],
                         ", or its own nodes are not in increasing order"));
     if (g.scatter) VecScatterDestroy(&g.scatter);

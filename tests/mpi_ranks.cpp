@@ -1405,20 +1405,27 @@ TEST(Mpi, Eq4_5_TheStoppingTestReadsTheIteratesRows) {
 /// 50-cell coarse gutter at a state with inverted and turned cells (random u, every 7th cell's E
 /// negated, the first and the last cell's E = -2 I: a tie of the smallest det E across ranks),
 /// every rank reports exactly the serial admissibility, its failures word for word, and
-/// the serial det_error and det_min. And a state kept to go back to (load subdivision,
-/// Solver::kept_copy) holds E and lambda on the rank's cells only, u on the rank's ghost layer's
-/// rows (since 2026-12-05 the state between steps holds it so: Solver::state_rows, and the
-/// obstacle check reads each node on the rank that owns it), and comes back whole and exact.
+/// the serial det_error, det_min and penetration (contact nodes pushed behind the plane: the
+/// deepest over the ranks' layers, fails without the reduction). And a state kept to go back to
+/// (load subdivision, Solver::kept_copy) holds E and lambda on the rank's cells only, u on the
+/// rank's ghost layer's rows (since 2026-12-05 the state between steps holds it so:
+/// Solver::state_rows, and the obstacle check reads each node on the rank that owns it), and comes
+/// back whole and exact.
 TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
   const Solver serial(p, Ranks::One);
   const Solver dist(p, Ranks::All);
   State s = serial.initial_state();
   s.u = 0.2 * Eigen::MatrixXd::Random(p.mesh.num_nodes(), p.mesh.dim);
-  // Every 11th node pushed through the obstacle's plane, each to its own depth.
+  // Every 11th node, and every 5th of the contact surface, pushed through the obstacle's plane,
+  // each to its own depth (the deepest node unique).
   const ContactCondition& cc = p.contacts.front();
   const Eigen::Vector3d N = cc.plane_normal.head(3).normalized(), p0 = cc.plane_point.head(3);
-  for (int n = 0; n < p.mesh.num_nodes(); n += 11) {
+  std::vector<int> pushed;
+  for (int n = 0; n < p.mesh.num_nodes(); n += 11) pushed.push_back(n);
+  const std::vector<int> surface = p.mesh.boundary_nodes(cc.group);
+  for (std::size_t k = 0; k < surface.size(); k += 5) pushed.push_back(surface[k]);
+  for (int n : pushed) {
     const double depth = 0.01 * (1.0 + static_cast<double>(n) / p.mesh.num_nodes());
     s.u.row(n) = ((p0 - p.mesh.X.row(n).transpose()).dot(N) + depth) * N.transpose();
   }
@@ -1467,6 +1474,7 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   ASSERT_EQ(serial.load_factor(), 1.0);  // F: the dead loads at factor 1
   const EquilibriumMeasure ma = equilibrium_measure(serial.discretization(), F, s);
   EXPECT_GT(ma.det_error, 0);
+  EXPECT_GT(ma.penetration, 0);  // a contact node behind the plane: the deepest over the ranks
   const double energy = serial.energy(s, s.beta);
   for (const State* t : {&s, &rows}) {
     const EquilibriumMeasure mb = t == &rows
@@ -1474,6 +1482,7 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
                                       : equilibrium_measure(dist.discretization(), F, *t);
     EXPECT_EQ(mb.det_error, ma.det_error);
     EXPECT_EQ(mb.det_min, ma.det_min);
+    EXPECT_EQ(mb.penetration, ma.penetration);
     EXPECT_NEAR(mb.force_residual, ma.force_residual, 1e-12 * ma.force_residual);
     EXPECT_NEAR(dist.energy(*t, t->beta), energy, 1e-12 * std::abs(energy));
     const double err = equilibrium_error(serial.discretization(), F, s);
