@@ -20,15 +20,20 @@ std::string position(const Eigen::MatrixXd& X, int n) {
   return s + ")";
 }
 
-/// The reference centroid of cell c (mean of its nodes).
-Eigen::RowVectorXd cell_centre(const Mesh& mesh, int c) {
-  Eigen::RowVectorXd x = Eigen::RowVectorXd::Zero(mesh.dim);
-  for (int a = 0; a < mesh.nodes_per_cell(); ++a) x += mesh.X.row(mesh.cells(c, a));
-  return x / mesh.nodes_per_cell();
-}
-
-std::string cell_where(const Mesh& mesh, int c) {
-  const Eigen::RowVectorXd x = cell_centre(mesh, c);
+/// Cell c and its reference centroid (the mean of its nodes), read on the part of the rank
+/// that holds it (Discretization::part()) and summed over the ranks on some cells (collective:
+/// every rank asks for the same cell).
+std::string cell_where(const Discretization& d, int c) {
+  const Mesh& part = d.part();
+  Eigen::RowVectorXd x = Eigen::RowVectorXd::Zero(part.dim);
+  const std::vector<int>& held = d.held_cells();
+  const auto it = std::lower_bound(held.begin(), held.end(), c);
+  if (it != held.end() && *it == c) {
+    const int k = d.part_row(c, static_cast<int>(it - held.begin()));
+    for (int a = 0; a < part.nodes_per_cell(); ++a) x += part.X.row(part.cells(k, a));
+    x /= part.nodes_per_cell();
+  }
+  if (d.partial()) mpi::sum(x.data(), x.size());
   return cat("cell ", c, " (centre ", position(x, 0), ")");
 }
 
@@ -95,20 +100,22 @@ int count_over_ranks(const Discretization& d, int n) {
 
 double min_det_F(const Discretization& d, const Eigen::MatrixXd& u, int* cell, int* cells_inverted,
                  const std::vector<int>* u_nodes) {
-  const Mesh& mesh = d.problem().mesh;
-  const int dim = mesh.dim, npc = mesh.nodes_per_cell();
+  const Mesh& part = d.part();  // the held cells' nodes and positions
+  const int dim = part.dim, npc = part.nodes_per_cell();
   double worst = std::numeric_limits<double>::infinity();
   int inverted = 0, worst_cell = -1;
   Eigen::MatrixXd Uc(npc, dim), F(dim, dim);
-  const auto row_of = [&](int n) {  // u's row of node n
-    const int row = u_nodes ? mpi::position_in(*u_nodes, n) : n;
+  const auto row_of = [&](int j) {  // u's row of the part's node j
+    const int n = d.part_node(j), row = u_nodes ? mpi::position_in(*u_nodes, n) : n;
     if (row < 0) throw Error(cat("min_det_F: node ", n, " is not one of u's rows"));
     return row;
   };
-  for (int c : d.held_cells()) {  // every cell, or a rank's (then reduced below)
-    for (int a = 0; a < npc; ++a) Uc.row(a) = u.row(row_of(mesh.cells(c, a)));
+  const std::vector<int>& held = d.held_cells();  // every cell, or a rank's (reduced below)
+  for (int at = 0; at < static_cast<int>(held.size()); ++at) {
+    const int c = held[at], k = d.part_row(c, at);
+    for (int a = 0; a < npc; ++a) Uc.row(a) = u.row(row_of(part.cells(k, a)));
     double cell_min = std::numeric_limits<double>::infinity();
-    for_each_quadrature_point(mesh, c, [&](const Eigen::MatrixXd& grad, double) {
+    for_each_quadrature_point(part, k, [&](const Eigen::MatrixXd& grad, double) {
       // grad u = sum_a u_a (x) grad phi_a = Uc^T grad; F = I + grad u.
       F.noalias() = Uc.transpose() * grad;
       F.diagonal().array() += 1.0;
@@ -256,10 +263,10 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
   if (inverted)
     r.failures.push_back(cat("det F <= 0 at a quadrature point of ", r.cells_inverted,
                              " cells: the smallest, det F = ", r.det_F_min, ", is in ",
-                             cell_where(mesh, r.det_F_cell)));
+                             cell_where(d, r.det_F_cell)));
   if (E_inverted)
     r.failures.push_back(cat("the cell strain E has det E = ", r.det_E_min, " <= 0 in ",
-                             cell_where(mesh, r.det_E_cell)));
+                             cell_where(d, r.det_E_cell)));
   if (inverted || E_inverted)
     r.remedies.push_back(
         "a cell is turned inside out: refine the mesh where it is, or apply the load "
@@ -272,29 +279,27 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
   // (a rank's) checks its cells, against neighbours on any rank, and the counts and the worst
   // cell are reduced over the ranks.
   if (nc > 1 && E_held) {
-    const int npc = mesh.nodes_per_cell();
-    // The rotations this rank has: its cells', then (some cells) the other ranks' cells that
-    // share a node with a cell of another rank, exchanged (each rank's neighbours on other ranks
-    // are among them). slot[c]: where cell c's rotation is, -1 none.
-    std::vector<int> slot(nc, -1);
+    // The neighbours from the held cells' own mesh (Discretization::part(): a rank's part,
+    // numbered locally), and on some cells the other ranks' cells that share a node with it.
+    const Mesh& part = d.part();
+    const int npc = part.nodes_per_cell();
+    // The rotations: the held cells' by position (their rows of the part), then (some cells)
+    // the other ranks' cells that share a node with a cell of another rank, exchanged with
+    // their nodes; first[i] .. first[i + 1] - 1 in `slots` are those at the part's node i.
     std::vector<Eigen::Matrix3d> R(nh);
-    for (int at = 0; at < nh; ++at) slot[held[at]] = at, R[at] = polar_rotation(E_of(at));
-    std::vector<char> touched(nn, 0);  // nodes of the held cells
-    for (int c : held)
-      for (int a = 0; a < npc; ++a) touched[mesh.cells(c, a)] = 1;
+    for (int k = 0; k < nh; ++k) R[k] = polar_rotation(E_of(k));
+    std::vector<int> first, slots;
     if (d.partial()) {
-      std::vector<char> foreign(nn, 0);  // nodes of a cell this rank does not hold
-      for (int c = 0; c < nc; ++c)
-        if (slot[c] < 0)
-          for (int a = 0; a < npc; ++a) foreign[mesh.cells(c, a)] = 1;
-      constexpr int kPer = 10;  // the cell, then its rotation's 9 entries
+      const std::vector<char>& shared = d.part_shared();
+      const int per = 10 + npc;  // the cell, its rotation's 9 entries, its nodes
       std::vector<double> mine;
-      for (int at = 0; at < nh; ++at) {
-        bool shared = false;
-        for (int a = 0; a < npc; ++a) shared = shared || foreign[mesh.cells(held[at], a)];
-        if (!shared) continue;
-        mine.push_back(held[at]);
-        mine.insert(mine.end(), R[at].data(), R[at].data() + 9);
+      for (int k = 0; k < nh; ++k) {
+        bool on_interface = false;
+        for (int a = 0; a < npc; ++a) on_interface = on_interface || shared[part.cells(k, a)];
+        if (!on_interface) continue;
+        mine.push_back(held[k]);
+        mine.insert(mine.end(), R[k].data(), R[k].data() + 9);
+        for (int a = 0; a < npc; ++a) mine.push_back(d.part_node(part.cells(k, a)));
       }
       const int P = mpi::size(), me = mpi::rank();
       std::vector<double> counts(P, 0.0);
@@ -304,26 +309,41 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
       for (int q = 0; q < P; ++q) offset[q + 1] = offset[q] + static_cast<int>(counts[q]);
       std::vector<double> all(offset[P]);
       std::copy(mine.begin(), mine.end(), all.begin() + offset[me]);
+      std::vector<double>().swap(mine);
       mpi::gather(all.data(), offset);
-      for (int k = 0; k < offset[P]; k += kPer) {
-        const int c = static_cast<int>(all[k]);
-        if (slot[c] >= 0) continue;  // this rank's own
-        slot[c] = static_cast<int>(R.size());
-        R.push_back(Eigen::Map<const Eigen::Matrix3d>(all.data() + k + 1));
+      std::vector<std::pair<int, int>> node_slot;  // (the part's node, a foreign cell's slot)
+      for (int q = 0; q < P; ++q) {
+        if (q == me) continue;  // this rank's own
+        for (int k = offset[q]; k < offset[q + 1]; k += per) {
+          const int slot = static_cast<int>(R.size());
+          R.push_back(Eigen::Map<const Eigen::Matrix3d>(all.data() + k + 1));
+          for (int a = 0; a < npc; ++a) {
+            const int j = mpi::position_in(d.cells().node, static_cast<int>(all[k + 10 + a]));
+            if (j >= 0) node_slot.emplace_back(j, slot);
+          }
+        }
       }
+      std::sort(node_slot.begin(), node_slot.end());
+      first.assign(part.num_nodes() + 1, 0);
+      for (const auto& [j, slot] : node_slot) ++first[j + 1], slots.push_back(slot);
+      for (int j = 0; j < part.num_nodes(); ++j) first[j + 1] += first[j];
     }
-    const NodeCells of = node_cells(mesh, &touched);  // the cells of each touched node
+    const NodeCells of = node_cells(part);  // the part's cells of each of its nodes
     std::vector<int> nbr;
     std::vector<double> angles;
-    for (int c : held) {
-      of.around(mesh, c, nbr);
+    for (int i = 0; i < nh; ++i) {
+      const int c = held[i], row = d.part_row(c, i);
+      of.around(part, row, nbr);  // the held cells' slots are their rows of the part
+      if (!first.empty())
+        for (int a = 0; a < npc; ++a) {
+          const int j = part.cells(row, a);
+          nbr.insert(nbr.end(), slots.begin() + first[j], slots.begin() + first[j + 1]);
+        }
+      std::sort(nbr.begin(), nbr.end());
       nbr.erase(std::unique(nbr.begin(), nbr.end()), nbr.end());
       if (nbr.empty()) continue;
       angles.clear();
-      for (int o : nbr) {
-        if (slot[o] < 0) throw Error(cat("check_admissibility: no rotation of cell ", o));
-        angles.push_back(angle_between(R[slot[c]], R[slot[o]]));
-      }
+      for (int o : nbr) angles.push_back(angle_between(R[row], R[o]));
       const std::size_t n = angles.size(), k = n - n / 2 - 1;
       std::nth_element(angles.begin(), angles.begin() + static_cast<std::ptrdiff_t>(k),
                        angles.end());
@@ -338,12 +358,12 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
       const int k = mpi::position_in(held, r.rotation_cell);
       double trace = k >= 0 ? E_of(k).trace() : 0.0;
       if (d.partial()) mpi::sum(&trace, 1);
-      r.failures.push_back(cat(
-          r.cells_rotated,
-          " cells are on the rotated branch of the local strain step (4.6): "
-          "their polar rotation differs by more than ",
-          kRotationJumpDegrees, " degrees from most of their neighbours'; the worst is ",
-          cell_where(mesh, r.rotation_cell), ", ", r.rotation_jump, " degrees, tr E = ", trace));
+      r.failures.push_back(
+          cat(r.cells_rotated,
+              " cells are on the rotated branch of the local strain step (4.6): "
+              "their polar rotation differs by more than ",
+              kRotationJumpDegrees, " degrees from most of their neighbours'; the worst is ",
+              cell_where(d, r.rotation_cell), ", ", r.rotation_jump, " degrees, tr E = ", trace));
       const AlgorithmParams& a = pb.algorithm;
       r.remedies.push_back(cat(
           "R q = ", a.R * a.q, " Pa = ", a.R * a.q / d.split().C1,

@@ -90,6 +90,23 @@ void Solver::DropDistribution::operator()(Distribution* d) const {
 
 Solver::~Solver() = default;
 
+namespace {
+/// node_ranks' owner of each node, the smallest rank whose cells have it; on a discretization
+/// of some cells from the ranks' parts (Discretization::part(), one reduction: collective), the
+/// mesh's connectivity being released after the set-up.
+std::vector<int> node_owners(const Discretization& disc, const mpi::Partition& cells) {
+  if (!disc.partial()) return node_ranks(disc.problem().mesh, cells);
+  const int P = mpi::size();
+  std::vector<double> minus(disc.num_nodes(), -P);  // minus the smallest rank, by a max
+  for (int n : disc.cells().node) minus[n] = -mpi::rank();
+  mpi::max(minus.data(), static_cast<long>(minus.size()));
+  std::vector<int> rank(minus.size());
+  for (std::size_t n = 0; n < minus.size(); ++n)
+    rank[n] = minus[n] == -P ? 0 : static_cast<int>(-minus[n]);
+  return rank;
+}
+}  // namespace
+
 const GlobalStep& Solver::global_step() const {
   if (!global_) throw Error("the global step is the distributed KSP: no serial global step");
   return *global_;
@@ -190,7 +207,7 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   if (!d.use_ksp) return false;
   d.ksp.reset();
   Eigen::MatrixXd().swap(rhs_);  // sized below: whole, or on the ghost layer's rows
-  const std::vector<int> node_rank = node_ranks(problem().mesh, d.cells);
+  const std::vector<int> node_rank = node_owners(disc_, d.cells);
   d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
                                                   node_rank, d.ksp_solver, disc_.partial(),
                                                   newton_dim());
@@ -204,10 +221,13 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   // 2026-11-28).
   const bool u_packed = disc_.mean_det() && alg().acceleration == Acceleration::Anderson;
   if (mpi::size() > 1 && !u_packed && !mpi::option("-ltl_mpi_no_ghosts")) {
-    const Mesh& mesh = problem().mesh;
+    const Mesh& part = disc_.part();  // the held cells' nodes (the rank's cells' when partial)
     std::vector<char> touched(disc_.num_nodes(), 0);
-    for (int c : d.own)
-      for (int a = 0; a < mesh.nodes_per_cell(); ++a) touched[mesh.cells(c, a)] = 1;
+    for (std::size_t k = 0; k < d.own.size(); ++k) {
+      const int row = disc_.part_row(d.own[k], static_cast<int>(k));  // own: the held cells
+      for (int a = 0; a < part.nodes_per_cell(); ++a)
+        touched[disc_.part_node(part.cells(row, a))] = 1;
+    }
     if (const ContactPoints* points = disc_.points()) {
       for (int f : own_points())
         for (SpMatR::InnerIterator it(points->mean, f); it; ++it) touched[it.col()] = 1;

@@ -44,25 +44,25 @@ DerivedFields cell_fields(const Eigen::MatrixXd& F, const Eigen::MatrixXd& sigma
   return out;
 }
 
-Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
-                                  const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33,
-                                  const std::vector<int>* cells, int first_node, int count) {
-  const int d = mesh.dim;
-  const int n = cells ? static_cast<int>(cells->size()) : mesh.num_cells();
+namespace {
+/// nodal_stress_sums of n cells in dimension d, node_of(k, a) the mesh's node of the k-th cell's
+/// node a (npc per cell, nn nodes in the mesh).
+template <class NodeOf>
+Eigen::MatrixXd stress_sums(int d, int n, int npc, int nn, const NodeOf& node_of,
+                            const Eigen::VectorXd& cell_volume, const Eigen::MatrixXd& sigma,
+                            const Eigen::VectorXd& sigma33, int first_node, int count) {
   if (sigma.rows() != static_cast<Eigen::Index>(d) * n || cell_volume.size() != n)
     throw Error(cat("nodal_stress_sums: ", sigma.rows(), " rows of sigma and ", cell_volume.size(),
                     " volumes for ", n, " cells"));
-  if (count < 0) count = mesh.num_nodes() - first_node;
-  if (first_node < 0 || count < 0 || first_node + count > mesh.num_nodes())
-    throw Error(
-        cat("nodal_stress_sums: nodes ", first_node, " + ", count, " of ", mesh.num_nodes()));
+  if (count < 0) count = nn - first_node;
+  if (first_node < 0 || count < 0 || first_node + count > nn)
+    throw Error(cat("nodal_stress_sums: nodes ", first_node, " + ", count, " of ", nn));
   Eigen::MatrixXd sums = Eigen::MatrixXd::Zero(count, 10);
   for (int k = 0; k < n; ++k) {
-    const int c = cells ? (*cells)[k] : k;
     bool stressed = false;  // sigma_c made for this block: the cell has a node in it
     Eigen::Matrix3d St;
-    for (int a = 0; a < mesh.nodes_per_cell(); ++a) {
-      const int node = mesh.cells(c, a) - first_node;
+    for (int a = 0; a < npc; ++a) {
+      const int node = node_of(k, a) - first_node;
       if (node < 0 || node >= count) continue;
       if (!stressed) St = stress_3x3(sigma, sigma33, d, k).transpose(), stressed = true;
       const double w = cell_volume(k);
@@ -71,6 +71,26 @@ Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_
     }
   }
   return sums;
+}
+}  // namespace
+
+Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_volume,
+                                  const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33,
+                                  const std::vector<int>* cells, int first_node, int count) {
+  const int n = cells ? static_cast<int>(cells->size()) : mesh.num_cells();
+  return stress_sums(
+      mesh.dim, n, mesh.nodes_per_cell(), mesh.num_nodes(),
+      [&](int k, int a) { return mesh.cells(cells ? (*cells)[k] : k, a); }, cell_volume, sigma,
+      sigma33, first_node, count);
+}
+
+Eigen::MatrixXd nodal_stress_sums(const Mesh& part, const std::vector<int>& node, int num_nodes,
+                                  const Eigen::VectorXd& cell_volume, const Eigen::MatrixXd& sigma,
+                                  const Eigen::VectorXd& sigma33, int first_node, int count) {
+  return stress_sums(
+      part.dim, part.num_cells(), part.nodes_per_cell(), num_nodes,
+      [&](int k, int a) { return node[part.cells(k, a)]; }, cell_volume, sigma, sigma33, first_node,
+      count);
 }
 
 void nodal_stress(Eigen::MatrixXd&& sums, DerivedFields& out) {

@@ -49,6 +49,11 @@ Eigen::MatrixXd nodal_stress_sums(const Mesh& mesh, const Eigen::VectorXd& cell_
                                   const Eigen::MatrixXd& sigma, const Eigen::VectorXd& sigma33,
                                   const std::vector<int>* cells = nullptr, int first_node = 0,
                                   int count = -1);
+/// The same on a part of the mesh (Discretization::part() of a rank's cells): its row k the k-th
+/// cell of sigma and cell_volume, its node j the mesh's node node[j], of num_nodes in the mesh.
+Eigen::MatrixXd nodal_stress_sums(const Mesh& part, const std::vector<int>& node, int num_nodes,
+                                  const Eigen::VectorXd& cell_volume, const Eigen::MatrixXd& sigma,
+                                  const Eigen::VectorXd& sigma33, int first_node, int count);
 
 /// sigma_node (#nodes x 9) and von_mises_node from the sums of every cell (nodal_stress_sums;
 /// of a block of nodes: those nodes' rows),

@@ -96,6 +96,34 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
   }
 
   cells_ = cell_operators(mesh, held);
+  // On some cells, the held cells as a mesh of their own (part()): the operators' columns are
+  // its nodes, the held cells its rows, in their order.
+  if (partial_) {
+    const std::vector<int>& node = cells_.node;
+    part_.dim = dim;
+    part_.source = mesh.source;
+    part_.X.resize(static_cast<Eigen::Index>(node.size()), dim);
+    for (std::size_t j = 0; j < node.size(); ++j)
+      part_.X.row(static_cast<Eigen::Index>(j)) = mesh.X.row(node[j]);
+    const int nh = static_cast<int>(cells_.cell.size()), npc = mesh.nodes_per_cell();
+    part_.cells.resize(nh, npc);
+    for (int k = 0; k < nh; ++k)
+      for (int a = 0; a < npc; ++a) {
+        const int n = mesh.cells(cells_.cell[k], a);
+        part_.cells(k, a) =
+            static_cast<int>(std::lower_bound(node.begin(), node.end(), n) - node.begin());
+      }
+    std::vector<char> foreign(nn, 0);  // the nodes of the cells not held
+    for (int c = 0, k = 0; c < nc; ++c) {
+      if (k < nh && cells_.cell[k] == c) {
+        ++k;
+        continue;
+      }
+      for (int a = 0; a < npc; ++a) foreign[mesh.cells(c, a)] = 1;
+    }
+    part_shared_.resize(node.size());
+    for (std::size_t j = 0; j < node.size(); ++j) part_shared_[j] = foreign[node[j]];
+  }
   // |Omega| and the centroid below from every cell's volume: on some cells (a rank's) the
   // whole mesh's, made here and dropped, the operators keeping their cells' alone.
   const Eigen::VectorXd mesh_vol = partial_ ? cell_volumes(mesh) : Eigen::VectorXd();
@@ -257,38 +285,45 @@ struct FluctuationKernel {
   Eigen::Matrix<double, npc, d> dN[Discretization::kMaxPoints];
   double wref[Discretization::kMaxPoints];
   int nq = 0;
-  const Eigen::MatrixXi& cells;
-  const Eigen::MatrixXd& X;
-  const Eigen::VectorXd& vol;  ///< the held cells' volumes (CellOperators::vol)
-  bool vol_by_position;        ///< vol(at) is the at-th cell's (some cells), else vol(e) cell e's
-  bool E_by_cell;              ///< E and lambda whole: cell e's block at d e, else at d at
+  const Eigen::MatrixXi& cells;  ///< Discretization::part()'s: row k the k-th held cell (some
+  const Eigen::MatrixXd& X;      ///< cells) or cell k (every cell), on the part's nodes
+  const int* node;               ///< the mesh's node of the part's node (some cells), or null
+  const Eigen::VectorXd& vol;    ///< the held cells' volumes (CellOperators::vol)
+  bool by_position;  ///< some cells: the part's row and vol(at) by position, else by cell
+  bool E_by_cell;    ///< E and lambda whole: cell e's block at d e, else at d at
 
-  FluctuationKernel(const ReferenceRule& rule, const Mesh& mesh, const Eigen::VectorXd& v,
-                    bool vol_position, bool E_whole)
+  FluctuationKernel(const ReferenceRule& rule, const Mesh& part, const int* part_node,
+                    const Eigen::VectorXd& v, bool position, bool E_whole)
       : nq(rule.size()),
-        cells(mesh.cells),
-        X(mesh.X),
+        cells(part.cells),
+        X(part.X),
+        node(part_node),
         vol(v),
-        vol_by_position(vol_position),
+        by_position(position),
         E_by_cell(E_whole) {
     for (int k = 0; k < nq; ++k) {
       dN[k] = rule.dN[k];
       wref[k] = rule.w[k];
     }
   }
+  /// The part's row of cell e at position `at`.
+  int row(int e, int at) const { return by_position ? at : e; }
+  /// The row of u or of the force of the part's node j without a row map: the mesh's node.
+  int node_row(int j) const { return node ? node[j] : j; }
 
   /// Cell e, at position `at` among the cells computed, whose E and lambda are the blocks at rows
-  /// d e or d at (E_by_cell) and whose volume is vol(e) or vol(at) (vol_by_position): returns c_e;
-  /// with fe, the cell's nodal force (p_e and gamma as above). u's row of the cell's node a:
-  /// u_row[a], or the node (u_row null).
+  /// d e or d at (E_by_cell) and whose nodes and volume are the part's row and vol(e) or vol(at)
+  /// (by_position): returns c_e; with fe, the cell's nodal force (p_e and gamma as above). u's
+  /// row of the cell's node a: u_row[a], or the mesh's node (u_row null).
   double operator()(int e, int at, const Eigen::MatrixXd& u, const int* u_row,
                     const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
                     double* fe) const {
     Eigen::Matrix<double, npc, 2 * d> XU;  // [Xe ue]
+    const int k_e = row(e, at);
     for (int a = 0; a < npc; ++a) {
-      const int n = cells(e, a);
+      const int n = cells(k_e, a);
       XU.row(a).template head<d>() = X.row(n);
-      XU.row(a).template tail<d>() = u.row(u_row ? u_row[a] : n);
+      XU.row(a).template tail<d>() = u.row(u_row ? u_row[a] : node_row(n));
     }
     Mat G[Discretization::kMaxPoints], JTinv[Discretization::kMaxPoints];
     double w[Discretization::kMaxPoints];
@@ -301,7 +336,7 @@ struct FluctuationKernel {
       G[k].noalias() = JTinv[k] * H.template rightCols<d>();
       Fbar += w[k] * G[k];
     }
-    const double vol_e = vol(vol_by_position ? at : e);
+    const double vol_e = vol(k_e);
     Fbar /= vol_e;
     Fbar.diagonal().array() += 1.0;
     double p = 0;
@@ -344,24 +379,15 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
                       const Eigen::MatrixXd* lambda, const Eigen::MatrixXd* E, double gamma,
                       Eigen::VectorXd* c, Eigen::MatrixXd* force, std::vector<double>& buffer,
                       std::vector<int>& rows, const std::vector<int>* cells, int n,
-                      const int* row_of, const CellOperators* held) {
+                      const int* row_of) {
   constexpr int kBlock = 2048, kNodal = npc * d;
   if (force) buffer.resize(static_cast<std::size_t>(kBlock) * kNodal);
   if (force && row_of) rows.resize(static_cast<std::size_t>(kBlock) * npc);
   if (cells) n = static_cast<int>(cells->size());
-  // With row_of, the rows of u and of the force of the k-th cell's nodes: row_of[j], j the node's
-  // column, on some cells (held: cells is their list) Gbar's column in the cell's row block at
-  // the node's place among the cell's nodes in increasing order (cell_operators), else the node.
+  // With row_of, the rows of u and of the force of the k-th cell's nodes: row_of[j], j the node of
+  // the part (the operators' column: the node itself when every cell is held).
   const auto rows_of = [&](int e, int k, int* row) {
-    const int* column =
-        held ? held->Gbar.innerIndexPtr() + held->Gbar.outerIndexPtr()[d * k] : nullptr;
-    for (int a = 0; a < npc; ++a) {
-      const int node = kernel.cells(e, a);
-      int place = 0;
-      if (column)
-        for (int b = 0; b < npc; ++b) place += kernel.cells(e, b) < node;
-      row[a] = row_of[column ? column[place] : node];
-    }
+    for (int a = 0; a < npc; ++a) row[a] = row_of[kernel.cells(kernel.row(e, k), a)];
   };
   for (int b0 = 0; b0 < n; b0 += kBlock) {
     const int b1 = std::min(n, b0 + kBlock);
@@ -381,7 +407,8 @@ void fluctuation_loop(const FluctuationKernel<d, npc>& kernel, const Eigen::Matr
           buffer.data() + static_cast<std::size_t>(k - b0) * kNodal);
       const int e = cells ? (*cells)[k] : k;
       const int* row = row_of ? rows.data() + static_cast<std::size_t>(k - b0) * npc : nullptr;
-      for (int a = 0; a < npc; ++a) force->row(row ? row[a] : kernel.cells(e, a)) += fe.row(a);
+      for (int a = 0; a < npc; ++a)
+        force->row(row ? row[a] : kernel.node_row(kernel.cells(kernel.row(e, k), a))) += fe.row(a);
     }
   }
 }
@@ -393,27 +420,27 @@ void Discretization::fluctuation(const Eigen::MatrixXd& u, const Eigen::MatrixXd
                                  const std::vector<int>* cells, const int* row_of) const {
   // The point gradients are recomputed per cell from the nodes' positions (no per-cell or
   // per-point table: memory per cell, not speed, limits the 3-D problems).
-  const Mesh& mesh = problem_.mesh;
-  // On some cells, their own list (their volumes alone are held, by position); row_of by column
-  // there: the held cells' columns, in their order.
+  // On some cells, their own list (their nodes and volumes are held by position, part()); row_of
+  // by the part's node, the operators' column.
   if (partial_ && !cells) cells = &cells_.cell;
   if (partial_ && cells != &cells_.cell && *cells != cells_.cell)
     throw Error("fluctuation: a discretization of some cells computes the held cells' list");
-  const CellOperators* held = partial_ && row_of ? &cells_ : nullptr;
+  const Mesh& mesh = part();
+  const int* node = partial_ ? cells_.node.data() : nullptr;
   // E and lambda whole (cell_row), or in the order of `cells`.
   const bool E_by_cell = E && whole_field(*E);
   if (dim() == 2)
-    fluctuation_loop<2, 6>(FluctuationKernel<2, 6>(rule_, mesh, cells_.vol, partial_, E_by_cell), u,
-                           lambda, E, gamma, c, force, buffer_, rows_, cells, num_cells(), row_of,
-                           held);
+    fluctuation_loop<2, 6>(
+        FluctuationKernel<2, 6>(rule_, mesh, node, cells_.vol, partial_, E_by_cell), u, lambda, E,
+        gamma, c, force, buffer_, rows_, cells, num_cells(), row_of);
   else if (mesh.nodes_per_cell() == 10)
-    fluctuation_loop<3, 10>(FluctuationKernel<3, 10>(rule_, mesh, cells_.vol, partial_, E_by_cell),
-                            u, lambda, E, gamma, c, force, buffer_, rows_, cells, num_cells(),
-                            row_of, held);
+    fluctuation_loop<3, 10>(
+        FluctuationKernel<3, 10>(rule_, mesh, node, cells_.vol, partial_, E_by_cell), u, lambda, E,
+        gamma, c, force, buffer_, rows_, cells, num_cells(), row_of);
   else
-    fluctuation_loop<3, 8>(FluctuationKernel<3, 8>(rule_, mesh, cells_.vol, partial_, E_by_cell), u,
-                           lambda, E, gamma, c, force, buffer_, rows_, cells, num_cells(), row_of,
-                           held);
+    fluctuation_loop<3, 8>(
+        FluctuationKernel<3, 8>(rule_, mesh, node, cells_.vol, partial_, E_by_cell), u, lambda, E,
+        gamma, c, force, buffer_, rows_, cells, num_cells(), row_of);
 }
 
 Eigen::VectorXd Discretization::fluctuation_det(const Eigen::MatrixXd& u, const int* u_row) const {

@@ -36,6 +36,29 @@ class Discretization {
   Discretization(Problem problem, const std::vector<int>* held);
 
   const Problem& problem() const { return problem_; }
+  /// [(2.7)] The held cells as a mesh of their own. On some cells (a rank's, partial()), the
+  /// rank's part numbered locally, as a distributed mesh numbers its part (DMPlex's local
+  /// numbering, deal.II's locally owned cells): its node j is the operators' column j (the mesh's
+  /// node cells().node[j], X its reference position) and its row k the held cell
+  /// held_cells()[k] on those nodes; it has no boundary parts. When every cell is held, the
+  /// problem's mesh itself (node j and row e the mesh's). What reads a held cell's nodes or
+  /// positions after the set-up reads them here, so that a rank can release the mesh's
+  /// connectivity (release_mesh_cells).
+  const Mesh& part() const { return partial_ ? part_ : problem_.mesh; }
+  /// On some cells, per node of the part: 1 if a cell that is not held has it too (a node the
+  /// rank shares with another rank's cells), from the whole mesh at the set-up; empty when every
+  /// cell is held.
+  const std::vector<char>& part_shared() const { return part_shared_; }
+  /// The mesh's node of the part's node j.
+  int part_node(int j) const { return partial_ ? cells_.node[j] : j; }
+  /// The part's row of held cell `cell` at position `at` in held_cells().
+  int part_row(int cell, int at) const { return partial_ ? at : cell; }
+  /// On some cells, frees the problem's mesh connectivity (Mesh::release_cells; num_cells() is
+  /// kept): a rank of a distributed run after its set-up (Solver, paper_notes/mpi.md). Nothing
+  /// when every cell is held.
+  void release_mesh_cells() {
+    if (partial_) problem_.mesh.release_cells();
+  }
   /// Wall-clock seconds the constructor took (part of the run's setup time).
   double build_seconds() const { return build_seconds_; }
   int dim() const { return problem_.mesh.dim; }
@@ -209,6 +232,8 @@ class Discretization {
  private:
   Problem problem_;
   bool partial_ = false;
+  Mesh part_;                      ///< on some cells, the held cells' mesh (part())
+  std::vector<char> part_shared_;  ///< on some cells, part_shared()
   Material split_;
   CellOperators cells_;
   std::optional<ContactPoints> points_;  ///< several obstacles only: their points stacked

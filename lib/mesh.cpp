@@ -243,6 +243,12 @@ GeometryScan scan_geometry(const std::string& path) {
   return out;
 }
 
+void Mesh::release_cells() {
+  if (cells.rows() == 0) return;
+  released_cells = static_cast<int>(cells.rows());
+  Eigen::MatrixXi(0, cells.cols()).swap(cells);
+}
+
 const Mesh::Boundary& Mesh::boundary(const std::string& name, const std::string& what) const {
   for (const auto& b : boundaries)
     if (b.name == name) return b;

@@ -33,11 +33,19 @@ struct Mesh {
     Eigen::MatrixXi facets;
   };
   std::vector<Boundary> boundaries;
+  /// The number of cells of a mesh whose connectivity was released (release_cells), else 0.
+  int released_cells = 0;
   std::string source;       ///< the file the mesh came from
   std::string source_hash;  ///< fingerprint of the source file(s) (hash.hpp), for --resume
 
   int num_nodes() const { return static_cast<int>(X.rows()); }
-  int num_cells() const { return static_cast<int>(cells.rows()); }
+  int num_cells() const {
+    return cells.rows() > 0 ? static_cast<int>(cells.rows()) : released_cells;
+  }
+  /// Frees the connectivity `cells`, keeping num_cells() and nodes_per_cell(): on a rank of a
+  /// distributed run, whose discretization holds its own cells' connectivity numbered locally
+  /// (Discretization::part(), paper_notes/mpi.md), after the set-up.
+  void release_cells();
   int nodes_per_cell() const { return static_cast<int>(cells.cols()); }
   int nodes_per_facet() const { return dim == 2 ? 3 : nodes_per_cell() == 10 ? 6 : 4; }
   /// The boundary part called `name`; a clear error naming the file and the parts it has if

@@ -91,10 +91,11 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
     F.diagonal().array() += 1.0;
     double p = 0;
     if (incompressible) {
+      const Mesh& part = disc.part();  // the held cells' nodes
       Eigen::VectorXd centroid = Eigen::VectorXd::Zero(d);
-      for (int a = 0; a < mesh.nodes_per_cell(); ++a)
-        centroid += mesh.X.row(mesh.cells(e, a)).transpose();
-      centroid /= mesh.nodes_per_cell();
+      for (int a = 0; a < part.nodes_per_cell(); ++a)
+        centroid += part.X.row(part.cells(disc.part_row(e, at), a)).transpose();
+      centroid /= part.nodes_per_cell();
       const PointLocator::Hit hit = locate.locate(centroid);
       out.clamped_centroids += !hit.inside();
       p = law.pressure(cell_tensor(src.E, hit.cell), cell_tensor(src.lambda, hit.cell));

@@ -148,9 +148,15 @@ std::pair<Eigen::Index, Eigen::Index> StepFields::serve(const std::string& reque
         const Discretization& disc = solver_.discretization();
         // The held cells' volumes, in their order (every cell's on a discretization of every
         // cell), or those made when it was opened (Part::volume).
-        Eigen::MatrixXd sums = nodal_stress_sums(
-            disc.problem().mesh, p.volume.size() ? p.volume : disc.cells().vol, p.own, p.sigma33,
-            rows_ ? &disc.held_cells() : nullptr, static_cast<int>(first), static_cast<int>(count));
+        // On a rank's cells, their own mesh (Discretization::part()).
+        const Eigen::VectorXd& vol = p.volume.size() ? p.volume : disc.cells().vol;
+        Eigen::MatrixXd sums =
+            rows_ && disc.partial()
+                ? nodal_stress_sums(disc.part(), disc.cells().node, disc.num_nodes(), vol, p.own,
+                                    p.sigma33, static_cast<int>(first), static_cast<int>(count))
+                : nodal_stress_sums(disc.problem().mesh, vol, p.own, p.sigma33,
+                                    rows_ ? &disc.held_cells() : nullptr, static_cast<int>(first),
+                                    static_cast<int>(count));
         if (rows_) mpi::sum_to_writer(sums.data(), sums.size());
         if (!writer) continue;
         DerivedFields df;
@@ -195,7 +201,18 @@ void StepFields::make(const std::string& name) {
   } else if (name == "sigma_node" || name == "von_mises_node") {
     // The nodal stress: every rank's sums over its cells, added up on the writer block by block.
     cauchy_stress(disc, s, p.own, p.sigma33);
-    if (!rows_ && disc.partial()) p.volume = cell_volumes(disc.problem().mesh);
+    // A whole state on a discretization of some cells: every cell's volume and nodes, on a rank
+    // that kept the mesh's connectivity (rank 0; Discretization::release_mesh_cells).
+    if (!rows_ && disc.partial()) {
+      if (disc.problem().mesh.cells.rows() == 0)
+        throw Error(
+            cat("the nodal stress of a whole state needs the mesh's connectivity, which "
+                "rank ",
+                mpi::rank(),
+                " released after its set-up: it is made on rank 0, or from the state on "
+                "the ranks' rows"));
+      p.volume = cell_volumes(disc.problem().mesh);
+    }
     p.kind = Part::Kind::Nodes;
     p.von_mises = name == "von_mises_node";
     p.rows = disc.problem().mesh.num_nodes();
