@@ -12,7 +12,9 @@
 //           resident size (VmRSS / VmHWM / the allocator's live bytes to 0.1 MB; MB, largest rank)
 //           after each setup phase (start, mesh read, solver set up, the last iteration, the step's
 //           end; after the mesh read also the largest rank but rank 0, which alone runs gmsh,
-//           and the seconds load_problem took) and the bytes per cell the largest rank holds
+//           and the seconds load_problem took; after the later phases the live bytes of the
+//           largest rank but rank 0, which alone keeps the mesh's connectivity) and the bytes per
+//           cell the largest rank holds
 //           (Solver::holdings); then the resident size split into anonymous, file-backed and
 //           shared-memory pages at the start and at the step's end (MB, largest rank each, and
 //           the largest rank but rank 0: mpi::resident_split), the file-backed ones the
@@ -152,8 +154,13 @@ int bench(int argc, char** argv) {
     const double rss = max_of(ltl::mpi::resident_bytes() / 1048576.0);
     const double hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
     const double live = max_of(live_heap_bytes() / 1048576.0);
+    // ... and the largest live heap of the ranks other than rank 0 (which makes and writes the
+    // mesh, and keeps its connectivity: Discretization::release_mesh_cells), after the mesh.
+    const double other = max_of(ltl::mpi::rank() != 0 ? live_heap_bytes() / 1048576.0 : 0.0);
     phases += ltl::cat(" ", name, "=", static_cast<int>(rss), "/", static_cast<int>(hwm), "/",
                        std::round(10 * live) / 10);
+    if (ltl::mpi::size() > 1 && std::string(name) != "start" && std::string(name) != "mesh")
+      phases += ltl::cat(" (other ranks ", std::round(10 * other) / 10, ")");
   };
   phase("start");
   // The resident size split (anonymous / file-backed / shared memory; mpi::resident_split), at
