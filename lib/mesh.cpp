@@ -243,8 +243,18 @@ GeometryScan scan_geometry(const std::string& path) {
   return out;
 }
 
+std::string Mesh::fingerprint() const {
+  if (cells.rows() == 0 && released_cells > 0) return released_fingerprint;
+  Fingerprint f;
+  f.add(&dim, sizeof dim);
+  f.add(X.data(), sizeof(double) * static_cast<std::size_t>(X.size()));
+  f.add(cells.data(), sizeof(int) * static_cast<std::size_t>(cells.size()));
+  return f.hex();
+}
+
 void Mesh::release_cells() {
   if (cells.rows() == 0) return;
+  released_fingerprint = fingerprint();
   released_cells = static_cast<int>(cells.rows());
   Eigen::MatrixXi(0, cells.cols()).swap(cells);
 }

@@ -33,8 +33,10 @@ struct Mesh {
     Eigen::MatrixXi facets;
   };
   std::vector<Boundary> boundaries;
-  /// The number of cells of a mesh whose connectivity was released (release_cells), else 0.
+  /// The number of cells of a mesh whose connectivity was released (release_cells), else 0, and
+  /// its fingerprint() then.
   int released_cells = 0;
+  std::string released_fingerprint;
   std::string source;       ///< the file the mesh came from
   std::string source_hash;  ///< fingerprint of the source file(s) (hash.hpp), for --resume
 
@@ -42,9 +44,12 @@ struct Mesh {
   int num_cells() const {
     return cells.rows() > 0 ? static_cast<int>(cells.rows()) : released_cells;
   }
-  /// Frees the connectivity `cells`, keeping num_cells() and nodes_per_cell(): on a rank of a
-  /// distributed run, whose discretization holds its own cells' connectivity numbered locally
-  /// (Discretization::part(), paper_notes/mpi.md), after the set-up.
+  /// A fingerprint of dim, X and the connectivity (hash.hpp): what a results file records to
+  /// resume on the same mesh (mesh_hash); that of the whole mesh after release_cells too.
+  std::string fingerprint() const;
+  /// Frees the connectivity `cells`, keeping num_cells(), nodes_per_cell() and fingerprint(): on
+  /// a rank of a distributed run, whose discretization holds its own cells' connectivity
+  /// numbered locally (Discretization::part(), paper_notes/mpi.md), after the set-up.
   void release_cells();
   int nodes_per_cell() const { return static_cast<int>(cells.cols()); }
   int nodes_per_facet() const { return dim == 2 ? 3 : nodes_per_cell() == 10 ? 6 : 4; }

@@ -36,14 +36,6 @@ bool same_file(const fs::path& a, const fs::path& b) {
   return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
 }
 
-std::string mesh_fingerprint(const Mesh& m) {
-  Fingerprint f;
-  f.add(&m.dim, sizeof m.dim);
-  f.add(m.X.data(), sizeof(double) * static_cast<std::size_t>(m.X.size()));
-  f.add(m.cells.data(), sizeof(int) * static_cast<std::size_t>(m.cells.size()));
-  return f.hex();
-}
-
 /// What is at `path` without following a symbolic link: "" (nothing), "link", "dir", "file",
 /// "special".
 std::string kind_at(const std::string& path, struct stat* st) {
@@ -195,7 +187,7 @@ OutputLock::~OutputLock() {
 std::map<std::string, std::string> identity(const Problem& problem) {
   return {{"mesh_nodes", std::to_string(problem.mesh.num_nodes())},
           {"mesh_cells", std::to_string(problem.mesh.num_cells())},
-          {"mesh_hash", mesh_fingerprint(problem.mesh)},
+          {"mesh_hash", problem.mesh.fingerprint()},
           {"geometry_hash", problem.mesh.source_hash},
           {"config_hash", fingerprint(problem.config_identity)}};
 }

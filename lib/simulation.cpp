@@ -585,9 +585,8 @@ void ResultsWriter::append(const TimeStep& step) {
     // A diverged step (NaN, blow-up, iteration cap) keeps its last iterate and history in the
     // results file as /unconverged/NNNNNN, never as a result, so that a user can plot why: in
     // the run's file, or in a new one when this run has none yet (not over another run's file).
-    std::string saved;
+    std::string saved;  // (the file created, if need be, when saving below)
     if (!unbalanced && !output.empty() && (file || !fs::exists(output))) {
-      if (!file) create_file();
       char group[32];
       std::snprintf(group, sizeof group, "/unconverged/%06d", p);
       saved = cat("; its iteration history and last iterate are saved in ", output, ", group ",
@@ -606,7 +605,9 @@ void ResultsWriter::append(const TimeStep& step) {
       StepFields fields(solver, *step.state);
       const StepData data = step_data(solver, step, &fields);
       const std::string failure = fields.written([&] {
-        if (!saved.empty()) file->save_unconverged(data, msg);
+        if (saved.empty()) return;
+        if (!file) create_file(fields);
+        file->save_unconverged(data, msg);
       });
       if (!failure.empty()) throw Error(failure);
     } else if (file)
@@ -630,7 +631,7 @@ void ResultsWriter::append(const TimeStep& step) {
     if (output.empty()) return;
     const bool existed = file.has_value();
     try {
-      if (!file) create_file();
+      if (!file) create_file(fields);
       if (!data) data = step_data(solver, step, &fields);
       file->append(*data, p == P ? "complete" : "running");
     } catch (const Error& e) {
@@ -656,10 +657,36 @@ void ResultsWriter::append(const TimeStep& step) {
   summary_.last_step = p;
 }
 
+/// Cells of the mesh's connectivity read at a time when the file is made (as the writer's blocks
+/// of a step field, results_layout.cpp).
+constexpr Eigen::Index kCellsPerBlock = 16384;
+
 // The results file, created with the first step written (an existing file stays until then), or
-// with the first iterate saved (a divergence, a checkpoint) when no file is at the output.
-void ResultsWriter::create_file() {
+// with the first iterate saved (a divergence, a checkpoint) when no file is at the output. Under
+// mpirun the mesh's connectivity, which the ranks release after their set-up
+// (Discretization::release_mesh_cells), is read from their parts by blocks of cells
+// (StepFields::kMeshCells), into a copy of the mesh held while the file is made.
+void ResultsWriter::create_file(FieldSource& fields) {
   const Problem& problem = problem_;
+  std::optional<Mesh> whole;
+  if (problem.mesh.cells.rows() == 0 && problem.mesh.num_cells() > 0) {
+    whole = problem.mesh;  // X and the boundary parts; the cells below
+    const auto [rows, cols] = fields.open(StepFields::kMeshCells);
+    if (rows != problem.mesh.num_cells() || cols != problem.mesh.nodes_per_cell())
+      throw Error(cat("internal: the mesh's connectivity read from the ranks is ", rows, " x ",
+                      cols, ", not ", problem.mesh.num_cells(), " x ",
+                      problem.mesh.nodes_per_cell()));
+    whole->cells.resize(rows, cols);
+    Eigen::MatrixXd block;
+    for (Eigen::Index first = 0; first < rows; first += kCellsPerBlock) {
+      const Eigen::Index n = std::min<Eigen::Index>(kCellsPerBlock, rows - first);
+      fields.read(StepFields::kMeshCells, first, n, block);
+      whole->cells.middleRows(first, n) = block.cast<int>();
+    }
+    fields.close(StepFields::kMeshCells);
+    whole->released_cells = 0;
+  }
+  const Mesh& mesh = whole ? *whole : problem.mesh;
   RunInfo info{problem.name, problem.config_text, resolved_configuration(problem),
                problem.config_path, library_versions()};
   for (const auto& [key, value] : ids_) info.attributes[key] = value;
@@ -675,8 +702,8 @@ void ResultsWriter::create_file() {
   std::vector<std::string> groups;  // one per obstacle
   for (const ContactCondition& cc : problem.contacts) groups.push_back(cc.group);
   Mesh::Boundary facets;  // several obstacles: their facets, one after the other
-  options.contact = contact_output(problem.mesh, groups, solver_.discretization().points(), facets);
-  file_->results = ResultsFile::create(options_.output, problem.mesh, info, options);
+  options.contact = contact_output(mesh, groups, solver_.discretization().points(), facets);
+  file_->results = ResultsFile::create(options_.output, mesh, info, options);
 }
 
 void ResultsWriter::checkpoint(int p, double load_factor, const State& iterate, int iterations) {
@@ -724,7 +751,7 @@ void ResultsWriter::save_checkpoint(int p, double load_factor, const State& iter
   char group[32];
   std::snprintf(group, sizeof group, "/unconverged/%06d", p);
   try {
-    if (!file) create_file();
+    if (!file) create_file(fields);
     file->save_checkpoint(
         data, load_factor,
         cat("running: step ", p, " in progress; its iterate after ", iterations,

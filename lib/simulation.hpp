@@ -202,7 +202,7 @@ class ResultsWriter {
   int saved_step_ = 0, saved_iterations_ = 0;  ///< the last checkpoint saved by this run
   bool checkpoint_refused_ = false;            ///< an earlier run's file is at the output
   /// The results file, created (mesh, configuration, contact surface) when this run has none.
-  void create_file();
+  void create_file(FieldSource& fields);
   /// checkpoint() on the writer (rank 0), its fields read from `fields`.
   void save_checkpoint(int p, double load_factor, const State& iterate, int iterations,
                        FieldSource& fields);

@@ -44,8 +44,8 @@ StepFields::StepFields(const Solver& solver, const State& state, Fields fields)
       state_only_(fields == Fields::State) {}
 
 std::pair<Eigen::Index, Eigen::Index> StepFields::open(const std::string& name) {
-  if (state_only_) {  // decided on rank 0 alone: the other ranks are asked for nothing
-    const Field* f = find_field(name);
+  if (state_only_ && name != kMeshCells) {  // decided on rank 0 alone: the others are asked
+    const Field* f = find_field(name);      // for nothing
     if (!f || f->source != Source::State) return {0, 0};
   }
   Eigen::MatrixXd none;
@@ -181,6 +181,23 @@ void StepFields::make(const std::string& name) {
   const int d = disc.dim();
   const bool writer = !rows_ || mpi::rank() == 0;
   Part& p = open_[name];
+  if (name == kMeshCells) {  // each rank's cells' nodes, from its part, gathered by blocks
+    const Mesh& part = disc.part();
+    const int npc = part.nodes_per_cell();
+    if (!rows_ && disc.partial())
+      throw Error(
+          cat("internal: StepFields: the mesh's connectivity from the ranks' parts needs "
+              "a state on the ranks' rows (rank ",
+              mpi::rank(), ")"));
+    p.own.resize(part.num_cells(), npc);
+    for (int k = 0; k < part.num_cells(); ++k)
+      for (int a = 0; a < npc; ++a) p.own(k, a) = disc.part_node(part.cells(k, a));
+    p.m = 1;
+    p.rows = disc.num_cells();
+    p.cols = npc;
+    if (rows_) p.kind = Part::Kind::Cells;  // else whole here (every cell: the mesh itself)
+    return;
+  }
   // u on the ranks' ghost layers' rows (the state between steps, Solver::state_rows): each
   // rank's owned nodes' rows, added up on the writer block by block.
   if (name == "u" && rows_ && s.u.rows() != disc.num_nodes()) {

@@ -31,6 +31,11 @@ class StepFields final : public FieldSource {
   /// Which fields it makes: every one of the table, or the state's alone (u, E, lambda, e,
   /// lambda_c, beta: a checkpoint's iterate; the others then open empty).
   enum class Fields { All, State };
+  /// Not a field of the table: the mesh's connectivity, #cells x nodes per cell (the mesh's node
+  /// numbers, as doubles), made on each rank from its part (Discretization::part()) and read by
+  /// blocks of cells like a cell field, for the writer to write the mesh once the ranks have
+  /// released it (Discretization::release_mesh_cells). Made whatever `fields` says.
+  static constexpr const char* kMeshCells = "mesh_cells";
   /// The fields of `state` (the solver's state between steps, or an iterate in that form:
   /// Solver::iterate_to_writer), which must outlive this.
   StepFields(const Solver& solver, const State& state, Fields fields = Fields::All);

@@ -1100,10 +1100,11 @@ TEST(Mpi, Eq4_5_TheIterateHoldsUOnTheGhostLayersRows) {
 /// [(2.7)] Each rank holds its cells as a mesh of their own (Discretization::part()), numbered
 /// locally: its node j is the operators' column j, at the mesh node's reference position, and its
 /// row k is the k-th held cell on those nodes, node for node the mesh's cell; a node is marked
-/// shared exactly when a cell of another rank has it. After the set-up the ranks other than rank
-/// 0 (the writer) have released the mesh's connectivity and keep its cell count; rank 0 and one
-/// process keep it whole. Fails when a part's cell or position is another's, when a shared node
-/// is missed, or when the connectivity stays whole on every rank.
+/// shared exactly when a cell of another rank has it. After the set-up the ranks have released
+/// the mesh's connectivity and keep its cell count; one process keeps it whole. The writer reads
+/// it back from the ranks' parts by blocks (StepFields::kMeshCells): the mesh's, exactly. Fails
+/// when a part's cell or position is another's, when a shared node is missed, when the
+/// connectivity stays whole on the ranks, or when a block read back is not the mesh's.
 TEST(Mpi, Eq2_7_EachRankHoldsItsCellsAsAMeshOfItsOwn) {
   const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
   const Solver dist(p, Ranks::All);
@@ -1142,7 +1143,27 @@ TEST(Mpi, Eq2_7_EachRankHoldsItsCellsAsAMeshOfItsOwn) {
   const Mesh& mesh = dist.problem().mesh;
   EXPECT_EQ(mesh.num_cells(), p.mesh.num_cells());
   EXPECT_EQ(mesh.nodes_per_cell(), p.mesh.nodes_per_cell());
-  EXPECT_EQ(mesh.cells.rows(), P > 1 && me != 0 ? 0 : p.mesh.num_cells()) << "rank " << me;
+  EXPECT_EQ(mesh.cells.rows(), P > 1 ? 0 : p.mesh.num_cells()) << "rank " << me;
+  // The connectivity read back by the writer, by blocks of 7 cells (some blocks across ranks).
+  State s = dist.initial_state();
+  StepFields fields(dist, s);
+  Eigen::MatrixXd cells;
+  const std::string failure = fields.written([&] {
+    const auto [rows, cols] = fields.open(StepFields::kMeshCells);
+    ASSERT_EQ(rows, p.mesh.num_cells());
+    ASSERT_EQ(cols, p.mesh.nodes_per_cell());
+    cells.resize(rows, cols);
+    Eigen::MatrixXd block;
+    for (Eigen::Index first = 0; first < rows; first += 7) {
+      fields.read(StepFields::kMeshCells, first, std::min<Eigen::Index>(7, rows - first), block);
+      cells.middleRows(first, block.rows()) = block;
+    }
+    fields.close(StepFields::kMeshCells);
+  });
+  EXPECT_EQ(failure, "") << "rank " << me;
+  if (me == 0) {
+    EXPECT_TRUE(cells.cast<int>() == p.mesh.cells);
+  }
   if (me == 0) {
     std::printf("rank 0 of %d: %d of %d cells and %d of %d nodes in its part, %ld shared\n", P,
                 part.num_cells(), p.mesh.num_cells(), part.num_nodes(), p.mesh.num_nodes(), shared);
@@ -1990,9 +2011,9 @@ TEST(Mpi, Eq2_7_StepFieldsAreMadeOnEachRanksCellsAndReadByBlocks) {
     EXPECT_EQ(blocks, (n + 4) / 5 + (nc + 6) / 7);
   }
   // (2.7) A whole state on the ranks' discretizations of their cells, which hold their cells'
-  // volumes alone: a rank that kept the mesh's connectivity (rank 0) sums every cell, with every
-  // cell's volume (cell_volumes, made once when the field is opened), and reads the serial nodal
-  // stress by blocks; the ranks that released it after their set-up refuse, saying why.
+  // volumes alone: one process sums every cell, with every cell's volume, and reads the serial
+  // nodal stress by blocks; on several ranks, which have released the mesh's connectivity after
+  // their set-up, every rank refuses, saying why.
   StepFields whole_fields(dist, whole);
   const std::string third = whole_fields.written([&] {
     const auto [nodes, nine] = whole_fields.open("sigma_node");
@@ -2006,13 +2027,25 @@ TEST(Mpi, Eq2_7_StepFieldsAreMadeOnEachRanksCellsAndReadByBlocks) {
     whole_fields.close("sigma_node");
     EXPECT_LE(relative(sigma_node, df.sigma_node), 1e-12);
   });
-  if (mpi::rank() == 0)
+  if (mpi::size() == 1)
     EXPECT_EQ(third, "");
   else
     EXPECT_NE(third.find("needs the mesh's connectivity, which rank " +
                          std::to_string(mpi::rank()) + " released"),
               std::string::npos)
         << third;
+}
+
+/// The dataset at `path` of an open results file, as doubles into x (false when it has none).
+bool read_dataset(hid_t f, const std::string& path, std::vector<double>& x) {
+  if (H5Lexists(f, path.c_str(), H5P_DEFAULT) <= 0) return false;
+  const hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT);
+  const hid_t space = H5Dget_space(d);
+  x.resize(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space)));
+  if (!x.empty()) H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, x.data());
+  H5Sclose(space);
+  H5Dclose(d);
+  return true;
 }
 
 /// The field datasets of one step group of a results file: each row of the field table stored
@@ -2025,29 +2058,33 @@ std::map<std::string, std::vector<double>> field_datasets(const std::string& fil
   for (const Field& row : kFields) {
     if (row.at == Location::Mesh || row.at == Location::Step) continue;  // the history: times
     for (const std::string& name : {std::string(row.name), "xdmf/" + std::string(row.name)}) {
-      const std::string path = group + "/" + name;
       if (H5Lexists(f, (group + "/xdmf").c_str(), H5P_DEFAULT) <= 0 && name.rfind("xdmf/", 0) == 0)
         continue;
-      if (H5Lexists(f, path.c_str(), H5P_DEFAULT) <= 0) continue;
-      const hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT);
-      const hid_t space = H5Dget_space(d);
-      std::vector<double>& x = out[name];
-      x.resize(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space)));
-      if (!x.empty()) H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, x.data());
-      H5Sclose(space);
-      H5Dclose(d);
+      std::vector<double> x;
+      if (read_dataset(f, group + "/" + name, x)) out[name] = std::move(x);
     }
   }
   H5Fclose(f);
   return out;
 }
 
+/// The dataset `name` of a results file, as doubles (empty when it has none).
+std::vector<double> dataset(const std::string& file, const std::string& name) {
+  std::vector<double> x;
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return x;
+  read_dataset(f, name, x);
+  H5Fclose(f);
+  return x;
+}
+
 /// As ltl_run under mpirun: rank 0 alone writes the results file (the serial layout), which
 /// holds the state every rank computed and the fields made from it, each rank making them on its
 /// own cells (lib/step_fields.hpp: the stresses (1.5), det F (2.7), the nodal stress summed over
 /// the ranks): every dataset of the last step, the padded 2-D copies under xdmf/ included, is the
-/// serial run's to 1e-8 (relative, in the largest entry), none missing, none added. Fails when a
-/// rank's cells are left out of a field or of the nodal sums, or a field is not written.
+/// serial run's to 1e-8 (relative, in the largest entry), none missing, none added, and the mesh
+/// the serial file's exactly. Fails when a rank's cells are left out of a field or of the nodal
+/// sums, a field is not written, or a cell of the mesh is not the mesh's.
 TEST(Mpi, RankZeroWritesTheResultsFile) {
   const std::string dir = ltl::testing::binary_path("mpi_ranks_out");
   const std::string tag = std::to_string(mpi::size());
@@ -2099,6 +2136,14 @@ TEST(Mpi, RankZeroWritesTheResultsFile) {
     }
     for (const auto& [name, x] : a)
       EXPECT_TRUE(b.count(name)) << name << " is only in the file of " << mpi::size() << " ranks";
+    // The mesh, written from the connectivity read back from the ranks' parts (which released
+    // it after their set-up, StepFields::kMeshCells): the serial file's, exactly.
+    for (const char* name : {"/mesh/cells", "/mesh/X", "/mesh/cell_volume", "/mesh/contact_facets",
+                             "/mesh/contact_centre", "/mesh/contact_area"}) {
+      const std::vector<double> xr = dataset(path, name), xs = dataset(serial, name);
+      EXPECT_FALSE(xs.empty()) << name;
+      EXPECT_EQ(xr, xs) << name;
+    }
   }
   EXPECT_TRUE(same_on_every_rank(whole));
 }

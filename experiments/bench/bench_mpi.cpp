@@ -13,8 +13,7 @@
 //           after each setup phase (start, mesh read, solver set up, the last iteration, the step's
 //           end; after the mesh read also the largest rank but rank 0, which alone runs gmsh,
 //           and the seconds load_problem took; after the later phases the live bytes of the
-//           largest rank but rank 0, which alone keeps the mesh's connectivity) and the bytes per
-//           cell the largest rank holds
+//           largest rank but rank 0) and the bytes per cell the largest rank holds
 //           (Solver::holdings); then the resident size split into anonymous, file-backed and
 //           shared-memory pages at the start and at the step's end (MB, largest rank each, and
 //           the largest rank but rank 0: mpi::resident_split), the file-backed ones the
@@ -154,8 +153,8 @@ int bench(int argc, char** argv) {
     const double rss = max_of(ltl::mpi::resident_bytes() / 1048576.0);
     const double hwm = max_of(ltl::mpi::peak_resident_bytes() / 1048576.0);
     const double live = max_of(live_heap_bytes() / 1048576.0);
-    // ... and the largest live heap of the ranks other than rank 0 (which makes and writes the
-    // mesh, and keeps its connectivity: Discretization::release_mesh_cells), after the mesh.
+    // ... and the largest live heap of the ranks other than rank 0 (which makes the mesh and
+    // writes the results), after the mesh.
     const double other = max_of(ltl::mpi::rank() != 0 ? live_heap_bytes() / 1048576.0 : 0.0);
     phases += ltl::cat(" ", name, "=", static_cast<int>(rss), "/", static_cast<int>(hwm), "/",
                        std::round(10 * live) / 10);
