@@ -10,7 +10,9 @@
 //     (equilibrium residual, energy) add the ranks' parts. The Newton phase holds its own
 //     per-cell data for its cells (newton.hpp). With the replicated factor, the
 //     whole discretization on every rank.
-//   - REPLICATED: the mesh, the per-node dense arrays, the contact points' fields, and u in the
+//   - REPLICATED: the mesh's positions and boundary parts (its connectivity is released after
+//     the set-up, each rank reading its cells on its own part, Discretization::part(), unless
+//     the Newton phase), the per-node dense arrays, the contact points' fields, and u in the
 //     Newton phase (and without a ghost layer). Every rank reads the whole problem. The whole E and
 //     lambda exist only between ALG2 phases (for the Newton phase, the measures and the output) and
 //     when the equilibrium stopping test is due; the iterations run on the rank's rows of E and
