@@ -219,15 +219,16 @@ void StepFields::make(const std::string& name) {
     // The nodal stress: every rank's sums over its cells, added up on the writer block by block.
     cauchy_stress(disc, s, p.own, p.sigma33);
     // A whole state on a discretization of some cells: every cell's volume and nodes, on a rank
-    // that kept the mesh's connectivity (rank 0; Discretization::release_mesh_cells).
+    // that has kept the mesh's connectivity (with the Newton phase:
+    // Discretization::release_mesh_cells).
     if (!rows_ && disc.partial()) {
       if (disc.problem().mesh.cells.rows() == 0)
         throw Error(
             cat("the nodal stress of a whole state needs the mesh's connectivity, which "
                 "rank ",
                 mpi::rank(),
-                " released after its set-up: it is made on rank 0, or from the state on "
-                "the ranks' rows"));
+                " released after its set-up: it is made from the state on the ranks' "
+                "rows"));
       p.volume = cell_volumes(disc.problem().mesh);
     }
     p.kind = Part::Kind::Nodes;
