@@ -291,13 +291,12 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
     std::vector<int> first, slots;
     if (d.partial()) {
       const std::vector<char>& shared = d.part_shared();
-      const int per = 10 + npc;  // the cell, its rotation's 9 entries, its nodes
+      const int per = 9 + npc;  // the cell's rotation's 9 entries, its nodes
       std::vector<double> mine;
       for (int k = 0; k < nh; ++k) {
         bool on_interface = false;
         for (int a = 0; a < npc; ++a) on_interface = on_interface || shared[part.cells(k, a)];
         if (!on_interface) continue;
-        mine.push_back(held[k]);
         mine.insert(mine.end(), R[k].data(), R[k].data() + 9);
         for (int a = 0; a < npc; ++a) mine.push_back(d.part_node(part.cells(k, a)));
       }
@@ -316,9 +315,9 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
         if (q == me) continue;  // this rank's own
         for (int k = offset[q]; k < offset[q + 1]; k += per) {
           const int slot = static_cast<int>(R.size());
-          R.push_back(Eigen::Map<const Eigen::Matrix3d>(all.data() + k + 1));
+          R.push_back(Eigen::Map<const Eigen::Matrix3d>(all.data() + k));
           for (int a = 0; a < npc; ++a) {
-            const int j = mpi::position_in(d.cells().node, static_cast<int>(all[k + 10 + a]));
+            const int j = mpi::position_in(d.cells().node, static_cast<int>(all[k + 9 + a]));
             if (j >= 0) node_slot.emplace_back(j, slot);
           }
         }
