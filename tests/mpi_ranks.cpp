@@ -1527,22 +1527,29 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   EXPECT_EQ(a.det_E_min, -8);
   EXPECT_EQ(a.det_E_cell, 0);
   EXPECT_GT(a.nodes_inside, 0);  // nodes inside the obstacle: counted once over the ranks
-  for (const State* t : {&s, &rows}) {
-    const AdmissibilityReport b =
-        check_admissibility(dist.discretization(), *t, t == &rows ? layer : nullptr);
-    EXPECT_EQ(b.det_F_min, a.det_F_min);
-    EXPECT_EQ(b.det_F_cell, a.det_F_cell);
-    EXPECT_EQ(b.cells_inverted, a.cells_inverted);
-    EXPECT_EQ(b.det_E_min, a.det_E_min);
-    EXPECT_EQ(b.det_E_cell, a.det_E_cell);
-    EXPECT_EQ(b.rotation_jump, a.rotation_jump);
-    EXPECT_EQ(b.rotation_cell, a.rotation_cell);
-    EXPECT_EQ(b.cells_rotated, a.cells_rotated);
-    EXPECT_EQ(b.failures, a.failures);
-    EXPECT_EQ(b.max_inside, a.max_inside);
-    EXPECT_EQ(b.inside_node, a.inside_node);
-    EXPECT_EQ(b.nodes_inside, a.nodes_inside);
-  }
+  // The ranks' report of a state, whole and on the ranks' rows, is the serial report `r`, field
+  // for field.
+  const auto expect_serial_report = [&](const State& whole, const AdmissibilityReport& r) {
+    State on_rows = whole;
+    dist.hold_rows(on_rows);
+    for (const State* t : {&whole, static_cast<const State*>(&on_rows)}) {
+      const AdmissibilityReport b =
+          check_admissibility(dist.discretization(), *t, t == &on_rows ? layer : nullptr);
+      EXPECT_EQ(b.det_F_min, r.det_F_min);
+      EXPECT_EQ(b.det_F_cell, r.det_F_cell);
+      EXPECT_EQ(b.cells_inverted, r.cells_inverted);
+      EXPECT_EQ(b.det_E_min, r.det_E_min);
+      EXPECT_EQ(b.det_E_cell, r.det_E_cell);
+      EXPECT_EQ(b.rotation_jump, r.rotation_jump);
+      EXPECT_EQ(b.rotation_cell, r.rotation_cell);
+      EXPECT_EQ(b.cells_rotated, r.cells_rotated);
+      EXPECT_EQ(b.failures, r.failures);
+      EXPECT_EQ(b.max_inside, r.max_inside);
+      EXPECT_EQ(b.inside_node, r.inside_node);
+      EXPECT_EQ(b.nodes_inside, r.nodes_inside);
+    }
+  };
+  expect_serial_report(s, a);
   // Every cell turned by a rotation of its own, up to pi about a random axis: each cell's
   // median angle to its neighbours depends on every one of them, those of other ranks included
   // (exchanged with their nodes, as a rank holds its own cells' connectivity alone).
@@ -1556,15 +1563,7 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   const AdmissibilityReport ta = check_admissibility(serial.discretization(), turned);
   EXPECT_GT(ta.cells_rotated, 0);
   EXPECT_LT(ta.cells_rotated, p.mesh.num_cells());
-  State turned_rows = turned;
-  dist.hold_rows(turned_rows);
-  for (const State* t : {&turned, &turned_rows}) {
-    const AdmissibilityReport tb =
-        check_admissibility(dist.discretization(), *t, t == &turned_rows ? layer : nullptr);
-    EXPECT_EQ(tb.rotation_jump, ta.rotation_jump);
-    EXPECT_EQ(tb.rotation_cell, ta.rotation_cell);
-    EXPECT_EQ(tb.cells_rotated, ta.cells_rotated);
-  }
+  expect_serial_report(turned, ta);
   const Eigen::MatrixXd& F = serial.external_load();
   ASSERT_EQ(serial.load_factor(), 1.0);  // F: the dead loads at factor 1
   const EquilibriumMeasure ma = equilibrium_measure(serial.discretization(), F, s);
