@@ -137,13 +137,23 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
   const Problem& pb = d.problem();
   const Mesh& mesh = pb.mesh;
   const int dim = mesh.dim, nc = mesh.num_cells(), nn = mesh.num_nodes();
+  // Every node against the obstacles needs every node's position: with u whole, the mesh's X,
+  // which the ranks of a distributed run release after their set-up (Mesh::release_X; every
+  // rank alike), keeping it on their layers' rows (IterateRows::X).
+  if (mesh.X.rows() == 0 && nn > 0 && !(at && at->X))
+    throw Error(cat("check_admissibility: a whole state on rank ", mpi::rank(),
+                    ", which released the mesh's positions after its set-up: check the state on "
+                    "the ranks' rows (Solver::state_rows)"));
   r.h = std::pow(d.volume() / std::max(1, nc), 1.0 / dim);
   // The deformed position x = X + u of node n, made where it is read (no #nodes x dim copy: it
   // was the step's end's largest transient on a rank, paper_notes/mpi.md); with `at` u's row of
   // n from the ranks whose layer holds it (collective: every rank asks for the same node).
+  // X of n likewise: the mesh's, or the ranks' rows once a rank has released the mesh's
+  // (IterateRows::X).
+  const auto reference = [&](int n) { return position(X_at_nodes(mesh, {n}, at), 0); };
   const auto deformed = [&](int n) {
     const Eigen::MatrixXd un = u_at_nodes(s, {n}, at);
-    return position(Eigen::RowVectorXd(mesh.X.row(n) + un.row(0)), 0);
+    return position(Eigen::RowVectorXd(X_at_nodes(mesh, {n}, at).row(0) + un.row(0)), 0);
   };
   // The nodes this rank checks against the planes and their rows of u: every node, or with `at`
   // those it owns (each node on one rank), in increasing order.
@@ -190,7 +200,8 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
       const int n = own_nodes[j];
       const Eigen::Index row = at ? own_rows[j] : n;
       double depth = 0;  // (x - p0) . N
-      for (int c = 0; c < dim; ++c) depth += (mesh.X(n, c) + s.u(row, c) - p0(c)) * N(c);
+      for (int c = 0; c < dim; ++c)
+        depth += (X_at(mesh, at, n, row, c) + s.u(row, c) - p0(c)) * N(c);
       if (depth > max_inside || std::isnan(depth)) max_inside = depth, max_node = n;
       if (!on_surface[n] && depth > r.inside_tol) {
         ++inside;
@@ -209,19 +220,19 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
       const int n = excess_node;
       const double depth = excess + r.inside_tol;
       worst_excess = excess;
-      worst = cat("node ", n, " at reference ", position(mesh.X, n), ", deformed ", deformed(n),
-                  ", ", depth, " m inside");
+      worst = cat("node ", n, " at reference ", reference(n), ", deformed ", deformed(n), ", ",
+                  depth, " m inside");
     }
     if (points) {
       const Eigen::MatrixXd ubar = point_means(*pts, s, at);  // #points x dim
-      const Eigen::MatrixXd xbar = pts->mean * mesh.X + ubar;
+      const Eigen::MatrixXd xbar = point_reference(*pts, mesh, at) + ubar;
       const bool nodal = !pts->nodes.empty();
       for (int i = r0; i < r1; ++i) {
         const double depth = (xbar.row(i).transpose() - p0).dot(N);
         const double residual = std::abs((ubar.row(i) - s.e.row(i)).dot(N));
         record(depth, r.inside_tol + (std::isfinite(residual) ? residual : 0.0), [&] {
           const std::string where =
-              nodal ? cat("node ", pts->nodes[i], " at reference ", position(mesh.X, pts->nodes[i]),
+              nodal ? cat("node ", pts->nodes[i], " at reference ", reference(pts->nodes[i]),
                           ", deformed ", deformed(pts->nodes[i]))
                     : cat("contact facet ", i, " (mean of its nodes at reference ",
                           position(pts->centre.transpose(), i), ", deformed ", position(xbar, i),

@@ -79,12 +79,7 @@ Solver::Solver(Discretization discretization, Ranks ranks) : disc_(std::move(dis
                                       : global_ && global_->solver() == GlobalSolver::CgAmg;
     newton_ = std::make_unique<Newton>(disc_, krylov, cell_partition());
   }
-  // After the set-up a rank reads its cells' nodes on its own part of the mesh
-  // (Discretization::part()): every rank releases the mesh's connectivity (the writer reads it
-  // from the ranks' parts when it makes the results file, StepFields::kMeshCells), unless the
-  // Newton phase reads it (its pattern, newton.hpp; paper_notes/mpi.md, "The mesh's
-  // connectivity on the rank's part").
-  if (dist_ && !newton_) disc_.release_mesh_cells();
+  if (dist_) release_after_setup();  // alg2_mpi.cpp
   setup_seconds_ = disc_.build_seconds() + seconds_since(t0);
 }
 

@@ -49,7 +49,8 @@ enum class Ranks { One, All };
 /// What this process holds, in bytes (Solver::holdings; the breakdown of paper_notes/mpi.md).
 struct Holdings {
   int cells_with_operators = 0;  ///< cells whose rows of Gbar are not empty
-  double mesh = 0;         ///< the mesh in the discretization's problem: X, cells, boundary facets
+  double mesh = 0;  ///< the mesh in the discretization's problem (X, cells, boundary facets), the
+                    ///< rank's part of it (Discretization::part()) and its layer's X
   double operators = 0;    ///< Gbar, GbarT_vol, the Laplacian, vol, the columns' nodes
   double cell_arrays = 0;  ///< dense per-cell arrays: the work arrays, the cell lists
   /// Dense per-node arrays (dead loads, rhs), the ghost layer's node lists and the Dirichlet
@@ -128,6 +129,10 @@ class Solver {
   /// the stopping test: `at` filled and returned when u is on the layer's rows, null when it is
   /// whole.
   const IterateRows* state_rows(IterateRows& at) const;
+  /// The reference positions X on the rows of u that state_rows gives (IterateRows::X, which
+  /// sets it once the mesh's X is released after the set-up), the writer reading them by the
+  /// nodes each rank owns (nodes_to_writer); null when u is not on a ghost layer's rows.
+  const Eigen::MatrixXd* reference_rows() const;
   /// u of a state between steps made whole on every rank (collective when it is on the layer's
   /// rows; else nothing): what the Newton phase takes.
   void whole_u(Eigen::MatrixXd& u) const;
@@ -229,7 +234,9 @@ class Solver {
   bool distributed() const { return dist_ != nullptr; }
   RankShare rank_share() const;
   /// The ranks' cells (cell_partition) of a distributed solver (Ranks::All); else null. Its rows of
-  /// a per-cell array gather with mpi::gather_rows.
+  /// a per-cell array gather with mpi::gather_rows. Its order (every cell's rank) is released after
+  /// the set-up on a rank's cells without the Newton phase (release_after_setup): then only its
+  /// offsets are left, and a rank's cells are own_cells().
   const mpi::Partition* cell_partition() const;
   /// The ranks' contact points (point_partition) of a distributed solver with contact; else null.
   const mpi::Partition* contact_point_partition() const;
@@ -329,6 +336,11 @@ class Solver {
     void operator()(Distribution* d) const;
   };
   void distribute();
+  /// After the set-up, on the ranks of a distributed run without the Newton phase (which reads
+  /// them: newton.hpp), what the ranks no longer read whole: the mesh's connectivity and, with u
+  /// on the ghost layer's rows, its positions (the writer reads them back from the ranks), and
+  /// the order of the cells' partition (the writer gathers the cells' rows by their numbers).
+  void release_after_setup();
   /// The discretization a Solver on `ranks` builds (a rank's cells, or every cell).
   static Discretization discretize(Problem problem, Ranks ranks);
   /// The contact points whose term R q_c M^T |G| M goes into this rank's part of K: all of them

@@ -10,9 +10,10 @@
 //     (equilibrium residual, energy) add the ranks' parts. The Newton phase holds its own
 //     per-cell data for its cells (newton.hpp). With the replicated factor, the
 //     whole discretization on every rank.
-//   - REPLICATED: the mesh's positions and boundary parts (its connectivity is released after
-//     the set-up, each rank reading its cells on its own part, Discretization::part(), unless
-//     the Newton phase), the per-node dense arrays, the contact points' fields, and u in the
+//   - REPLICATED: the mesh's boundary parts (its connectivity is released after the set-up,
+//     each rank reading its cells on its own part, Discretization::part(), unless the Newton
+//     phase; its positions X too when u is on the ghost layer's rows, which then carry X,
+//     IterateRows::X), the per-node dense arrays, the contact points' fields, and u in the
 //     Newton phase (and without a ghost layer). Every rank reads the whole problem. The whole E and
 //     lambda exist only between ALG2 phases (for the Newton phase, the measures and the output) and
 //     when the equilibrium stopping test is due; the iterations run on the rank's rows of E and
@@ -45,6 +46,7 @@
 //     coupled by the kernel (6.5): sequential, it runs whole on every rank (replicated).
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "alg2.hpp"
 #include "error.hpp"
@@ -72,6 +74,11 @@ struct Solver::Distribution {
   /// With a ghost layer: the layer's rows (positions in its nodes) of the nodes this rank owns
   /// (node_ranks: each node on one rank), in increasing order (IterateRows::owned)
   std::vector<int> owned_rows;
+  /// With a ghost layer: the reference positions on the layer's rows (IterateRows::X), the
+  /// part's X (Discretization::part()) when the layer's nodes are the part's, else layer_X; the
+  /// mesh's X is released after the set-up (Solver::Solver)
+  const Eigen::MatrixXd* X_rows = nullptr;
+  Eigen::MatrixXd layer_X;
   /// With a ghost layer: the rows of `mean` of own_points() (every point when the contact step
   /// is replicated), their columns the layer's rows: ubar from u on the layer
   SpMatR mean_layer;
@@ -108,6 +115,21 @@ std::vector<int> node_owners(const Discretization& disc, const mpi::Partition& c
   return rank;
 }
 }  // namespace
+
+void Solver::release_after_setup() {
+  if (newton_) return;  // its pattern and node rows read the mesh's connectivity (newton.hpp)
+  // A rank reads its cells' nodes on its own part of the mesh (Discretization::part()); the
+  // writer reads the connectivity from the ranks' parts when it makes the results file
+  // (StepFields::kMeshCells; paper_notes/mpi.md, "The mesh's connectivity on the rank's part").
+  disc_.release_mesh_cells();
+  // The positions, when u is on the ghost layer's rows: what reads them reads the part's or the
+  // layer's rows (state_rows, IterateRows::X), the writer those of the nodes each rank owns
+  // (StepFields::kMeshX; "The mesh's positions on the rank's nodes").
+  if (u_on_layer()) disc_.release_mesh_X();
+  // The partition's order (every cell's rank): the writer gathers the cells' rows by their
+  // numbers (cells_to_writer), and a whole gather makes it again (whole_cells).
+  if (disc_.partial()) std::vector<int>().swap(dist_->cells.order);
+}
 
 const GlobalStep& Solver::global_step() const {
   if (!global_) throw Error("the global step is the distributed KSP: no serial global step");
@@ -210,9 +232,21 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
   d.ksp.reset();
   Eigen::MatrixXd().swap(rhs_);  // sized below: whole, or on the ghost layer's rows
   const std::vector<int> node_rank = node_owners(disc_, d.cells);
-  d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), problem().mesh.X,
-                                                  node_rank, d.ksp_solver, disc_.partial(),
-                                                  newton_dim());
+  // The positions of the nodes this rank owns, in increasing order (the near-null space): the
+  // mesh's, or once released (a new R) the layer's rows of those nodes.
+  Eigen::MatrixXd X_own;
+  if (problem().mesh.X.rows() > 0) {
+    std::vector<int> owned;
+    for (int n = 0; n < disc_.num_nodes(); ++n)
+      if (node_rank[n] == mpi::rank()) owned.push_back(n);
+    X_own = problem().mesh.X(owned, Eigen::all);
+  } else {
+    if (!d.X_rows) throw Error("internal: the mesh's positions released without a ghost layer");
+    X_own = (*d.X_rows)(d.owned_rows, Eigen::all);
+  }
+  d.ksp = std::make_unique<DistributedGlobalStep>(std::move(K), disc_.dirichlet(), X_own, node_rank,
+                                                  d.ksp_solver, disc_.partial(), newton_dim());
+  Eigen::MatrixXd().swap(X_own);
   d.ksp->set_value_scale(scale);
   d.ksp_solver = d.ksp->solver();  // Auto decided: the same solver at the next set-up (a new R)
   // The ghost layer: the right-hand side's rows and u's rows this rank touches are its cells'
@@ -284,6 +318,21 @@ bool Solver::distributed_global_step(SpMat& K, double scale) {
     d.layer_row.resize(column_node.size());
     for (std::size_t j = 0; j < column_node.size(); ++j) d.layer_row[j] = layer_of[column_node[j]];
     if (column_node.empty()) d.layer_row.swap(layer_of);
+    // X on the layer's rows: made at the first set-up, from the mesh's X; the same rows at a
+    // new R, when the mesh's X may have been released.
+    if (problem().mesh.X.rows() > 0) {
+      if (disc_.partial() && nodes == disc_.cells().node) {
+        Eigen::MatrixXd().swap(d.layer_X);
+        d.X_rows = &disc_.part().X;
+      } else {
+        d.layer_X = problem().mesh.X(nodes, Eigen::all);
+        d.X_rows = &d.layer_X;
+      }
+    } else if (!d.X_rows || d.X_rows->rows() != static_cast<Eigen::Index>(nodes.size())) {
+      throw Error(cat("internal: the ghost layer's ", nodes.size(),
+                      " rows at a new R, its positions kept on ", d.X_rows ? d.X_rows->rows() : 0,
+                      " rows"));
+    }
     d.ksp->set_ghost_layer(std::move(nodes));
   }
   rhs_.resize(rhs_rows(), dim());
@@ -438,7 +487,12 @@ const IterateRows* Solver::state_rows(IterateRows& at) const {
   at.column_row = dist_->layer_row.data();
   at.points = points_distributed() ? &dist_->own_points : nullptr;
   at.owned = &dist_->owned_rows;
+  at.X = problem().mesh.X.rows() > 0 ? nullptr : dist_->X_rows;
   return &at;
+}
+
+const Eigen::MatrixXd* Solver::reference_rows() const {
+  return u_on_layer() ? dist_->X_rows : nullptr;
 }
 
 void Solver::layer_rows(Eigen::MatrixXd& u) const {
@@ -601,13 +655,20 @@ void Solver::cells_to_writer(const Eigen::MatrixXd& rows, Eigen::MatrixXd& block
                             static_cast<Eigen::Index>(rows_per_cell) * count);
     return;
   }
-  mpi::gather_rows_to_writer(rows, block, dist_->cells, rows_per_cell, first_cell, count);
+  mpi::gather_rows_to_writer(rows, block, dist_->own, disc_.num_cells(), rows_per_cell, first_cell,
+                             count);
 }
 
 State Solver::whole_cells(const State& rows) const {
   State s;
-  mpi::gather_rows(rows.E, s.E, dist_->cells, dim());
-  mpi::gather_rows(rows.lambda, s.lambda, dist_->cells, dim());
+  // The partition's order, released after the set-up (release_after_setup), made again for the
+  // time of the gather (one sum of 2 #cells values, collective; whole arrays are made anyway).
+  std::optional<mpi::Partition> made;
+  if (dist_->cells.order.empty() && disc_.num_cells() > 0)
+    made = mpi::partition_of(dist_->own, disc_.num_cells());
+  const mpi::Partition& cells = made ? *made : dist_->cells;
+  mpi::gather_rows(rows.E, s.E, cells, dim());
+  mpi::gather_rows(rows.lambda, s.lambda, cells, dim());
   copy_contact_fields(rows, s);
   return s;
 }
@@ -667,6 +728,8 @@ Holdings Solver::holdings() const {
   const Mesh& mesh = problem().mesh;
   h.mesh = bytes_of(mesh.X) + 4.0 * mesh.cells.size();
   for (const Mesh::Boundary& b : mesh.boundaries) h.mesh += 4.0 * b.facets.size();
+  if (disc_.partial()) h.mesh += bytes_of(disc_.part().X) + 4.0 * disc_.part().cells.size();
+  if (dist_) h.mesh += bytes_of(dist_->layer_X);
   const CellOperators& c = disc_.cells();
   h.operators = bytes_of_sparse(c.Gbar) + bytes_of_sparse(c.GbarT_vol) +
                 bytes_of_sparse(c.laplacian) + bytes_of(c.vol) +

@@ -114,9 +114,31 @@ DerivedFields derived_fields(const Mesh& mesh, const Eigen::VectorXd& cell_volum
   return out;
 }
 
+Eigen::VectorXd face_areas(const Mesh& mesh, const Mesh::Boundary& boundary,
+                           const ContactPoints& points) {
+  if (boundary.facets.cols() != 6 || points.nodes.empty()) return {};
+  Eigen::VectorXd area(boundary.facets.rows());
+  for (int f = 0; f < boundary.facets.rows(); ++f) {
+    const Eigen::Vector3d x0 = mesh.X.row(boundary.facets(f, 0)).transpose(),
+                          x1 = mesh.X.row(boundary.facets(f, 1)).transpose(),
+                          x2 = mesh.X.row(boundary.facets(f, 2)).transpose();
+    area(f) = 0.5 * (x1 - x0).cross(x2 - x0).norm();
+  }
+  return area;
+}
+
 Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
                                           const ContactPoints& points, const Eigen::VectorXd& p) {
+  return consistent_nodal_pressure(mesh, boundary, face_areas(mesh, boundary, points), points, p);
+}
+
+Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
+                                          const Eigen::VectorXd& area, const ContactPoints& points,
+                                          const Eigen::VectorXd& p) {
   if (boundary.facets.cols() != 6 || points.nodes.empty()) return p;
+  if (area.size() != boundary.facets.rows())
+    throw Error(cat("consistent_nodal_pressure: ", area.size(), " face areas for ",
+                    boundary.facets.rows(), " faces of boundary group '", boundary.name, "'"));
   const int np = points.size();
   if (p.size() != np)
     throw Error(cat("consistent_nodal_pressure: ", p.size(), " pressures for ", np, " points"));
@@ -140,10 +162,7 @@ Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary
     }
   std::vector<Eigen::Triplet<double>> t;
   for (int f = 0; f < boundary.facets.rows(); ++f) {
-    const Eigen::Vector3d x0 = mesh.X.row(boundary.facets(f, 0)).transpose(),
-                          x1 = mesh.X.row(boundary.facets(f, 1)).transpose(),
-                          x2 = mesh.X.row(boundary.facets(f, 2)).transpose();
-    const double A = 0.5 * (x1 - x0).cross(x2 - x0).norm();
+    const double A = area(f);
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) {
         const int i = index[boundary.facets(f, a)], j = index[boundary.facets(f, b)];

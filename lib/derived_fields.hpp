@@ -74,5 +74,16 @@ double von_mises(const Eigen::Matrix3d& sigma);
 /// `points` are the nodal contact points (points.nodes in the order of p).
 Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
                                           const ContactPoints& points, const Eigen::VectorXd& p);
+/// The same with the areas of the boundary part's faces given (face_areas, made at the set-up):
+/// what a rank reads after it has released the mesh's positions (Mesh::release_X); `mesh` gives
+/// the number of nodes and the file's name.
+Eigen::VectorXd consistent_nodal_pressure(const Mesh& mesh, const Mesh::Boundary& boundary,
+                                          const Eigen::VectorXd& area, const ContactPoints& points,
+                                          const Eigen::VectorXd& p);
+/// The areas of a boundary part's faces when they are six-node P2 triangles whose nodes are the
+/// nodal contact points `points` (those consistent_nodal_pressure reads, the area of the affine
+/// face on its vertices), else empty.
+Eigen::VectorXd face_areas(const Mesh& mesh, const Mesh::Boundary& boundary,
+                           const ContactPoints& points);
 
 }  // namespace ltl

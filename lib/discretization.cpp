@@ -208,6 +208,7 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
                         ": check ", cc.key("plane_point"), " and ", cc.key("plane_normal"),
                         " (the normal points into the obstacle)"));
     }
+    face_area_.push_back(face_areas(mesh, boundary, pts));
     obstacles_.push_back(std::move(pts));
   }
   // One obstacle: its points are all the points (no copy); several: stacked.
@@ -515,7 +516,7 @@ Eigen::VectorXd Discretization::contact_pressure(const State& s) const {
     const int r0 = pts->offset[k], m = obstacles_[k].size();
     p.segment(r0, m) =
         consistent_nodal_pressure(problem_.mesh, problem_.mesh.boundary(problem_.contacts[k].group),
-                                  obstacles_[k], p.segment(r0, m));
+                                  face_area_[k], obstacles_[k], p.segment(r0, m));
   }
   return p;
 }

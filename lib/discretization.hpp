@@ -59,6 +59,12 @@ class Discretization {
   void release_mesh_cells() {
     if (partial_) problem_.mesh.release_cells();
   }
+  /// On some cells, frees the problem's mesh positions (Mesh::release_X; num_nodes() is kept):
+  /// a rank of a distributed run that holds them on its part (part()) and its ghost layer's rows
+  /// (IterateRows::X), after the set-up. Nothing when every cell is held.
+  void release_mesh_X() {
+    if (partial_) problem_.mesh.release_X();
+  }
   /// Wall-clock seconds the constructor took (part of the run's setup time).
   double build_seconds() const { return build_seconds_; }
   int dim() const { return problem_.mesh.dim; }
@@ -238,6 +244,9 @@ class Discretization {
   CellOperators cells_;
   std::optional<ContactPoints> points_;  ///< several obstacles only: their points stacked
   std::vector<ContactPoints> obstacles_;
+  /// Per obstacle, its contact group's face areas on P2 triangle faces with nodal points
+  /// (face_areas: what contact_pressure reads), else empty
+  std::vector<Eigen::VectorXd> face_area_;
   DirichletData bc_;
   std::vector<int> loaded_;
   Eigen::MatrixXd F_loaded_;

@@ -38,31 +38,65 @@ Eigen::MatrixXd on_points(int n_points, int cols, const IterateRows* at, F&& f) 
 }
 }  // namespace
 
-Eigen::MatrixXd u_at_nodes(const State& s, const std::vector<int>& nodes, const IterateRows* at) {
-  if (!at) return s.u(nodes, Eigen::all);
+namespace {
+/// The rows of A (#layer rows) at the nodes `nodes`, from the ranks whose layer holds them
+/// (collective: the largest over the ranks, -inf where a rank has none).
+Eigen::MatrixXd layer_rows_at(const Eigen::MatrixXd& A, const std::vector<int>& nodes,
+                              const IterateRows* at) {
   Eigen::MatrixXd U =
-      Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(nodes.size()), s.u.cols(), -INFINITY);
+      Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(nodes.size()), A.cols(), -INFINITY);
   for (std::size_t k = 0; k < nodes.size(); ++k)
     if (const Eigen::Index row = u_row_of(nodes[k], at); row >= 0)
-      U.row(static_cast<Eigen::Index>(k)) = s.u.row(row);
+      U.row(static_cast<Eigen::Index>(k)) = A.row(row);
   mpi::max(U.data(), U.size());
   return U;
+}
+}  // namespace
+
+Eigen::MatrixXd u_at_nodes(const State& s, const std::vector<int>& nodes, const IterateRows* at) {
+  if (!at) return s.u(nodes, Eigen::all);
+  return layer_rows_at(s.u, nodes, at);
+}
+
+Eigen::MatrixXd X_at_nodes(const Mesh& mesh, const std::vector<int>& nodes, const IterateRows* at) {
+  if (!at || !at->X) return mesh.X(nodes, Eigen::all);
+  return layer_rows_at(*at->X, nodes, at);
+}
+
+namespace {
+/// The rows of `mean` times a nodal array, on the points a rank computes (on_points, with u's
+/// rows `at`): row i starts at zero and add(w, r, n, row) adds each term, w = mean(i, n) at the
+/// node n, u's row r, in the order of the row-major product. `what` names the caller in the
+/// error of a node off the rank's layer.
+template <class Add>
+Eigen::MatrixXd point_sums(const ContactPoints& pts, int cols, const IterateRows* at,
+                           const char* what, Add&& add) {
+  return on_points(pts.size(), cols, at, [&](int i, auto row) {
+    row.setZero();
+    for (SpMatR::InnerIterator it(pts.mean, i); it; ++it) {
+      const int n = static_cast<int>(it.col());
+      const Eigen::Index r = u_row_of(n, at);
+      if (r < 0)
+        throw Error(cat(what, ": contact point ", i, "'s node ", n, " is not on the rank's layer"));
+      add(it.value(), r, n, row);
+    }
+  });
+}
+}  // namespace
+
+Eigen::MatrixXd point_reference(const ContactPoints& pts, const Mesh& mesh, const IterateRows* at) {
+  if (!at || !at->X) return pts.mean * mesh.X;
+  return point_sums(pts, pts.dim, at, "point_reference",
+                    [&](double w, Eigen::Index r, int, auto& row) { row += w * at->X->row(r); });
 }
 
 Eigen::MatrixXd point_means(const ContactPoints& pts, const State& s, const IterateRows* at,
                             const Eigen::MatrixXd* X) {
   if (!at) return X ? Eigen::MatrixXd(pts.mean * (*X + s.u)) : Eigen::MatrixXd(pts.mean * s.u);
   const int dim = static_cast<int>(s.u.cols());
-  return on_points(pts.size(), dim, at, [&](int i, auto row) {
-    row.setZero();
-    for (SpMatR::InnerIterator it(pts.mean, i); it; ++it) {
-      const Eigen::Index r = u_row_of(static_cast<int>(it.col()), at);
-      if (r < 0)
-        throw Error(cat("point_means: contact point ", i, "'s node ", it.col(),
-                        " is not on the rank's layer"));
-      for (int c = 0; c < dim; ++c)
-        row(c) += it.value() * (X ? (*X)(it.col(), c) + s.u(r, c) : s.u(r, c));
-    }
+  return point_sums(pts, dim, at, "point_means", [&](double w, Eigen::Index r, int n, auto& row) {
+    for (int c = 0; c < dim; ++c)
+      row(c) += w * (X ? (at->X ? (*at->X)(r, c) : (*X)(n, c)) + s.u(r, c) : s.u(r, c));
   });
 }
 
@@ -81,7 +115,9 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
     row(0) = -INFINITY;
     for (SpMatR::InnerIterator it(points.mean, i); it; ++it) {
       const Eigen::Index r = u_row_of(static_cast<int>(it.col()), at);
-      if (r >= 0) row(0) = std::max(row(0), pb.mesh.X(it.col(), axis) + s.u(r, axis));
+      if (r >= 0)
+        row(0) =
+            std::max(row(0), X_at(pb.mesh, at, static_cast<int>(it.col()), r, axis) + s.u(r, axis));
     }
   });
   const Eigen::VectorXd p = d.contact_pressure(s);  // nominal contact pressure
@@ -422,10 +458,16 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, 
 }
 
 namespace {
-/// penetration_of with u's rows at the nodes `nodes` (sorted; null: u whole): the group's nodes
-/// among them alone.
-double penetration_at(const Discretization& d, const State& s, int k,
-                      const std::vector<int>* nodes) {
+/// Has this rank released the mesh's positions (Mesh::release_X; every rank of a distributed run
+/// alike)?
+bool X_released(const Discretization& d) {
+  return d.problem().mesh.X.rows() == 0 && d.num_nodes() > 0;
+}
+
+/// penetration_of with u's rows at the layer's nodes (IterateRows::nodes, sorted; at null: u
+/// whole): the group's nodes among them alone. X from IterateRows::X, or on a rank that has
+/// released the mesh's from its part (Discretization::part(): the group's nodes of its cells).
+double penetration_at(const Discretization& d, const State& s, int k, const IterateRows* at) {
   const Problem& pb = d.problem();
   double pen = -INFINITY;
   if (k < 0 || k >= static_cast<int>(pb.contacts.size())) return pen;
@@ -433,30 +475,38 @@ double penetration_at(const Discretization& d, const State& s, int k,
   const int dim = pb.mesh.dim;
   const Eigen::VectorXd N = cc.plane_normal.head(dim);
   const Eigen::VectorXd p0 = cc.plane_point.head(dim);
+  const bool part = X_released(d) && !(at && at->X);
   for (int n : pb.mesh.boundary_nodes(cc.group)) {
-    const int row = nodes ? mpi::position_in(*nodes, n) : n;
-    if (row >= 0) pen = std::max(pen, (pb.mesh.X.row(n) + s.u.row(row) - p0.transpose()).dot(N));
+    const Eigen::Index row = u_row_of(n, at);
+    const int j = part ? mpi::position_in(d.cells().node, n) : n;  // X's row
+    if (row < 0 || j < 0) continue;
+    double depth = 0;  // (X + u - p0) . N
+    for (int c = 0; c < dim; ++c) {
+      const double X = part ? d.part().X(j, c) : X_at(pb.mesh, at, n, row, c);
+      depth += (X + s.u(row, c) - p0(c)) * N(c);
+    }
+    pen = std::max(pen, depth);
   }
   return pen;
 }
 
-double penetration_at(const Discretization& d, const State& s, const std::vector<int>* nodes) {
+double penetration_at(const Discretization& d, const State& s, const IterateRows* at) {
   double pen = -INFINITY;
   for (int k = 0; k < static_cast<int>(d.problem().contacts.size()); ++k)
-    pen = std::max(pen, penetration_at(d, s, k, nodes));
+    pen = std::max(pen, penetration_at(d, s, k, at));
   return pen;
 }
 }  // namespace
 
 double penetration_of(const Discretization& d, const State& s, int k, const IterateRows* at) {
-  double pen = penetration_at(d, s, k, at ? at->nodes : nullptr);
-  if (at) mpi::max(&pen, 1);  // the largest over the ranks' layers
+  double pen = penetration_at(d, s, k, at);
+  if (at || X_released(d)) mpi::max(&pen, 1);  // the largest over the ranks' layers or parts
   return pen;
 }
 
 double max_penetration(const Discretization& d, const State& s, const IterateRows* at) {
-  double pen = penetration_at(d, s, at ? at->nodes : nullptr);
-  if (at) mpi::max(&pen, 1);
+  double pen = penetration_at(d, s, at);
+  if (at || X_released(d)) mpi::max(&pen, 1);
   return pen;
 }
 
@@ -496,7 +546,7 @@ double error_under(const Discretization& d, const Eigen::MatrixXd* f_ext, const 
   });
   // The penetration at u's nodes (with `at` the rank's layer's: every contact node is on some
   // rank's layer), the largest over the ranks.
-  double pen = penetration_at(d, s, at ? at->nodes : nullptr);
+  double pen = penetration_at(d, s, at);
   if (d.partial()) {
     double both[2] = {err, pen};
     mpi::max(both, 2);

@@ -172,16 +172,34 @@ struct ResidualRows {
 /// `owned` lists the rows (positions in `nodes`) of the nodes that the rank owns, each node of the
 /// mesh owned by one rank (node_ranks, mpi_global.hpp): what counts a node once over the ranks.
 /// A node's row is the same on every rank whose layer holds it.
+/// X: the reference positions on the same rows, held by a rank that has released the mesh's
+/// (Mesh::release_X, after the set-up: paper_notes/mpi.md, "The mesh's positions on the rank's
+/// nodes"); null while the mesh's X is whole, which is then read.
 struct IterateRows {
   const std::vector<int>* nodes = nullptr;
   const int* column_row = nullptr;
   const std::vector<int>* points = nullptr;
   const std::vector<int>* owned = nullptr;
+  const Eigen::MatrixXd* X = nullptr;
 };
 /// u's rows at the nodes `nodes` (any order), on every rank: s.u's rows when u is whole (at
 /// null), else from the ranks whose layer holds them (collective: every node is on some rank's
 /// layer; the largest over the ranks of the rows, -inf where a rank has none, is the row).
 Eigen::MatrixXd u_at_nodes(const State& s, const std::vector<int>& nodes, const IterateRows* at);
+/// The reference positions X of the nodes `nodes` (any order), on every rank: the mesh's rows,
+/// or with `at` holding them (IterateRows::X) from the ranks whose layer holds them, as
+/// u_at_nodes (collective then).
+Eigen::MatrixXd X_at_nodes(const Mesh& mesh, const std::vector<int>& nodes, const IterateRows* at);
+/// X(n, c) of node n at u's row `row` (u_row_of): the mesh's, or the rank's row with
+/// IterateRows::X.
+inline double X_at(const Mesh& mesh, const IterateRows* at, int n, Eigen::Index row, int c) {
+  return at && at->X ? (*at->X)(row, c) : mesh.X(n, c);
+}
+/// [(3.2)] mean * X of the contact points (#points x dim: their reference positions as the
+/// constraint reads them), with the mesh's X whole (at null or without IterateRows::X: the
+/// product), else summed term by term on the rows of each rank's points, as point_means
+/// (collective).
+Eigen::MatrixXd point_reference(const ContactPoints& pts, const Mesh& mesh, const IterateRows* at);
 /// [(3.2)] mean * u of the contact points (#points x dim: ubar, of the constraint ubar = e), or
 /// with X mean * (X + u), their deformed positions, with u whole (at null) or on a rank's layer
 /// rows (collective): each rank the rows of its points (every point when `at->points` is null),
@@ -220,7 +238,8 @@ EquilibriumMeasure equilibrium_measure(const Discretization& d, const State& s, 
 
 /// Max over the obstacles and their contact groups' nodes of (x - x_0) . N, the deformed node's
 /// distance behind the obstacle plane (m; > 0: penetration); -inf without contact. With `at`, u
-/// on a rank's layer rows (collective: the largest over the ranks' layers).
+/// on a rank's layer rows (collective: the largest over the ranks' layers); on ranks that have
+/// released the mesh's X (Mesh::release_X) collective too, u whole read at their parts' nodes.
 double max_penetration(const Discretization& d, const State& s, const IterateRows* at = nullptr);
 /// The same for obstacle k alone: max over its group's nodes of (x - p0_k) . N_k. A node behind
 /// ANY obstacle is inadmissible: max_penetration is the max over the obstacles.

@@ -244,7 +244,7 @@ GeometryScan scan_geometry(const std::string& path) {
 }
 
 std::string Mesh::fingerprint() const {
-  if (cells.rows() == 0 && released_cells > 0) return released_fingerprint;
+  if (!released_fingerprint.empty()) return released_fingerprint;
   Fingerprint f;
   f.add(&dim, sizeof dim);
   f.add(X.data(), sizeof(double) * static_cast<std::size_t>(X.size()));
@@ -257,6 +257,13 @@ void Mesh::release_cells() {
   released_fingerprint = fingerprint();
   released_cells = static_cast<int>(cells.rows());
   Eigen::MatrixXi(0, cells.cols()).swap(cells);
+}
+
+void Mesh::release_X() {
+  if (X.rows() == 0) return;
+  released_fingerprint = fingerprint();
+  released_nodes = static_cast<int>(X.rows());
+  Eigen::MatrixXd(0, X.cols()).swap(X);
 }
 
 const Mesh::Boundary& Mesh::boundary(const std::string& name, const std::string& what) const {

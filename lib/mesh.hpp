@@ -33,24 +33,31 @@ struct Mesh {
     Eigen::MatrixXi facets;
   };
   std::vector<Boundary> boundaries;
-  /// The number of cells of a mesh whose connectivity was released (release_cells), else 0, and
-  /// its fingerprint() then.
+  /// The number of cells of a mesh whose connectivity was released (release_cells), else 0; of
+  /// nodes of a mesh whose positions were released (release_X), else 0; and its fingerprint()
+  /// at the first release (empty: none).
   int released_cells = 0;
+  int released_nodes = 0;
   std::string released_fingerprint;
   std::string source;       ///< the file the mesh came from
   std::string source_hash;  ///< fingerprint of the source file(s) (hash.hpp), for --resume
 
-  int num_nodes() const { return static_cast<int>(X.rows()); }
+  int num_nodes() const { return X.rows() > 0 ? static_cast<int>(X.rows()) : released_nodes; }
   int num_cells() const {
     return cells.rows() > 0 ? static_cast<int>(cells.rows()) : released_cells;
   }
   /// A fingerprint of dim, X and the connectivity (hash.hpp): what a results file records to
-  /// resume on the same mesh (mesh_hash); that of the whole mesh after release_cells too.
+  /// resume on the same mesh (mesh_hash); that of the whole mesh after release_cells and
+  /// release_X too.
   std::string fingerprint() const;
   /// Frees the connectivity `cells`, keeping num_cells(), nodes_per_cell() and fingerprint(): on
   /// a rank of a distributed run, whose discretization holds its own cells' connectivity
   /// numbered locally (Discretization::part(), paper_notes/mpi.md), after the set-up.
   void release_cells();
+  /// Frees the reference positions X, keeping num_nodes(), dim and fingerprint(): on a rank of a
+  /// distributed run that holds them on its part's nodes and its ghost layer's rows, after the
+  /// set-up (paper_notes/mpi.md, "The mesh's positions on the rank's nodes").
+  void release_X();
   int nodes_per_cell() const { return static_cast<int>(cells.cols()); }
   int nodes_per_facet() const { return dim == 2 ? 3 : nodes_per_cell() == 10 ? 6 : 4; }
   /// The boundary part called `name`; a clear error naming the file and the parts it has if

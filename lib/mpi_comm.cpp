@@ -107,44 +107,46 @@ void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Parti
 }
 
 namespace {
-/// Rank r's items among first .. first + count - 1: positions [a, b) in its part of the order
-/// (its items are sorted).
-std::pair<int, int> items_in(const Partition& part, int r, int first, int count) {
-  const int* begin = part.order.data() + part.offset[r];
-  const int* end = part.order.data() + part.offset[r + 1];
-  return {static_cast<int>(std::lower_bound(begin, end, first) - begin),
-          static_cast<int>(std::lower_bound(begin, end, first + count) - begin)};
+/// gather_rows_to_writer's checked range of the n items (count < 0: to the last) and this rank's
+/// positions [a, b) of its items among them; `own` must hold m rows per item of `items`.
+struct WriterItems {
+  int count = 0, a = 0, b = 0;
+};
+WriterItems writer_items(const Eigen::MatrixXd& own, const std::vector<int>& items, int n, int m,
+                         int first, int count) {
+  if (count < 0) count = n - first;
+  if (first < 0 || count < 0 || first + count > n)
+    throw Error(cat("gather_rows_to_writer: items ", first, " + ", count, " of ", n));
+  if (own.rows() != static_cast<Eigen::Index>(m) * static_cast<Eigen::Index>(items.size()))
+    throw Error(cat("gather_rows_to_writer: ", own.rows(), " rows on rank ", rank(), " for ",
+                    items.size(), " items (", m, " per item)"));
+  WriterItems w;
+  w.count = count;
+  w.a = static_cast<int>(std::lower_bound(items.begin(), items.end(), first) - items.begin());
+  w.b =
+      static_cast<int>(std::lower_bound(items.begin(), items.end(), first + count) - items.begin());
+  return w;
 }
 
-/// Puts rank r's rows of its items at positions [a, b) (m rows each, one column `from`, item a's
-/// first) in place in one column `to` of the rows of items first, first + 1, ...
-void put_rows(const Partition& part, int r, int a, int b, const double* from, double* to, int m,
-              int first) {
-  const int* items = part.order.data() + part.offset[r];
-  for_each_run(items + a, items + b, [&](int item, int n, int at) {
-    std::memcpy(to + static_cast<long>(m) * (item - first), from + static_cast<long>(m) * at,
+/// Puts one column's rows of the items `item` (m rows each, consecutive in `from`) in place in
+/// one column `to` of the rows of items first, first + 1, ...
+void put_item_rows(const int* item, const int* end, const double* from, double* to, int m,
+                   int first) {
+  for_each_run(item, end, [&](int i, int n, int at) {
+    std::memcpy(to + static_cast<long>(m) * (i - first), from + static_cast<long>(m) * at,
                 sizeof(double) * m * n);
   });
 }
 
-/// The checked range of items of gather_rows_to_writer (count < 0: to the last).
-int items_counted(const Partition& part, int first, int count) {
-  const int n = static_cast<int>(part.order.size());
-  if (count < 0) count = n - first;
-  if (first < 0 || count < 0 || first + count > n)
-    throw Error(cat("gather_rows_to_writer: items ", first, " + ", count, " of ", n));
-  return count;
-}
-
-/// gather_rows_to_writer on one process: rank 0's rows of the items, put in place.
-void rows_of_items(const Eigen::MatrixXd& own, Eigen::MatrixXd& block, const Partition& part, int m,
-                   int first, int count) {
-  count = items_counted(part, first, count);
-  const auto [a, b] = items_in(part, 0, first, count);
-  block.resize(static_cast<Eigen::Index>(m) * count, own.cols());
+/// gather_rows_to_writer on one process: its rows of the items, put in place.
+void rows_of_items(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
+                   const std::vector<int>& items, int n, int m, int first, int count) {
+  const WriterItems w = writer_items(own, items, n, m, first, count);
+  block.resize(static_cast<Eigen::Index>(m) * w.count, own.cols());
   for (Eigen::Index k = 0; k < own.cols(); ++k)
-    put_rows(part, 0, a, b, own.data() + k * own.rows() + static_cast<long>(m) * a,
-             block.data() + k * block.rows(), m, first);
+    put_item_rows(items.data() + w.a, items.data() + w.b,
+                  own.data() + k * own.rows() + static_cast<long>(m) * w.a,
+                  block.data() + k * block.rows(), m, first);
 }
 }  // namespace
 
@@ -171,8 +173,9 @@ void add_rows_at_nodes(const Eigen::MatrixXd& A, const std::vector<int>& node, i
 #ifndef LTL_HAVE_MPI
 
 void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
-                           const Partition& part, int m, int first, int count) {
-  rows_of_items(own, block, part, m, first, count);
+                           const std::vector<int>& items, int n_items, int m, int first,
+                           int count) {
+  rows_of_items(own, block, items, n_items, m, first, count);
 }
 
 bool built() {
@@ -464,44 +467,48 @@ void gather_rows(Eigen::VectorXd& v, const Partition& part) {
 }
 
 void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
-                           const Partition& part, int m, int first, int count) {
-  if (!up || size_ == 1) return rows_of_items(own, block, part, m, first, count);
-  count = items_counted(part, first, count);
+                           const std::vector<int>& items, int n_items, int m, int first,
+                           int count) {
+  if (!up || size_ == 1) return rows_of_items(own, block, items, n_items, m, first, count);
+  const WriterItems w = writer_items(own, items, n_items, m, first, count);
   const int P = size_, me = rank_;
   const bool writer = me == 0;
   const auto t0 = clock_type::now();
-  counts_.resize(P);
-  displs_.resize(P);
-  std::vector<std::pair<int, int> > range(P);
+  // How many of the block's items each rank has, and which: the writer places their rows by them.
+  const int mine = w.b - w.a;
+  std::vector<int> counts(writer ? P : 0), displs(writer ? P : 0);
+  check(MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD), "MPI_Gather");
   long total = 0;
-  for (int r = 0; r < P; ++r) {
-    range[r] = items_in(part, r, first, count);
-    counts_[r] = m * (range[r].second - range[r].first);
-    displs_[r] = static_cast<int>(total);
-    total += counts_[r];
+  for (int r = 0; writer && r < P; ++r) {
+    displs[r] = static_cast<int>(total);
+    total += counts[r];
   }
-  if (own.rows() != static_cast<Eigen::Index>(m) * (part.offset[me + 1] - part.offset[me]))
-    throw Error(cat("gather_rows_to_writer: ", own.rows(), " rows on rank ", me, " for ",
-                    part.offset[me + 1] - part.offset[me], " items (", m, " per item)"));
+  if (writer && total != w.count)
+    throw Error(
+        cat("gather_rows_to_writer: the ranks hold ", total, " of items ", first, " + ", w.count));
+  std::vector<int> item(static_cast<std::size_t>(total));
+  check(MPI_Gatherv(items.data() + w.a, mine, MPI_INT, item.data(), counts.data(), displs.data(),
+                    MPI_INT, 0, MPI_COMM_WORLD),
+        "MPI_Gatherv");
+  for (int r = 0; writer && r < P; ++r) counts[r] *= m, displs[r] *= m;  // in rows
   if (writer)
-    block.resize(static_cast<Eigen::Index>(m) * count, own.cols());
+    block.resize(static_cast<Eigen::Index>(m) * w.count, own.cols());
   else
     block = Eigen::MatrixXd();
-  if (writer) recv_.resize(total);
-  // Each column of `own` sends the rank's rows of those items as they are; the writer puts
-  // every rank's runs of items in place.
+  if (writer) recv_.resize(static_cast<std::size_t>(m) * total);
+  // Each column of `own` sends the rank's rows of those items as they are; the writer puts them
+  // in place, run by run of consecutive items.
   for (Eigen::Index k = 0; k < own.cols(); ++k) {
-    const double* mine = own.data() + k * own.rows() + static_cast<long>(m) * range[me].first;
-    check(MPI_Gatherv(mine, counts_[me], MPI_DOUBLE, recv_.data(), counts_.data(), displs_.data(),
+    const double* rows = own.data() + k * own.rows() + static_cast<long>(m) * w.a;
+    check(MPI_Gatherv(rows, m * mine, MPI_DOUBLE, recv_.data(), counts.data(), displs.data(),
                       MPI_DOUBLE, 0, MPI_COMM_WORLD),
           "MPI_Gatherv");
-    if (!writer) continue;
-    for (int r = 0; r < P; ++r)
-      put_rows(part, r, range[r].first, range[r].second, recv_.data() + displs_[r],
-               block.data() + k * block.rows(), m, first);
+    if (writer)
+      put_item_rows(item.data(), item.data() + total, recv_.data(), block.data() + k * block.rows(),
+                    m, first);
   }
   std::vector<double>().swap(recv_);
-  if (writer) traffic_.bytes += 8.0 * own.cols() * (total - counts_[me]);
+  if (writer) traffic_.bytes += (8.0 * m * own.cols() + 4.0) * (total - mine);
   traffic_.calls += 1;
   traffic_.seconds += seconds_since(t0);
 }

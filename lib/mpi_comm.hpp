@@ -137,12 +137,15 @@ void gather_rows(Eigen::VectorXd& v, const Partition& part);
 void gather_rows(const Eigen::MatrixXd& own, Eigen::MatrixXd& whole, const Partition& part,
                  int rows_per_item);
 
-/// The same to rank 0 alone (the results writer), for the items first .. first + count - 1
-/// (count < 0: every item from first): there `block` gets their rows_per_item rows each, in item
-/// order; on the other ranks it is released (left empty). Read a block of items at a time, no
-/// rank holds a whole array it does not own. Column by column, like the gathers above.
+/// The same to rank 0 alone (the results writer), for the items first .. first + count - 1 of
+/// n_items (count < 0: every item from first), from each rank's own rows of its `items` (sorted,
+/// each item on one rank; no rank needs the partition's order): there `block` gets their
+/// rows_per_item rows each, in item order; on the other ranks it is released (left empty). Each
+/// rank sends the numbers of its items in the block, then their rows. Read a block of items at a
+/// time, no rank holds a whole array it does not own. Column by column, like the gathers above.
 void gather_rows_to_writer(const Eigen::MatrixXd& own, Eigen::MatrixXd& block,
-                           const Partition& part, int rows_per_item, int first = 0, int count = -1);
+                           const std::vector<int>& items, int n_items, int rows_per_item,
+                           int first = 0, int count = -1);
 
 /// [(4.5)] The ranks' parts of a nodal array, summed on the ranks' blocks of the nodes: rank r
 /// holds rows A.row(k) at the nodes node[k] (sorted, increasing; the same node may be on other

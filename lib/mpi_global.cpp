@@ -435,7 +435,7 @@ DistributedGlobalStep::Solver auto_choice(Mat A, int rows, int copies, const std
 }  // namespace
 
 DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
-                                             const Eigen::MatrixXd& X,
+                                             const Eigen::MatrixXd& X_own,
                                              const std::vector<int>& node_rank, Solver solver,
                                              bool parts, int newton_dim)
     : bc_(bc), solver_(solver), num_nodes_(static_cast<int>(K.rows())) {
@@ -548,16 +548,33 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
       solver_ = auto_choice(g.A, nf, static_cast<int>(groups_.size()) + newton_dim * newton_dim,
                             g.what, predicted_bytes_);
     g.what += solver_ == Solver::Mumps ? ", MUMPS Cholesky" : ", CG + GAMG";
-    {  // the near-null space (cg_amg.hpp): constants and centred coordinates, orthonormalized
+    {  // the near-null space (cg_amg.hpp): constants and centred coordinates, orthonormalized,
+      // on the rank's rows (its free nodes among those it owns, X_own's rows in the same
+      // order), the means and inner products summed over the ranks
       std::vector<Eigen::VectorXd> basis;
-      Eigen::MatrixXd Xf(nf, X.cols());
-      for (int k = 0; k < nf; ++k) Xf.row(k) = X.row(node[k]);
+      Eigen::MatrixXd Xf(own, X_own.cols());
+      int at = 0;  // X_own's row of node i
+      for (int i = 0; i < n; ++i) {
+        if (node_rank[i] != me) continue;
+        if (at >= X_own.rows())
+          throw Error(cat(g.what, ": the positions of ", X_own.rows(), " owned nodes for more"));
+        if (local[i] >= 0) Xf.row(local[i] - f0) = X_own.row(at);
+        ++at;
+      }
+      if (at != X_own.rows())
+        throw Error(cat(g.what, ": the positions of ", X_own.rows(), " owned nodes for ", at));
+      const auto summed = [](double x) {
+        mpi::sum(&x, 1);
+        return x;
+      };
+      double largest = own > 0 ? Xf.cwiseAbs().maxCoeff() : 0.0;
+      mpi::max(&largest, 1);
       for (int k = 0; k < Xf.cols(); ++k) {
-        Eigen::VectorXd v = Xf.col(k).array() - Xf.col(k).mean();
+        Eigen::VectorXd v = Xf.col(k).array() - summed(Xf.col(k).sum()) / nf;
         for (int pass = 0; pass < 2; ++pass)
-          for (const Eigen::VectorXd& q : basis) v -= q.dot(v) * q;
-        const double nv = v.norm();
-        if (nv > 1e-10 * std::sqrt(static_cast<double>(nf)) * (Xf.cwiseAbs().maxCoeff() + 1e-300))
+          for (const Eigen::VectorXd& q : basis) v -= summed(q.dot(v)) * q;
+        const double nv = std::sqrt(summed(v.squaredNorm()));
+        if (nv > 1e-10 * std::sqrt(static_cast<double>(nf)) * (largest + 1e-300))
           basis.push_back(v / nv);
       }
       std::vector<Vec> vecs(basis.size());
@@ -565,7 +582,7 @@ DistributedGlobalStep::DistributedGlobalStep(SpMat&& K, const DirichletData& bc,
         check(VecCreateMPI(PETSC_COMM_WORLD, own, nf, &vecs[k]), g.what, "VecCreateMPI");
         PetscScalar* a = nullptr;
         check(VecGetArray(vecs[k], &a), g.what, "VecGetArray");
-        for (int r = 0; r < own; ++r) a[r] = basis[k](f0 + r);
+        for (int r = 0; r < own; ++r) a[r] = basis[k](r);
         check(VecRestoreArray(vecs[k], &a), g.what, "VecRestoreArray");
       }
       MatNullSpace nsp = nullptr;

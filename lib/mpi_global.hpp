@@ -108,15 +108,16 @@ class DistributedGlobalStep {
   /// K: the whole (replicated) matrix of (4.5), or with `parts` this rank's part of it (the
   /// sum over its cells, Discretization of some cells): the parts of the ranks add up to K,
   /// and no rank holds the whole. bc: the Dirichlet sets (held by reference: it must outlive
-  /// this object, as the Solver's discretization does); X: the #nodes x dim reference
-  /// coordinates (the near-null space). Collective over MPI_COMM_WORLD. Throws Error without MPI
+  /// this object, as the Solver's discretization does); X_own: the reference coordinates of the
+  /// nodes this rank owns (node_rank), in increasing order (the near-null space, made on the
+  /// rank's rows). Collective over MPI_COMM_WORLD. Throws Error without MPI
   /// (a build without LTL_WITH_MPI) or when PETSc fails. K is consumed: released (swapped out,
   /// the caller's left empty) once it is in PETSc's matrices, before the last AMG setup or
   /// factorization. (Eigen 3.4's SparseMatrix has no move constructor: a K taken by value from
   /// std::move would be a copy, and the caller's K would stay through every setup.)
   /// node_rank (#nodes; node_ranks of the ranks' cells): the rank whose block of rows holds each
   /// node, the nodes in their index order within a rank's block.
-  DistributedGlobalStep(SpMat&& K, const DirichletData& bc, const Eigen::MatrixXd& X,
+  DistributedGlobalStep(SpMat&& K, const DirichletData& bc, const Eigen::MatrixXd& X_own,
                         const std::vector<int>& node_rank, Solver solver = Solver::CgGamg,
                         bool parts = false, int newton_dim = 0);
   ~DistributedGlobalStep();

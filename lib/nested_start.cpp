@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "error.hpp"
+#include "measures.hpp"
 #include "mesh_transfer.hpp"
 #include "mpi_comm.hpp"
 #include "results.hpp"
@@ -56,8 +57,19 @@ NestedStart nested_start(const Solver& solver, const std::string& path, const st
   State& s = out.state;
   s = solver.initial_state();
   s.u.setZero(mesh.num_nodes(), d);  // whole here, every node's row set below (then hold_rows)
+  // Every node's position: the mesh's, or on a rank that has released it, gathered from the
+  // ranks' ghost layers (X_at_nodes, collective) for the time of the nested start.
+  IterateRows rows;
+  const IterateRows* at = solver.state_rows(rows);
+  Eigen::MatrixXd gathered;
+  if (at && at->X) {
+    std::vector<int> every(static_cast<std::size_t>(mesh.num_nodes()));
+    for (int a = 0; a < mesh.num_nodes(); ++a) every[a] = a;
+    gathered = X_at_nodes(mesh, every, at);
+  }
+  const Eigen::MatrixXd& X = at && at->X ? gathered : mesh.X;
   for (int a = 0; a < mesh.num_nodes(); ++a) {
-    const Eigen::VectorXd x = mesh.X.row(a).transpose();
+    const Eigen::VectorXd x = X.row(a).transpose();
     const PointLocator::Hit hit = locate.locate(x);
     if (!hit.inside()) {
       ++out.clamped_nodes;

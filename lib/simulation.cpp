@@ -657,20 +657,37 @@ void ResultsWriter::append(const TimeStep& step) {
   summary_.last_step = p;
 }
 
-/// Cells of the mesh's connectivity read at a time when the file is made (as the writer's blocks
-/// of a step field, results_layout.cpp).
+/// Cells of the mesh's connectivity, or nodes of its positions, read at a time when the file is
+/// made (as the writer's blocks of a step field, results_layout.cpp).
 constexpr Eigen::Index kCellsPerBlock = 16384;
 
 // The results file, created with the first step written (an existing file stays until then), or
 // with the first iterate saved (a divergence, a checkpoint) when no file is at the output. Under
-// mpirun the mesh's connectivity, which the ranks release after their set-up
-// (Discretization::release_mesh_cells), is read from their parts by blocks of cells
-// (StepFields::kMeshCells), into a copy of the mesh held while the file is made.
+// mpirun the mesh's connectivity and positions, which the ranks release after their set-up
+// (Discretization::release_mesh_cells, release_mesh_X), are read from their parts by blocks of
+// cells (StepFields::kMeshCells) and of nodes (StepFields::kMeshX), into a copy of the mesh held
+// while the file is made.
 void ResultsWriter::create_file(FieldSource& fields) {
   const Problem& problem = problem_;
   std::optional<Mesh> whole;
-  if (problem.mesh.cells.rows() == 0 && problem.mesh.num_cells() > 0) {
-    whole = problem.mesh;  // X and the boundary parts; the cells below
+  const bool no_cells = problem.mesh.cells.rows() == 0 && problem.mesh.num_cells() > 0,
+             no_X = problem.mesh.X.rows() == 0 && problem.mesh.num_nodes() > 0;
+  if (no_cells || no_X) whole = problem.mesh;  // the boundary parts, and what was kept
+  if (no_X) {
+    const auto [rows, cols] = fields.open(StepFields::kMeshX);
+    if (rows != problem.mesh.num_nodes() || cols != problem.mesh.dim)
+      throw Error(cat("internal: the mesh's positions read from the ranks are ", rows, " x ", cols,
+                      ", not ", problem.mesh.num_nodes(), " x ", problem.mesh.dim));
+    whole->X.resize(rows, cols);
+    Eigen::MatrixXd block;
+    for (Eigen::Index first = 0; first < rows; first += kCellsPerBlock) {
+      const Eigen::Index n = std::min<Eigen::Index>(kCellsPerBlock, rows - first);
+      fields.read(StepFields::kMeshX, first, n, block);
+      whole->X.middleRows(first, n) = block;
+    }
+    fields.close(StepFields::kMeshX);
+  }
+  if (no_cells) {
     const auto [rows, cols] = fields.open(StepFields::kMeshCells);
     if (rows != problem.mesh.num_cells() || cols != problem.mesh.nodes_per_cell())
       throw Error(cat("internal: the mesh's connectivity read from the ranks is ", rows, " x ",
@@ -684,7 +701,10 @@ void ResultsWriter::create_file(FieldSource& fields) {
       whole->cells.middleRows(first, n) = block.cast<int>();
     }
     fields.close(StepFields::kMeshCells);
-    whole->released_cells = 0;
+  }
+  if (whole) {  // whole again: its fingerprint made from what was read
+    whole->released_cells = whole->released_nodes = 0;
+    whole->released_fingerprint.clear();
   }
   const Mesh& mesh = whole ? *whole : problem.mesh;
   RunInfo info{problem.name, problem.config_text, resolved_configuration(problem),

@@ -44,8 +44,8 @@ StepFields::StepFields(const Solver& solver, const State& state, Fields fields)
       state_only_(fields == Fields::State) {}
 
 std::pair<Eigen::Index, Eigen::Index> StepFields::open(const std::string& name) {
-  if (state_only_ && name != kMeshCells) {  // decided on rank 0 alone: the others are asked
-    const Field* f = find_field(name);      // for nothing
+  if (state_only_ && name != kMeshCells && name != kMeshX) {  // decided on rank 0 alone: the
+    const Field* f = find_field(name);                        // others are asked for nothing
     if (!f || f->source != Source::State) return {0, 0};
   }
   Eigen::MatrixXd none;
@@ -196,6 +196,19 @@ void StepFields::make(const std::string& name) {
     p.rows = disc.num_cells();
     p.cols = npc;
     if (rows_) p.kind = Part::Kind::Cells;  // else whole here (every cell: the mesh itself)
+    return;
+  }
+  if (name == kMeshX) {  // X on the ranks' ghost layers' rows, read like u below
+    const Eigen::MatrixXd* X = solver_.reference_rows();
+    if (!rows_ || !X)
+      throw Error(
+          cat("internal: StepFields: the mesh's positions from the ranks' rows need a state "
+              "and the positions on the ranks' ghost layers (rank ",
+              mpi::rank(), ")"));
+    p.state = X;
+    p.kind = Part::Kind::NodeRows;
+    p.rows = disc.num_nodes();
+    p.cols = d;
     return;
   }
   // u on the ranks' ghost layers' rows (the state between steps, Solver::state_rows): each

@@ -36,6 +36,11 @@ class StepFields final : public FieldSource {
   /// blocks of cells like a cell field, for the writer to write the mesh once the ranks have
   /// released it (Discretization::release_mesh_cells). Made whatever `fields` says.
   static constexpr const char* kMeshCells = "mesh_cells";
+  /// Not a field of the table either: the mesh's reference positions X, #nodes x dim, read by
+  /// blocks of nodes from those each rank owns on its ghost layer's rows (Solver::reference_rows)
+  /// like u, for the writer to write the mesh once the ranks have released its X
+  /// (Discretization::release_mesh_X). Made whatever `fields` says.
+  static constexpr const char* kMeshX = "mesh_X";
   /// The fields of `state` (the solver's state between steps, or an iterate in that form:
   /// Solver::iterate_to_writer), which must outlive this.
   StepFields(const Solver& solver, const State& state, Fields fields = Fields::All);

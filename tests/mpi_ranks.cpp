@@ -162,6 +162,58 @@ TEST(Mpi, RowBlockGathersHoldEveryRanksBlockExactly) {
     }
 }
 
+/// The writer's gather of rows by item numbers (mpi::gather_rows_to_writer): n = 31 items, item
+/// i on rank (7 i) mod P (runs of one item on several ranks, some ranks' items in the middle of
+/// another's), m rows per item, every value distinct. Read by blocks of 1, 5 and 31 items and by
+/// a count < 0 from item 9, rank 0 gets exactly the items' rows in item order and the others
+/// nothing; the bytes rank 0 received are 8 x the other ranks' rows x columns plus 4 per item
+/// number. Fails when a row lands at another item, when a rank's run is dropped, or when a rank
+/// but the writer keeps the block.
+TEST(Mpi, TheWriterGathersEachRanksRowsByTheirItemNumbers) {
+  const int P = mpi::size(), me = mpi::rank(), n = 31;
+  std::vector<int> items;
+  for (int i = 0; i < n; ++i)
+    if ((7 * i) % P == me) items.push_back(i);
+  auto value = [](long row, long col) { return 0.25 + row + 1000.0 * col; };
+  for (const int m : {1, 3})
+    for (const int cols : {1, 2}) {
+      Eigen::MatrixXd own(static_cast<long>(m) * static_cast<long>(items.size()), cols);
+      for (std::size_t k = 0; k < items.size(); ++k)
+        for (int j = 0; j < m; ++j)
+          for (int c = 0; c < cols; ++c)
+            own(static_cast<long>(m) * static_cast<long>(k) + j, c) =
+                value(static_cast<long>(m) * items[k] + j, c);
+      for (const auto& [first, count] :
+           std::vector<std::pair<int, int>>{{0, 1}, {30, 1}, {3, 5}, {25, 5}, {0, 31}, {9, -1}}) {
+        const mpi::Traffic t0 = mpi::traffic();
+        Eigen::MatrixXd block = Eigen::MatrixXd::Constant(2, 2, -1.0);
+        mpi::gather_rows_to_writer(own, block, items, n, m, first, count);
+        const mpi::Traffic t1 = mpi::traffic();
+        const int c = count < 0 ? n - first : count;
+        if (me != 0) {
+          EXPECT_EQ(block.size(), 0) << "rank " << me;
+          continue;
+        }
+        ASSERT_EQ(block.rows(), static_cast<long>(m) * c);
+        ASSERT_EQ(block.cols(), cols);
+        long wrong = 0;
+        for (long i = 0; i < block.rows(); ++i)
+          for (int k = 0; k < cols; ++k)
+            wrong += block(i, k) != value(static_cast<long>(m) * first + i, k);
+        EXPECT_EQ(wrong, 0) << "m " << m << ", " << cols << " column(s), items " << first << " + "
+                            << c;
+        long others = 0;  // the block's items on other ranks
+        for (int i = first; i < first + c; ++i) others += (7 * i) % P != 0;
+        EXPECT_EQ(t1.bytes - t0.bytes, P > 1 ? (8.0 * m * cols + 4.0) * others : 0.0);
+      }
+    }
+  // An item range outside the items is an Error on every rank.
+  Eigen::MatrixXd block;
+  EXPECT_THROW(
+      mpi::gather_rows_to_writer(Eigen::MatrixXd(3 * items.size(), 1), block, items, n, 3, 30, 2),
+      Error);
+}
+
 TEST(Mpi, Eq4_1to4_4_Fig5SerialAnswerMumps) {
   expect_serial_answer("Fig 5", kFig5, {}, "cholesky");
 }
@@ -913,7 +965,8 @@ TEST(Mpi, TheRanksCellsAreAGraphPartitionThatCutsFewFacets) {
     const Solver dist(p, Ranks::All);
     const mpi::Partition g = graph_cells(p.mesh, P);
     EXPECT_EQ(dist.discretization().held_cells(), g.items(me));
-    EXPECT_EQ(dist.cell_partition()->order, g.order);
+    EXPECT_EQ(dist.cell_partition()->offset, g.offset);  // its order released after the set-up
+    EXPECT_EQ(dist.cell_partition()->order.empty(), P > 1);
     const std::vector<int> node_rank = node_ranks(p.mesh, g);
     const DirichletData& bc = dist.discretization().dirichlet();
     long rows = 0;
@@ -998,7 +1051,9 @@ TEST(Mpi, Eq4_7_EachContactPointIsOnARankOfItsCell) {
     const Problem p = load_problem(ltl::testing::source_path(kFig6), keys);
     const Solver dist(p, Ranks::All);
     const ContactPoints& pts = *dist.discretization().points();
-    const mpi::Partition& cells = *dist.cell_partition();
+    // The Solver's cells (its partition's order is released after the set-up).
+    const mpi::Partition cells =
+        mpi::partition_of(dist.discretization().held_cells(), p.mesh.num_cells());
     const mpi::Partition part = point_partition(p.mesh, pts, cells);
     ASSERT_EQ(part.order.size(), static_cast<std::size_t>(pts.size())) << kind;
     const std::vector<int> cell_rank = cells.owners();
@@ -1097,6 +1152,25 @@ TEST(Mpi, Eq4_5_TheIterateHoldsUOnTheGhostLayersRows) {
   }
 }
 
+/// The pseudo-field `name` of `fields` (StepFields::kMeshCells, kMeshX) read by the writer in
+/// blocks of `block` rows: the whole array on rank 0, empty on the others; `failure` the write's
+/// message, on every rank (collective).
+Eigen::MatrixXd read_back(StepFields& fields, const char* name, Eigen::Index block,
+                          std::string& failure) {
+  Eigen::MatrixXd all;
+  failure = fields.written([&] {
+    const auto [rows, cols] = fields.open(name);
+    all.resize(rows, cols);
+    Eigen::MatrixXd part;
+    for (Eigen::Index first = 0; first < rows; first += block) {
+      fields.read(name, first, std::min(block, rows - first), part);
+      all.middleRows(first, part.rows()) = part;
+    }
+    fields.close(name);
+  });
+  return all;
+}
+
 /// [(2.7)] Each rank holds its cells as a mesh of their own (Discretization::part()), numbered
 /// locally: its node j is the operators' column j, at the mesh node's reference position, and its
 /// row k is the k-th held cell on those nodes, node for node the mesh's cell; a node is marked
@@ -1147,26 +1221,90 @@ TEST(Mpi, Eq2_7_EachRankHoldsItsCellsAsAMeshOfItsOwn) {
   // The connectivity read back by the writer, by blocks of 7 cells (some blocks across ranks).
   State s = dist.initial_state();
   StepFields fields(dist, s);
-  Eigen::MatrixXd cells;
-  const std::string failure = fields.written([&] {
-    const auto [rows, cols] = fields.open(StepFields::kMeshCells);
-    ASSERT_EQ(rows, p.mesh.num_cells());
-    ASSERT_EQ(cols, p.mesh.nodes_per_cell());
-    cells.resize(rows, cols);
-    Eigen::MatrixXd block;
-    for (Eigen::Index first = 0; first < rows; first += 7) {
-      fields.read(StepFields::kMeshCells, first, std::min<Eigen::Index>(7, rows - first), block);
-      cells.middleRows(first, block.rows()) = block;
-    }
-    fields.close(StepFields::kMeshCells);
-  });
+  std::string failure;
+  const Eigen::MatrixXd cells = read_back(fields, StepFields::kMeshCells, 7, failure);
   EXPECT_EQ(failure, "") << "rank " << me;
   if (me == 0) {
+    ASSERT_EQ(cells.rows(), p.mesh.num_cells());
+    ASSERT_EQ(cells.cols(), p.mesh.nodes_per_cell());
     EXPECT_TRUE(cells.cast<int>() == p.mesh.cells);
   }
   if (me == 0) {
     std::printf("rank 0 of %d: %d of %d cells and %d of %d nodes in its part, %ld shared\n", P,
                 part.num_cells(), p.mesh.num_cells(), part.num_nodes(), p.mesh.num_nodes(), shared);
+  }
+}
+
+/// [(2.7), (1.1)] After the set-up on several ranks a rank holds the mesh's reference positions X
+/// on its ghost layer's rows alone (IterateRows::X, the part's X when the layer's nodes are its
+/// cells'), each row the mesh's node's, exactly, and has released the mesh's (Mesh::release_X),
+/// keeping its node count and fingerprint; one process keeps X whole. What reads X after the
+/// set-up reads those rows: the contact measures, the penetration (of a state on the layer's rows,
+/// and of a whole u at the part's nodes) and the contact points' reference positions are the
+/// serial ones exactly, and the writer reads X back by blocks of nodes (StepFields::kMeshX):
+/// the mesh's, exactly. Fails when a rank keeps the mesh's X, when a layer row is another node's,
+/// when a reader takes a position from another row, or when a block read back is not the mesh's.
+TEST(Mpi, Eq2_7_EachRankHoldsTheMeshPositionsOfItsLayerOnly) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig6), kCoarseGutter);
+  const Solver serial(p, Ranks::One);
+  const Solver dist(p, Ranks::All);
+  const int P = mpi::size(), me = mpi::rank();
+  const Mesh& mesh = dist.problem().mesh;
+  EXPECT_EQ(mesh.num_nodes(), p.mesh.num_nodes());
+  EXPECT_EQ(mesh.dim, p.mesh.dim);
+  EXPECT_EQ(mesh.fingerprint(), p.mesh.fingerprint());
+  EXPECT_EQ(mesh.X.rows(), P > 1 ? 0 : p.mesh.num_nodes()) << "rank " << me;
+  IterateRows buf;
+  const IterateRows* at = dist.state_rows(buf);
+  if (P > 1) {
+    ASSERT_TRUE(at && at->X) << "rank " << me;
+    EXPECT_EQ(dist.reference_rows(), at->X);
+    ASSERT_EQ(at->X->rows(), static_cast<Eigen::Index>(at->nodes->size()));
+    long wrong = 0;
+    for (std::size_t k = 0; k < at->nodes->size(); ++k)
+      wrong += at->X->row(static_cast<Eigen::Index>(k)) != p.mesh.X.row((*at->nodes)[k]);
+    EXPECT_EQ(wrong, 0) << "rank " << me;
+    EXPECT_LT(at->nodes->size(), static_cast<std::size_t>(p.mesh.num_nodes()));
+    EXPECT_LT(dist.holdings().mesh, serial.holdings().mesh) << "rank " << me;
+  }
+  // A state with some nodes pushed through the obstacle's plane and random contact tractions.
+  State s = serial.initial_state();
+  s.u = 1e-2 * Eigen::MatrixXd::Random(p.mesh.num_nodes(), p.mesh.dim);
+  const ContactCondition& cc = p.contacts.front();
+  const Eigen::Vector3d N = cc.plane_normal.head(3).normalized(), p0 = cc.plane_point.head(3);
+  const std::vector<int> surface = p.mesh.boundary_nodes(cc.group);
+  for (std::size_t k = 0; k < surface.size(); k += 9)
+    s.u.row(surface[k]) = ((p0 - p.mesh.X.row(surface[k]).transpose()).dot(N) + 1e-3 * k) * N;
+  s.lambda_c = 1e4 * Eigen::MatrixXd::Random(s.lambda_c.rows(), s.lambda_c.cols());
+  for (Eigen::MatrixXd* m : {&s.u, &s.lambda_c}) mpi::broadcast(m->data(), m->size());
+  State rows = s;
+  dist.hold_rows(rows);
+  const ContactPoints& pts = *serial.discretization().points();
+  const Eigen::MatrixXd centre = point_reference(pts, p.mesh, nullptr);
+  EXPECT_TRUE(point_reference(*dist.discretization().points(), mesh, at) == centre);
+  const ContactMeasures a = contact_measures(serial.discretization(), s, 0, 0);
+  const ContactMeasures b = contact_measures(dist.discretization(), rows, 0, 0, at);
+  EXPECT_GT(a.in_contact, 0);
+  EXPECT_GT(a.penetration, 0);
+  EXPECT_EQ(b.in_contact, a.in_contact);
+  EXPECT_EQ(b.a_edge, a.a_edge);
+  EXPECT_EQ(b.a_moment, a.a_moment);
+  EXPECT_EQ(b.penetration, a.penetration);
+  EXPECT_EQ(max_penetration(dist.discretization(), rows, at), a.penetration);
+  EXPECT_EQ(max_penetration(dist.discretization(), s), a.penetration);  // u whole: the parts' X
+  if (P == 1) return;  // X whole: no rows to read it from
+  // X read back by the writer by blocks of 5 nodes (some blocks across ranks).
+  StepFields fields(dist, rows);
+  std::string failure;
+  const Eigen::MatrixXd X = read_back(fields, StepFields::kMeshX, 5, failure);
+  EXPECT_EQ(failure, "") << "rank " << me;
+  if (me == 0) {
+    ASSERT_EQ(X.rows(), p.mesh.num_nodes());
+    ASSERT_EQ(X.cols(), p.mesh.dim);
+    EXPECT_TRUE(X == p.mesh.X);
+    std::printf("rank 0 of %d: X on %zu of %d nodes, mesh holdings %.0f B (one process %.0f B)\n",
+                P, at->nodes->size(), p.mesh.num_nodes(), dist.holdings().mesh,
+                serial.holdings().mesh);
   }
 }
 
@@ -1529,10 +1667,24 @@ TEST(Mpi, Eq4_6_AdmissibilityOnTheRanksCellsIsTheSerialOne) {
   EXPECT_GT(a.nodes_inside, 0);  // nodes inside the obstacle: counted once over the ranks
   // The ranks' report of a state, whole and on the ranks' rows, is the serial report `r`, field
   // for field.
+  // Once set up on several ranks, a rank has released the mesh's positions (Mesh::release_X):
+  // a whole state is refused there, on every rank, with a message.
+  const bool released = dist.problem().mesh.X.rows() == 0;
+  EXPECT_EQ(released, mpi::size() > 1);
   const auto expect_serial_report = [&](const State& whole, const AdmissibilityReport& r) {
     State on_rows = whole;
     dist.hold_rows(on_rows);
+    if (released) {
+      try {
+        check_admissibility(dist.discretization(), whole, nullptr);
+        ADD_FAILURE() << "a whole state on a rank that released the mesh's positions is checked";
+      } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("released the mesh's positions"), std::string::npos)
+            << e.what();
+      }
+    }
     for (const State* t : {&whole, static_cast<const State*>(&on_rows)}) {
+      if (released && t == &whole) continue;
       const AdmissibilityReport b =
           check_admissibility(dist.discretization(), *t, t == &on_rows ? layer : nullptr);
       EXPECT_EQ(b.det_F_min, r.det_F_min);
