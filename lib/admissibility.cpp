@@ -394,8 +394,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
       kappa_of.segment(pts->offset[k], pts->offset[k + 1] - pts->offset[k])
           .setConstant(pb.contacts[k].adhesion.kappa);
     const bool has_beta = s.beta.size() == pts->size();
-    const Eigen::MatrixXd& loads = d.loaded_rows();  // the dead loads' rows that are not zero
-    const double load = loads.size() ? loads.cwiseAbs().maxCoeff() : 0.0;
+    const double load = d.largest_dead_load();
     const double p_ref =
         std::max({p.cwiseAbs().maxCoeff(), load / pts->area.minCoeff(), 1e-3 * d.split().C1});
     r.pressure_tol = kPressureTolerance * p_ref;

@@ -579,7 +579,11 @@ double Solver::energy(const State& s, const Eigen::VectorXd& beta_prev) const {
     whole_u(w.u);
     return energy(w, beta_prev);
   }
-  double J = disc_.elastic_energy(s, external_load());
+  // On a rank that kept its own nodes' loads (release_after_setup), the load's work of the
+  // nodes each rank owns, summed over the ranks.
+  double J = disc_.loads_kept()
+                 ? disc_.elastic_energy(s, Eigen::MatrixXd()) - load_factor_ * owned_load_work(s.u)
+                 : disc_.elastic_energy(s, external_load());
   if (contact_) J += contact_->energy(s.e, s.beta, beta_prev);
   return J;
 }

@@ -341,6 +341,9 @@ class Solver {
   /// on the ghost layer's rows, its positions (the writer reads them back from the ranks), and
   /// the order of the cells' partition (the writer gathers the cells' rows by their numbers).
   void release_after_setup();
+  /// [(1.2)] f . u of the dead loads at factor 1 over the nodes each rank owns, summed over the
+  /// ranks (collective), u whole: on ranks that kept their own nodes' loads (keep_loads).
+  double owned_load_work(const Eigen::MatrixXd& u) const;
   /// The discretization a Solver on `ranks` builds (a rank's cells, or every cell).
   static Discretization discretize(Problem problem, Ranks ranks);
   /// The contact points whose term R q_c M^T |G| M goes into this rank's part of K: all of them

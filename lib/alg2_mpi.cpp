@@ -125,10 +125,30 @@ void Solver::release_after_setup() {
   // The positions, when u is on the ghost layer's rows: what reads them reads the part's or the
   // layer's rows (state_rows, IterateRows::X), the writer those of the nodes each rank owns
   // (StepFields::kMeshX; "The mesh's positions on the rank's nodes").
-  if (u_on_layer()) disc_.release_mesh_X();
+  if (u_on_layer()) {
+    disc_.release_mesh_X();
+    // The dead loads of the rank's block of the nodes (its sums of the equilibrium residual,
+    // equilibrium_residual_rows) and of the nodes it owns (its right-hand side at a new R):
+    // a body force's, on every node, no longer whole on every rank.
+    const std::vector<int>& layer = dist_->ksp->layer_nodes();
+    std::vector<int> owned;
+    owned.reserve(dist_->owned_rows.size());
+    for (int row : dist_->owned_rows) owned.push_back(layer[row]);
+    disc_.keep_loads(dist_->n0, dist_->n1, owned);
+  }
   // The partition's order (every cell's rank): the writer gathers the cells' rows by their
   // numbers (cells_to_writer), and a whole gather makes it again (whole_cells).
   if (disc_.partial()) std::vector<int>().swap(dist_->cells.order);
+}
+
+double Solver::owned_load_work(const Eigen::MatrixXd& u) const {
+  const Distribution& d = *dist_;
+  const std::vector<int>& layer = d.ksp->layer_nodes();  // the dead loads' rows are the layer's
+  double w = 0;
+  for (std::size_t k = 0; k < d.dead_rows.size(); ++k)
+    w += d.dead_values.row(static_cast<Eigen::Index>(k)).dot(u.row(layer[d.dead_rows[k]]));
+  mpi::sum(&w, 1);
+  return w;
 }
 
 const GlobalStep& Solver::global_step() const {

@@ -61,7 +61,28 @@ Eigen::MatrixXd Discretization::dead_load() const {
 }
 
 void Discretization::add_dead_load(Eigen::MatrixXd& f, double scale) const {
+  if (loads_kept_)
+    throw Error(
+        "the dead loads of every node are asked for on a rank that kept those of its own nodes "
+        "alone after its set-up (Discretization::keep_loads): use the state on the ranks' rows");
   for (std::size_t k = 0; k < loaded_.size(); ++k) f.row(loaded_[k]) += scale * F_loaded_.row(k);
+}
+
+void Discretization::keep_loads(int n0, int n1, const std::vector<int>& owned) {
+  if (!partial_) return;
+  std::vector<int> kept;
+  std::vector<Eigen::Index> rows;
+  for (std::size_t k = 0; k < loaded_.size(); ++k) {
+    const int n = loaded_[k];
+    if ((n >= n0 && n < n1) || std::binary_search(owned.begin(), owned.end(), n)) {
+      kept.push_back(n);
+      rows.push_back(static_cast<Eigen::Index>(k));
+    }
+  }
+  Eigen::MatrixXd F = F_loaded_(rows, Eigen::all);
+  F_loaded_.swap(F);
+  loaded_.swap(kept);
+  loads_kept_ = true;
 }
 
 const Eigen::MatrixXd& Discretization::on_columns(const Eigen::MatrixXd& u, Eigen::MatrixXd& work,
@@ -261,6 +282,7 @@ Discretization::Discretization(Problem problem, const std::vector<int>* held)
       if ((F.row(i).array() != 0.0).any()) loaded_.push_back(i);
     F_loaded_.resize(static_cast<Eigen::Index>(loaded_.size()), dim);
     for (std::size_t k = 0; k < loaded_.size(); ++k) F_loaded_.row(k) = F.row(loaded_[k]);
+    largest_dead_load_ = F_loaded_.size() ? F_loaded_.cwiseAbs().maxCoeff() : 0.0;
   }
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -555,9 +577,10 @@ double Discretization::elastic_energy(const State& s, const Eigen::MatrixXd& F) 
   if (partial_) {  // the held cells' parts summed over the ranks
     double parts[3] = {J, grad2, mean2};
     mpi::sum(parts, 3);
-    return parts[0] + m.C1 * (parts[1] - parts[2]) - (F.array() * s.u.array()).sum();
+    return parts[0] + m.C1 * (parts[1] - parts[2]) -
+           (F.size() ? (F.array() * s.u.array()).sum() : 0.0);
   }
-  return J + m.C1 * (grad2 - mean2) - (F.array() * s.u.array()).sum();
+  return J + m.C1 * (grad2 - mean2) - (F.size() ? (F.array() * s.u.array()).sum() : 0.0);
 }
 
 Eigen::MatrixXd Discretization::held_cell_forces_on_columns(

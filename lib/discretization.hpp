@@ -122,15 +122,26 @@ class Discretization {
   /// Per component, the sorted nodes whose displacement is prescribed, and their values.
   const DirichletData& dirichlet() const { return bc_; }
   /// The consistent dead loads f (body force) and g (tractions) at load factor 1, #nodes x dim
-  /// [LTL87 (1.2)]: a new array, made from the loaded nodes' rows (below).
+  /// [LTL87 (1.2)]: a new array, made from the loaded nodes' rows (below). An Error once the
+  /// loads of other nodes than the rank's have been released (keep_loads).
   Eigen::MatrixXd dead_load() const;
   /// The dead loads as held: the loaded nodes (sorted: those whose row of dead_load() is not
   /// zero, a traction's surface nodes when there is no body force) and their rows, so that a
-  /// dead load on a surface takes memory per surface node (paper_notes/mpi.md).
+  /// dead load on a surface takes memory per surface node (paper_notes/mpi.md). After
+  /// keep_loads, those of the kept nodes alone.
   const std::vector<int>& loaded_nodes() const { return loaded_; }
   const Eigen::MatrixXd& loaded_rows() const { return F_loaded_; }
-  /// [(1.2)] f += scale x dead_load() (f: #nodes x dim), without a whole array.
+  /// max |dead_load()|, the largest nodal dead load (0 without loads), kept by keep_loads.
+  double largest_dead_load() const { return largest_dead_load_; }
+  /// [(1.2)] f += scale x dead_load() (f: #nodes x dim), without a whole array. An Error after
+  /// keep_loads, like dead_load().
   void add_dead_load(Eigen::MatrixXd& f, double scale) const;
+  /// On some cells, keeps the dead loads of the nodes n0 .. n1 - 1 (a rank's block of the
+  /// nodes, whose equilibrium residual it sums) and of the nodes `owned` (sorted: those whose
+  /// loads it adds into the right-hand side) alone: a rank of a distributed run after its set-up,
+  /// so that a body force's loads, on every node, are not held whole on every rank
+  /// (paper_notes/mpi.md). Nothing when every cell is held.
+  void keep_loads(int n0, int n1, const std::vector<int>& owned);
   /// Identity blocks, (dim * #cells) x dim, the transposed-block layout of E and lambda (made
   /// on demand: not stored).
   Eigen::MatrixXd identity() const { return identity_rows(dim(), num_cells()); }
@@ -233,7 +244,10 @@ class Discretization {
       const State* less_fluctuation = nullptr, const int* u_row = nullptr) const;
   /// The elastic and load part of the discrete functional J_p (2.2) at a state, load F:
   ///   sum_e |O_e| W(E_e) + C1 (||grad u||^2 - sum_e |O_e| |Gbar_e u|^2) - F.u
+  /// (F empty: without the load's term).
   double elastic_energy(const State& s, const Eigen::MatrixXd& F) const;
+  /// Has keep_loads dropped the loads of other nodes than the rank's?
+  bool loads_kept() const { return loads_kept_; }
 
  private:
   Problem problem_;
@@ -250,6 +264,8 @@ class Discretization {
   DirichletData bc_;
   std::vector<int> loaded_;
   Eigen::MatrixXd F_loaded_;
+  double largest_dead_load_ = 0;
+  bool loads_kept_ = false;  ///< keep_loads has dropped other nodes' loads
   double volume_ = 0, contact_area_ = 0, build_seconds_ = 0;
   // Mean-det: the reference rule of the cell type (the point gradients are recomputed per cell
   // from the nodes' positions), and the work buffers of the nodal forces of a block of cells and

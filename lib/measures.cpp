@@ -410,8 +410,7 @@ FreeAndFixed residual_free_and_fixed(const Discretization& d, const Eigen::Matri
 }  // namespace
 
 double largest_load(const Discretization& d, double load_scale) {
-  const Eigen::MatrixXd& f = d.loaded_rows();
-  return std::abs(load_scale) * (f.size() ? f.cwiseAbs().maxCoeff() : 0.0);
+  return std::abs(load_scale) * d.largest_dead_load();
 }
 
 namespace {

@@ -1409,7 +1409,7 @@ TEST(Mpi, EachRankHoldsTheOperatorsOfItsCellsOnly) {
   dist.hold_rows(rows);
   ASSERT_TRUE(P == 1 || rows.E.rows() < s.E.rows());
   rows.u = s.u;  // whole, as these functions of the discretization take it
-  const Eigen::MatrixXd& f = dist.discretization().dead_load();
+  const Eigen::MatrixXd& f = serial.discretization().dead_load();  // the ranks keep their own
   EXPECT_LE((equilibrium_residual(dist.discretization(), f, rows, dist.load_factor()) - r).norm(),
             1e-12 * r.norm());
   EXPECT_LE((equilibrium_residual(dist.discretization(), 0.5 * f, rows, 2.0) - r).norm(),
@@ -1475,6 +1475,74 @@ TEST(Mpi, Eq4_5_RowSumsOnTheBlocksOfTheNodesAddEveryRanksRows) {
   std::vector<int> unsorted = node;
   std::swap(unsorted[0], unsorted[1]);
   EXPECT_THROW(mpi::sum_rows_to_blocks(A, unsorted, offset, block), Error);
+}
+
+/// [(1.2), (4.5)] Fig 5's body force loads every node. After the set-up on several ranks a rank
+/// keeps the dead loads of its block of the nodes and of the nodes it owns alone
+/// (Discretization::keep_loads): every loaded node of those, with the serial rows exactly, and no
+/// other; the largest load is the serial one; a whole array of the loads is refused with a
+/// message; the equilibrium residual on the blocks and the step's measure are the serial ones
+/// (1e-12). Fails when a rank keeps every node's loads, drops its block's or its owned nodes',
+/// or reads another node's row.
+TEST(Mpi, Eq1_2_EachRankKeepsTheDeadLoadsOfItsNodes) {
+  const Problem p = load_problem(ltl::testing::source_path(kFig5));
+  const Solver serial(p, Ranks::One);
+  const Solver dist(p, Ranks::All);
+  const int P = mpi::size(), me = mpi::rank(), dim = p.mesh.dim, nn = p.mesh.num_nodes();
+  const Discretization& ds = serial.discretization();
+  const Discretization& dd = dist.discretization();
+  // A body force: (nearly) every node loaded.
+  ASSERT_GT(static_cast<int>(ds.loaded_nodes().size()), nn * 9 / 10);
+  const Eigen::MatrixXd F = ds.dead_load();
+  EXPECT_EQ(dd.largest_dead_load(), ds.largest_dead_load());
+  EXPECT_GT(ds.largest_dead_load(), 0);
+  IterateRows buf;
+  const IterateRows* at = dist.state_rows(buf);
+  if (P > 1) {
+    ASSERT_TRUE(at);
+    const std::vector<int> offset = mpi::blocks(nn, P);
+    std::vector<char> wanted(nn, 0);
+    for (int n = offset[me]; n < offset[me + 1]; ++n) wanted[n] = 1;
+    for (int row : *at->owned) wanted[(*at->nodes)[row]] = 1;
+    long missing = 0, extra = 0, wrong = 0;
+    std::vector<char> kept(nn, 0);
+    for (std::size_t k = 0; k < dd.loaded_nodes().size(); ++k) {
+      const int n = dd.loaded_nodes()[k];
+      kept[n] = 1;
+      extra += !wanted[n];
+      wrong += dd.loaded_rows().row(static_cast<Eigen::Index>(k)) != F.row(n);
+    }
+    for (int n = 0; n < nn; ++n) missing += wanted[n] && !kept[n] && (F.row(n).array() != 0).any();
+    EXPECT_EQ(missing, 0) << "rank " << me;
+    EXPECT_EQ(extra, 0) << "rank " << me;
+    EXPECT_EQ(wrong, 0) << "rank " << me;
+    EXPECT_LT(dd.loaded_nodes().size(), ds.loaded_nodes().size());
+    try {
+      dd.dead_load();
+      ADD_FAILURE() << "the whole dead loads made on rank " << me;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("kept those of its own nodes"), std::string::npos);
+    }
+  }
+  State s = serial.initial_state();
+  s.u = 1e-3 * Eigen::MatrixXd::Random(nn, dim);
+  s.E += 1e-2 * Eigen::MatrixXd::Random(s.E.rows(), s.E.cols());
+  s.lambda += 1e3 * Eigen::MatrixXd::Random(s.lambda.rows(), s.lambda.cols());
+  for (Eigen::MatrixXd* a : {&s.u, &s.E, &s.lambda}) mpi::broadcast(a->data(), a->size());
+  for (int i = 0; i < dim; ++i) ds.dirichlet().impose(s.u, i, 1.0);
+  const double scale = 0.7;
+  const Eigen::MatrixXd r = equilibrium_residual(ds, ds.dead_load(), s, scale);
+  State rows = s;
+  dist.hold_rows(rows);
+  const ResidualRows block = equilibrium_residual_rows(dd, nullptr, rows, scale, at);
+  EXPECT_LE((block.r - r.middleRows(block.first, block.r.rows())).cwiseAbs().maxCoeff(),
+            1e-12 * r.cwiseAbs().maxCoeff());
+  const EquilibriumMeasure a = equilibrium_measure(ds, s, scale);
+  const EquilibriumMeasure b = equilibrium_measure(dd, rows, scale, at);
+  EXPECT_NEAR(b.force_residual, a.force_residual, 1e-12 * a.force_residual);
+  if (me == 0)
+    std::printf("Fig 5, %d rank(s): rank 0 keeps the dead loads of %zu of %d nodes\n", P,
+                dd.loaded_nodes().size(), nn);
 }
 
 /// [(4.5), (1.2)] The equilibrium residual on a rank's cells made on the ranks' blocks of the
