@@ -76,7 +76,7 @@ struct Solver::Distribution {
   std::vector<int> owned_rows;
   /// With a ghost layer: the reference positions on the layer's rows (IterateRows::X), the
   /// part's X (Discretization::part()) when the layer's nodes are the part's, else layer_X; the
-  /// mesh's X is released after the set-up (Solver::Solver)
+  /// mesh's X is released after the set-up (release_after_setup)
   const Eigen::MatrixXd* X_rows = nullptr;
   Eigen::MatrixXd layer_X;
   /// With a ghost layer: the rows of `mean` of own_points() (every point when the contact step
