@@ -145,15 +145,14 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
                     ", which released the mesh's positions after its set-up: check the state on "
                     "the ranks' rows (Solver::state_rows)"));
   r.h = std::pow(d.volume() / std::max(1, nc), 1.0 / dim);
-  // The deformed position x = X + u of node n, made where it is read (no #nodes x dim copy: it
-  // was the step's end's largest transient on a rank, paper_notes/mpi.md); with `at` u's row of
-  // n from the ranks whose layer holds it (collective: every rank asks for the same node).
-  // X of n likewise: the mesh's, or the ranks' rows once a rank has released the mesh's
-  // (IterateRows::X).
-  const auto reference = [&](int n) { return position(X_at_nodes(mesh, {n}, at), 0); };
-  const auto deformed = [&](int n) {
-    const Eigen::MatrixXd un = u_at_nodes(s, {n}, at);
-    return position(Eigen::RowVectorXd(X_at_nodes(mesh, {n}, at).row(0) + un.row(0)), 0);
+  // "node n at reference X, deformed x = X + u", made where it is read (no #nodes x dim copy:
+  // it was the step's end's largest transient on a rank, paper_notes/mpi.md); with `at` n's rows
+  // of u and X (the mesh's, or IterateRows::X once a rank has released it) from the ranks whose
+  // layer holds it (collective: every rank asks for the same node).
+  const auto node_at = [&](int n) {
+    const Eigen::MatrixXd Xn = X_at_nodes(mesh, {n}, at), un = u_at_nodes(s, {n}, at);
+    return cat("node ", n, " at reference ", position(Xn, 0), ", deformed ",
+               position(Eigen::MatrixXd(Xn + un), 0));
   };
   // The nodes this rank checks against the planes and their rows of u: every node, or with `at`
   // those it owns (each node on one rank), in increasing order.
@@ -220,8 +219,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
       const int n = excess_node;
       const double depth = excess + r.inside_tol;
       worst_excess = excess;
-      worst = cat("node ", n, " at reference ", reference(n), ", deformed ", deformed(n), ", ",
-                  depth, " m inside");
+      worst = cat(node_at(n), ", ", depth, " m inside");
     }
     if (points) {
       const Eigen::MatrixXd ubar = point_means(*pts, s, at);  // #points x dim
@@ -232,8 +230,7 @@ AdmissibilityReport check_admissibility(const Discretization& d, const State& s,
         const double residual = std::abs((ubar.row(i) - s.e.row(i)).dot(N));
         record(depth, r.inside_tol + (std::isfinite(residual) ? residual : 0.0), [&] {
           const std::string where =
-              nodal ? cat("node ", pts->nodes[i], " at reference ", reference(pts->nodes[i]),
-                          ", deformed ", deformed(pts->nodes[i]))
+              nodal ? node_at(pts->nodes[i])
                     : cat("contact facet ", i, " (mean of its nodes at reference ",
                           position(pts->centre.transpose(), i), ", deformed ", position(xbar, i),
                           ")");

@@ -90,14 +90,10 @@ Eigen::MatrixXd point_reference(const ContactPoints& pts, const Mesh& mesh, cons
                     [&](double w, Eigen::Index r, int, auto& row) { row += w * at->X->row(r); });
 }
 
-Eigen::MatrixXd point_means(const ContactPoints& pts, const State& s, const IterateRows* at,
-                            const Eigen::MatrixXd* X) {
-  if (!at) return X ? Eigen::MatrixXd(pts.mean * (*X + s.u)) : Eigen::MatrixXd(pts.mean * s.u);
-  const int dim = static_cast<int>(s.u.cols());
-  return point_sums(pts, dim, at, "point_means", [&](double w, Eigen::Index r, int n, auto& row) {
-    for (int c = 0; c < dim; ++c)
-      row(c) += w * (X ? (at->X ? (*at->X)(r, c) : (*X)(n, c)) + s.u(r, c) : s.u(r, c));
-  });
+Eigen::MatrixXd point_means(const ContactPoints& pts, const State& s, const IterateRows* at) {
+  if (!at) return pts.mean * s.u;
+  return point_sums(pts, static_cast<int>(s.u.cols()), at, "point_means",
+                    [&](double w, Eigen::Index r, int, auto& row) { row += w * s.u.row(r); });
 }
 
 ContactMeasures contact_measures(const Discretization& d, const State& s, int axis, int k,
@@ -110,7 +106,7 @@ ContactMeasures contact_measures(const Discretization& d, const State& s, int ax
   const int r0 = points.offset[k], r1 = points.offset[k + 1];
   // The deformed contact points, and for each the largest deformed coordinate along `axis` of
   // its nodes (x = X + u), on the ranks whose layer holds them with `at`.
-  const Eigen::MatrixXd xp = point_means(points, s, at, &pb.mesh.X);
+  const Eigen::MatrixXd xp = point_reference(points, pb.mesh, at) + point_means(points, s, at);
   const Eigen::MatrixXd edge = on_points(points.size(), 1, at, [&](int i, auto row) {
     row(0) = -INFINITY;
     for (SpMatR::InnerIterator it(points.mean, i); it; ++it) {

@@ -200,12 +200,11 @@ inline double X_at(const Mesh& mesh, const IterateRows* at, int n, Eigen::Index 
 /// product), else summed term by term on the rows of each rank's points, as point_means
 /// (collective).
 Eigen::MatrixXd point_reference(const ContactPoints& pts, const Mesh& mesh, const IterateRows* at);
-/// [(3.2)] mean * u of the contact points (#points x dim: ubar, of the constraint ubar = e), or
-/// with X mean * (X + u), their deformed positions, with u whole (at null) or on a rank's layer
-/// rows (collective): each rank the rows of its points (every point when `at->points` is null),
-/// summed term by term as the row-major product does.
-Eigen::MatrixXd point_means(const ContactPoints& pts, const State& s, const IterateRows* at,
-                            const Eigen::MatrixXd* X = nullptr);
+/// [(3.2)] mean * u of the contact points (#points x dim: ubar, of the constraint ubar = e), with
+/// u whole (at null) or on a rank's layer rows (collective): each rank the rows of its points
+/// (every point when `at->points` is null), summed term by term as the row-major product does.
+/// Their deformed positions are point_reference + point_means.
+Eigen::MatrixXd point_means(const ContactPoints& pts, const State& s, const IterateRows* at);
 /// With `at` (a rank's discretization only), s is in that form: the rank's points' contact terms
 /// are added at their nodes with its cells' forces, before the sum on the blocks.
 ResidualRows equilibrium_residual_rows(const Discretization& d, const Eigen::MatrixXd* f_ext,

@@ -657,9 +657,29 @@ void ResultsWriter::append(const TimeStep& step) {
   summary_.last_step = p;
 }
 
-/// Cells of the mesh's connectivity, or nodes of its positions, read at a time when the file is
-/// made (as the writer's blocks of a step field, results_layout.cpp).
-constexpr Eigen::Index kCellsPerBlock = 16384;
+namespace {
+/// Reads the pseudo-field `name` of the mesh (StepFields::kMeshX, kMeshCells), rows x cols, from
+/// the ranks when the file is made, by blocks of 16 384 rows as the writer reads a step field
+/// (results_layout.cpp), into `to` (resized; Eigen::MatrixXd or, cast, Eigen::MatrixXi): no
+/// whole array of doubles for the connectivity.
+template <class Matrix>
+void mesh_from_ranks(FieldSource& fields, const char* name, Eigen::Index rows, Eigen::Index cols,
+                     Matrix& to) {
+  constexpr Eigen::Index kRowsPerBlock = 16384;
+  const auto [n, c] = fields.open(name);
+  if (n != rows || c != cols)
+    throw Error(cat("internal: the mesh's ", name, " read from the ranks is ", n, " x ", c,
+                    ", not ", rows, " x ", cols));
+  to.resize(rows, cols);
+  Eigen::MatrixXd block;
+  for (Eigen::Index first = 0; first < rows; first += kRowsPerBlock) {
+    const Eigen::Index count = std::min(kRowsPerBlock, rows - first);
+    fields.read(name, first, count, block);
+    to.middleRows(first, count) = block.cast<typename Matrix::Scalar>();
+  }
+  fields.close(name);
+}
+}  // namespace
 
 // The results file, created with the first step written (an existing file stays until then), or
 // with the first iterate saved (a divergence, a checkpoint) when no file is at the output. Under
@@ -673,35 +693,12 @@ void ResultsWriter::create_file(FieldSource& fields) {
   const bool no_cells = problem.mesh.cells.rows() == 0 && problem.mesh.num_cells() > 0,
              no_X = problem.mesh.X.rows() == 0 && problem.mesh.num_nodes() > 0;
   if (no_cells || no_X) whole = problem.mesh;  // the boundary parts, and what was kept
-  if (no_X) {
-    const auto [rows, cols] = fields.open(StepFields::kMeshX);
-    if (rows != problem.mesh.num_nodes() || cols != problem.mesh.dim)
-      throw Error(cat("internal: the mesh's positions read from the ranks are ", rows, " x ", cols,
-                      ", not ", problem.mesh.num_nodes(), " x ", problem.mesh.dim));
-    whole->X.resize(rows, cols);
-    Eigen::MatrixXd block;
-    for (Eigen::Index first = 0; first < rows; first += kCellsPerBlock) {
-      const Eigen::Index n = std::min<Eigen::Index>(kCellsPerBlock, rows - first);
-      fields.read(StepFields::kMeshX, first, n, block);
-      whole->X.middleRows(first, n) = block;
-    }
-    fields.close(StepFields::kMeshX);
-  }
-  if (no_cells) {
-    const auto [rows, cols] = fields.open(StepFields::kMeshCells);
-    if (rows != problem.mesh.num_cells() || cols != problem.mesh.nodes_per_cell())
-      throw Error(cat("internal: the mesh's connectivity read from the ranks is ", rows, " x ",
-                      cols, ", not ", problem.mesh.num_cells(), " x ",
-                      problem.mesh.nodes_per_cell()));
-    whole->cells.resize(rows, cols);
-    Eigen::MatrixXd block;
-    for (Eigen::Index first = 0; first < rows; first += kCellsPerBlock) {
-      const Eigen::Index n = std::min<Eigen::Index>(kCellsPerBlock, rows - first);
-      fields.read(StepFields::kMeshCells, first, n, block);
-      whole->cells.middleRows(first, n) = block.cast<int>();
-    }
-    fields.close(StepFields::kMeshCells);
-  }
+  if (no_X)
+    mesh_from_ranks(fields, StepFields::kMeshX, problem.mesh.num_nodes(), problem.mesh.dim,
+                    whole->X);
+  if (no_cells)
+    mesh_from_ranks(fields, StepFields::kMeshCells, problem.mesh.num_cells(),
+                    problem.mesh.nodes_per_cell(), whole->cells);
   if (whole) {  // whole again: its fingerprint made from what was read
     whole->released_cells = whole->released_nodes = 0;
     whole->released_fingerprint.clear();

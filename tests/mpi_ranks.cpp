@@ -1152,13 +1152,13 @@ TEST(Mpi, Eq4_5_TheIterateHoldsUOnTheGhostLayersRows) {
   }
 }
 
-/// The pseudo-field `name` of `fields` (StepFields::kMeshCells, kMeshX) read by the writer in
-/// blocks of `block` rows: the whole array on rank 0, empty on the others; `failure` the write's
-/// message, on every rank (collective).
-Eigen::MatrixXd read_back(StepFields& fields, const char* name, Eigen::Index block,
-                          std::string& failure) {
+/// The pseudo-field `name` of `fields` (StepFields::kMeshCells, kMeshX) read back by the writer
+/// in blocks of `block` rows (collective): no failure on any rank, and on rank 0 exactly
+/// `expected`, the mesh's.
+void expect_read_back(StepFields& fields, const char* name, Eigen::Index block,
+                      const Eigen::MatrixXd& expected) {
   Eigen::MatrixXd all;
-  failure = fields.written([&] {
+  const std::string failure = fields.written([&] {
     const auto [rows, cols] = fields.open(name);
     all.resize(rows, cols);
     Eigen::MatrixXd part;
@@ -1168,7 +1168,11 @@ Eigen::MatrixXd read_back(StepFields& fields, const char* name, Eigen::Index blo
     }
     fields.close(name);
   });
-  return all;
+  EXPECT_EQ(failure, "") << name << ", rank " << mpi::rank();
+  if (mpi::rank() != 0) return;
+  ASSERT_EQ(all.rows(), expected.rows()) << name;
+  ASSERT_EQ(all.cols(), expected.cols()) << name;
+  EXPECT_TRUE(all == expected) << name;
 }
 
 /// [(2.7)] Each rank holds its cells as a mesh of their own (Discretization::part()), numbered
@@ -1221,14 +1225,7 @@ TEST(Mpi, Eq2_7_EachRankHoldsItsCellsAsAMeshOfItsOwn) {
   // The connectivity read back by the writer, by blocks of 7 cells (some blocks across ranks).
   State s = dist.initial_state();
   StepFields fields(dist, s);
-  std::string failure;
-  const Eigen::MatrixXd cells = read_back(fields, StepFields::kMeshCells, 7, failure);
-  EXPECT_EQ(failure, "") << "rank " << me;
-  if (me == 0) {
-    ASSERT_EQ(cells.rows(), p.mesh.num_cells());
-    ASSERT_EQ(cells.cols(), p.mesh.nodes_per_cell());
-    EXPECT_TRUE(cells.cast<int>() == p.mesh.cells);
-  }
+  expect_read_back(fields, StepFields::kMeshCells, 7, p.mesh.cells.cast<double>());
   if (me == 0) {
     std::printf("rank 0 of %d: %d of %d cells and %d of %d nodes in its part, %ld shared\n", P,
                 part.num_cells(), p.mesh.num_cells(), part.num_nodes(), p.mesh.num_nodes(), shared);
@@ -1295,13 +1292,8 @@ TEST(Mpi, Eq2_7_EachRankHoldsTheMeshPositionsOfItsLayerOnly) {
   if (P == 1) return;  // X whole: no rows to read it from
   // X read back by the writer by blocks of 5 nodes (some blocks across ranks).
   StepFields fields(dist, rows);
-  std::string failure;
-  const Eigen::MatrixXd X = read_back(fields, StepFields::kMeshX, 5, failure);
-  EXPECT_EQ(failure, "") << "rank " << me;
+  expect_read_back(fields, StepFields::kMeshX, 5, p.mesh.X);
   if (me == 0) {
-    ASSERT_EQ(X.rows(), p.mesh.num_nodes());
-    ASSERT_EQ(X.cols(), p.mesh.dim);
-    EXPECT_TRUE(X == p.mesh.X);
     std::printf("rank 0 of %d: X on %zu of %d nodes, mesh holdings %.0f B (one process %.0f B)\n",
                 P, at->nodes->size(), p.mesh.num_nodes(), dist.holdings().mesh,
                 serial.holdings().mesh);
